@@ -1,0 +1,205 @@
+//! The scene *description*: what an NFF file (or a generator) says, in `f64`, before any
+//! render-ready preprocessing. The parser produces it, the writer prints it, the generators build
+//! it, and [`crate::scene`] turns it into something to trace. It never holds derived data.
+
+use crate::vec3::Vec3d;
+use serde::{Deserialize, Serialize};
+
+/// The `v` block: camera and image size.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct View {
+    /// Eye position.
+    pub from: Vec3d,
+    /// Point that appears at the centre of the image.
+    pub at: Vec3d,
+    /// Approximate up direction (need not be perpendicular to the view).
+    pub up: Vec3d,
+    /// Full field of view in degrees, spanning the image's shorter side edge to edge.
+    pub angle: f64,
+    /// Primary rays ignore hits nearer than this.
+    pub hither: f64,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+/// A point light (`l`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Light {
+    /// Position.
+    pub position: Vec3d,
+    /// Optional colour (NFF 2.7); `None` means the default white.
+    pub color: Option<Vec3d>,
+}
+
+/// A material (`f r g b Kd Ks Shine T ior`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    /// Surface colour.
+    pub color: Vec3d,
+    /// Diffuse weight.
+    pub kd: f64,
+    /// Specular weight: Phong highlight and mirror reflection.
+    pub ks: f64,
+    /// Phong exponent.
+    pub shine: f64,
+    /// Transmission weight.
+    pub t: f64,
+    /// Index of refraction of the inside (outside is 1); meaningful only when `t > 0`.
+    pub ior: f64,
+}
+
+impl Material {
+    /// The material given to primitives that come before any `f`: white, purely diffuse.
+    pub fn default_white() -> Self {
+        Material {
+            color: Vec3d::new(1.0, 1.0, 1.0),
+            kd: 1.0,
+            ks: 0.0,
+            shine: 0.0,
+            t: 0.0,
+            ior: 1.0,
+        }
+    }
+}
+
+/// A vertex of a polygonal patch: position and shading normal.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PatchVertex {
+    /// Position.
+    pub position: Vec3d,
+    /// Shading normal as written in the file (not necessarily unit length).
+    pub normal: Vec3d,
+}
+
+/// One geometric primitive, as NFF describes it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Shape {
+    /// `s`: centre and radius (negative: only the inside is visible).
+    Sphere {
+        /// Centre.
+        center: Vec3d,
+        /// Radius.
+        radius: f64,
+    },
+    /// `c`: open truncated cone or cylinder between two circles, no caps.
+    Cone {
+        /// Centre of the base circle.
+        base: Vec3d,
+        /// Base radius.
+        base_radius: f64,
+        /// Centre of the apex circle.
+        apex: Vec3d,
+        /// Apex radius.
+        apex_radius: f64,
+    },
+    /// `p`: a planar polygon, counter-clockwise seen from the front, possibly concave.
+    Polygon(Vec<Vec3d>),
+    /// `pp`: a polygon with a normal at each vertex.
+    Patch(Vec<PatchVertex>),
+}
+
+/// A primitive and the index of its material in [`SceneDescription::materials`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Primitive {
+    /// Geometry.
+    pub shape: Shape,
+    /// Index into [`SceneDescription::materials`].
+    pub material: u32,
+}
+
+/// A whole scene as described by NFF.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneDescription {
+    /// Background colour (`b`), black when the file has none.
+    pub background: Vec3d,
+    /// Camera and resolution.
+    pub view: View,
+    /// Point lights in file order.
+    pub lights: Vec<Light>,
+    /// Materials in file order (one per `f`; a leading default material when a primitive
+    /// precedes every `f`).
+    pub materials: Vec<Material>,
+    /// Primitives in file order.
+    pub primitives: Vec<Primitive>,
+}
+
+/// An axis-aligned box in `f64`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Bounds {
+    /// Minimum corner.
+    pub min: Vec3d,
+    /// Maximum corner.
+    pub max: Vec3d,
+}
+
+impl Bounds {
+    /// The empty box (min = +inf, max = -inf).
+    pub fn empty() -> Self {
+        Bounds {
+            min: Vec3d::splat(f64::INFINITY),
+            max: Vec3d::splat(f64::NEG_INFINITY),
+        }
+    }
+    /// Grows the box to contain `p`.
+    pub fn add_point(&mut self, p: Vec3d) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+    /// Grows the box to contain `o`.
+    pub fn union(&mut self, o: &Bounds) {
+        self.min = self.min.min(o.min);
+        self.max = self.max.max(o.max);
+    }
+    /// True when nothing was added.
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x
+    }
+}
+
+impl Shape {
+    /// The shape's bounding box.
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::empty();
+        match self {
+            Shape::Sphere { center, radius } => {
+                let r = Vec3d::splat(radius.abs());
+                b.add_point(*center - r);
+                b.add_point(*center + r);
+            }
+            Shape::Cone {
+                base,
+                base_radius,
+                apex,
+                apex_radius,
+            } => {
+                // Exact box of a circle of radius r around axis a: r·sqrt(1 − a_i²) per axis.
+                let axis = (*apex - *base).normalize();
+                let ext = Vec3d::new(
+                    (1.0 - axis.x * axis.x).max(0.0).sqrt(),
+                    (1.0 - axis.y * axis.y).max(0.0).sqrt(),
+                    (1.0 - axis.z * axis.z).max(0.0).sqrt(),
+                );
+                for (c, r) in [(*base, base_radius.abs()), (*apex, apex_radius.abs())] {
+                    b.add_point(c - ext * r);
+                    b.add_point(c + ext * r);
+                }
+            }
+            Shape::Polygon(vs) => vs.iter().for_each(|v| b.add_point(*v)),
+            Shape::Patch(vs) => vs.iter().for_each(|v| b.add_point(v.position)),
+        }
+        b
+    }
+}
+
+impl SceneDescription {
+    /// The bounding box of every primitive (empty for a scene without primitives).
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::empty();
+        for p in &self.primitives {
+            b.union(&p.shape.bounds());
+        }
+        b
+    }
+}

@@ -1,0 +1,23 @@
+//! # parrt
+//!
+//! The core library of parrt, a parallel Whitted ray tracer for Eric Haines' NFF scenes.
+//!
+//! ## Layout
+//! - [`description`]: the scene as NFF describes it (`f64`), produced by [`nff`] and the generators.
+//! - [`nff`]: the strict token-based reader and the round-tripping writer.
+//! - [`real`], [`vec3`]: the scalar trait (`f32` fast path, `f64` reference path) and vectors.
+//! - [`render`]: builds a render-ready scene and accelerator, renders tiles.
+//! - [`tile`], [`smp`], [`film`]: tile tasks, shared-memory executors, the image.
+//! - [`settings`], [`stats`]: what decides pixels, and what was counted.
+#![deny(missing_docs)]
+
+pub mod description;
+pub mod film;
+pub mod nff;
+pub mod real;
+pub mod render;
+pub mod settings;
+pub mod smp;
+pub mod stats;
+pub mod tile;
+pub mod vec3;

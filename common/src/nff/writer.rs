@@ -1,0 +1,134 @@
+//! Prints a [`SceneDescription`] as Haines NFF text that the parser reads back to the identical
+//! description: numbers in their shortest round-trip form, one entity per line, SPD's layout
+//! (`b`, `v` block, lights, then `f` and primitive runs; a cone on one line).
+
+use crate::description::{SceneDescription, Shape};
+use std::fmt::Write;
+
+/// Writes one number in the shortest form that parses back to the same `f64`.
+fn num(out: &mut String, v: f64) {
+    let a = v.abs();
+    if a != 0.0 && !(1e-4..1e15).contains(&a) {
+        let _ = write!(out, "{v:e}");
+    } else {
+        let _ = write!(out, "{v}");
+    }
+}
+
+fn nums(out: &mut String, vs: &[f64]) {
+    for v in vs {
+        out.push(' ');
+        num(out, *v);
+    }
+}
+
+/// Renders the description as NFF text.
+///
+/// Materials are written in index order: an `f` line is emitted when a primitive needs a material
+/// later in the list than the current one (unused materials in between are written too, so the
+/// count of `f` lines is kept). A description whose primitives use materials in non-decreasing
+/// order — which is what the parser and the generators produce — reads back identically.
+pub fn to_nff(desc: &SceneDescription) -> String {
+    let mut out = String::with_capacity(64 + desc.primitives.len() * 64);
+    let b = desc.background;
+    out.push('b');
+    nums(&mut out, &[b.x, b.y, b.z]);
+    out.push('\n');
+    let v = &desc.view;
+    out.push_str("v\nfrom");
+    nums(&mut out, &[v.from.x, v.from.y, v.from.z]);
+    out.push_str("\nat");
+    nums(&mut out, &[v.at.x, v.at.y, v.at.z]);
+    out.push_str("\nup");
+    nums(&mut out, &[v.up.x, v.up.y, v.up.z]);
+    out.push_str("\nangle");
+    nums(&mut out, &[v.angle]);
+    out.push_str("\nhither");
+    nums(&mut out, &[v.hither]);
+    let _ = writeln!(out, "\nresolution {} {}", v.width, v.height);
+    for l in &desc.lights {
+        out.push('l');
+        nums(&mut out, &[l.position.x, l.position.y, l.position.z]);
+        if let Some(c) = l.color {
+            nums(&mut out, &[c.x, c.y, c.z]);
+        }
+        out.push('\n');
+    }
+    let write_material = |out: &mut String, i: usize| {
+        let m = &desc.materials[i];
+        out.push('f');
+        nums(
+            out,
+            &[
+                m.color.x, m.color.y, m.color.z, m.kd, m.ks, m.shine, m.t, m.ior,
+            ],
+        );
+        out.push('\n');
+    };
+    // Index of the next material not yet written.
+    let mut next_material = 0usize;
+    let mut current: Option<usize> = None;
+    for p in &desc.primitives {
+        let m = p.material as usize;
+        if current != Some(m) {
+            if m >= next_material {
+                while next_material <= m {
+                    write_material(&mut out, next_material);
+                    next_material += 1;
+                }
+            } else {
+                // Out-of-order reuse: write the material again (reads back as a new entry).
+                write_material(&mut out, m);
+            }
+            current = Some(m);
+        }
+        match &p.shape {
+            Shape::Sphere { center, radius } => {
+                out.push('s');
+                nums(&mut out, &[center.x, center.y, center.z, *radius]);
+            }
+            Shape::Cone {
+                base,
+                base_radius,
+                apex,
+                apex_radius,
+            } => {
+                out.push('c');
+                nums(
+                    &mut out,
+                    &[
+                        base.x,
+                        base.y,
+                        base.z,
+                        *base_radius,
+                        apex.x,
+                        apex.y,
+                        apex.z,
+                        *apex_radius,
+                    ],
+                );
+            }
+            Shape::Polygon(vs) => {
+                let _ = write!(out, "p {}", vs.len());
+                for v in vs {
+                    out.push('\n');
+                    nums(&mut out, &[v.x, v.y, v.z]);
+                }
+            }
+            Shape::Patch(vs) => {
+                let _ = write!(out, "pp {}", vs.len());
+                for v in vs {
+                    out.push('\n');
+                    let (p, n) = (v.position, v.normal);
+                    nums(&mut out, &[p.x, p.y, p.z, n.x, n.y, n.z]);
+                }
+            }
+        }
+        out.push('\n');
+    }
+    while next_material < desc.materials.len() {
+        write_material(&mut out, next_material);
+        next_material += 1;
+    }
+    out
+}

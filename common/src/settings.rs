@@ -1,0 +1,76 @@
+//! Render settings: everything besides the scene that decides an image's pixels. Sent to workers
+//! with each job, so the same settings give the same bits on every node.
+
+use serde::{Deserialize, Serialize};
+
+/// Scalar precision of the geometric computations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+pub enum Precision {
+    /// Single precision: the fast path.
+    #[default]
+    F32,
+    /// Double precision: the reference path.
+    F64,
+}
+
+/// Which acceleration structure answers ray queries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+pub enum AccelKind {
+    /// Bounding volume hierarchy (binned SAH).
+    #[default]
+    Bvh,
+    /// Uniform voxel grid with 3D-DDA.
+    Grid,
+    /// Every primitive for every ray: the oracle.
+    Brute,
+}
+
+/// The default adaptive cut-off: a path whose weight product falls below this is not continued.
+pub const DEFAULT_CUTOFF: f64 = 0.001;
+/// The default recursion limit (the eye ray is depth 1).
+pub const DEFAULT_MAX_DEPTH: u32 = 5;
+/// The default uniform-grid density (cells per primitive, before the cube root).
+pub const DEFAULT_GRID_DENSITY: f64 = 3.0;
+
+/// All settings that decide pixel values.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderSettings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Maximum ray depth; the eye ray is depth 1.
+    pub max_depth: u32,
+    /// Adaptive cut-off on the product of reflect/transmit weights; 0 disables it.
+    pub cutoff: f64,
+    /// Samples per pixel (1 = one ray through the pixel centre).
+    pub spp: u32,
+    /// Haines' SPD testing procedure (corner rays, one-sided opaque primitives, no cut-off).
+    pub spd_standard: bool,
+    /// Make every primitive two-sided in the SPD procedure (the teapot needs it).
+    pub two_sided: bool,
+    /// Geometric precision.
+    pub precision: Precision,
+    /// Acceleration structure.
+    pub accel: AccelKind,
+    /// Uniform-grid density.
+    pub grid_density: f64,
+}
+
+impl RenderSettings {
+    /// Default settings for an image of the given size.
+    pub fn new(width: u32, height: u32) -> Self {
+        RenderSettings {
+            width,
+            height,
+            max_depth: DEFAULT_MAX_DEPTH,
+            cutoff: DEFAULT_CUTOFF,
+            spp: 1,
+            spd_standard: false,
+            two_sided: false,
+            precision: Precision::F32,
+            accel: AccelKind::Bvh,
+            grid_density: DEFAULT_GRID_DENSITY,
+        }
+    }
+}

@@ -1,0 +1,60 @@
+//! Command-line definitions (clap) and dispatch to [`crate::commands`]. Usage errors exit 2.
+
+use crate::commands;
+use crate::exit;
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// parrt: a parallel Whitted ray tracer for NFF scenes (SMP and distributed).
+#[derive(Debug, Parser)]
+#[command(name = "parrt", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render an NFF file or a generated scene to an image (default: the built-in mount scene).
+    Render(commands::render::RenderArgs),
+    /// Print what an NFF file contains: counts, bounds, camera, parse time.
+    Info(commands::info::InfoArgs),
+    /// Write a generated SPD-style scene as NFF.
+    Scene(commands::scene::SceneArgs),
+    /// Serve tile tasks to workers over TCP and assemble the image.
+    Master(commands::master::MasterArgs),
+    /// Connect to a master and render the tiles it assigns.
+    Worker(commands::worker::WorkerArgs),
+    /// Benchmarks and studies that print numbers (efficiency, accuracy, ...).
+    Bench(commands::bench::BenchArgs),
+}
+
+/// Parses the arguments, runs the command and returns the exit status. Errors are printed to
+/// stderr as `parrt: <message>` with their causes.
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // --help and --version are not errors; clap knows which is which.
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    let result = match cli.command {
+        Command::Render(a) => commands::render::run(a),
+        Command::Info(a) => commands::info::run(a),
+        Command::Scene(a) => commands::scene::run(a),
+        Command::Master(a) => commands::master::run(a),
+        Command::Worker(a) => commands::worker::run(a),
+        Command::Bench(a) => commands::bench::run(a),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("parrt: {e:#}");
+            ExitCode::from(exit::code_for(&e))
+        }
+    }
+}

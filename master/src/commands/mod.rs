@@ -1,0 +1,8 @@
+//! One module per subcommand; each exposes an `Args` struct and `run(args)`.
+
+pub mod bench;
+pub mod info;
+pub mod master;
+pub mod render;
+pub mod scene;
+pub mod worker;

@@ -1,0 +1,30 @@
+//! Exit codes: 0 success, 2 bad input or usage, 1 any other failure. A command marks an error as
+//! bad input by wrapping it in [`InputError`]; everything else exits 1.
+
+use std::fmt;
+
+/// An error caused by the user's input (a malformed file, a bad flag value): exit status 2.
+#[derive(Debug)]
+pub struct InputError(pub anyhow::Error);
+
+impl fmt::Display for InputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:#}", self.0)
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// Marks `e` as bad input.
+pub fn input_error(e: impl Into<anyhow::Error>) -> anyhow::Error {
+    anyhow::Error::new(InputError(e.into()))
+}
+
+/// The exit status for an error: 2 when any cause in its chain is an [`InputError`], else 1.
+pub fn code_for(e: &anyhow::Error) -> u8 {
+    if e.chain().any(|c| c.is::<InputError>()) {
+        2
+    } else {
+        1
+    }
+}

@@ -1,0 +1,12 @@
+//! parrt's command line and distributed scheduler.
+//!
+//! ## Layout
+//! - [`cli`]: argument definitions and dispatch; `main.rs` only calls [`cli::main`].
+//! - [`commands`]: one module per subcommand (`render`, `info`, `scene`, `master`, `worker`,
+//!   `bench`).
+//! - [`exit`]: how errors map to exit codes (2 bad input or usage, 1 anything else).
+#![deny(missing_docs)]
+
+pub mod cli;
+pub mod commands;
+pub mod exit;

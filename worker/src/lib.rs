@@ -1,0 +1,1 @@
+//! The parrt render worker: dials a master, authenticates, renders assigned tiles with rayon.

@@ -1,0 +1,2 @@
+//! `parrt-worker`: the same program as `parrt worker`.
+fn main() {}
