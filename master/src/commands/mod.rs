@@ -5,4 +5,5 @@ pub mod info;
 pub mod master;
 pub mod render;
 pub mod scene;
+pub mod scene_input;
 pub mod worker;
