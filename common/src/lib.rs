@@ -9,11 +9,13 @@
 //! - [`render`]: builds a render-ready scene and accelerator, renders tiles.
 //! - [`tile`], [`smp`], [`film`]: tile tasks, shared-memory executors, the image.
 //! - [`settings`], [`stats`]: what decides pixels, and what was counted.
+//! - [`protocol`]: the master/worker wire protocol (messages, codec, auth, connection).
 #![deny(missing_docs)]
 
 pub mod description;
 pub mod film;
 pub mod nff;
+pub mod protocol;
 pub mod real;
 pub mod render;
 pub mod settings;

@@ -1,0 +1,124 @@
+//! The messages master and worker exchange. Plain data: no I/O, no validation beyond types
+//! (the receiver checks ids, attempts and pixel counts against its own state).
+
+use crate::description::SceneDescription;
+use crate::settings::RenderSettings;
+use crate::stats::RayStats;
+use crate::tile::Tile;
+use serde::{Deserialize, Serialize};
+
+/// Length of the master's challenge nonce in bytes.
+pub const NONCE_LEN: usize = 32;
+
+/// One render job: everything a worker needs to render any of its tiles. The scene travels in
+/// its compact description form; a worker never reads files on the master's say-so.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JobSpec {
+    /// Identifies the job in every later message (random per master run).
+    pub job_id: u64,
+    /// The scene.
+    pub scene: SceneDescription,
+    /// Settings deciding pixel values (same on every node: same bits).
+    pub settings: RenderSettings,
+    /// Tile edge in pixels (informational: tiles arrive whole in `Assign`).
+    pub tile_size: u32,
+}
+
+/// A protocol message. Variant order is part of the wire format: never reorder, only append.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Message {
+    /// Worker → master, first message: who I am. Must stay variant 0 with `version` first.
+    Hello {
+        /// The worker's [`super::PROTOCOL_VERSION`].
+        version: u32,
+        /// A human-readable name (host and pid) for logs.
+        name: String,
+        /// Render threads the worker will use.
+        threads: u32,
+    },
+    /// Master → worker: prove you know the token by signing this.
+    Challenge {
+        /// Random bytes, fresh per connection.
+        nonce: [u8; NONCE_LEN],
+    },
+    /// Worker → master: HMAC-SHA256 of the nonce keyed with the shared token.
+    Auth {
+        /// The MAC bytes.
+        mac: Vec<u8>,
+    },
+    /// Master → worker: authenticated; a job follows.
+    Welcome,
+    /// Master → worker: not accepted; the connection closes after this.
+    Refused {
+        /// Why, for the worker's log.
+        reason: String,
+    },
+    /// Master → worker: the job to render.
+    Job(Box<JobSpec>),
+    /// Worker → master: the job's renderer is built; tiles may be assigned.
+    Ready {
+        /// The job built.
+        job_id: u64,
+        /// Seconds the worker spent building its renderer.
+        build_s: f64,
+    },
+    /// Master → worker: render this tile.
+    Assign {
+        /// The job it belongs to.
+        job_id: u64,
+        /// The tile.
+        tile: Tile,
+        /// Attempt number (1 for the first assignment of this tile anywhere).
+        attempt: u32,
+    },
+    /// Worker → master: a rendered tile.
+    TileResult {
+        /// The job it belongs to.
+        job_id: u64,
+        /// Tile id.
+        tile_id: u32,
+        /// The attempt this answers.
+        attempt: u32,
+        /// Pixels, row-major within the tile.
+        pixels: Vec<[f32; 3]>,
+        /// Ray statistics of this tile.
+        stats: RayStats,
+        /// Seconds the worker spent rendering it.
+        seconds: f64,
+    },
+    /// Either way: I am alive.
+    Heartbeat,
+    /// Master → worker: drop the job's remaining tiles.
+    Cancel {
+        /// The job.
+        job_id: u64,
+    },
+    /// Master → worker: the work is over; disconnect and exit.
+    Shutdown,
+    /// Either way: something went wrong (e.g. the worker cannot build the job).
+    Error {
+        /// What, for the other side's log.
+        reason: String,
+    },
+}
+
+impl Message {
+    /// A short name of the variant, for logs (never the payload).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Message::Hello { .. } => "Hello",
+            Message::Challenge { .. } => "Challenge",
+            Message::Auth { .. } => "Auth",
+            Message::Welcome => "Welcome",
+            Message::Refused { .. } => "Refused",
+            Message::Job(_) => "Job",
+            Message::Ready { .. } => "Ready",
+            Message::Assign { .. } => "Assign",
+            Message::TileResult { .. } => "TileResult",
+            Message::Heartbeat => "Heartbeat",
+            Message::Cancel { .. } => "Cancel",
+            Message::Shutdown => "Shutdown",
+            Message::Error { .. } => "Error",
+        }
+    }
+}
