@@ -1,1 +1,37 @@
-//! The parrt render worker: dials a master, authenticates, renders assigned tiles with rayon.
+//! # parrt-worker
+//!
+//! The render worker of parrt's distributed mode (DESIGN §8): a plain process that dials a
+//! master, proves it knows the shared token, receives a job (scene description and settings),
+//! builds its own renderer once, and renders the tiles it is assigned on a rayon pool, streaming
+//! the pixels back. Rendering never runs on the async runtime: tiles go to rayon and come back
+//! through a channel.
+//!
+//! ## Layout
+//! - [`options`]: what a worker is told (address, threads, token, timeouts, test hooks).
+//! - [`dial`]: connecting with bounded exponential backoff.
+//! - [`session`]: handshake and the message loop with one master.
+//! - [`tiles`]: the bridge from the async loop to the rayon pool.
+//! - [`cli`]: `parrt worker` / `parrt-worker` arguments and entry point (both binaries call it).
+//! - [`error`]: what can go wrong.
+//!
+//! ## Example
+//! ```no_run
+//! use parrt::protocol::Token;
+//! use parrt_worker::{options::WorkerOptions, session};
+//! # async fn f() -> Result<(), parrt_worker::error::WorkerError> {
+//! let opts = WorkerOptions::new("127.0.0.1:7878", Token::new("secret").unwrap());
+//! let summary = session::run(&opts, tokio_util::sync::CancellationToken::new()).await?;
+//! println!("rendered {} tiles", summary.tiles_rendered);
+//! # Ok(()) }
+//! ```
+#![deny(missing_docs)]
+
+pub mod cli;
+pub mod dial;
+pub mod error;
+pub mod options;
+pub mod session;
+pub mod tiles;
+
+pub use error::WorkerError;
+pub use options::WorkerOptions;

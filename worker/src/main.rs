@@ -1,2 +1,29 @@
-//! `parrt-worker`: the same program as `parrt worker`.
-fn main() {}
+//! `parrt-worker`: the same program as `parrt worker` (both call [`parrt_worker::cli::run`]).
+use clap::Parser;
+use std::process::ExitCode;
+
+/// parrt render worker: connects to a master and renders the tiles it assigns.
+#[derive(Debug, Parser)]
+#[command(name = "parrt-worker", version, about)]
+struct Cli {
+    #[command(flatten)]
+    args: parrt_worker::cli::WorkerArgs,
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    match parrt_worker::cli::run(cli.args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("parrt-worker: {e:#}");
+            let usage = e.chain().any(|c| c.is::<parrt_worker::cli::UsageError>());
+            ExitCode::from(if usage { 2 } else { 1 })
+        }
+    }
+}

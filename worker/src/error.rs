@@ -1,0 +1,53 @@
+//! The worker's error type. Every failure a worker can meet, with the master's reason when the
+//! master gave one.
+
+use parrt::protocol::ProtocolError;
+use std::time::Duration;
+use thiserror::Error;
+
+/// Why a worker stopped with a failure.
+#[derive(Debug, Error)]
+pub enum WorkerError {
+    /// No connection could be made within the dial budget.
+    #[error(
+        "cannot connect to master at {addr} after {attempts} attempts over {elapsed:?}: {last}"
+    )]
+    Dial {
+        /// The address dialled.
+        addr: String,
+        /// Attempts made.
+        attempts: u32,
+        /// Time spent.
+        elapsed: Duration,
+        /// The last connection error.
+        last: std::io::Error,
+    },
+    /// The master refused us (wrong token, wrong version, ...).
+    #[error("master refused the connection: {0}")]
+    Refused(String),
+    /// The master broke the protocol or the connection failed.
+    #[error("protocol error: {0}")]
+    Protocol(#[from] ProtocolError),
+    /// The master sent something out of place.
+    #[error("unexpected {got} from master while {during}")]
+    Unexpected {
+        /// Message kind received.
+        got: &'static str,
+        /// What we were doing.
+        during: &'static str,
+    },
+    /// The master fell silent for too long.
+    #[error("no message from master for {0:?}")]
+    MasterSilent(Duration),
+    /// The master closed the connection during the handshake.
+    #[error("master closed the connection during the handshake")]
+    ClosedInHandshake,
+    /// The rayon pool could not be built.
+    #[error("cannot start {threads} render threads: {source}")]
+    Pool {
+        /// Threads asked for.
+        threads: usize,
+        /// The cause.
+        source: rayon::ThreadPoolBuildError,
+    },
+}

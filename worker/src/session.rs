@@ -1,0 +1,288 @@
+//! One worker session: dial, handshake (Hello → Challenge → Auth → Welcome), then the message
+//! loop. The loop owns the connection; renderer builds run on a blocking thread and tiles on the
+//! rayon pool, both reporting back through channels. It ends on Shutdown, when the master goes
+//! away, or when told to stop (Ctrl-C): then it takes no more tiles and disconnects.
+
+use crate::dial::dial;
+use crate::error::WorkerError;
+use crate::options::WorkerOptions;
+use crate::tiles::{JobHandle, TileRenderer};
+use parrt::protocol::{Connection, JobSpec, Message, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION};
+use parrt::render::Renderer;
+use parrt::tile::Tile;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+use tokio::net::TcpStream;
+use tokio::sync::mpsc;
+use tokio::time::{interval, timeout, MissedTickBehavior};
+use tokio_util::sync::CancellationToken;
+use tracing::{info, warn};
+
+/// How a session ended without error.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SessionEnd {
+    /// The master said Shutdown.
+    Shutdown,
+    /// The master closed the connection.
+    MasterClosed,
+    /// We were told to stop (Ctrl-C) and disconnected.
+    Stopped,
+}
+
+/// What a session did.
+#[derive(Clone, Copy, Debug)]
+pub struct SessionSummary {
+    /// How it ended.
+    pub end: SessionEnd,
+    /// Jobs received.
+    pub jobs: u32,
+    /// Tile results sent.
+    pub tiles_rendered: u64,
+}
+
+/// A job received but perhaps not yet built.
+struct CurrentJob {
+    spec_id: u64,
+    width: u32,
+    height: u32,
+    cancelled: Arc<AtomicBool>,
+    handle: Option<JobHandle>,
+    /// Tiles assigned before the renderer was ready.
+    waiting: Vec<(Tile, u32)>,
+}
+
+/// A finished renderer build.
+struct Built {
+    job_id: u64,
+    result: Result<Renderer, String>,
+    seconds: f64,
+}
+
+/// Dials the master, authenticates and serves it until the session ends.
+pub async fn run(
+    opts: &WorkerOptions,
+    stop: CancellationToken,
+) -> Result<SessionSummary, WorkerError> {
+    let Some(stream) = dial(opts, &stop).await? else {
+        return Ok(SessionSummary {
+            end: SessionEnd::Stopped,
+            jobs: 0,
+            tiles_rendered: 0,
+        });
+    };
+    let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
+    handshake(&mut conn, opts).await?;
+    conn.set_max_frame(opts.max_frame);
+    info!(master = %opts.connect, threads = opts.threads, "authenticated");
+    serve(conn, opts, stop).await
+}
+
+async fn read_in_handshake(
+    conn: &mut Connection<TcpStream>,
+    opts: &WorkerOptions,
+) -> Result<Message, WorkerError> {
+    match timeout(opts.handshake_timeout, conn.read()).await {
+        Err(_) => Err(WorkerError::MasterSilent(opts.handshake_timeout)),
+        Ok(r) => r?.ok_or(WorkerError::ClosedInHandshake),
+    }
+}
+
+async fn handshake(
+    conn: &mut Connection<TcpStream>,
+    opts: &WorkerOptions,
+) -> Result<(), WorkerError> {
+    conn.write(&Message::Hello {
+        version: PROTOCOL_VERSION,
+        name: opts.name.clone(),
+        threads: opts.threads as u32,
+    })
+    .await?;
+    let nonce = match read_in_handshake(conn, opts).await? {
+        Message::Challenge { nonce } => nonce,
+        Message::Refused { reason } => return Err(WorkerError::Refused(reason)),
+        other => {
+            return Err(WorkerError::Unexpected {
+                got: other.kind(),
+                during: "waiting for the challenge",
+            })
+        }
+    };
+    conn.write(&Message::Auth {
+        mac: opts.token.sign(&nonce),
+    })
+    .await?;
+    match read_in_handshake(conn, opts).await? {
+        Message::Welcome => Ok(()),
+        Message::Refused { reason } => Err(WorkerError::Refused(reason)),
+        other => Err(WorkerError::Unexpected {
+            got: other.kind(),
+            during: "waiting for Welcome",
+        }),
+    }
+}
+
+/// The message loop of an authenticated session.
+async fn serve(
+    mut conn: Connection<TcpStream>,
+    opts: &WorkerOptions,
+    stop: CancellationToken,
+) -> Result<SessionSummary, WorkerError> {
+    let threads = opts.threads.max(1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("parrt-render-{i}"))
+        .build()
+        .map_err(|source| WorkerError::Pool { threads, source })?;
+    let (out_tx, mut out_rx) = mpsc::unbounded_channel::<Message>();
+    let (built_tx, mut built_rx) = mpsc::unbounded_channel::<Built>();
+    let renderer = TileRenderer::new(pool, out_tx, opts.tile_delay);
+    let mut job: Option<CurrentJob> = None;
+    let mut summary = SessionSummary {
+        end: SessionEnd::Stopped,
+        jobs: 0,
+        tiles_rendered: 0,
+    };
+    let mut beat = interval(opts.heartbeat);
+    beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
+    let finish = |job: &Option<CurrentJob>| {
+        if let Some(j) = job {
+            j.cancelled.store(true, Ordering::Relaxed);
+        }
+    };
+    loop {
+        tokio::select! {
+            _ = stop.cancelled() => {
+                // Stop taking tiles; dropping the connection tells the master to requeue ours.
+                finish(&job);
+                info!("stopping: disconnecting from the master");
+                summary.end = SessionEnd::Stopped;
+                return Ok(summary);
+            }
+            read = timeout(opts.master_timeout, conn.read()) => {
+                let msg = match read {
+                    Err(_) => {
+                        finish(&job);
+                        return Err(WorkerError::MasterSilent(opts.master_timeout));
+                    }
+                    Ok(Err(e)) => {
+                        finish(&job);
+                        return Err(e.into());
+                    }
+                    Ok(Ok(None)) => {
+                        finish(&job);
+                        info!("master closed the connection");
+                        summary.end = SessionEnd::MasterClosed;
+                        return Ok(summary);
+                    }
+                    Ok(Ok(Some(m))) => m,
+                };
+                match msg {
+                    Message::Job(spec) => {
+                        finish(&job);
+                        summary.jobs += 1;
+                        job = Some(start_build(*spec, built_tx.clone()));
+                    }
+                    Message::Assign { job_id, tile, attempt } => {
+                        match job.as_mut().filter(|j| j.spec_id == job_id) {
+                            None => {
+                                conn.write(&Message::Error {
+                                    reason: format!("tile {} assigned for unknown job {job_id}", tile.id),
+                                }).await?;
+                            }
+                            Some(j) if !tile_fits(&tile, j.width, j.height) => {
+                                conn.write(&Message::Error {
+                                    reason: format!("tile {} ({}x{} at {},{}) lies outside the {}x{} image",
+                                        tile.id, tile.w, tile.h, tile.x, tile.y, j.width, j.height),
+                                }).await?;
+                            }
+                            Some(j) => match &j.handle {
+                                Some(h) => renderer.submit(h, tile, attempt),
+                                None => j.waiting.push((tile, attempt)),
+                            },
+                        }
+                    }
+                    Message::Cancel { job_id } => {
+                        if job.as_ref().is_some_and(|j| j.spec_id == job_id) {
+                            finish(&job);
+                            job = None;
+                        }
+                    }
+                    Message::Shutdown => {
+                        finish(&job);
+                        info!("master said shutdown");
+                        summary.end = SessionEnd::Shutdown;
+                        return Ok(summary);
+                    }
+                    Message::Heartbeat => {}
+                    Message::Error { reason } => warn!(%reason, "master reported an error"),
+                    other => {
+                        finish(&job);
+                        return Err(WorkerError::Unexpected { got: other.kind(), during: "serving" });
+                    }
+                }
+            }
+            Some(b) = built_rx.recv() => {
+                let Some(j) = job.as_mut().filter(|j| j.spec_id == b.job_id) else { continue };
+                match b.result {
+                    Ok(r) => {
+                        info!(job = b.job_id, build_s = b.seconds, "renderer built");
+                        let handle = JobHandle {
+                            job_id: b.job_id,
+                            renderer: Arc::new(r),
+                            cancelled: j.cancelled.clone(),
+                        };
+                        conn.write(&Message::Ready { job_id: b.job_id, build_s: b.seconds }).await?;
+                        for (tile, attempt) in j.waiting.drain(..) {
+                            renderer.submit(&handle, tile, attempt);
+                        }
+                        j.handle = Some(handle);
+                    }
+                    Err(reason) => {
+                        warn!(job = b.job_id, %reason, "cannot build the job");
+                        conn.write(&Message::Error { reason: format!("cannot build job {}: {reason}", b.job_id) }).await?;
+                        job = None;
+                    }
+                }
+            }
+            Some(msg) = out_rx.recv() => {
+                if matches!(msg, Message::TileResult { .. }) {
+                    summary.tiles_rendered += 1;
+                }
+                conn.write(&msg).await?;
+            }
+            _ = beat.tick() => conn.write(&Message::Heartbeat).await?,
+        }
+    }
+}
+
+fn tile_fits(t: &Tile, width: u32, height: u32) -> bool {
+    t.w > 0
+        && t.h > 0
+        && t.x.checked_add(t.w).is_some_and(|r| r <= width)
+        && t.y.checked_add(t.h).is_some_and(|b| b <= height)
+}
+
+/// Builds the job's renderer on a blocking thread (never on the runtime's workers).
+fn start_build(spec: JobSpec, done: mpsc::UnboundedSender<Built>) -> CurrentJob {
+    let job = CurrentJob {
+        spec_id: spec.job_id,
+        width: spec.settings.width,
+        height: spec.settings.height,
+        cancelled: Arc::new(AtomicBool::new(false)),
+        handle: None,
+        waiting: Vec::new(),
+    };
+    tokio::task::spawn_blocking(move || {
+        let t0 = Instant::now();
+        let result = std::panic::catch_unwind(|| Renderer::new(&spec.scene, &spec.settings))
+            .map_err(|_| "building the renderer panicked".to_string())
+            .and_then(|r| r.map_err(|e| e.to_string()));
+        let _ = done.send(Built {
+            job_id: spec.job_id,
+            result,
+            seconds: t0.elapsed().as_secs_f64(),
+        });
+    });
+    job
+}
