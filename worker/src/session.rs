@@ -12,10 +12,9 @@ use parrt::render::Renderer;
 use parrt::tile::Tile;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
 use tokio::net::TcpStream;
 use tokio::sync::mpsc;
-use tokio::time::{interval, timeout, MissedTickBehavior};
+use tokio::time::{interval, sleep_until, timeout, Instant, MissedTickBehavior};
 use tokio_util::sync::CancellationToken;
 use tracing::{info, warn};
 
@@ -145,6 +144,8 @@ async fn serve(
     };
     let mut beat = interval(opts.heartbeat);
     beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
+    // Any message from the master (heartbeats included) proves it is alive.
+    let mut last_heard = Instant::now();
     let finish = |job: &Option<CurrentJob>| {
         if let Some(j) = job {
             j.cancelled.store(true, Ordering::Relaxed);
@@ -159,24 +160,25 @@ async fn serve(
                 summary.end = SessionEnd::Stopped;
                 return Ok(summary);
             }
-            read = timeout(opts.master_timeout, conn.read()) => {
+            _ = sleep_until(last_heard + opts.master_timeout) => {
+                finish(&job);
+                return Err(WorkerError::MasterSilent(opts.master_timeout));
+            }
+            read = conn.read() => {
                 let msg = match read {
-                    Err(_) => {
-                        finish(&job);
-                        return Err(WorkerError::MasterSilent(opts.master_timeout));
-                    }
-                    Ok(Err(e)) => {
+                    Err(e) => {
                         finish(&job);
                         return Err(e.into());
                     }
-                    Ok(Ok(None)) => {
+                    Ok(None) => {
                         finish(&job);
                         info!("master closed the connection");
                         summary.end = SessionEnd::MasterClosed;
                         return Ok(summary);
                     }
-                    Ok(Ok(Some(m))) => m,
+                    Ok(Some(m)) => m,
                 };
+                last_heard = Instant::now();
                 match msg {
                     Message::Job(spec) => {
                         finish(&job);
@@ -274,7 +276,7 @@ fn start_build(spec: JobSpec, done: mpsc::UnboundedSender<Built>) -> CurrentJob 
         waiting: Vec::new(),
     };
     tokio::task::spawn_blocking(move || {
-        let t0 = Instant::now();
+        let t0 = std::time::Instant::now();
         let result = std::panic::catch_unwind(|| Renderer::new(&spec.scene, &spec.settings))
             .map_err(|_| "building the renderer panicked".to_string())
             .and_then(|r| r.map_err(|e| e.to_string()));

@@ -1,0 +1,240 @@
+//! Distributed rendering (DESIGN §8): a master hands tile tasks over TCP to worker processes
+//! and assembles their results into the same film an SMP render produces, bit for bit.
+//!
+//! ## Layout
+//! - [`server`]: binds, accepts, runs the scheduler loop, shuts down cleanly.
+//! - [`connection`]: one task per peer: handshake, then relaying between socket and scheduler.
+//! - [`scheduler`]: the job's state and rules (windows, deadlines, first result wins, backups);
+//!   no I/O, tested alone.
+//! - [`spawn`]: local worker processes for `parrt render --workers N`.
+//! - [`progress`]: the progress line.
+//!
+//! [`render_distributed`] is the one-call entry point (used by `parrt render --workers` and
+//! `parrt master`); [`server::Master`] is the async API underneath.
+
+pub mod connection;
+pub mod progress;
+pub mod scheduler;
+pub mod server;
+pub mod spawn;
+
+pub use scheduler::{FaultCounts, WorkerReport};
+pub use server::Master;
+pub use spawn::{spawn_local_workers, LocalWorkers};
+
+use parrt::description::SceneDescription;
+use parrt::film::Film;
+use parrt::protocol::{Token, DEFAULT_MAX_FRAME};
+use parrt::settings::RenderSettings;
+use parrt::stats::RayStats;
+use rand::Rng;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::time::Duration;
+use thiserror::Error;
+use tokio_util::sync::CancellationToken;
+
+/// The default address of `parrt master`: loopback only; any other must be asked for.
+pub const DEFAULT_LISTEN: &str = "127.0.0.1:7878";
+
+/// Errors of a distributed render.
+#[derive(Debug, Error)]
+pub enum DistError {
+    /// The listen address could not be bound.
+    #[error("cannot listen on {addr}: {source}")]
+    Bind {
+        /// The address asked for.
+        addr: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Not enough workers arrived in time.
+    #[error(
+        "no worker arrived within {waited:?} ({ready} of the {wanted} needed connected and built \
+         the job); start workers with `parrt worker --connect ADDR` and the same token"
+    )]
+    NoWorkers {
+        /// How long we waited.
+        waited: Duration,
+        /// Workers needed to start.
+        wanted: usize,
+        /// Workers that were ready.
+        ready: usize,
+    },
+    /// Every worker left mid-job and none came back in time.
+    #[error("all workers left and none returned within {waited:?} ({done}/{total} tiles done)")]
+    AllWorkersLost {
+        /// How long we waited.
+        waited: Duration,
+        /// Tiles done.
+        done: usize,
+        /// Tiles in all.
+        total: usize,
+    },
+    /// Cancelled (Ctrl-C); workers were told to shut down.
+    #[error("interrupted; workers were told to shut down")]
+    Interrupted,
+    /// The accept loop ended unexpectedly.
+    #[error("the listener stopped accepting connections")]
+    AcceptFailed,
+    /// Local workers could not be started.
+    #[error(transparent)]
+    Spawn(#[from] spawn::SpawnError),
+    /// The async runtime could not start.
+    #[error("cannot start the async runtime: {0}")]
+    Runtime(std::io::Error),
+}
+
+/// How to run a distributed render.
+#[derive(Clone, Debug)]
+pub struct DistOptions {
+    /// Local worker processes to start (0: only external workers).
+    pub workers_to_spawn: usize,
+    /// Render threads of each spawned worker.
+    pub threads_per_worker: usize,
+    /// Tile edge in pixels.
+    pub tile: u32,
+    /// Address to listen on (`127.0.0.1:0` picks a free port).
+    pub listen: String,
+    /// Shared secret; `None` generates a random one (fine for spawned workers only).
+    pub token: Option<Token>,
+    /// Workers that must be ready before tiles are handed out.
+    pub min_workers: usize,
+    /// How long to wait for `min_workers` (and, mid-job, for any worker when all have left).
+    pub wait_workers: Duration,
+    /// In-flight tiles per worker thread.
+    pub window_per_thread: usize,
+    /// A tile not returned within this is given to another worker.
+    pub tile_deadline: Duration,
+    /// How often the master sends heartbeats.
+    pub heartbeat: Duration,
+    /// A worker silent this long is considered gone.
+    pub heartbeat_timeout: Duration,
+    /// Time allowed for a peer's handshake.
+    pub handshake_timeout: Duration,
+    /// Failures after which a worker is dropped.
+    pub max_failures: u32,
+    /// Duplicate in-flight tiles onto idle workers when the queue is empty.
+    pub backups: bool,
+    /// Largest frame accepted from an authenticated worker.
+    pub max_frame: usize,
+    /// Most simultaneous connections (handshaking or working).
+    pub max_connections: usize,
+    /// Show the progress bar (only ever drawn on a terminal).
+    pub progress: bool,
+}
+
+impl Default for DistOptions {
+    fn default() -> Self {
+        DistOptions {
+            workers_to_spawn: 0,
+            threads_per_worker: 1,
+            tile: 32,
+            listen: "127.0.0.1:0".into(),
+            token: None,
+            min_workers: 1,
+            wait_workers: Duration::from_secs(60),
+            window_per_thread: 2,
+            tile_deadline: Duration::from_secs(120),
+            heartbeat: Duration::from_secs(1),
+            heartbeat_timeout: Duration::from_secs(10),
+            handshake_timeout: Duration::from_secs(10),
+            max_failures: 3,
+            backups: true,
+            max_frame: DEFAULT_MAX_FRAME,
+            max_connections: 1024,
+            progress: true,
+        }
+    }
+}
+
+/// What a distributed render produced.
+#[derive(Debug)]
+pub struct DistResult {
+    /// The image (equal to the SMP film).
+    pub film: Film,
+    /// Ray statistics merged from the winning result of each tile.
+    pub stats: RayStats,
+    /// Seconds each tile took on the worker that delivered it, by tile id.
+    pub tile_seconds: Vec<f64>,
+    /// Wall time from the first tile handed out to the last one received.
+    pub trace_s: f64,
+    /// Every worker that took part.
+    pub per_worker: Vec<WorkerReport>,
+    /// Bytes sent to authenticated workers (frames with prefixes).
+    pub bytes_sent: u64,
+    /// Bytes received from authenticated workers.
+    pub bytes_received: u64,
+    /// Mean seconds to get the scene to a worker (job sent → Ready, minus its build).
+    pub scene_transfer_s: f64,
+    /// Faults met and handled.
+    pub faults: FaultCounts,
+    /// Tiles in the image.
+    pub tiles: usize,
+}
+
+/// A random 32-character hex token, for workers this process starts itself.
+pub fn generate_token() -> Token {
+    let mut rng = rand::thread_rng();
+    let text: String = (0..32)
+        .map(|_| char::from_digit(rng.gen_range(0..16), 16).unwrap_or('0'))
+        .collect();
+    Token::new(&text).expect("a 32-character token is not empty")
+}
+
+/// The address local workers should dial for a master bound at `addr` (an unspecified
+/// address such as 0.0.0.0 becomes loopback).
+pub fn dial_address(addr: SocketAddr) -> SocketAddr {
+    if addr.ip().is_unspecified() {
+        let ip = match addr.ip() {
+            IpAddr::V4(_) => IpAddr::V4(Ipv4Addr::LOCALHOST),
+            IpAddr::V6(_) => IpAddr::V6(std::net::Ipv6Addr::LOCALHOST),
+        };
+        SocketAddr::new(ip, addr.port())
+    } else {
+        addr
+    }
+}
+
+/// Renders `desc` on workers: binds `opts.listen`, starts `opts.workers_to_spawn` local worker
+/// processes, serves tiles until the image is complete, and stops the workers. Ctrl-C cancels
+/// cleanly ([`DistError::Interrupted`]). `on_listen` is told the bound address before any
+/// worker is started (`parrt master` prints it). Must not be called from inside an async
+/// runtime (it starts its own).
+pub fn render_distributed(
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    opts: &DistOptions,
+    on_listen: &dyn Fn(SocketAddr),
+) -> Result<DistResult, DistError> {
+    let token = opts.token.clone().unwrap_or_else(generate_token);
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(DistError::Runtime)?;
+    rt.block_on(async {
+        let master = Master::bind(opts, token.clone()).await?;
+        let addr = master.local_addr();
+        on_listen(addr);
+        let _children = if opts.workers_to_spawn > 0 {
+            Some(spawn_local_workers(
+                opts.workers_to_spawn,
+                opts.threads_per_worker,
+                dial_address(addr),
+                &token,
+            )?)
+        } else {
+            None
+        };
+        let cancel = CancellationToken::new();
+        let on_signal = cancel.clone();
+        let signal = tokio::spawn(async move {
+            if tokio::signal::ctrl_c().await.is_ok() {
+                on_signal.cancel();
+            }
+        });
+        let result = master.render(desc, settings, cancel).await;
+        signal.abort();
+        result
+    })
+}

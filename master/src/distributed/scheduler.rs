@@ -1,0 +1,652 @@
+//! The tile scheduler: the one owner of a job's state (which tiles are queued, in flight where,
+//! done; the film; the merged statistics; the workers and their windows). It does no I/O of its
+//! own: connection tasks feed it [`Event`]s and it answers through each worker's outbox channel,
+//! so its rules are tested without sockets. Time comes in as an argument (tokio's `Instant`, so
+//! tests can pause the clock).
+//!
+//! Rules: tiles are handed out dynamically, up to a window of in-flight tiles per worker sized
+//! to its threads; the first valid result for a tile wins and is written once, later ones are
+//! ignored; a result must name this job, a tile this worker holds (with its attempt) and the
+//! right pixel count; a worker that leaves, or misses a deadline, loses its tiles to the front
+//! of the queue; a worker that keeps failing is dropped; when the queue is empty, an idle worker
+//! gets backup copies of tiles still in flight elsewhere.
+
+use parrt::film::Film;
+use parrt::protocol::{Message, WireCounters};
+use parrt::stats::RayStats;
+use parrt::tile::Tile;
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::mpsc::UnboundedSender;
+use tokio::time::Instant;
+use tracing::{debug, info, warn};
+
+/// A worker's id, unique within one master run.
+pub type WorkerId = u64;
+
+/// What connection tasks tell the scheduler.
+#[derive(Debug)]
+pub enum Event {
+    /// A peer failed the handshake.
+    Refused {
+        /// Its address.
+        peer: String,
+        /// Why it was refused.
+        reason: String,
+    },
+    /// A peer authenticated and was sent the job.
+    Joined {
+        /// Its id.
+        id: WorkerId,
+        /// Its name.
+        name: String,
+        /// Its render threads.
+        threads: u32,
+        /// Where to send it messages.
+        outbox: UnboundedSender<Message>,
+        /// Its connection's byte counters.
+        counters: Arc<WireCounters>,
+    },
+    /// A worker built the job.
+    Ready {
+        /// Who.
+        id: WorkerId,
+        /// The job it built.
+        job_id: u64,
+        /// Its build seconds.
+        build_s: f64,
+        /// Seconds from sending the job to receiving Ready.
+        job_to_ready_s: f64,
+    },
+    /// A worker sent a tile.
+    Result {
+        /// Who.
+        id: WorkerId,
+        /// The job named.
+        job_id: u64,
+        /// The tile named.
+        tile_id: u32,
+        /// The attempt named.
+        attempt: u32,
+        /// The pixels.
+        pixels: Vec<[f32; 3]>,
+        /// Its statistics.
+        stats: RayStats,
+        /// Its render seconds.
+        seconds: f64,
+    },
+    /// A worker reported an error.
+    WorkerError {
+        /// Who.
+        id: WorkerId,
+        /// What it said.
+        reason: String,
+    },
+    /// A worker's connection ended (or broke the protocol, or fell silent).
+    Gone {
+        /// Who.
+        id: WorkerId,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Scheduling knobs.
+#[derive(Clone, Copy, Debug)]
+pub struct SchedOptions {
+    /// In-flight tiles per worker thread.
+    pub window_per_thread: usize,
+    /// A tile not returned this long after assignment is given to someone else.
+    pub tile_deadline: Duration,
+    /// Failures (deadline rounds, bad results, errors) after which a worker is dropped.
+    pub max_failures: u32,
+    /// Hand out backup copies of in-flight tiles when the queue is empty.
+    pub backups: bool,
+}
+
+/// One assignment of a tile to a worker.
+#[derive(Clone, Copy, Debug)]
+struct Assignment {
+    attempt: u32,
+    since: Instant,
+    /// Past its deadline: the tile was requeued, but a late result is still accepted if first.
+    expired: bool,
+    /// A backup copy of a tile in flight elsewhere.
+    backup: bool,
+}
+
+/// What the scheduler knows about a worker.
+struct Slot {
+    name: String,
+    threads: u32,
+    outbox: UnboundedSender<Message>,
+    counters: Arc<WireCounters>,
+    ready_at: Option<Instant>,
+    joined_at: Instant,
+    inflight: HashMap<u32, Assignment>,
+    failures: u32,
+    tiles: u64,
+    render_s: f64,
+    build_s: f64,
+    job_to_ready_s: f64,
+}
+
+impl Slot {
+    /// Live assignments, primaries or backups.
+    fn active(&self, backup: bool) -> usize {
+        self.inflight
+            .values()
+            .filter(|a| !a.expired && a.backup == backup)
+            .count()
+    }
+    fn window(&self, per_thread: usize) -> usize {
+        (self.threads.max(1) as usize).saturating_mul(per_thread.max(1))
+    }
+}
+
+/// Per-worker figures of a finished run.
+#[derive(Clone, Debug)]
+pub struct WorkerReport {
+    /// Its name.
+    pub name: String,
+    /// Its render threads.
+    pub threads: u32,
+    /// Tiles it delivered first (those in the image).
+    pub tiles: u64,
+    /// Seconds it spent rendering those tiles (its own clock).
+    pub render_s: f64,
+    /// Its renderer build seconds.
+    pub build_s: f64,
+    /// Seconds from the job's send to its Ready, minus its build: the scene transfer.
+    pub scene_transfer_s: f64,
+    /// Bytes the master sent it.
+    pub bytes_sent: u64,
+    /// Bytes the master received from it.
+    pub bytes_received: u64,
+    /// Why it left before the end, if it did.
+    pub left: Option<String>,
+}
+
+/// Counts of things that went wrong and were handled.
+#[derive(Clone, Debug, Default)]
+pub struct FaultCounts {
+    /// Handshakes refused, with the reasons.
+    pub refused: Vec<String>,
+    /// Results rejected (wrong job, unassigned tile, bad pixel count).
+    pub rejected_results: u64,
+    /// Valid results that came second and were ignored.
+    pub duplicate_results: u64,
+    /// Tiles put back in the queue (worker left or missed a deadline).
+    pub requeued: u64,
+    /// Backup copies handed out.
+    pub backups: u64,
+    /// Workers dropped for failing repeatedly or building nothing.
+    pub dropped: u64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum TileState {
+    Queued,
+    InFlight,
+    Done,
+}
+
+/// The scheduler of one job.
+pub struct Scheduler {
+    job_id: u64,
+    opts: SchedOptions,
+    tiles: Vec<Tile>,
+    state: Vec<TileState>,
+    attempts: Vec<u32>,
+    queue: VecDeque<u32>,
+    done: usize,
+    film: Film,
+    stats: RayStats,
+    tile_seconds: Vec<f64>,
+    workers: BTreeMap<WorkerId, Slot>,
+    gone: Vec<WorkerReport>,
+    faults: FaultCounts,
+}
+
+impl Scheduler {
+    /// A scheduler for `tiles` of a `width × height` image, job `job_id`.
+    pub fn new(job_id: u64, width: u32, height: u32, tiles: Vec<Tile>, opts: SchedOptions) -> Self {
+        let n = tiles.len();
+        Scheduler {
+            job_id,
+            opts,
+            state: vec![TileState::Queued; n],
+            attempts: vec![0; n],
+            queue: (0..n as u32).collect(),
+            tiles,
+            done: 0,
+            film: Film::new(width, height),
+            stats: RayStats::default(),
+            tile_seconds: vec![0.0; n],
+            workers: BTreeMap::new(),
+            gone: Vec::new(),
+            faults: FaultCounts::default(),
+        }
+    }
+
+    /// Whether every tile is in the film.
+    pub fn is_done(&self) -> bool {
+        self.done == self.tiles.len()
+    }
+
+    /// Tiles done and in total.
+    pub fn progress(&self) -> (usize, usize) {
+        (self.done, self.tiles.len())
+    }
+
+    /// Workers that have built the job.
+    pub fn ready_workers(&self) -> usize {
+        self.workers
+            .values()
+            .filter(|w| w.ready_at.is_some())
+            .count()
+    }
+
+    /// Workers connected (built or not).
+    pub fn connected_workers(&self) -> usize {
+        self.workers.len()
+    }
+
+    /// `name tiles/s` per ready worker, for the progress line.
+    pub fn throughput(&self, now: Instant) -> Vec<(String, f64)> {
+        self.workers
+            .values()
+            .filter_map(|w| {
+                let t = now.duration_since(w.ready_at?).as_secs_f64();
+                Some((
+                    w.name.clone(),
+                    if t > 0.0 { w.tiles as f64 / t } else { 0.0 },
+                ))
+            })
+            .collect()
+    }
+
+    /// Applies one event.
+    pub fn handle(&mut self, ev: Event, now: Instant) {
+        match ev {
+            Event::Refused { peer, reason } => {
+                warn!(%peer, %reason, "refused a peer");
+                self.faults.refused.push(reason);
+            }
+            Event::Joined {
+                id,
+                name,
+                threads,
+                outbox,
+                counters,
+            } => {
+                info!(worker = id, %name, threads, "worker joined");
+                self.workers.insert(
+                    id,
+                    Slot {
+                        name,
+                        threads,
+                        outbox,
+                        counters,
+                        ready_at: None,
+                        joined_at: now,
+                        inflight: HashMap::new(),
+                        failures: 0,
+                        tiles: 0,
+                        render_s: 0.0,
+                        build_s: 0.0,
+                        job_to_ready_s: 0.0,
+                    },
+                );
+            }
+            Event::Ready {
+                id,
+                job_id,
+                build_s,
+                job_to_ready_s,
+            } => {
+                if job_id != self.job_id {
+                    self.fail(id, format!("built job {job_id}, not {}", self.job_id));
+                } else if let Some(w) = self.workers.get_mut(&id) {
+                    info!(worker = id, name = %w.name, build_s, job_to_ready_s, "worker ready");
+                    w.ready_at = Some(now);
+                    w.build_s = build_s;
+                    w.job_to_ready_s = job_to_ready_s;
+                }
+            }
+            Event::Result {
+                id,
+                job_id,
+                tile_id,
+                attempt,
+                pixels,
+                stats,
+                seconds,
+            } => self.result(id, job_id, tile_id, attempt, &pixels, stats, seconds),
+            Event::WorkerError { id, reason } => {
+                let ready = self.workers.get(&id).is_some_and(|w| w.ready_at.is_some());
+                warn!(worker = id, %reason, "worker reported an error");
+                if ready {
+                    self.fail(id, reason);
+                } else {
+                    self.drop_worker(id, format!("cannot take the job: {reason}"));
+                }
+            }
+            Event::Gone { id, reason } => {
+                if self.workers.contains_key(&id) {
+                    info!(worker = id, %reason, "worker left");
+                    self.remove(id, reason);
+                }
+            }
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn result(
+        &mut self,
+        id: WorkerId,
+        job_id: u64,
+        tile_id: u32,
+        attempt: u32,
+        pixels: &[[f32; 3]],
+        stats: RayStats,
+        seconds: f64,
+    ) {
+        let Some(w) = self.workers.get_mut(&id) else {
+            return; // Already removed: nothing it says counts any more.
+        };
+        if job_id != self.job_id {
+            self.faults.rejected_results += 1;
+            self.fail(id, format!("result for job {job_id}, not {}", self.job_id));
+            return;
+        }
+        let held = w
+            .inflight
+            .get(&tile_id)
+            .is_some_and(|a| a.attempt == attempt);
+        if !held {
+            self.faults.rejected_results += 1;
+            self.fail(
+                id,
+                format!("result for tile {tile_id} attempt {attempt}, which it does not hold"),
+            );
+            return;
+        }
+        w.inflight.remove(&tile_id);
+        let t = tile_id as usize;
+        let tile = self.tiles[t];
+        if pixels.len() != tile.pixel_count() {
+            self.faults.rejected_results += 1;
+            self.requeue(tile_id);
+            self.fail(
+                id,
+                format!(
+                    "tile {tile_id}: {} pixels instead of {}",
+                    pixels.len(),
+                    tile.pixel_count()
+                ),
+            );
+            return;
+        }
+        if self.state[t] == TileState::Done {
+            self.faults.duplicate_results += 1;
+            debug!(worker = id, tile_id, "duplicate result ignored");
+            return;
+        }
+        if let Err(e) = self.film.write_tile(&tile, pixels) {
+            // Cannot happen: the tile is ours and the count was checked.
+            warn!(error = %e, "tile does not fit the film");
+            return;
+        }
+        w.tiles += 1;
+        w.render_s += seconds;
+        w.failures = 0;
+        self.state[t] = TileState::Done;
+        self.stats += stats;
+        self.tile_seconds[t] = seconds;
+        self.done += 1;
+    }
+
+    /// Counts a failure against `id`; drops it when it has failed too often.
+    fn fail(&mut self, id: WorkerId, reason: String) {
+        let Some(w) = self.workers.get_mut(&id) else {
+            return;
+        };
+        w.failures += 1;
+        warn!(worker = id, name = %w.name, failures = w.failures, %reason, "worker fault");
+        let failures = w.failures;
+        if failures >= self.opts.max_failures {
+            self.drop_worker(id, format!("failed {failures} times; last: {reason}"));
+        }
+    }
+
+    /// Drops a worker (its outbox is closed, so its connection says Shutdown and closes).
+    fn drop_worker(&mut self, id: WorkerId, reason: String) {
+        if let Some(w) = self.workers.get(&id) {
+            warn!(worker = id, name = %w.name, %reason, "dropping worker");
+            let _ = w.outbox.send(Message::Error {
+                reason: reason.clone(),
+            });
+            self.faults.dropped += 1;
+            self.remove(id, reason);
+        }
+    }
+
+    /// Removes a worker; its unfinished tiles go back to the front of the queue.
+    fn remove(&mut self, id: WorkerId, reason: String) {
+        let Some(w) = self.workers.remove(&id) else {
+            return;
+        };
+        for &tile_id in w.inflight.keys() {
+            self.requeue(tile_id);
+        }
+        self.gone.push(report(&w, Some(reason)));
+    }
+
+    /// Puts a tile back at the front of the queue unless it is done or still actively held.
+    fn requeue(&mut self, tile_id: u32) {
+        let t = tile_id as usize;
+        if self.state[t] == TileState::Done || self.active_holders(tile_id) > 0 {
+            return;
+        }
+        self.state[t] = TileState::Queued;
+        self.queue.push_front(tile_id);
+        self.faults.requeued += 1;
+    }
+
+    fn active_holders(&self, tile_id: u32) -> usize {
+        self.workers
+            .values()
+            .filter(|w| w.inflight.get(&tile_id).is_some_and(|a| !a.expired))
+            .count()
+    }
+
+    /// Marks assignments past their deadline as expired and requeues their tiles; each worker
+    /// with a miss in this round takes one failure.
+    pub fn expire(&mut self, now: Instant) {
+        let deadline = self.opts.tile_deadline;
+        let mut late: Vec<(WorkerId, Vec<u32>)> = Vec::new();
+        for (&id, w) in self.workers.iter_mut() {
+            let mut tiles = Vec::new();
+            for (&tile_id, a) in w.inflight.iter_mut() {
+                if !a.expired && now.duration_since(a.since) > deadline {
+                    a.expired = true;
+                    tiles.push(tile_id);
+                }
+            }
+            if !tiles.is_empty() {
+                late.push((id, tiles));
+            }
+        }
+        for (id, tiles) in late {
+            for &t in &tiles {
+                self.requeue(t);
+            }
+            self.fail(
+                id,
+                format!("{} tile(s) past the {deadline:?} deadline", tiles.len()),
+            );
+        }
+    }
+
+    /// Hands out tiles to every ready worker with room in its window.
+    pub fn fill(&mut self, now: Instant) {
+        let ids: Vec<WorkerId> = self
+            .workers
+            .iter()
+            .filter(|(_, w)| w.ready_at.is_some())
+            .map(|(&id, _)| id)
+            .collect();
+        for id in ids {
+            // Tiles this worker already holds (expired) are left for someone else.
+            let mut skipped = Vec::new();
+            loop {
+                let Some(w) = self.workers.get(&id) else {
+                    break;
+                };
+                // Expired tiles still count: a stalled worker gets nothing new.
+                if w.inflight.len() >= w.window(self.opts.window_per_thread) {
+                    break;
+                }
+                if let Some(tile_id) = self.next_queued() {
+                    if self.workers[&id].inflight.contains_key(&tile_id) {
+                        skipped.push(tile_id);
+                    } else {
+                        self.assign(id, tile_id, now, false);
+                    }
+                    continue;
+                }
+                // Queue empty: an idle worker may take backups, up to one per thread.
+                let w = &self.workers[&id];
+                let idle = w.active(false) == 0;
+                if !self.opts.backups || !idle || w.active(true) >= w.threads.max(1) as usize {
+                    break;
+                }
+                match self.backup_candidate(id) {
+                    Some(tile_id) => {
+                        self.faults.backups += 1;
+                        self.assign(id, tile_id, now, true);
+                    }
+                    None => break,
+                }
+            }
+            for t in skipped.into_iter().rev() {
+                self.queue.push_front(t);
+            }
+        }
+    }
+
+    fn next_queued(&mut self) -> Option<u32> {
+        while let Some(t) = self.queue.pop_front() {
+            if self.state[t as usize] == TileState::Queued {
+                return Some(t);
+            }
+        }
+        None
+    }
+
+    /// The oldest in-flight tile with a single active holder, not held by `id`.
+    fn backup_candidate(&self, id: WorkerId) -> Option<u32> {
+        let mine = &self.workers.get(&id)?.inflight;
+        let mut best: Option<(Instant, u32)> = None;
+        for (&wid, w) in &self.workers {
+            if wid == id {
+                continue;
+            }
+            for (&tile_id, a) in &w.inflight {
+                if a.expired
+                    || mine.contains_key(&tile_id)
+                    || self.state[tile_id as usize] != TileState::InFlight
+                    || self.active_holders(tile_id) != 1
+                {
+                    continue;
+                }
+                if best.is_none_or(|(since, _)| a.since < since) {
+                    best = Some((a.since, tile_id));
+                }
+            }
+        }
+        best.map(|(_, t)| t)
+    }
+
+    fn assign(&mut self, id: WorkerId, tile_id: u32, now: Instant, backup: bool) {
+        let t = tile_id as usize;
+        self.attempts[t] += 1;
+        let attempt = self.attempts[t];
+        self.state[t] = TileState::InFlight;
+        let Some(w) = self.workers.get_mut(&id) else {
+            return;
+        };
+        w.inflight.insert(
+            tile_id,
+            Assignment {
+                attempt,
+                since: now,
+                expired: false,
+                backup,
+            },
+        );
+        let msg = Message::Assign {
+            job_id: self.job_id,
+            tile: self.tiles[t],
+            attempt,
+        };
+        if w.outbox.send(msg).is_err() {
+            // Its connection task has ended; the Gone event is on its way.
+            self.remove(id, "connection closed".into());
+        }
+    }
+
+    /// Tells every worker to shut down (their outboxes close) and returns the final figures.
+    pub fn finish(mut self) -> Finished {
+        let ids: Vec<WorkerId> = self.workers.keys().copied().collect();
+        let mut reports = std::mem::take(&mut self.gone);
+        for id in ids {
+            if let Some(w) = self.workers.remove(&id) {
+                let _ = w.outbox.send(Message::Shutdown);
+                reports.push(report(&w, None));
+            }
+        }
+        Finished {
+            film: self.film,
+            stats: self.stats,
+            tile_seconds: self.tile_seconds,
+            reports,
+            faults: self.faults,
+            complete: self.done == self.tiles.len(),
+        }
+    }
+}
+
+fn report(w: &Slot, left: Option<String>) -> WorkerReport {
+    let _ = w.joined_at;
+    WorkerReport {
+        name: w.name.clone(),
+        threads: w.threads,
+        tiles: w.tiles,
+        render_s: w.render_s,
+        build_s: w.build_s,
+        scene_transfer_s: (w.job_to_ready_s - w.build_s).max(0.0),
+        bytes_sent: w.counters.sent(),
+        bytes_received: w.counters.received(),
+        left,
+    }
+}
+
+/// What a scheduler leaves behind.
+#[derive(Debug)]
+pub struct Finished {
+    /// The image.
+    pub film: Film,
+    /// Merged statistics of the winning results.
+    pub stats: RayStats,
+    /// Render seconds per tile id (the winning result's).
+    pub tile_seconds: Vec<f64>,
+    /// Every worker that took part, including those that left.
+    pub reports: Vec<WorkerReport>,
+    /// Faults handled.
+    pub faults: FaultCounts,
+    /// Whether every tile was done.
+    pub complete: bool,
+}

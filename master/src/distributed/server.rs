@@ -1,0 +1,237 @@
+//! The master's server: binds the listener, accepts peers (each served by a task from
+//! [`super::connection`], at most `max_connections` at once), and runs the scheduler loop until
+//! the image is complete, then tells every worker to shut down and waits for the tasks to end
+//! (a `CancellationToken` broadcast and a `TaskTracker`, as in mini-redis's shutdown).
+
+use super::connection::{self, ConnContext};
+use super::progress::Progress;
+use super::scheduler::{Event, SchedOptions, Scheduler, WorkerId};
+use super::{DistError, DistOptions, DistResult};
+use parrt::description::SceneDescription;
+use parrt::protocol::{JobSpec, Message, Token};
+use parrt::settings::RenderSettings;
+use parrt::tile::tiles;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::net::TcpListener;
+use tokio::sync::{mpsc, Semaphore};
+use tokio::time::{interval, timeout, Instant, MissedTickBehavior};
+use tokio_util::sync::CancellationToken;
+use tokio_util::task::TaskTracker;
+use tracing::{info, warn};
+
+/// A bound master, ready to render one job.
+pub struct Master {
+    listener: TcpListener,
+    addr: SocketAddr,
+    token: Token,
+    opts: DistOptions,
+}
+
+impl Master {
+    /// Binds `opts.listen`.
+    pub async fn bind(opts: &DistOptions, token: Token) -> Result<Master, DistError> {
+        let listener = TcpListener::bind(&opts.listen)
+            .await
+            .map_err(|source| DistError::Bind {
+                addr: opts.listen.clone(),
+                source,
+            })?;
+        let addr = listener.local_addr().map_err(|source| DistError::Bind {
+            addr: opts.listen.clone(),
+            source,
+        })?;
+        Ok(Master {
+            listener,
+            addr,
+            token,
+            opts: opts.clone(),
+        })
+    }
+
+    /// The address actually bound (the port chosen when asked for `:0`).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// Renders `desc` with `settings` on whatever workers connect. `cancel` aborts (Ctrl-C):
+    /// workers are told Shutdown and the error is [`DistError::Interrupted`].
+    pub async fn render(
+        self,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+        cancel: CancellationToken,
+    ) -> Result<DistResult, DistError> {
+        let opts = self.opts;
+        let job_id = rand::random::<u64>();
+        let list = tiles(settings.width, settings.height, opts.tile);
+        let n_tiles = list.len();
+        let mut sched = Scheduler::new(
+            job_id,
+            settings.width,
+            settings.height,
+            list,
+            SchedOptions {
+                window_per_thread: opts.window_per_thread,
+                tile_deadline: opts.tile_deadline,
+                max_failures: opts.max_failures,
+                backups: opts.backups,
+            },
+        );
+        let job = Message::Job(Box::new(JobSpec {
+            job_id,
+            scene: desc.clone(),
+            settings: settings.clone(),
+            tile_size: opts.tile,
+        }));
+        let ctx = Arc::new(ConnContext {
+            job,
+            token: self.token,
+            max_frame: opts.max_frame,
+            handshake_timeout: opts.handshake_timeout,
+            heartbeat: opts.heartbeat,
+            heartbeat_timeout: opts.heartbeat_timeout,
+        });
+        let (events_tx, mut events) = mpsc::unbounded_channel::<Event>();
+        let stop = CancellationToken::new();
+        let tracker = TaskTracker::new();
+        tracker.spawn(accept_loop(
+            self.listener,
+            ctx,
+            events_tx,
+            stop.clone(),
+            tracker.clone(),
+            opts.max_connections,
+        ));
+
+        let progress = Progress::new(n_tiles, opts.progress);
+        let mut tick = interval(Duration::from_millis(100));
+        tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
+        let mut started: Option<Instant> = None;
+        let mut waiting_since = Some(Instant::now());
+        let min_workers = opts.min_workers.max(1);
+        let outcome: Result<(), DistError> = loop {
+            if sched.is_done() {
+                break Ok(());
+            }
+            tokio::select! {
+                _ = cancel.cancelled() => break Err(DistError::Interrupted),
+                ev = events.recv() => match ev {
+                    Some(ev) => sched.handle(ev, Instant::now()),
+                    None => break Err(DistError::AcceptFailed),
+                },
+                _ = tick.tick() => sched.expire(Instant::now()),
+            }
+            let now = Instant::now();
+            let ready = sched.ready_workers();
+            let needed = if started.is_some() { 1 } else { min_workers };
+            if ready >= needed {
+                waiting_since = None;
+                if started.is_none() {
+                    info!(workers = ready, tiles = n_tiles, "starting");
+                    started = Some(now);
+                }
+                sched.fill(now);
+            } else {
+                let since = *waiting_since.get_or_insert(now);
+                if now.duration_since(since) > opts.wait_workers {
+                    break Err(if started.is_none() {
+                        DistError::NoWorkers {
+                            waited: opts.wait_workers,
+                            wanted: min_workers,
+                            ready,
+                        }
+                    } else {
+                        DistError::AllWorkersLost {
+                            waited: opts.wait_workers,
+                            done: sched.progress().0,
+                            total: n_tiles,
+                        }
+                    });
+                }
+            }
+            progress.update(sched.progress().0, &sched.throughput(now));
+        };
+        let trace_s = started.map_or(0.0, |s| s.elapsed().as_secs_f64());
+        progress.finish();
+
+        // Shutdown: the scheduler closes every outbox after a Shutdown; the stop signal ends
+        // the accept loop and any handshake still running; then wait for the tasks.
+        let finished = sched.finish();
+        stop.cancel();
+        tracker.close();
+        if timeout(Duration::from_secs(5), tracker.wait())
+            .await
+            .is_err()
+        {
+            warn!("some connections did not close within 5 s");
+        }
+        // Late events (Gone of the last workers) are of no interest now.
+        drop(events);
+        outcome?;
+        let bytes_sent = finished.reports.iter().map(|r| r.bytes_sent).sum();
+        let bytes_received = finished.reports.iter().map(|r| r.bytes_received).sum();
+        let transfers: Vec<f64> = finished
+            .reports
+            .iter()
+            .filter(|r| r.build_s > 0.0 || r.scene_transfer_s > 0.0)
+            .map(|r| r.scene_transfer_s)
+            .collect();
+        let scene_transfer_s = if transfers.is_empty() {
+            0.0
+        } else {
+            transfers.iter().sum::<f64>() / transfers.len() as f64
+        };
+        Ok(DistResult {
+            film: finished.film,
+            stats: finished.stats,
+            tile_seconds: finished.tile_seconds,
+            trace_s,
+            per_worker: finished.reports,
+            bytes_sent,
+            bytes_received,
+            scene_transfer_s,
+            faults: finished.faults,
+            tiles: n_tiles,
+        })
+    }
+}
+
+async fn accept_loop(
+    listener: TcpListener,
+    ctx: Arc<ConnContext>,
+    events: mpsc::UnboundedSender<Event>,
+    stop: CancellationToken,
+    tracker: TaskTracker,
+    max_connections: usize,
+) {
+    let limit = Arc::new(Semaphore::new(max_connections.max(1)));
+    let mut next_id: WorkerId = 1;
+    loop {
+        let accepted = tokio::select! {
+            _ = stop.cancelled() => return,
+            a = listener.accept() => a,
+        };
+        let (stream, peer) = match accepted {
+            Ok(a) => a,
+            Err(e) => {
+                // Usually a transient resource shortage (EMFILE): back off briefly.
+                warn!(error = %e, "accept failed");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+                continue;
+            }
+        };
+        let Ok(permit) = limit.clone().try_acquire_owned() else {
+            warn!(%peer, max_connections, "too many connections; closing this one");
+            continue;
+        };
+        let id = next_id;
+        next_id += 1;
+        let (ctx, events, stop) = (ctx.clone(), events.clone(), stop.clone());
+        tracker.spawn(async move {
+            connection::serve(stream, id, ctx, events, stop).await;
+            drop(permit);
+        });
+    }
+}
