@@ -1,13 +1,241 @@
-//! `parrt master`.
+//! `parrt master`: loads a scene, listens for workers, hands them tiles, writes the image.
+//! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
+use super::scene_input::{LimitArgs, SceneSpec};
+use crate::distributed::{render_distributed, DistOptions, DistResult, DEFAULT_LISTEN};
+use crate::exit::input_error;
+use anyhow::Context;
 use clap::Args;
+use parrt::description::SceneDescription;
+use parrt::settings::RenderSettings;
+use parrt_worker::cli::{init_logging, TokenArgs, UsageError};
+use std::path::PathBuf;
 use std::process::ExitCode;
+use std::time::Duration;
 
 /// Arguments of `parrt master`.
 #[derive(Debug, Args)]
-pub struct MasterArgs {}
+pub struct MasterArgs {
+    /// The NFF scene to render (or --scene NAME[:SIZE], or --scene-json FILE).
+    pub file: Option<PathBuf>,
+    /// A generated scene, NAME or NAME:SIZE.
+    #[arg(long, value_name = "NAME[:SIZE]", conflicts_with = "scene_json")]
+    pub scene: Option<String>,
+    /// A scene description in parrt's JSON form (serde of `SceneDescription`).
+    #[arg(long, value_name = "FILE", conflicts_with = "file")]
+    pub scene_json: Option<PathBuf>,
+    /// Output image (.png, .ppm or .exr).
+    #[arg(short, long, value_name = "OUT", default_value = "parrt.png")]
+    pub output: PathBuf,
+    /// Address to listen on; anything but loopback must be asked for (e.g. 0.0.0.0:7878).
+    #[arg(long, value_name = "ADDR", default_value = DEFAULT_LISTEN)]
+    pub listen: String,
+    /// Tile edge in pixels.
+    #[arg(long, value_name = "S", default_value_t = 32)]
+    pub tile: u32,
+    /// Workers that must be ready before rendering starts.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub min_workers: usize,
+    /// Seconds to wait for workers before giving up (exit 1).
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    pub wait_workers: f64,
+    /// Seconds before a tile not returned is given to another worker.
+    #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
+    pub tile_deadline: f64,
+    /// Seconds of silence after which a worker is considered gone.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+    pub heartbeat_timeout: f64,
+    /// In-flight tiles per worker thread.
+    #[arg(long, value_name = "N", default_value_t = 2)]
+    pub window: usize,
+    /// Never duplicate in-flight tiles onto idle workers.
+    #[arg(long)]
+    pub no_backups: bool,
+    /// Image width (default: the scene's).
+    #[arg(long, value_name = "W")]
+    pub width: Option<u32>,
+    /// Image height (default: the scene's).
+    #[arg(long, value_name = "H")]
+    pub height: Option<u32>,
+    /// Maximum ray depth (eye ray = 1).
+    #[arg(long, value_name = "D")]
+    pub max_depth: Option<u32>,
+    /// Adaptive cut-off (0 disables it).
+    #[arg(long, value_name = "X")]
+    pub cutoff: Option<f64>,
+    /// Samples per pixel.
+    #[arg(long, value_name = "N")]
+    pub spp: Option<u32>,
+    /// Write timings, traffic and per-worker figures as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub report_json: Option<PathBuf>,
+    /// Token flags (a token is required).
+    #[command(flatten)]
+    pub token: TokenArgs,
+    /// Parser limits.
+    #[command(flatten)]
+    pub limits: LimitArgs,
+}
+
+fn seconds(flag: &str, v: f64) -> anyhow::Result<Duration> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(Duration::from_secs_f64(v))
+    } else {
+        Err(input_error(anyhow::anyhow!(
+            "{flag} must be a number of seconds, not {v}"
+        )))
+    }
+}
+
+fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
+    if let Some(p) = &args.scene_json {
+        let text = std::fs::read_to_string(p)
+            .with_context(|| format!("cannot read scene description {}", p.display()))?;
+        let desc = serde_json::from_str(&text)
+            .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", p.display())))?;
+        return Ok((desc, p.display().to_string()));
+    }
+    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
+    let (desc, _) = spec.load(&args.limits.limits())?;
+    Ok((desc, spec.label()))
+}
+
+/// The settings the flags ask for, on top of the scene's own size.
+fn settings(args: &MasterArgs, desc: &SceneDescription) -> anyhow::Result<RenderSettings> {
+    let mut s = RenderSettings::new(
+        args.width.unwrap_or(desc.view.width),
+        args.height.unwrap_or(desc.view.height),
+    );
+    if s.width == 0 || s.height == 0 {
+        return Err(input_error(anyhow::anyhow!(
+            "image size {}x{} has no pixels",
+            s.width,
+            s.height
+        )));
+    }
+    if let Some(d) = args.max_depth {
+        s.max_depth = d;
+    }
+    if let Some(c) = args.cutoff {
+        s.cutoff = c;
+    }
+    if let Some(n) = args.spp {
+        s.spp = n.max(1);
+    }
+    Ok(s)
+}
 
 /// Runs `parrt master`.
-pub fn run(_args: MasterArgs) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("`parrt master` is not available in this build yet")
+pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
+    init_logging("info");
+    let token = args.token.require("`parrt master`").map_err(|e| {
+        if e.is::<UsageError>() {
+            input_error(e)
+        } else {
+            e
+        }
+    })?;
+    if args.tile == 0 {
+        return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
+    }
+    let (desc, label) = load_scene(&args)?;
+    let settings = settings(&args, &desc)?;
+    let opts = DistOptions {
+        tile: args.tile,
+        listen: args.listen.clone(),
+        token: Some(token),
+        min_workers: args.min_workers.max(1),
+        wait_workers: seconds("--wait-workers", args.wait_workers)?,
+        tile_deadline: seconds("--tile-deadline", args.tile_deadline)?,
+        heartbeat_timeout: seconds("--heartbeat-timeout", args.heartbeat_timeout)?,
+        window_per_thread: args.window.max(1),
+        backups: !args.no_backups,
+        ..DistOptions::default()
+    };
+    let result = render_distributed(&desc, &settings, &opts, &|addr| {
+        eprintln!(
+            "parrt master: listening on {addr}; {label} at {}x{}, tiles of {} px",
+            settings.width, settings.height, opts.tile
+        );
+    })
+    .context("distributed render failed")?;
+    result
+        .film
+        .save(&args.output)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    print_summary(&result, &args.output);
+    if let Some(p) = &args.report_json {
+        std::fs::write(p, report_json(&result).to_string())
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_summary(r: &DistResult, out: &std::path::Path) {
+    eprintln!(
+        "parrt master: wrote {} ({} tiles in {:.3} s; {} rays; {} bytes out, {} in, {:.0} bytes/tile; scene transfer {:.4} s)",
+        out.display(),
+        r.tiles,
+        r.trace_s,
+        r.stats.total_rays(),
+        r.bytes_sent,
+        r.bytes_received,
+        (r.bytes_sent + r.bytes_received) as f64 / r.tiles.max(1) as f64,
+        r.scene_transfer_s,
+    );
+    for w in &r.per_worker {
+        eprintln!(
+            "  {:<20} {:>2} threads {:>6} tiles {:>8.3} s render{}",
+            w.name,
+            w.threads,
+            w.tiles,
+            w.render_s,
+            w.left
+                .as_deref()
+                .map(|l| format!("  (left: {l})"))
+                .unwrap_or_default()
+        );
+    }
+    let f = &r.faults;
+    if !f.refused.is_empty() || f.rejected_results + f.requeued + f.dropped > 0 {
+        eprintln!(
+            "  faults: {} refused, {} results rejected, {} duplicates ignored, {} tiles requeued, {} backups, {} workers dropped",
+            f.refused.len(),
+            f.rejected_results,
+            f.duplicate_results,
+            f.requeued,
+            f.backups,
+            f.dropped
+        );
+    }
+}
+
+/// The figures of a run as JSON (for benchmarks and scripts).
+pub fn report_json(r: &DistResult) -> serde_json::Value {
+    serde_json::json!({
+        "tiles": r.tiles,
+        "trace_s": r.trace_s,
+        "bytes_sent": r.bytes_sent,
+        "bytes_received": r.bytes_received,
+        "bytes_per_tile": (r.bytes_sent + r.bytes_received) as f64 / r.tiles.max(1) as f64,
+        "scene_transfer_s": r.scene_transfer_s,
+        "eye_rays": r.stats.eye_rays,
+        "refused": r.faults.refused,
+        "rejected_results": r.faults.rejected_results,
+        "duplicate_results": r.faults.duplicate_results,
+        "requeued": r.faults.requeued,
+        "backups": r.faults.backups,
+        "dropped": r.faults.dropped,
+        "workers": r.per_worker.iter().map(|w| serde_json::json!({
+            "name": w.name,
+            "threads": w.threads,
+            "tiles": w.tiles,
+            "render_s": w.render_s,
+            "build_s": w.build_s,
+            "scene_transfer_s": w.scene_transfer_s,
+            "bytes_sent": w.bytes_sent,
+            "bytes_received": w.bytes_received,
+            "left": w.left,
+        })).collect::<Vec<_>>(),
+    })
 }

@@ -1,13 +1,19 @@
-//! `parrt worker`.
+//! `parrt worker`: the worker library's own command line and entry point, so `parrt worker` and
+//! `parrt-worker` are the same program. Only the exit-code mapping lives here.
 
-use clap::Args;
+use crate::exit::input_error;
 use std::process::ExitCode;
 
-/// Arguments of `parrt worker`.
-#[derive(Debug, Args)]
-pub struct WorkerArgs {}
+/// Arguments of `parrt worker` (defined by the worker library).
+pub use parrt_worker::cli::WorkerArgs;
 
-/// Runs `parrt worker`.
-pub fn run(_args: WorkerArgs) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("`parrt worker` is not available in this build yet")
+/// Runs `parrt worker`: usage errors (no token, bad flags) exit 2, others 1.
+pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
+    parrt_worker::cli::run(args).map_err(|e| {
+        if e.chain().any(|c| c.is::<parrt_worker::cli::UsageError>()) {
+            input_error(e)
+        } else {
+            e
+        }
+    })
 }

@@ -438,9 +438,8 @@ impl Scheduler {
         let Some(w) = self.workers.remove(&id) else {
             return;
         };
-        for &tile_id in w.inflight.keys() {
-            self.requeue(tile_id);
-        }
+        let mut held: Vec<u32> = w.inflight.keys().copied().collect();
+        self.requeue_all(&mut held);
         self.gone.push(report(&w, Some(reason)));
     }
 
@@ -453,6 +452,14 @@ impl Scheduler {
         self.state[t] = TileState::Queued;
         self.queue.push_front(tile_id);
         self.faults.requeued += 1;
+    }
+
+    /// Requeues tiles so that the lowest id comes out of the queue first.
+    fn requeue_all(&mut self, tiles: &mut [u32]) {
+        tiles.sort_unstable();
+        for &t in tiles.iter().rev() {
+            self.requeue(t);
+        }
     }
 
     fn active_holders(&self, tile_id: u32) -> usize {
@@ -479,10 +486,8 @@ impl Scheduler {
                 late.push((id, tiles));
             }
         }
-        for (id, tiles) in late {
-            for &t in &tiles {
-                self.requeue(t);
-            }
+        for (id, mut tiles) in late {
+            self.requeue_all(&mut tiles);
             self.fail(
                 id,
                 format!("{} tile(s) past the {deadline:?} deadline", tiles.len()),
@@ -649,4 +654,265 @@ pub struct Finished {
     pub faults: FaultCounts,
     /// Whether every tile was done.
     pub complete: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parrt::tile::tiles;
+    use tokio::sync::mpsc::{unbounded_channel, UnboundedReceiver};
+
+    const JOB: u64 = 77;
+
+    fn sched(max_failures: u32) -> Scheduler {
+        Scheduler::new(
+            JOB,
+            16,
+            8,
+            tiles(16, 8, 4), // 8 tiles of 4x4
+            SchedOptions {
+                window_per_thread: 2,
+                tile_deadline: Duration::from_secs(5),
+                max_failures,
+                backups: true,
+            },
+        )
+    }
+
+    fn join(s: &mut Scheduler, id: WorkerId, threads: u32) -> UnboundedReceiver<Message> {
+        let (tx, rx) = unbounded_channel();
+        let now = Instant::now();
+        s.handle(
+            Event::Joined {
+                id,
+                name: format!("w{id}"),
+                threads,
+                outbox: tx,
+                counters: Arc::default(),
+            },
+            now,
+        );
+        s.handle(
+            Event::Ready {
+                id,
+                job_id: JOB,
+                build_s: 0.0,
+                job_to_ready_s: 0.0,
+            },
+            now,
+        );
+        rx
+    }
+
+    fn assigned(rx: &mut UnboundedReceiver<Message>) -> Vec<(Tile, u32)> {
+        let mut v = Vec::new();
+        while let Ok(m) = rx.try_recv() {
+            if let Message::Assign { tile, attempt, .. } = m {
+                v.push((tile, attempt));
+            }
+        }
+        v
+    }
+
+    fn result(id: WorkerId, tile: &Tile, attempt: u32, value: f32) -> Event {
+        Event::Result {
+            id,
+            job_id: JOB,
+            tile_id: tile.id,
+            attempt,
+            pixels: vec![[value; 3]; tile.pixel_count()],
+            stats: RayStats {
+                eye_rays: tile.pixel_count() as u64,
+                ..RayStats::default()
+            },
+            seconds: 0.1,
+        }
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn window_is_two_per_thread_and_results_refill_it() {
+        let mut s = sched(3);
+        let mut rx = join(&mut s, 1, 2);
+        s.fill(Instant::now());
+        let a = assigned(&mut rx);
+        assert_eq!(a.len(), 4);
+        s.handle(result(1, &a[0].0, a[0].1, 1.0), Instant::now());
+        s.fill(Instant::now());
+        assert_eq!(assigned(&mut rx).len(), 1);
+        assert_eq!(s.progress(), (1, 8));
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn first_result_wins_and_duplicates_are_ignored() {
+        let mut s = sched(3);
+        let mut rx1 = join(&mut s, 1, 4); // takes all 8 tiles
+        s.fill(Instant::now());
+        let a1 = assigned(&mut rx1);
+        assert_eq!(a1.len(), 8);
+        // Worker 2 is idle with an empty queue: it gets backups (one per thread).
+        let mut rx2 = join(&mut s, 2, 1);
+        s.fill(Instant::now());
+        let a2 = assigned(&mut rx2);
+        assert_eq!(a2.len(), 1);
+        let (tile, attempt2) = a2[0];
+        assert_eq!(attempt2, 2);
+        s.handle(result(2, &tile, attempt2, 2.0), Instant::now());
+        let attempt1 = a1.iter().find(|(t, _)| t.id == tile.id).unwrap().1;
+        s.handle(result(1, &tile, attempt1, 1.0), Instant::now());
+        let f = s.finish();
+        assert_eq!(f.faults.duplicate_results, 1);
+        assert_eq!(f.film.get(tile.x, tile.y), [2.0; 3]);
+        assert_eq!(f.stats.eye_rays, tile.pixel_count() as u64);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn results_for_unheld_tiles_wrong_job_or_size_are_rejected() {
+        let mut s = sched(10);
+        let mut rx = join(&mut s, 1, 1);
+        s.fill(Instant::now());
+        let a = assigned(&mut rx);
+        let (held, attempt) = a[0];
+        let other = tiles(16, 8, 4)[5];
+        s.handle(result(1, &other, 1, 1.0), Instant::now());
+        s.handle(result(1, &held, attempt + 1, 1.0), Instant::now());
+        let mut wrong_job = result(1, &held, attempt, 1.0);
+        if let Event::Result { job_id, .. } = &mut wrong_job {
+            *job_id = 1;
+        }
+        s.handle(wrong_job, Instant::now());
+        s.handle(
+            Event::Result {
+                id: 1,
+                job_id: JOB,
+                tile_id: held.id,
+                attempt,
+                pixels: vec![[0.0; 3]; 3],
+                stats: RayStats::default(),
+                seconds: 0.0,
+            },
+            Instant::now(),
+        );
+        // An id past the tile list is rejected too, without panicking.
+        s.handle(
+            Event::Result {
+                id: 1,
+                job_id: JOB,
+                tile_id: u32::MAX,
+                attempt: 1,
+                pixels: vec![],
+                stats: RayStats::default(),
+                seconds: 0.0,
+            },
+            Instant::now(),
+        );
+        assert_eq!(s.progress().0, 0);
+        let f = s.finish();
+        assert_eq!(f.faults.rejected_results, 5);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn deadline_moves_tiles_and_late_result_still_counts_if_first() {
+        let mut s = sched(3);
+        let mut rx1 = join(&mut s, 1, 1);
+        s.fill(Instant::now());
+        let a1 = assigned(&mut rx1);
+        assert_eq!(a1.len(), 2);
+        tokio::time::advance(Duration::from_secs(6)).await;
+        s.expire(Instant::now());
+        // Worker 1 is stalled: its expired tiles still fill its window.
+        s.fill(Instant::now());
+        assert!(assigned(&mut rx1).is_empty());
+        let mut rx2 = join(&mut s, 2, 1);
+        s.fill(Instant::now());
+        let a2 = assigned(&mut rx2);
+        let ids2: Vec<u32> = a2.iter().map(|(t, _)| t.id).collect();
+        assert_eq!(
+            ids2,
+            vec![a1[0].0.id, a1[1].0.id],
+            "requeued tiles go first"
+        );
+        // Worker 1 wakes up: its late result for tile 0 is first, so it counts.
+        s.handle(result(1, &a1[0].0, a1[0].1, 1.0), Instant::now());
+        s.handle(result(2, &a2[0].0, a2[0].1, 2.0), Instant::now());
+        assert_eq!(s.progress().0, 1);
+        let f = s.finish();
+        assert_eq!(f.faults.duplicate_results, 1);
+        assert_eq!(f.film.get(a1[0].0.x, a1[0].0.y), [1.0; 3]);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn leaving_worker_loses_its_tiles_and_failing_worker_is_dropped() {
+        let mut s = sched(2);
+        let mut rx1 = join(&mut s, 1, 1);
+        s.fill(Instant::now());
+        let a1 = assigned(&mut rx1);
+        s.handle(
+            Event::Gone {
+                id: 1,
+                reason: "killed".into(),
+            },
+            Instant::now(),
+        );
+        assert_eq!(s.connected_workers(), 0);
+        let mut rx2 = join(&mut s, 2, 1);
+        s.fill(Instant::now());
+        let a2 = assigned(&mut rx2);
+        assert_eq!(a2[0].0.id, a1[0].0.id);
+        // Two faults drop worker 2; its outbox gets an Error and closes.
+        s.handle(result(2, &tiles(16, 8, 4)[7], 1, 0.0), Instant::now());
+        s.handle(result(2, &tiles(16, 8, 4)[7], 1, 0.0), Instant::now());
+        assert_eq!(s.connected_workers(), 0);
+        assert!(matches!(rx2.try_recv(), Ok(Message::Error { .. })));
+        let f = s.finish();
+        assert_eq!(f.faults.dropped, 1);
+        assert_eq!(f.reports.len(), 2);
+        assert!(f.reports.iter().all(|r| r.left.is_some()));
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn worker_that_cannot_build_is_dropped() {
+        let mut s = sched(3);
+        let (tx, mut rx) = unbounded_channel();
+        s.handle(
+            Event::Joined {
+                id: 9,
+                name: "bad".into(),
+                threads: 1,
+                outbox: tx,
+                counters: Arc::default(),
+            },
+            Instant::now(),
+        );
+        s.handle(
+            Event::WorkerError {
+                id: 9,
+                reason: "cannot build job".into(),
+            },
+            Instant::now(),
+        );
+        assert_eq!(s.connected_workers(), 0);
+        assert!(matches!(rx.try_recv(), Ok(Message::Error { .. })));
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn every_tile_once_with_many_workers_in_any_order() {
+        let mut s = sched(3);
+        let mut rxs: Vec<_> = (1..=3).map(|id| join(&mut s, id, 1)).collect();
+        let mut rounds = 0;
+        while !s.is_done() {
+            rounds += 1;
+            assert!(rounds < 100);
+            s.fill(Instant::now());
+            for (i, rx) in rxs.iter_mut().enumerate() {
+                for (t, a) in assigned(rx).into_iter().rev() {
+                    s.handle(result(i as u64 + 1, &t, a, t.id as f32), Instant::now());
+                }
+            }
+        }
+        let f = s.finish();
+        assert_eq!(f.stats.eye_rays, 16 * 8);
+        for t in tiles(16, 8, 4) {
+            assert_eq!(f.film.get(t.x, t.y), [t.id as f32; 3]);
+        }
+    }
 }
