@@ -21,3 +21,8 @@ pub mod smp;
 pub mod stats;
 pub mod tile;
 pub mod vec3;
+pub mod accel;
+pub mod camera;
+pub mod geometry;
+pub mod scene;
+pub mod shade;
