@@ -96,7 +96,10 @@ pub fn validate_settings(s: &RenderSettings) -> Result<(), RenderError> {
     Ok(())
 }
 
-fn build_core<R: Real>(desc: &SceneDescription, s: &RenderSettings) -> Result<(Core<R>, BuildInfo), RenderError> {
+fn build_core<R: Real>(
+    desc: &SceneDescription,
+    s: &RenderSettings,
+) -> Result<(Core<R>, BuildInfo), RenderError> {
     let scene = Scene::<R>::build(desc)?;
     let bounds = scene.all_bounds();
     let accel = Accel::build(s.accel, &bounds, s.grid_density);
@@ -107,7 +110,11 @@ fn build_core<R: Real>(desc: &SceneDescription, s: &RenderSettings) -> Result<(C
     };
     let opts = ShadeOptions {
         max_depth: s.max_depth,
-        cutoff: if s.spd_standard { R::ZERO } else { R::from_f64(s.cutoff) },
+        cutoff: if s.spd_standard {
+            R::ZERO
+        } else {
+            R::from_f64(s.cutoff)
+        },
         spd: s.spd_standard,
         two_sided: s.two_sided,
     };
@@ -159,7 +166,13 @@ impl<R: Real> Core<R> {
         self.integrator.trace(&ray, 1, R::ONE, RayKind::Eye, stats)
     }
 
-    fn render_tile(&self, s: &RenderSettings, tile: &Tile, out: &mut Vec<Rgb>, stats: &mut RayStats) {
+    fn render_tile(
+        &self,
+        s: &RenderSettings,
+        tile: &Tile,
+        out: &mut Vec<Rgb>,
+        stats: &mut RayStats,
+    ) {
         out.clear();
         out.reserve(tile.pixel_count());
         let finish = |c: V3<R>| -> Rgb {
@@ -255,7 +268,9 @@ impl Renderer {
         match &self.inner {
             Inner::F32(c) => {
                 let ray = c.camera.ray(sx as f32, sy as f32);
-                c.integrator.intersect(&ray, &mut st).map(|h| (h.prim, h.t as f64))
+                c.integrator
+                    .intersect(&ray, &mut st)
+                    .map(|h| (h.prim, h.t as f64))
             }
             Inner::F64(c) => {
                 let ray = c.camera.ray(sx, sy);

@@ -264,7 +264,11 @@ impl<R: Real> Scene<R> {
         normals: Option<&[V3<f64>]>,
         material: u32,
     ) -> Result<(), SceneError> {
-        let kind = if normals.is_some() { "patch" } else { "polygon" };
+        let kind = if normals.is_some() {
+            "patch"
+        } else {
+            "polygon"
+        };
         let degenerate = |reason: &str| SceneError::Degenerate {
             index,
             kind,
@@ -290,7 +294,11 @@ impl<R: Real> Scene<R> {
                         let len = v.length();
                         // A zero or unusable normal falls back to the polygon's; every vertex
                         // normal is turned to the front side.
-                        let v = if len > 0.0 && len.is_finite() { v / len } else { n_unit };
+                        let v = if len > 0.0 && len.is_finite() {
+                            v / len
+                        } else {
+                            n_unit
+                        };
                         V3::from_f64(v.face_forward(n_unit))
                     };
                     self.normals.push(t.map(pick));
@@ -333,7 +341,9 @@ impl<R: Real> Scene<R> {
                     (1.0 - a.z * a.z).max(0.0).sqrt(),
                 );
                 // Widen slightly: the stored axis and slope are rounded.
-                let pad = V3::splat(1e-6 * (base.abs().max_component() + apex.abs().max_component() + r0 + r1));
+                let pad = V3::splat(
+                    1e-6 * (base.abs().max_component() + apex.abs().max_component() + r0 + r1),
+                );
                 let lo = (base - ext * r0).min(apex - ext * r1) - pad;
                 let hi = (base + ext * r0).max(apex + ext * r1) + pad;
                 Aabb::from_f64(lo, hi)

@@ -48,7 +48,11 @@ pub struct Integrator<R> {
 impl<R: Real> Integrator<R> {
     /// Closest hit along `ray`.
     #[inline]
-    pub fn intersect(&self, ray: &Ray<R>, stats: &mut RayStats) -> Option<crate::geometry::PrimHit<R>> {
+    pub fn intersect(
+        &self,
+        ray: &Ray<R>,
+        stats: &mut RayStats,
+    ) -> Option<crate::geometry::PrimHit<R>> {
         let pr = PreparedRay::new(*ray);
         self.accel
             .intersect(&pr, stats, |i, t| self.scene.intersect_prim(i, &pr, t))
@@ -63,7 +67,14 @@ impl<R: Real> Integrator<R> {
     }
 
     /// Radiance along `ray`. `weight` is the product of reflect/transmit weights so far.
-    pub fn trace(&self, ray: &Ray<R>, depth: u32, weight: R, kind: RayKind, stats: &mut RayStats) -> V3<R> {
+    pub fn trace(
+        &self,
+        ray: &Ray<R>,
+        depth: u32,
+        weight: R,
+        kind: RayKind,
+        stats: &mut RayStats,
+    ) -> V3<R> {
         match kind {
             RayKind::Eye => stats.eye_rays += 1,
             RayKind::Reflection => stats.reflection_rays += 1,
@@ -85,7 +96,11 @@ impl<R: Real> Integrator<R> {
         // Normals facing the viewer, except SPD's one-sided opaque primitives, which keep their
         // front normal for the light test.
         let one_sided = self.opts.spd && !self.opts.two_sided && m.t == R::ZERO;
-        let ns = if arrives_front || one_sided { s.ns } else { -s.ns };
+        let ns = if arrives_front || one_sided {
+            s.ns
+        } else {
+            -s.ns
+        };
 
         let mut color = m.color * (self.scene.ambient * m.kd);
         for light in &self.scene.lights {
@@ -168,7 +183,13 @@ impl<R: Real> Integrator<R> {
                 t_min: R::ZERO,
                 t_max: R::INFINITY,
             };
-            let c = self.trace(&refl, depth + 1, weight * refl_w, RayKind::Reflection, stats);
+            let c = self.trace(
+                &refl,
+                depth + 1,
+                weight * refl_w,
+                RayKind::Reflection,
+                stats,
+            );
             color += c * refl_w;
         }
         if transmits && !tir && wants(m.t) {

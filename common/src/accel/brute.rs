@@ -30,7 +30,12 @@ impl Brute {
     }
 
     /// Closest hit.
-    pub fn intersect<R: Real, F>(&self, pr: &PreparedRay<R>, stats: &mut RayStats, mut test: F) -> Option<PrimHit<R>>
+    pub fn intersect<R: Real, F>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        mut test: F,
+    ) -> Option<PrimHit<R>>
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
@@ -51,7 +56,12 @@ impl Brute {
     }
 
     /// Any hit.
-    pub fn occluded<R: Real, F>(&self, pr: &PreparedRay<R>, stats: &mut RayStats, mut test: F) -> bool
+    pub fn occluded<R: Real, F>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        mut test: F,
+    ) -> bool
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {

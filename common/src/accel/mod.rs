@@ -62,7 +62,12 @@ impl Accel {
 
     /// Closest hit: `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
     #[inline]
-    pub fn intersect<R: Real, F>(&self, pr: &PreparedRay<R>, stats: &mut RayStats, test: F) -> Option<PrimHit<R>>
+    pub fn intersect<R: Real, F>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        test: F,
+    ) -> Option<PrimHit<R>>
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {

@@ -151,12 +151,23 @@ mod tests {
 
     #[test]
     fn axis_parallel_rays() {
-        let b = Aabb { min: [0.0; 3], max: [1.0; 3] };
-        assert!(b.hit(&pr([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY).is_some());
-        assert!(b.hit(&pr([1.5, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY).is_none());
+        let b = Aabb {
+            min: [0.0; 3],
+            max: [1.0; 3],
+        };
+        assert!(b
+            .hit(&pr([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .is_some());
+        assert!(b
+            .hit(&pr([1.5, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .is_none());
         // Lying exactly in the box's face plane: counted as a hit (conservative).
-        assert!(b.hit(&pr([0.0, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY).is_some());
-        assert!(b.hit(&pr([0.5, 0.5, 2.0], [0.0, 0.0, 1.0]), f32::INFINITY).is_none());
+        assert!(b
+            .hit(&pr([0.0, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .is_some());
+        assert!(b
+            .hit(&pr([0.5, 0.5, 2.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .is_none());
     }
 
     #[test]

@@ -144,16 +144,27 @@ mod tests {
     #[test]
     fn cylinder_hits_and_misses_beyond_ends() {
         let c = Cone::new(V3::new(0.0, 0.0, 0.0), 1.0, V3::new(0.0, 0.0, 2.0), 1.0).unwrap();
-        assert_eq!(c.intersect(&ray([-5.0, 0.0, 1.0], [1.0, 0.0, 0.0]), f64::INFINITY), Some(4.0));
-        assert_eq!(c.intersect(&ray([-5.0, 0.0, 2.5], [1.0, 0.0, 0.0]), f64::INFINITY), None);
+        assert_eq!(
+            c.intersect(&ray([-5.0, 0.0, 1.0], [1.0, 0.0, 0.0]), f64::INFINITY),
+            Some(4.0)
+        );
+        assert_eq!(
+            c.intersect(&ray([-5.0, 0.0, 2.5], [1.0, 0.0, 0.0]), f64::INFINITY),
+            None
+        );
         // Open: a ray down the axis passes through.
-        assert_eq!(c.intersect(&ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0]), f64::INFINITY), None);
+        assert_eq!(
+            c.intersect(&ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0]), f64::INFINITY),
+            None
+        );
     }
 
     #[test]
     fn true_cone_with_zero_apex() {
         let c = Cone::new(V3::new(0.0, 0.0, 0.0), 1.0, V3::new(0.0, 0.0, 1.0), 0.0).unwrap();
-        let t = c.intersect(&ray([-5.0, 0.0, 0.5], [1.0, 0.0, 0.0]), f64::INFINITY).unwrap();
+        let t = c
+            .intersect(&ray([-5.0, 0.0, 0.5], [1.0, 0.0, 0.0]), f64::INFINITY)
+            .unwrap();
         assert!((t - 4.5).abs() < 1e-12);
         let (p, _, n) = c.surface(&ray([-5.0, 0.0, 0.5], [1.0, 0.0, 0.0]), t);
         assert!((p.x + 0.5).abs() < 1e-12);
@@ -162,8 +173,19 @@ mod tests {
 
     #[test]
     fn far_away_cone_in_f32() {
-        let c = Cone::new(V3::new(1.0e5f32, 0.0, 0.0), 0.1, V3::new(1.0e5, 0.0, 1.0), 0.1).unwrap();
-        let r = Ray { o: V3::new(0.0f32, 0.0, 0.5), d: V3::new(1.0, 0.0, 0.0), t_min: 0.0, t_max: f32::INFINITY };
+        let c = Cone::new(
+            V3::new(1.0e5f32, 0.0, 0.0),
+            0.1,
+            V3::new(1.0e5, 0.0, 1.0),
+            0.1,
+        )
+        .unwrap();
+        let r = Ray {
+            o: V3::new(0.0f32, 0.0, 0.5),
+            d: V3::new(1.0, 0.0, 0.0),
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+        };
         let t = c.intersect(&r, f32::INFINITY).expect("hits");
         assert!((t - (1.0e5 - 0.1)).abs() < 0.02, "t = {t}");
     }

@@ -82,7 +82,10 @@ mod tests {
 
     #[test]
     fn hits_front_then_back() {
-        let s = Sphere { center: V3::new(0.0, 0.0, 5.0), radius: 1.0 };
+        let s = Sphere {
+            center: V3::new(0.0, 0.0, 5.0),
+            radius: 1.0,
+        };
         let t = s.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), f64::INFINITY);
         assert_eq!(t, Some(4.0));
         let inside = s.intersect(&ray([0.0, 0.0, 5.0], [0.0, 0.0, 1.0]), f64::INFINITY);
@@ -92,8 +95,16 @@ mod tests {
     #[test]
     fn far_away_sphere_is_accurate_in_f32() {
         // A unit sphere 1e5 away: the naive quadratic loses everything in f32.
-        let s = Sphere { center: V3::new(0.0f32, 0.0, 1.0e5), radius: 1.0 };
-        let r = Ray { o: V3::zero(), d: V3::new(0.0f32, 0.5, 1.0e5).normalize(), t_min: 0.0, t_max: f32::INFINITY };
+        let s = Sphere {
+            center: V3::new(0.0f32, 0.0, 1.0e5),
+            radius: 1.0,
+        };
+        let r = Ray {
+            o: V3::zero(),
+            d: V3::new(0.0f32, 0.5, 1.0e5).normalize(),
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+        };
         let t = s.intersect(&r, f32::INFINITY).expect("hits");
         let (p, _, _) = s.surface(&r, t);
         assert!(((p - s.center).length() - 1.0).abs() < 1e-3);

@@ -57,7 +57,8 @@ pub fn intersect_triangle<R: Real>(
         e1 = R::from_f64(cx * ay - cy * ax);
         e2 = R::from_f64(ax * by - ay * bx);
     }
-    if (e0 < R::ZERO || e1 < R::ZERO || e2 < R::ZERO) && (e0 > R::ZERO || e1 > R::ZERO || e2 > R::ZERO)
+    if (e0 < R::ZERO || e1 < R::ZERO || e2 < R::ZERO)
+        && (e0 > R::ZERO || e1 > R::ZERO || e2 > R::ZERO)
     {
         return None;
     }
@@ -90,8 +91,7 @@ pub fn intersect_triangle<R: Real>(
     let max_yt = ay.abs().max(by.abs()).max(cy.abs());
     let delta_x = R::gamma(5) * (max_xt + max_zt);
     let delta_y = R::gamma(5) * (max_yt + max_zt);
-    let delta_e =
-        R::TWO * (R::gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let delta_e = R::TWO * (R::gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = b0.abs().max(b1.abs()).max(b2.abs());
     let delta_t = R::from_u32(3)
         * (R::gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
@@ -128,22 +128,58 @@ mod tests {
 
     #[test]
     fn hits_inside_misses_outside() {
-        let (a, b, c) = (V3::new(0.0, 0.0, 0.0), V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0));
-        let h = intersect_triangle(&pr([0.2, 0.2, 1.0], [0.0, 0.0, -1.0]), a, b, c, f32::INFINITY)
-            .expect("hit");
+        let (a, b, c) = (
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(0.0, 1.0, 0.0),
+        );
+        let h = intersect_triangle(
+            &pr([0.2, 0.2, 1.0], [0.0, 0.0, -1.0]),
+            a,
+            b,
+            c,
+            f32::INFINITY,
+        )
+        .expect("hit");
         assert!((h.t - 1.0).abs() < 1e-6);
         assert!((h.b1 - 0.2).abs() < 1e-6 && (h.b2 - 0.2).abs() < 1e-6);
-        assert!(intersect_triangle(&pr([0.8, 0.8, 1.0], [0.0, 0.0, -1.0]), a, b, c, f32::INFINITY).is_none());
+        assert!(intersect_triangle(
+            &pr([0.8, 0.8, 1.0], [0.0, 0.0, -1.0]),
+            a,
+            b,
+            c,
+            f32::INFINITY
+        )
+        .is_none());
         // Both sides.
-        assert!(intersect_triangle(&pr([0.2, 0.2, -1.0], [0.0, 0.0, 1.0]), a, b, c, f32::INFINITY).is_some());
+        assert!(intersect_triangle(
+            &pr([0.2, 0.2, -1.0], [0.0, 0.0, 1.0]),
+            a,
+            b,
+            c,
+            f32::INFINITY
+        )
+        .is_some());
         // Behind the origin.
-        assert!(intersect_triangle(&pr([0.2, 0.2, -1.0], [0.0, 0.0, -1.0]), a, b, c, f32::INFINITY).is_none());
+        assert!(intersect_triangle(
+            &pr([0.2, 0.2, -1.0], [0.0, 0.0, -1.0]),
+            a,
+            b,
+            c,
+            f32::INFINITY
+        )
+        .is_none());
     }
 
     #[test]
     fn shared_edge_is_watertight() {
         // Two triangles sharing the diagonal of the unit square; rays exactly on the diagonal.
-        let p = [V3::new(0.0f32, 0.0, 0.0), V3::new(1.0, 0.0, 0.0), V3::new(1.0, 1.0, 0.0), V3::new(0.0, 1.0, 0.0)];
+        let p = [
+            V3::new(0.0f32, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(1.0, 1.0, 0.0),
+            V3::new(0.0, 1.0, 0.0),
+        ];
         for i in 1..100 {
             let s = i as f32 / 100.0;
             let r = pr([s, s, 1.0], [0.0, 0.0, -1.0]);

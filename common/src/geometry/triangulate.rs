@@ -75,7 +75,13 @@ pub fn triangulate(vs: &[V3<f64>]) -> Vec<[u32; 3]> {
             }
             let blocked = idx.iter().any(|&j| {
                 let p = pts[j as usize];
-                j != ip && j != ic && j != inx && p != a && p != b && p != c && in_triangle(p, a, b, c)
+                j != ip
+                    && j != ic
+                    && j != inx
+                    && p != a
+                    && p != b
+                    && p != c
+                    && in_triangle(p, a, b, c)
             });
             if !blocked {
                 chosen = Some(i);
@@ -126,10 +132,12 @@ mod tests {
             .collect();
         let tris = triangulate(&vs);
         let total: f64 = tris.iter().map(|&t| area2(&vs, t)).sum();
-        let exact: f64 = (0..n).map(|i| {
-            let (a, b) = (vs[i], vs[(i + 1) % n]);
-            a.x * b.y - b.x * a.y
-        }).sum();
+        let exact: f64 = (0..n)
+            .map(|i| {
+                let (a, b) = (vs[i], vs[(i + 1) % n]);
+                a.x * b.y - b.x * a.y
+            })
+            .sum();
         assert!((total - exact).abs() < 1e-9);
     }
 }

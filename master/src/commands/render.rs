@@ -86,7 +86,11 @@ pub struct RenderFlags {
 impl RenderFlags {
     /// The render settings for a scene whose file asks for `file_w × file_h`.
     pub fn settings(&self, file_w: u32, file_h: u32) -> anyhow::Result<RenderSettings> {
-        let (dw, dh) = if self.spd_standard { (512, 512) } else { (file_w, file_h) };
+        let (dw, dh) = if self.spd_standard {
+            (512, 512)
+        } else {
+            (file_w, file_h)
+        };
         let mut s = RenderSettings::new(self.width.unwrap_or(dw), self.height.unwrap_or(dh));
         s.max_depth = self.max_depth;
         s.cutoff = self.cutoff;
@@ -198,17 +202,48 @@ impl RenderReport {
     /// Human-readable statistics.
     pub fn print(&self) {
         let s = &self.stats;
-        let per = |n: u64, rays: u64| if rays > 0 { n as f64 / rays as f64 } else { 0.0 };
+        let per = |n: u64, rays: u64| {
+            if rays > 0 {
+                n as f64 / rays as f64
+            } else {
+                0.0
+            }
+        };
         let rays = s.total_rays();
-        println!("rays              {:>14}  ({:.2} Mrays/s)", rays, self.mrays_per_s());
+        println!(
+            "rays              {:>14}  ({:.2} Mrays/s)",
+            rays,
+            self.mrays_per_s()
+        );
         println!("  eye             {:>14}  hits {}", s.eye_rays, s.eye_hits);
-        println!("  shadow          {:>14}  blocked {}", s.shadow_rays, s.shadow_hits);
-        println!("  reflection      {:>14}  hits {}", s.reflection_rays, s.reflection_hits);
-        println!("  refraction      {:>14}  hits {}", s.refraction_rays, s.refraction_hits);
-        println!("box tests         {:>14}  ({:.1} per ray)", s.box_tests, per(s.box_tests, rays));
-        println!("primitive tests   {:>14}  ({:.1} per ray)", s.primitive_tests, per(s.primitive_tests, rays));
+        println!(
+            "  shadow          {:>14}  blocked {}",
+            s.shadow_rays, s.shadow_hits
+        );
+        println!(
+            "  reflection      {:>14}  hits {}",
+            s.reflection_rays, s.reflection_hits
+        );
+        println!(
+            "  refraction      {:>14}  hits {}",
+            s.refraction_rays, s.refraction_hits
+        );
+        println!(
+            "box tests         {:>14}  ({:.1} per ray)",
+            s.box_tests,
+            per(s.box_tests, rays)
+        );
+        println!(
+            "primitive tests   {:>14}  ({:.1} per ray)",
+            s.primitive_tests,
+            per(s.primitive_tests, rays)
+        );
         if s.cell_steps > 0 {
-            println!("cell steps        {:>14}  ({:.1} per ray)", s.cell_steps, per(s.cell_steps, rays));
+            println!(
+                "cell steps        {:>14}  ({:.1} per ray)",
+                s.cell_steps,
+                per(s.cell_steps, rays)
+            );
         }
         println!("parse             {:>13.3}s", self.parse_s);
         println!("build             {:>13.3}s", self.build_s);

@@ -64,14 +64,23 @@ impl Bvh {
         let Some(root) = self.nodes.first() else {
             return 0.0;
         };
-        let root_area = Aabb { min: root.min, max: root.max }.half_area() as f64;
+        let root_area = Aabb {
+            min: root.min,
+            max: root.max,
+        }
+        .half_area() as f64;
         if root_area <= 0.0 {
             return self.order.len() as f64;
         }
         self.nodes
             .iter()
             .map(|n| {
-                let a = Aabb { min: n.min, max: n.max }.half_area() as f64 / root_area;
+                let a = Aabb {
+                    min: n.min,
+                    max: n.max,
+                }
+                .half_area() as f64
+                    / root_area;
                 if n.is_leaf() {
                     a * n.count as f64
                 } else {
@@ -90,7 +99,8 @@ impl Bvh {
             references: self.order.len() as u64,
             sah_cost: self.sah_cost,
             max_depth: self.max_depth,
-            bytes: (self.nodes.len() * std::mem::size_of::<BvhNode>() + self.order.len() * 4) as u64,
+            bytes: (self.nodes.len() * std::mem::size_of::<BvhNode>() + self.order.len() * 4)
+                as u64,
         }
     }
 }
@@ -140,7 +150,12 @@ impl Builder {
 
     /// Chooses the cheapest binned split, partitions `items` and returns `(mid, axis)`; `None`
     /// when a leaf is cheaper (only considered for small sets) or no split separates anything.
-    fn sah_split(&mut self, items: &mut [Item], bounds: &Aabb, cbounds: &Aabb) -> Option<(usize, usize)> {
+    fn sah_split(
+        &mut self,
+        items: &mut [Item],
+        bounds: &Aabb,
+        cbounds: &Aabb,
+    ) -> Option<(usize, usize)> {
         let n = items.len();
         let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, bin boundary)
         for axis in 0..3 {

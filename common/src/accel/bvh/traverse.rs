@@ -11,7 +11,12 @@ use crate::stats::RayStats;
 impl Bvh {
     /// Closest hit; `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
     #[inline]
-    pub fn intersect<R: Real, F>(&self, pr: &PreparedRay<R>, stats: &mut RayStats, mut test: F) -> Option<PrimHit<R>>
+    pub fn intersect<R: Real, F>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        mut test: F,
+    ) -> Option<PrimHit<R>>
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
@@ -68,7 +73,12 @@ impl Bvh {
 
     /// True when anything is hit within the ray's range.
     #[inline]
-    pub fn occluded<R: Real, F>(&self, pr: &PreparedRay<R>, stats: &mut RayStats, mut test: F) -> bool
+    pub fn occluded<R: Real, F>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        mut test: F,
+    ) -> bool
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
