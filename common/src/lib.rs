@@ -12,13 +12,18 @@
 //! - [`protocol`]: the master/worker wire protocol (messages, codec, auth, connection).
 #![deny(missing_docs)]
 
+pub mod accel;
+pub mod camera;
 pub mod description;
 pub mod film;
+pub mod geometry;
 pub mod nff;
 pub mod protocol;
 pub mod real;
 pub mod render;
+pub mod scene;
 pub mod settings;
+pub mod shade;
 pub mod smp;
 pub mod stats;
 pub mod tile;
