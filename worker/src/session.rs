@@ -7,7 +7,9 @@ use crate::dial::dial;
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;
 use crate::tiles::{JobHandle, TileRenderer};
-use parrt::protocol::{Connection, JobSpec, Message, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION};
+use parrt::protocol::{
+    Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
+};
 use parrt::render::Renderer;
 use parrt::tile::Tile;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -74,7 +76,29 @@ pub async fn run(
     handshake(&mut conn, opts).await?;
     conn.set_max_frame(opts.max_frame);
     info!(master = %opts.connect, threads = opts.threads, "authenticated");
-    serve(conn, opts, stop).await
+    let mut summary = SessionSummary {
+        end: SessionEnd::Stopped,
+        jobs: 0,
+        tiles_rendered: 0,
+    };
+    summary.end = match serve(conn, opts, stop, &mut summary).await {
+        Ok(end) => end,
+        // The master closing its end while we write is the master going away, not a fault.
+        Err(WorkerError::Protocol(ProtocolError::Io(e))) if is_disconnect(&e) => {
+            info!(error = %e, "master went away");
+            SessionEnd::MasterClosed
+        }
+        Err(e) => return Err(e),
+    };
+    Ok(summary)
+}
+
+fn is_disconnect(e: &std::io::Error) -> bool {
+    use std::io::ErrorKind::*;
+    matches!(
+        e.kind(),
+        BrokenPipe | ConnectionReset | ConnectionAborted | UnexpectedEof
+    )
 }
 
 async fn read_in_handshake(
@@ -126,7 +150,8 @@ async fn serve(
     mut conn: Connection<TcpStream>,
     opts: &WorkerOptions,
     stop: CancellationToken,
-) -> Result<SessionSummary, WorkerError> {
+    summary: &mut SessionSummary,
+) -> Result<SessionEnd, WorkerError> {
     let threads = opts.threads.max(1);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -137,11 +162,6 @@ async fn serve(
     let (built_tx, mut built_rx) = mpsc::unbounded_channel::<Built>();
     let renderer = TileRenderer::new(pool, out_tx, opts.tile_delay);
     let mut job: Option<CurrentJob> = None;
-    let mut summary = SessionSummary {
-        end: SessionEnd::Stopped,
-        jobs: 0,
-        tiles_rendered: 0,
-    };
     let mut beat = interval(opts.heartbeat);
     beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
     // Any message from the master (heartbeats included) proves it is alive.
@@ -157,8 +177,7 @@ async fn serve(
                 // Stop taking tiles; dropping the connection tells the master to requeue ours.
                 finish(&job);
                 info!("stopping: disconnecting from the master");
-                summary.end = SessionEnd::Stopped;
-                return Ok(summary);
+                return Ok(SessionEnd::Stopped);
             }
             _ = sleep_until(last_heard + opts.master_timeout) => {
                 finish(&job);
@@ -173,8 +192,7 @@ async fn serve(
                     Ok(None) => {
                         finish(&job);
                         info!("master closed the connection");
-                        summary.end = SessionEnd::MasterClosed;
-                        return Ok(summary);
+                        return Ok(SessionEnd::MasterClosed);
                     }
                     Ok(Some(m)) => m,
                 };
@@ -213,8 +231,7 @@ async fn serve(
                     Message::Shutdown => {
                         finish(&job);
                         info!("master said shutdown");
-                        summary.end = SessionEnd::Shutdown;
-                        return Ok(summary);
+                        return Ok(SessionEnd::Shutdown);
                     }
                     Message::Heartbeat => {}
                     Message::Error { reason } => warn!(%reason, "master reported an error"),

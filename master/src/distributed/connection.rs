@@ -162,6 +162,18 @@ fn bad_bytes(e: ProtocolError) -> String {
     format!("bad bytes in handshake: {e}")
 }
 
+/// After Shutdown: reads and discards until the worker closes (at most [`DRAIN_TIMEOUT`]), so
+/// it reads our Shutdown before we close rather than meeting a reset mid-write.
+async fn drain(conn: &mut Connection) {
+    let _ = timeout(DRAIN_TIMEOUT, async {
+        while let Ok(Some(_)) = conn.read().await {}
+    })
+    .await;
+}
+
+/// How long to wait for a worker to close after Shutdown.
+pub const DRAIN_TIMEOUT: Duration = Duration::from_secs(2);
+
 /// Relays between socket and scheduler until either side ends; returns why.
 async fn relay(
     conn: &mut Connection,
@@ -183,6 +195,7 @@ async fn relay(
         tokio::select! {
             _ = stop.cancelled() => {
                 let _ = conn.write(&Message::Shutdown).await;
+                drain(conn).await;
                 return "master finished".into();
             }
             out = inbox.recv() => match out {
@@ -192,12 +205,14 @@ async fn relay(
                         return format!("write failed: {e}");
                     }
                     if last {
+                        drain(conn).await;
                         return "shut down".into();
                     }
                 }
                 None => {
                     // The scheduler dropped this worker.
                     let _ = conn.write(&Message::Shutdown).await;
+                    drain(conn).await;
                     return "dropped by the scheduler".into();
                 }
             },

@@ -1,0 +1,154 @@
+//! A distributed render equals the SMP render bit for bit (DESIGN §7, §8): for 1–3 workers, 1–2
+//! threads each, tile sizes 8, 13 and 32; with in-process workers, with worker processes, and
+//! through the real command line.
+
+use parrt_tests::*;
+use std::process::Command;
+use std::time::Duration;
+
+const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn matches_smp_for_workers_threads_and_tile_sizes() {
+    let desc = test_scene(64, 64);
+    let settings = settings_for(&desc);
+    let (reference, ref_stats) = smp_reference(&desc, &settings, 16);
+    for tile in [8, 13, 32] {
+        for workers in 1..=3 {
+            for threads in 1..=2 {
+                let what = format!("{workers} workers × {threads} threads, tile {tile}");
+                let m = start_master(&desc, &settings, &test_options(tile)).await;
+                let ws: Vec<_> = (0..workers)
+                    .map(|i| start_worker(worker_options(m.addr, threads, &format!("w{i}"))))
+                    .collect();
+                let r = m
+                    .handle
+                    .await
+                    .unwrap()
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+                assert_same_bits(&r.film, &reference, &what);
+                assert_eq!(r.stats, ref_stats, "{what}: stats");
+                assert_eq!(r.tile_seconds.len(), r.tiles);
+                assert_eq!(
+                    r.per_worker.iter().map(|w| w.tiles).sum::<u64>(),
+                    r.tiles as u64,
+                    "{what}: every tile delivered once"
+                );
+                assert!(r.faults.refused.is_empty() && r.faults.rejected_results == 0);
+                for w in ws {
+                    let s = w
+                        .await
+                        .unwrap()
+                        .unwrap_or_else(|e| panic!("{what}: worker: {e}"));
+                    assert_eq!(s.end, parrt_worker::session::SessionEnd::Shutdown, "{what}");
+                }
+            }
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn worker_processes_from_the_cli_executable_match_smp() {
+    let desc = test_scene(96, 80);
+    let settings = settings_for(&desc);
+    let (reference, ref_stats) = smp_reference(&desc, &settings, 13);
+    let m = start_master(&desc, &settings, &test_options(13)).await;
+    let _workers =
+        parrt_master::distributed::spawn::spawn_workers_from(&EXE.into(), 2, 2, m.addr, &token())
+            .unwrap();
+    let r = tokio::time::timeout(Duration::from_secs(60), m.handle)
+        .await
+        .expect("render finishes")
+        .unwrap()
+        .unwrap();
+    assert_same_bits(&r.film, &reference, "2 worker processes");
+    assert_eq!(r.stats, ref_stats);
+    assert_eq!(r.per_worker.len(), 2);
+    assert!(r.bytes_sent > 0 && r.bytes_received > 0);
+}
+
+#[test]
+fn master_and_workers_on_the_command_line_write_the_smp_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let desc = test_scene(64, 48);
+    let settings = settings_for(&desc);
+    let (reference, _) = smp_reference(&desc, &settings, 8);
+    let scene = dir.path().join("scene.json");
+    std::fs::write(&scene, serde_json::to_string(&desc).unwrap()).unwrap();
+    let token_file = dir.path().join("token");
+    std::fs::write(&token_file, format!("{TEST_TOKEN}\n")).unwrap();
+    let out = dir.path().join("out.exr");
+    let report = dir.path().join("report.json");
+    let mut master = std::process::Command::new(EXE)
+        .args(["master", "--scene-json"])
+        .arg(&scene)
+        .args([
+            "--listen",
+            "127.0.0.1:0",
+            "--tile",
+            "8",
+            "--wait-workers",
+            "30",
+        ])
+        .arg("--token-file")
+        .arg(&token_file)
+        .arg("-o")
+        .arg(&out)
+        .arg("--report-json")
+        .arg(&report)
+        .env_remove("PARRT_TOKEN")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The master prints the port it bound.
+    let mut stderr = std::io::BufReader::new(master.stderr.take().unwrap());
+    let addr = read_listen_addr(&mut stderr);
+    let _w1 = spawn_worker_process(EXE.as_ref(), addr, 1, None, TEST_TOKEN);
+    let _w2 = spawn_worker_process(EXE.as_ref(), addr, 2, None, TEST_TOKEN);
+    let rest = std::thread::spawn(move || {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut stderr, &mut s).unwrap();
+        s
+    });
+    let status = master.wait().unwrap();
+    let log = rest.join().unwrap();
+    assert!(status.success(), "master failed: {log}");
+    let img = image::open(&out).unwrap().into_rgb32f();
+    let film = parrt::film::Film {
+        width: img.width(),
+        height: img.height(),
+        pixels: img.pixels().map(|p| p.0).collect(),
+    };
+    assert_same_bits(&film, &reference, "CLI master + 2 CLI workers");
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(rep["tiles"], 48);
+    assert!(rep["bytes_per_tile"].as_f64().unwrap() > 0.0);
+}
+
+/// Reads the master's stderr up to its "listening on ADDR" line.
+pub fn read_listen_addr(r: &mut impl std::io::BufRead) -> std::net::SocketAddr {
+    let mut line = String::new();
+    loop {
+        line.clear();
+        assert!(
+            r.read_line(&mut line).unwrap() > 0,
+            "master ended before listening"
+        );
+        if let Some(rest) = line.split("listening on ").nth(1) {
+            let addr = rest.split(';').next().unwrap().trim();
+            return addr.parse().unwrap();
+        }
+    }
+}
+
+#[test]
+fn worker_binary_and_subcommand_refuse_to_start_without_a_token() {
+    let out = Command::new(EXE)
+        .args(["worker", "--connect", "127.0.0.1:9"])
+        .env_remove("PARRT_TOKEN")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("token"));
+}
