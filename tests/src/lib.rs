@@ -223,6 +223,10 @@ impl ChildGuard {
 
 impl Drop for ChildGuard {
     fn drop(&mut self) {
+        // Already exited (and now reaped): its pid may belong to someone else; leave it.
+        if let Ok(Some(_)) = self.0.try_wait() {
+            return;
+        }
         let _ = Command::new("kill")
             .arg("-CONT")
             .arg(self.0.id().to_string())

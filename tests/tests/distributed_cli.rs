@@ -1,0 +1,113 @@
+//! `parrt master` and `parrt worker` as processes: a master without workers gives up with a
+//! clear message (exit 1), a master without a token is a usage error (exit 2), and Ctrl-C on
+//! the master tells its workers to shut down and exits 1.
+
+use parrt_tests::*;
+use std::io::BufRead;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
+
+fn scene_file(dir: &std::path::Path, w: u32, h: u32) -> std::path::PathBuf {
+    let p = dir.join("scene.json");
+    std::fs::write(&p, serde_json::to_string(&test_scene(w, h)).unwrap()).unwrap();
+    p
+}
+
+#[test]
+fn master_without_workers_exits_1_with_a_clear_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let t0 = Instant::now();
+    let out = Command::new(EXE)
+        .args([
+            "master",
+            "--listen",
+            "127.0.0.1:0",
+            "--wait-workers",
+            "0.5",
+            "--scene-json",
+        ])
+        .arg(scene_file(dir.path(), 16, 16))
+        .arg("-o")
+        .arg(dir.path().join("x.png"))
+        .env("PARRT_TOKEN", TEST_TOKEN)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("no worker arrived within"), "{err}");
+    assert!(t0.elapsed() < Duration::from_secs(20));
+    assert!(!dir.path().join("x.png").exists());
+}
+
+#[test]
+fn master_without_a_token_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(EXE)
+        .args(["master", "--scene-json"])
+        .arg(scene_file(dir.path(), 16, 16))
+        .env_remove("PARRT_TOKEN")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--token-file"), "{err}");
+}
+
+#[test]
+fn ctrl_c_on_the_master_shuts_workers_down_and_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut master = Command::new(EXE)
+        .args([
+            "master",
+            "--listen",
+            "127.0.0.1:0",
+            "--tile",
+            "8",
+            "--scene-json",
+        ])
+        .arg(scene_file(dir.path(), 64, 64))
+        .arg("-o")
+        .arg(dir.path().join("x.png"))
+        .env("PARRT_TOKEN", TEST_TOKEN)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = std::io::BufReader::new(master.stderr.take().unwrap());
+    let mut line = String::new();
+    let addr = loop {
+        line.clear();
+        assert!(
+            stderr.read_line(&mut line).unwrap() > 0,
+            "master ended early"
+        );
+        if let Some(rest) = line.split("listening on ").nth(1) {
+            break rest.split(';').next().unwrap().trim().parse().unwrap();
+        }
+    };
+    let master = ChildGuard(master);
+    let mut worker = spawn_worker_process(EXE.as_ref(), addr, 1, Some(100), TEST_TOKEN);
+    std::thread::sleep(Duration::from_millis(700));
+    master.signal("INT");
+    let mut master = master;
+    let status = master.0.wait().unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut stderr, &mut rest).unwrap();
+    assert_eq!(status.code(), Some(1), "{rest}");
+    assert!(rest.contains("interrupted"), "{rest}");
+    // The worker was told Shutdown: it exits 0 on its own, promptly.
+    let t0 = Instant::now();
+    let st = loop {
+        if let Some(st) = worker.0.try_wait().unwrap() {
+            break st;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "worker still running"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert!(st.success(), "worker exit {st:?}");
+    assert!(!dir.path().join("x.png").exists());
+}

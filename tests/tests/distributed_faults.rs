@@ -1,0 +1,336 @@
+//! Faults in distributed rendering (DESIGN §8): workers killed, stopped, interrupted or joining
+//! late; bad peers (wrong token or version, garbage, oversized frames, results for tiles they do
+//! not hold, jobs they cannot build). In every case the image is complete and equal to SMP.
+//! Worker processes use the `PARRT_WORKER_TILE_DELAY_MS` test hook so "mid-job" is certain.
+
+use bytes::BytesMut;
+use parrt::protocol::{Connection, Message, MessageCodec, PROTOCOL_VERSION};
+use parrt_master::distributed::DistResult;
+use parrt_tests::*;
+use std::time::Duration;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+use tokio::time::{sleep, timeout};
+use tokio_util::codec::Encoder;
+
+const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
+
+async fn finish(m: RunningMaster) -> DistResult {
+    timeout(Duration::from_secs(60), m.handle)
+        .await
+        .expect("the master finishes")
+        .expect("master task")
+        .expect("the render succeeds")
+}
+
+fn report_of(r: &DistResult, pid: u32) -> &parrt_master::distributed::WorkerReport {
+    let suffix = format!("-{pid}");
+    r.per_worker
+        .iter()
+        .find(|w| w.name.ends_with(&suffix))
+        .unwrap_or_else(|| panic!("no report for pid {pid}: {:?}", r.per_worker))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn worker_killed_mid_job_loses_its_tiles_to_the_others() {
+    let desc = test_scene(64, 64);
+    let settings = settings_for(&desc);
+    let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
+    let m = start_master(&desc, &settings, &test_options(8)).await;
+    let victim = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
+    let _other = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
+    sleep(Duration::from_millis(600)).await;
+    victim.signal("KILL");
+    let r = finish(m).await;
+    assert_same_bits(&r.film, &reference, "after SIGKILL");
+    assert_eq!(r.stats, ref_stats, "nothing counted twice");
+    let v = report_of(&r, victim.pid());
+    assert!(v.left.is_some(), "victim left: {v:?}");
+    assert!(
+        r.faults.requeued >= 1,
+        "its tiles were requeued: {:?}",
+        r.faults
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stopped_worker_tiles_move_after_the_deadline() {
+    let desc = test_scene(64, 64);
+    let settings = settings_for(&desc);
+    let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
+    let mut opts = test_options(8);
+    opts.tile_deadline = Duration::from_millis(400);
+    opts.heartbeat_timeout = Duration::from_secs(60); // so only the deadline can move tiles
+    opts.backups = false;
+    let m = start_master(&desc, &settings, &opts).await;
+    let stopped = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
+    let _other = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
+    sleep(Duration::from_millis(600)).await;
+    stopped.signal("STOP");
+    let r = finish(m).await;
+    assert_same_bits(&r.film, &reference, "after SIGSTOP");
+    assert_eq!(r.stats, ref_stats);
+    assert!(r.faults.requeued >= 1, "{:?}", r.faults);
+    assert!(
+        r.trace_s < 30.0,
+        "moved by the deadline, not the heartbeat timeout"
+    );
+    drop(stopped); // SIGCONT, then kill
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn worker_joining_late_gets_tiles() {
+    let desc = test_scene(64, 64);
+    let settings = settings_for(&desc);
+    let (reference, _) = smp_reference(&desc, &settings, 8);
+    let m = start_master(&desc, &settings, &test_options(8)).await;
+    let mut early = worker_options(m.addr, 1, "early");
+    early.tile_delay = Some(Duration::from_millis(25));
+    let w1 = start_worker(early);
+    sleep(Duration::from_millis(400)).await;
+    let mut late = worker_options(m.addr, 1, "late");
+    late.tile_delay = Some(Duration::from_millis(25));
+    let w2 = start_worker(late);
+    let r = finish(m).await;
+    assert_same_bits(&r.film, &reference, "late joiner");
+    let tiles = |n: &str| r.per_worker.iter().find(|w| w.name == n).unwrap().tiles;
+    assert!(
+        tiles("early") > 0 && tiles("late") > 0,
+        "{:?}",
+        r.per_worker
+    );
+    w1.await.unwrap().unwrap();
+    w2.await.unwrap().unwrap();
+}
+
+fn frame(msg: &Message) -> BytesMut {
+    let mut buf = BytesMut::new();
+    MessageCodec::new(1 << 20).encode(msg, &mut buf).unwrap();
+    buf
+}
+
+/// Reads until the master closes; true when it closed within 5 s.
+async fn closed_by_master(s: &mut TcpStream) -> bool {
+    let mut buf = [0u8; 256];
+    timeout(Duration::from_secs(5), async {
+        loop {
+            match s.read(&mut buf).await {
+                Ok(0) | Err(_) => return,
+                Ok(_) => {}
+            }
+        }
+    })
+    .await
+    .is_ok()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bad_peers_are_refused_while_a_good_worker_finishes() {
+    let desc = test_scene(64, 64);
+    let settings = settings_for(&desc);
+    let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
+    let mut opts = test_options(8);
+    opts.max_failures = 1;
+    let m = start_master(&desc, &settings, &opts).await;
+    let mut good = worker_options(m.addr, 2, "good");
+    good.tile_delay = Some(Duration::from_millis(20));
+    let good = start_worker(good);
+
+    // Wrong token: the worker library reports the master's reason.
+    let mut wrong = worker_options(m.addr, 1, "wrong-token");
+    wrong.token = parrt::protocol::Token::new("not the token").unwrap();
+    let err = start_worker(wrong).await.unwrap().unwrap_err();
+    assert!(err.to_string().contains("wrong token"), "{err}");
+
+    // Wrong protocol version, spoken in raw frames.
+    let mut s = TcpStream::connect(m.addr).await.unwrap();
+    s.write_all(&frame(&Message::Hello {
+        version: PROTOCOL_VERSION + 98,
+        name: "future".into(),
+        threads: 1,
+    }))
+    .await
+    .unwrap();
+    let mut c = Connection::new(s, 1 << 20);
+    match c.read().await.unwrap() {
+        Some(Message::Refused { reason }) => {
+            assert!(reason.contains("protocol version"), "{reason}")
+        }
+        other => panic!("expected Refused, got {other:?}"),
+    }
+
+    // Random garbage.
+    let mut s = TcpStream::connect(m.addr).await.unwrap();
+    let junk: Vec<u8> = (0..4096u32)
+        .map(|i| (i.wrapping_mul(2654435761) >> 13) as u8)
+        .collect();
+    let _ = s.write_all(&junk).await;
+    assert!(closed_by_master(&mut s).await, "garbage peer closed");
+
+    // A length prefix of 4 GiB: refused before anything is buffered.
+    let mut s = TcpStream::connect(m.addr).await.unwrap();
+    s.write_all(&[0xff, 0xff, 0xff, 0xff, 0, 1, 2, 3])
+        .await
+        .unwrap();
+    assert!(
+        closed_by_master(&mut s).await,
+        "oversized frame peer closed"
+    );
+
+    // An authenticated peer sending a result for a tile it was never given.
+    let s = TcpStream::connect(m.addr).await.unwrap();
+    let mut c = Connection::new(s, 1 << 28);
+    c.write(&Message::Hello {
+        version: PROTOCOL_VERSION,
+        name: "liar".into(),
+        threads: 1,
+    })
+    .await
+    .unwrap();
+    let Some(Message::Challenge { nonce }) = c.read().await.unwrap() else {
+        panic!("no challenge")
+    };
+    c.write(&Message::Auth {
+        mac: token().sign(&nonce),
+    })
+    .await
+    .unwrap();
+    assert_eq!(c.read().await.unwrap(), Some(Message::Welcome));
+    let Some(Message::Job(job)) = c.read().await.unwrap() else {
+        panic!("no job")
+    };
+    c.write(&Message::Ready {
+        job_id: job.job_id,
+        build_s: 0.0,
+    })
+    .await
+    .unwrap();
+    let last = parrt::tile::tiles(64, 64, 8).len() as u32 - 1;
+    c.write(&Message::TileResult {
+        job_id: job.job_id,
+        tile_id: last,
+        attempt: 1,
+        pixels: vec![[9.0; 3]; 64],
+        stats: parrt::stats::RayStats::default(),
+        seconds: 0.0,
+    })
+    .await
+    .unwrap();
+    // It is dropped (max_failures = 1): told why, then Shutdown.
+    let mut told = false;
+    while let Ok(Ok(Some(msg))) = timeout(Duration::from_secs(5), c.read()).await {
+        match msg {
+            Message::Error { reason } => told |= reason.contains("does not hold"),
+            Message::Shutdown => break,
+            _ => {}
+        }
+    }
+    assert!(told, "the liar is told why it was dropped");
+
+    let r = finish(m).await;
+    assert_same_bits(&r.film, &reference, "with bad peers around");
+    assert_eq!(r.stats, ref_stats);
+    let refused = r.faults.refused.join(" | ");
+    for want in [
+        "wrong token",
+        "protocol version",
+        "bad bytes",
+        "larger than the limit",
+    ] {
+        assert!(refused.contains(want), "refusals {refused:?} lack {want:?}");
+    }
+    assert_eq!(r.faults.rejected_results, 1);
+    assert_eq!(r.faults.dropped, 1);
+    good.await.unwrap().unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn worker_reports_a_job_it_cannot_build() {
+    // A fake master, speaking raw protocol.
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let worker = start_worker(worker_options(addr, 1, "w"));
+    let (s, _) = listener.accept().await.unwrap();
+    let mut c = Connection::new(s, 1 << 20);
+    assert!(matches!(
+        c.read().await.unwrap(),
+        Some(Message::Hello { .. })
+    ));
+    let nonce = [3u8; 32];
+    c.write(&Message::Challenge { nonce }).await.unwrap();
+    let Some(Message::Auth { mac }) = c.read().await.unwrap() else {
+        panic!("no auth")
+    };
+    assert!(token().verify(&nonce, &mac));
+    c.write(&Message::Welcome).await.unwrap();
+    let mut desc = test_scene(8, 8);
+    desc.view.width = 0;
+    c.write(&Message::Job(Box::new(parrt::protocol::JobSpec {
+        job_id: 42,
+        scene: desc,
+        settings: parrt::settings::RenderSettings::new(0, 8),
+        tile_size: 8,
+    })))
+    .await
+    .unwrap();
+    // Tiles for a job it does not have, and outside any image, are errors too, not panics.
+    loop {
+        match c.read().await.unwrap() {
+            Some(Message::Heartbeat) => continue,
+            Some(Message::Error { reason }) => {
+                assert!(reason.contains("cannot build job 42"), "{reason}");
+                break;
+            }
+            other => panic!("expected Error, got {other:?}"),
+        }
+    }
+    c.write(&Message::Assign {
+        job_id: 42,
+        tile: parrt::tile::Tile {
+            id: 0,
+            x: 0,
+            y: 0,
+            w: 8,
+            h: 8,
+        },
+        attempt: 1,
+    })
+    .await
+    .unwrap();
+    loop {
+        match c.read().await.unwrap() {
+            Some(Message::Heartbeat) => continue,
+            Some(Message::Error { reason }) => {
+                assert!(reason.contains("unknown job"), "{reason}");
+                break;
+            }
+            other => panic!("expected Error, got {other:?}"),
+        }
+    }
+    c.write(&Message::Shutdown).await.unwrap();
+    let s = worker.await.unwrap().unwrap();
+    assert_eq!(s.end, parrt_worker::session::SessionEnd::Shutdown);
+    assert_eq!(s.tiles_rendered, 0);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn interrupted_worker_disconnects_and_its_tiles_are_requeued() {
+    let desc = test_scene(64, 64);
+    let settings = settings_for(&desc);
+    let (reference, _) = smp_reference(&desc, &settings, 8);
+    let m = start_master(&desc, &settings, &test_options(8)).await;
+    let mut quitter = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
+    let _other = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
+    sleep(Duration::from_millis(600)).await;
+    quitter.signal("INT");
+    let status = tokio::task::spawn_blocking(move || {
+        let st = quitter.0.wait().unwrap();
+        drop(quitter);
+        st
+    });
+    let r = finish(m).await;
+    assert_same_bits(&r.film, &reference, "after a worker's Ctrl-C");
+    let st = status.await.unwrap();
+    assert_eq!(st.code(), Some(1), "an interrupted worker exits 1");
+    assert!(r.faults.requeued >= 1, "{:?}", r.faults);
+}
