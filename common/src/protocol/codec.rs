@@ -383,12 +383,7 @@ mod tests {
             if n >= 4 && rng.gen_bool(0.5) {
                 buf[..4].copy_from_slice(&((n as u32 - 4).min(60)).to_be_bytes());
             }
-            loop {
-                match codec.decode(&mut buf) {
-                    Ok(Some(_)) => continue,
-                    Ok(None) | Err(_) => break,
-                }
-            }
+            while let Ok(Some(_)) = codec.decode(&mut buf) {}
         }
     }
 

@@ -506,10 +506,7 @@ impl Scheduler {
         for id in ids {
             // Tiles this worker already holds (expired) are left for someone else.
             let mut skipped = Vec::new();
-            loop {
-                let Some(w) = self.workers.get(&id) else {
-                    break;
-                };
+            while let Some(w) = self.workers.get(&id) {
                 // Expired tiles still count: a stalled worker gets nothing new.
                 if w.inflight.len() >= w.window(self.opts.window_per_thread) {
                     break;
