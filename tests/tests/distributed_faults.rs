@@ -79,6 +79,31 @@ async fn stopped_worker_tiles_move_after_the_deadline() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stopped_worker_is_dropped_after_missed_heartbeats() {
+    let desc = test_scene(64, 64);
+    let settings = settings_for(&desc);
+    let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
+    let mut opts = test_options(8);
+    opts.tile_deadline = Duration::from_secs(60); // so only the heartbeat timeout can act
+    opts.heartbeat_timeout = Duration::from_millis(1500); // > the 1 s heartbeat
+    opts.backups = false;
+    let m = start_master(&desc, &settings, &opts).await;
+    let stopped = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
+    let _other = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
+    sleep(Duration::from_millis(600)).await;
+    stopped.signal("STOP");
+    let r = finish(m).await;
+    assert_same_bits(&r.film, &reference, "after missed heartbeats");
+    assert_eq!(r.stats, ref_stats);
+    let left = report_of(&r, stopped.pid())
+        .left
+        .clone()
+        .unwrap_or_default();
+    assert!(left.contains("no heartbeat"), "{left:?}");
+    assert!(r.trace_s < 30.0);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn worker_joining_late_gets_tiles() {
     let desc = test_scene(64, 64);
     let settings = settings_for(&desc);
@@ -131,7 +156,10 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
     let mut opts = test_options(8);
     opts.max_failures = 1;
+    opts.handshake_timeout = Duration::from_millis(500);
     let m = start_master(&desc, &settings, &opts).await;
+    // A peer that connects and says nothing holds no slot for long.
+    let mut mute = TcpStream::connect(m.addr).await.unwrap();
     let mut good = worker_options(m.addr, 2, "good");
     good.tile_delay = Some(Duration::from_millis(20));
     let good = start_worker(good);
@@ -226,6 +254,8 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         }
     }
     assert!(told, "the liar is told why it was dropped");
+
+    assert!(closed_by_master(&mut mute).await, "silent peer closed");
 
     let r = finish(m).await;
     assert_same_bits(&r.film, &reference, "with bad peers around");
