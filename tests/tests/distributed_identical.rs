@@ -54,7 +54,7 @@ async fn worker_processes_from_the_cli_executable_match_smp() {
     let (reference, ref_stats) = smp_reference(&desc, &settings, 13);
     let m = start_master(&desc, &settings, &test_options(13)).await;
     let _workers =
-        parrt_master::distributed::spawn::spawn_workers_from(&EXE.into(), 2, 2, m.addr, &token())
+        parrt_master::distributed::spawn::spawn_workers_from(EXE.as_ref(), 2, 2, m.addr, &token())
             .unwrap();
     let r = tokio::time::timeout(Duration::from_secs(60), m.handle)
         .await
@@ -75,6 +75,34 @@ async fn worker_processes_from_the_cli_executable_match_smp() {
         "{overhead} bytes of overhead for {} tiles and {dups} duplicates",
         r.tiles
     );
+}
+
+#[test]
+fn render_distributed_spawns_its_own_workers_and_matches_smp() {
+    let desc = test_scene(80, 64);
+    let settings = settings_for(&desc);
+    let (reference, ref_stats) = smp_reference(&desc, &settings, 16);
+    let opts = parrt_master::distributed::DistOptions {
+        workers_to_spawn: 3,
+        threads_per_worker: 1,
+        worker_exe: Some(EXE.into()),
+        token: None, // generated, and handed to the children through their environment
+        ..test_options(16)
+    };
+    let listened = std::sync::Mutex::new(None);
+    let r = parrt_master::distributed::render_distributed(&desc, &settings, &opts, &|a| {
+        *listened.lock().unwrap() = Some(a);
+    })
+    .unwrap();
+    assert!(listened.lock().unwrap().unwrap().ip().is_loopback());
+    assert_same_bits(
+        &r.film,
+        &reference,
+        "render_distributed with 3 spawned workers",
+    );
+    assert_eq!(r.stats, ref_stats);
+    assert_eq!(r.per_worker.len(), 3);
+    assert!(r.per_worker.iter().all(|w| w.name.starts_with("local-")));
 }
 
 #[test]

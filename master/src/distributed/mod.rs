@@ -91,6 +91,8 @@ pub struct DistOptions {
     pub workers_to_spawn: usize,
     /// Render threads of each spawned worker.
     pub threads_per_worker: usize,
+    /// Executable for spawned workers (`None`: this process's own, via `current_exe`).
+    pub worker_exe: Option<std::path::PathBuf>,
     /// Tile edge in pixels.
     pub tile: u32,
     /// Address to listen on (`127.0.0.1:0` picks a free port).
@@ -128,6 +130,7 @@ impl Default for DistOptions {
         DistOptions {
             workers_to_spawn: 0,
             threads_per_worker: 1,
+            worker_exe: None,
             tile: 32,
             listen: "127.0.0.1:0".into(),
             token: None,
@@ -217,12 +220,15 @@ pub fn render_distributed(
         let addr = master.local_addr();
         on_listen(addr);
         let _children = if opts.workers_to_spawn > 0 {
-            Some(spawn_local_workers(
+            let (n, t, at) = (
                 opts.workers_to_spawn,
                 opts.threads_per_worker,
                 dial_address(addr),
-                &token,
-            )?)
+            );
+            Some(match &opts.worker_exe {
+                Some(exe) => spawn::spawn_workers_from(exe, n, t, at, &token)?,
+                None => spawn_local_workers(n, t, at, &token)?,
+            })
         } else {
             None
         };

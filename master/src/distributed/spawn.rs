@@ -4,7 +4,7 @@
 
 use parrt::protocol::Token;
 use std::net::SocketAddr;
-use std::path::PathBuf;
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use thiserror::Error;
 
@@ -61,7 +61,7 @@ pub fn spawn_local_workers(
 
 /// Starts `n` workers from executable `exe` (which must accept `worker --connect ...`).
 pub fn spawn_workers_from(
-    exe: &PathBuf,
+    exe: &Path,
     n: usize,
     threads: usize,
     addr: SocketAddr,
