@@ -19,7 +19,7 @@ impl Progress {
         };
         let bar = ProgressBar::with_draw_target(Some(tiles as u64), target);
         let style = ProgressStyle::with_template(
-            "{bar:30} {pos}/{len} tiles  {per_sec}  eta {eta}  {wide_msg}",
+            "{bar:30} {pos}/{len} tiles  eta {eta}  {wide_msg}",
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar());
         bar.set_style(style);
@@ -31,7 +31,7 @@ impl Progress {
         self.bar.set_position(done as u64);
         let msg = workers
             .iter()
-            .map(|(n, r)| format!("{n} {r:.1}/s"))
+            .map(|(n, r)| format!("{n} {r:.1} tiles/s"))
             .collect::<Vec<_>>()
             .join(", ");
         self.bar.set_message(msg);
