@@ -15,16 +15,32 @@ fn spd(name: &str) -> SceneDescription {
 }
 
 fn bits(r: &Renderer, threads: usize, tile: u32, executor: Executor) -> Vec<u32> {
-    let res = render_smp(r, &SmpOptions { threads, tile, executor }, &|_, _| {});
-    res.film.pixels.iter().flatten().map(|v| v.to_bits()).collect()
+    let res = render_smp(
+        r,
+        &SmpOptions {
+            threads,
+            tile,
+            executor,
+        },
+        &|_, _| {},
+    );
+    res.film
+        .pixels
+        .iter()
+        .flatten()
+        .map(|v| v.to_bits())
+        .collect()
 }
 
 fn check_all_combinations(name: &str, settings: RenderSettings) {
     let desc = spd(name);
     let r = Renderer::new(&desc, &settings).expect("scene builds");
     let reference = bits(&r, 1, 1 << 16, Executor::Queue);
-    assert!(reference.iter().any(|&b| b != 0), "{name}: image is all black");
-    for executor in [Executor::Queue, Executor::Rayon] {
+    assert!(
+        reference.iter().any(|&b| b != 0),
+        "{name}: image is all black"
+    );
+    for executor in Executor::ALL {
         for threads in [1, 2, 4] {
             for tile in [8, 13, 16, 32, 64] {
                 assert!(
@@ -40,7 +56,13 @@ fn check_all_combinations(name: &str, settings: RenderSettings) {
 fn identical_bits_for_every_thread_count_tile_size_and_executor() {
     // Refraction (mount's glass), mirrors (balls), transmitting polygons (gears), cones (tree),
     // patches (teapot); a non-square size so edge tiles are ragged.
-    for name in ["mount-4.nff", "balls-3.nff", "gears-1.nff", "tree-6.nff", "teapot-2.nff"] {
+    for name in [
+        "mount-4.nff",
+        "balls-3.nff",
+        "gears-1.nff",
+        "tree-6.nff",
+        "teapot-2.nff",
+    ] {
         check_all_combinations(name, RenderSettings::new(96, 72));
     }
 }
@@ -64,7 +86,15 @@ fn spd_mode_counts_each_corner_ray_once_whatever_the_tiling() {
     let mut seen = None;
     for tile in [7, 13, 64] {
         for threads in [1, 2] {
-            let res = render_smp(&r, &SmpOptions { threads, tile, executor: Executor::Queue }, &|_, _| {});
+            let res = render_smp(
+                &r,
+                &SmpOptions {
+                    threads,
+                    tile,
+                    executor: Executor::Queue,
+                },
+                &|_, _| {},
+            );
             assert_eq!(res.stats.eye_rays, 51 * 31, "tile {tile}");
             match &seen {
                 None => seen = Some(res.stats),
