@@ -12,3 +12,4 @@ pub mod cli;
 pub mod commands;
 pub mod distributed;
 pub mod exit;
+pub mod plot;

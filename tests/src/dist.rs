@@ -1,0 +1,260 @@
+//! Distributed-test helpers: small scenes built in code, the SMP reference render, masters and
+//! workers started in-process or as processes over loopback.
+
+use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
+use parrt::film::Film;
+use parrt::protocol::Token;
+use parrt::render::Renderer;
+use parrt::settings::RenderSettings;
+use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt::stats::RayStats;
+use parrt::vec3::Vec3d;
+use parrt_master::distributed::{DistOptions, DistResult, Master};
+use parrt_worker::session::SessionSummary;
+use parrt_worker::{WorkerError, WorkerOptions};
+use std::net::SocketAddr;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+use tokio::task::JoinHandle;
+use tokio_util::sync::CancellationToken;
+
+/// The token the tests share.
+pub const TEST_TOKEN: &str = "parrt-test-token";
+
+/// [`TEST_TOKEN`] as a token.
+pub fn token() -> Token {
+    Token::new(TEST_TOKEN).expect("non-empty")
+}
+
+/// A small scene: a floor polygon, a matte, a mirror and a glass sphere, two lights.
+pub fn test_scene(width: u32, height: u32) -> SceneDescription {
+    let v = Vec3d::new;
+    let mat = |c: Vec3d, kd, ks, shine, t, ior| Material {
+        color: c,
+        kd,
+        ks,
+        shine,
+        t,
+        ior,
+    };
+    SceneDescription {
+        background: v(0.2, 0.3, 0.5),
+        view: View {
+            from: v(0.0, 1.5, 6.0),
+            at: v(0.0, 0.3, 0.0),
+            up: v(0.0, 1.0, 0.0),
+            angle: 45.0,
+            hither: 0.01,
+            width,
+            height,
+        },
+        lights: vec![
+            Light {
+                position: v(4.0, 6.0, 4.0),
+                color: None,
+            },
+            Light {
+                position: v(-5.0, 3.0, 2.0),
+                color: Some(v(0.8, 0.6, 0.4)),
+            },
+        ],
+        materials: vec![
+            mat(v(0.8, 0.8, 0.7), 0.9, 0.1, 10.0, 0.0, 1.0),
+            mat(v(0.9, 0.2, 0.2), 0.7, 0.3, 30.0, 0.0, 1.0),
+            mat(v(1.0, 1.0, 1.0), 0.1, 0.9, 100.0, 0.0, 1.0),
+            mat(v(1.0, 1.0, 1.0), 0.1, 0.2, 80.0, 0.8, 1.5),
+        ],
+        primitives: vec![
+            Primitive {
+                shape: Shape::Polygon(vec![
+                    v(-5.0, -1.0, -5.0),
+                    v(-5.0, -1.0, 5.0),
+                    v(5.0, -1.0, 5.0),
+                    v(5.0, -1.0, -5.0),
+                ]),
+                material: 0,
+            },
+            Primitive {
+                shape: Shape::Sphere {
+                    center: v(-1.3, 0.0, 0.0),
+                    radius: 1.0,
+                },
+                material: 1,
+            },
+            Primitive {
+                shape: Shape::Sphere {
+                    center: v(1.2, 0.0, -0.5),
+                    radius: 1.0,
+                },
+                material: 2,
+            },
+            Primitive {
+                shape: Shape::Sphere {
+                    center: v(0.2, -0.4, 1.6),
+                    radius: 0.6,
+                },
+                material: 3,
+            },
+        ],
+    }
+}
+
+/// Settings for `desc` at its own size.
+pub fn settings_for(desc: &SceneDescription) -> RenderSettings {
+    RenderSettings::new(desc.view.width, desc.view.height)
+}
+
+/// The SMP reference render (one thread, queue executor).
+pub fn smp_reference(
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    tile: u32,
+) -> (Film, RayStats) {
+    let r = Renderer::new(desc, settings).expect("test scene builds");
+    let out = render_smp(
+        &r,
+        &SmpOptions {
+            threads: 1,
+            tile,
+            executor: Executor::Queue,
+        },
+        &|_, _| {},
+    );
+    (out.film, out.stats)
+}
+
+/// Asserts two films are equal bit for bit (f32 bit patterns), naming the first difference.
+pub fn assert_same_bits(a: &Film, b: &Film, what: &str) {
+    assert_eq!((a.width, a.height), (b.width, b.height), "{what}: size");
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        let same = p.iter().zip(q).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(
+            same,
+            "{what}: pixel {} ({}, {}) differs: {p:?} vs {q:?}",
+            i,
+            i as u32 % a.width,
+            i as u32 / a.width
+        );
+    }
+    // A render that is all one colour would prove little.
+    assert!(
+        a.pixels.iter().any(|p| p != &a.pixels[0]),
+        "{what}: flat image"
+    );
+}
+
+/// Test-friendly master options: loopback, a free port, the test token, no progress bar.
+pub fn test_options(tile: u32) -> DistOptions {
+    DistOptions {
+        tile,
+        listen: "127.0.0.1:0".into(),
+        token: Some(token()),
+        wait_workers: Duration::from_secs(20),
+        progress: false,
+        ..DistOptions::default()
+    }
+}
+
+/// A master running in a task of the current runtime.
+pub struct RunningMaster {
+    /// Where it listens.
+    pub addr: SocketAddr,
+    /// Its result.
+    pub handle: JoinHandle<Result<DistResult, parrt_master::distributed::DistError>>,
+    /// Cancels it (as Ctrl-C would).
+    pub cancel: CancellationToken,
+}
+
+/// Binds a master and starts rendering in a task.
+pub async fn start_master(
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    opts: &DistOptions,
+) -> RunningMaster {
+    let master = Master::bind(opts, opts.token.clone().unwrap_or_else(token))
+        .await
+        .expect("bind loopback");
+    let addr = master.local_addr();
+    let cancel = CancellationToken::new();
+    let (desc, settings, c) = (desc.clone(), settings.clone(), cancel.clone());
+    let handle = tokio::spawn(async move { master.render(&desc, &settings, c).await });
+    RunningMaster {
+        addr,
+        handle,
+        cancel,
+    }
+}
+
+/// Options of an in-process worker dialling `addr`.
+pub fn worker_options(addr: SocketAddr, threads: usize, name: &str) -> WorkerOptions {
+    let mut o = WorkerOptions::new(addr.to_string(), token());
+    o.threads = threads;
+    o.name = name.into();
+    o.dial_timeout = Duration::from_secs(10);
+    o.tile_delay = None;
+    o
+}
+
+/// Runs a worker session in a task of the current runtime.
+pub fn start_worker(opts: WorkerOptions) -> JoinHandle<Result<SessionSummary, WorkerError>> {
+    tokio::spawn(async move { parrt_worker::session::run(&opts, CancellationToken::new()).await })
+}
+
+/// A child process killed (and reaped) when dropped.
+pub struct ChildGuard(pub Child);
+
+impl ChildGuard {
+    /// Its process id.
+    pub fn pid(&self) -> u32 {
+        self.0.id()
+    }
+    /// Sends a signal by name (`KILL`, `STOP`, `CONT`, `INT`) with kill(1).
+    pub fn signal(&self, sig: &str) {
+        let ok = Command::new("kill")
+            .arg(format!("-{sig}"))
+            .arg(self.pid().to_string())
+            .status()
+            .expect("run kill")
+            .success();
+        assert!(ok, "kill -{sig} {}", self.pid());
+    }
+}
+
+impl Drop for ChildGuard {
+    fn drop(&mut self) {
+        // Already exited (and now reaped): its pid may belong to someone else; leave it.
+        if let Ok(Some(_)) = self.0.try_wait() {
+            return;
+        }
+        let _ = Command::new("kill")
+            .arg("-CONT")
+            .arg(self.0.id().to_string())
+            .status();
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Starts `exe worker --connect addr --threads n` with the test token in its environment and
+/// an optional per-tile delay (the worker's test hook).
+pub fn spawn_worker_process(
+    exe: &Path,
+    addr: SocketAddr,
+    threads: usize,
+    delay_ms: Option<u64>,
+    token: &str,
+) -> ChildGuard {
+    let mut cmd = Command::new(exe);
+    cmd.args(["worker", "--connect", &addr.to_string(), "--threads"])
+        .arg(threads.to_string())
+        .env("PARRT_TOKEN", token)
+        .env("PARRT_LOG", "warn")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null());
+    match delay_ms {
+        Some(ms) => cmd.env(parrt_worker::options::TILE_DELAY_ENV, ms.to_string()),
+        None => cmd.env_remove(parrt_worker::options::TILE_DELAY_ENV),
+    };
+    ChildGuard(cmd.spawn().expect("spawn worker process"))
+}
