@@ -17,7 +17,12 @@ async fn matches_smp_for_workers_threads_and_tile_sizes() {
         for workers in 1..=3 {
             for threads in 1..=2 {
                 let what = format!("{workers} workers × {threads} threads, tile {tile}");
-                let m = start_master(&desc, &settings, &test_options(tile)).await;
+                // Every worker takes part: none arrives after a small job is already done.
+                let opts = parrt_master::distributed::DistOptions {
+                    min_workers: workers,
+                    ..test_options(tile)
+                };
+                let m = start_master(&desc, &settings, &opts).await;
                 let ws: Vec<_> = (0..workers)
                     .map(|i| start_worker(worker_options(m.addr, threads, &format!("w{i}"))))
                     .collect();
@@ -52,7 +57,11 @@ async fn worker_processes_from_the_cli_executable_match_smp() {
     let desc = test_scene(96, 80);
     let settings = settings_for(&desc);
     let (reference, ref_stats) = smp_reference(&desc, &settings, 13);
-    let m = start_master(&desc, &settings, &test_options(13)).await;
+    let opts = parrt_master::distributed::DistOptions {
+        min_workers: 2,
+        ..test_options(13)
+    };
+    let m = start_master(&desc, &settings, &opts).await;
     let _workers =
         parrt_master::distributed::spawn::spawn_workers_from(EXE.as_ref(), 2, 2, m.addr, &token())
             .unwrap();
@@ -87,6 +96,7 @@ fn render_distributed_spawns_its_own_workers_and_matches_smp() {
         threads_per_worker: 1,
         worker_exe: Some(EXE.into()),
         token: None, // generated, and handed to the children through their environment
+        min_workers: 3,
         ..test_options(16)
     };
     let listened = std::sync::Mutex::new(None);
