@@ -147,3 +147,32 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
     }
     Ok(ExitCode::SUCCESS)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn token_from_flag_or_file_trimmed_and_empty_refused() {
+        let flag = TokenArgs {
+            token: Some("abc".into()),
+            token_file: None,
+        };
+        assert_eq!(flag.resolve().unwrap(), Some(Token::new("abc").unwrap()));
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("tok");
+        std::fs::write(&f, "abc\n").unwrap();
+        let file = TokenArgs {
+            token: None,
+            token_file: Some(f.clone()),
+        };
+        assert_eq!(file.resolve().unwrap(), Some(Token::new("abc").unwrap()));
+        std::fs::write(&f, "\n").unwrap();
+        assert!(file.resolve().unwrap_err().is::<UsageError>());
+        let missing = TokenArgs {
+            token: None,
+            token_file: Some(dir.path().join("nope")),
+        };
+        assert!(missing.resolve().unwrap_err().is::<UsageError>());
+    }
+}
