@@ -216,6 +216,12 @@ async fn serve(
                                         tile.id, tile.w, tile.h, tile.x, tile.y, j.width, j.height),
                                 }).await?;
                             }
+                            Some(_) if tile.pixel_count().saturating_mul(12).saturating_add(1024) > opts.max_frame => {
+                                conn.write(&Message::Error {
+                                    reason: format!("tile {} of {}x{} pixels does not fit one {}-byte frame",
+                                        tile.id, tile.w, tile.h, opts.max_frame),
+                                }).await?;
+                            }
                             Some(j) => match &j.handle {
                                 Some(h) => renderer.submit(h, tile, attempt),
                                 None => j.waiting.push((tile, attempt)),

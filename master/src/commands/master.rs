@@ -2,7 +2,7 @@
 //! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
 use super::scene_input::{LimitArgs, SceneSpec};
-use crate::distributed::{render_distributed, DistOptions, DistResult, DEFAULT_LISTEN};
+use crate::distributed::{render_distributed, DistError, DistOptions, DistResult, DEFAULT_LISTEN};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
@@ -157,6 +157,10 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
             "parrt master: listening on {addr}; {label} at {}x{}, tiles of {} px",
             settings.width, settings.height, opts.tile
         );
+    })
+    .map_err(|e| match e {
+        DistError::TileTooLarge { .. } => input_error(e),
+        e => anyhow::Error::new(e),
     })
     .context("distributed render failed")?;
     result

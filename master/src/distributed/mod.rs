@@ -79,6 +79,14 @@ pub enum DistError {
     /// Local workers could not be started.
     #[error(transparent)]
     Spawn(#[from] spawn::SpawnError),
+    /// A tile's pixels would not fit one frame.
+    #[error("tiles of {tile}x{tile} pixels do not fit the {max_frame}-byte frame limit")]
+    TileTooLarge {
+        /// The tile edge.
+        tile: u32,
+        /// The frame limit.
+        max_frame: usize,
+    },
     /// The async runtime could not start.
     #[error("cannot start the async runtime: {0}")]
     Runtime(std::io::Error),

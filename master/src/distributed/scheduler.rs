@@ -374,6 +374,7 @@ impl Scheduler {
             return;
         }
         w.inflight.remove(&tile_id);
+        // Held tiles come from our own list, so the id indexes it.
         let t = tile_id as usize;
         let tile = self.tiles[t];
         if pixels.len() != tile.pixel_count() {

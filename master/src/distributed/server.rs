@@ -64,6 +64,15 @@ impl Master {
         cancel: CancellationToken,
     ) -> Result<DistResult, DistError> {
         let opts = self.opts;
+        let tile_bytes = (opts.tile as usize)
+            .saturating_mul(opts.tile as usize)
+            .saturating_mul(12);
+        if tile_bytes.saturating_add(1024) > opts.max_frame {
+            return Err(DistError::TileTooLarge {
+                tile: opts.tile,
+                max_frame: opts.max_frame,
+            });
+        }
         let job_id = rand::random::<u64>();
         let list = tiles(settings.width, settings.height, opts.tile);
         let n_tiles = list.len();
