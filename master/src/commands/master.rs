@@ -1,13 +1,13 @@
 //! `parrt master`: loads a scene, listens for workers, hands them tiles, writes the image.
 //! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
+use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::distributed::{render_distributed, DistError, DistOptions, DistResult, DEFAULT_LISTEN};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
 use parrt::description::SceneDescription;
-use parrt::settings::RenderSettings;
 use parrt_worker::cli::{init_logging, TokenArgs, UsageError};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -51,27 +51,15 @@ pub struct MasterArgs {
     /// Never duplicate in-flight tiles onto idle workers.
     #[arg(long)]
     pub no_backups: bool,
-    /// Image width (default: the scene's).
-    #[arg(long, value_name = "W")]
-    pub width: Option<u32>,
-    /// Image height (default: the scene's).
-    #[arg(long, value_name = "H")]
-    pub height: Option<u32>,
-    /// Maximum ray depth (eye ray = 1).
-    #[arg(long, value_name = "D")]
-    pub max_depth: Option<u32>,
-    /// Adaptive cut-off (0 disables it).
-    #[arg(long, value_name = "X")]
-    pub cutoff: Option<f64>,
-    /// Samples per pixel.
-    #[arg(long, value_name = "N")]
-    pub spp: Option<u32>,
     /// Write timings, traffic and per-worker figures as JSON.
     #[arg(long, value_name = "FILE")]
     pub report_json: Option<PathBuf>,
     /// Token flags (a token is required).
     #[command(flatten)]
     pub token: TokenArgs,
+    /// Render settings (the same flags as `parrt render`, so the same bits).
+    #[command(flatten)]
+    pub render: RenderFlags,
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
@@ -100,31 +88,6 @@ fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
     Ok((desc, spec.label()))
 }
 
-/// The settings the flags ask for, on top of the scene's own size.
-fn settings(args: &MasterArgs, desc: &SceneDescription) -> anyhow::Result<RenderSettings> {
-    let mut s = RenderSettings::new(
-        args.width.unwrap_or(desc.view.width),
-        args.height.unwrap_or(desc.view.height),
-    );
-    if s.width == 0 || s.height == 0 {
-        return Err(input_error(anyhow::anyhow!(
-            "image size {}x{} has no pixels",
-            s.width,
-            s.height
-        )));
-    }
-    if let Some(d) = args.max_depth {
-        s.max_depth = d;
-    }
-    if let Some(c) = args.cutoff {
-        s.cutoff = c;
-    }
-    if let Some(n) = args.spp {
-        s.spp = n.max(1);
-    }
-    Ok(s)
-}
-
 /// Runs `parrt master`.
 pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     init_logging("info");
@@ -139,7 +102,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
     }
     let (desc, label) = load_scene(&args)?;
-    let settings = settings(&args, &desc)?;
+    let settings = args.render.settings(desc.view.width, desc.view.height)?;
     let opts = DistOptions {
         tile: args.tile,
         listen: args.listen.clone(),
