@@ -387,6 +387,43 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        #[test]
+        fn arbitrary_results_and_assigns_round_trip(
+            job_id: u64, tile_id: u32, attempt: u32, x: u32, y: u32, w in 1u32..64, h in 1u32..64,
+            bits in proptest::collection::vec(proptest::num::u32::ANY, 0..200),
+            name in ".{0,40}", seconds: f64,
+        ) {
+            // Any f32 bit pattern (NaN payloads included) must come back bit for bit.
+            let pixels: Vec<[f32; 3]> = bits
+                .chunks(3)
+                .map(|c| [c[0], *c.get(1).unwrap_or(&0), *c.get(2).unwrap_or(&0)].map(f32::from_bits))
+                .collect();
+            let msgs = vec![
+                Message::Assign { job_id, tile: Tile { id: tile_id, x, y, w, h }, attempt },
+                Message::TileResult {
+                    job_id, tile_id, attempt, pixels: pixels.clone(),
+                    stats: RayStats { eye_rays: job_id, ..RayStats::default() }, seconds,
+                },
+                Message::Hello { version: attempt, name, threads: tile_id },
+            ];
+            let mut codec = MessageCodec::new(1 << 20);
+            let mut buf = BytesMut::new();
+            for m in &msgs {
+                codec.encode(m, &mut buf).unwrap();
+            }
+            for m in &msgs {
+                let back = codec.decode(&mut buf).unwrap().unwrap();
+                // Compare through the encoding: NaN != NaN, but equal bytes are equal bits.
+                proptest::prop_assert_eq!(encode_payload(&back).unwrap(), encode_payload(m).unwrap());
+            }
+            if let Message::TileResult { pixels: p, .. } = decode_payload(&encode_payload(&msgs[1]).unwrap()).unwrap() {
+                let same = p.iter().flatten().zip(pixels.iter().flatten()).all(|(a, b)| a.to_bits() == b.to_bits());
+                proptest::prop_assert!(same && p.len() == pixels.len());
+            }
+        }
+    }
+
     #[test]
     fn truncated_frame_is_an_error_at_eof() {
         let mut codec = MessageCodec::new(1024);
