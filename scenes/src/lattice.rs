@@ -1,0 +1,11 @@
+//! `lattice` generator (in progress).
+use crate::GenError;
+use parrt::description::SceneDescription;
+/// Generates the scene.
+pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
+    Err(GenError::BadSize {
+        name: "lattice".into(),
+        size,
+        why: "not yet".into(),
+    })
+}

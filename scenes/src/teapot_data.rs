@@ -1,0 +1,1 @@
+//! Teapot control data.
