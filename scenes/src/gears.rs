@@ -61,7 +61,14 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
     let n = f64::from(size);
     let mut b = SceneBuilder::new(
         SPD_BACKGROUND,
-        view(v3(-1.1, -2.1, 2.6), v3(0.0, 0.0, 0.0), v3(0.0, 0.0, 1.0), 45.0, 1.0, 512),
+        view(
+            v3(-1.1, -2.1, 2.6),
+            v3(0.0, 0.0, 0.0),
+            v3(0.0, 0.0, 1.0),
+            45.0,
+            1.0,
+            512,
+        ),
         vec![
             light(2.0, 4.0, 4.0),
             light(-2.0, 4.0, 3.0),
@@ -103,7 +110,12 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
                 let m = shape.len();
                 b.polygon((0..m).map(|i| at(i, top)).collect());
                 for i in 0..m {
-                    b.polygon(vec![at(i, top), at(i, bottom), at(i + 1, bottom), at(i + 1, top)]);
+                    b.polygon(vec![
+                        at(i, top),
+                        at(i, bottom),
+                        at(i + 1, bottom),
+                        at(i + 1, top),
+                    ]);
                 }
                 // The same outline backwards (starting at point 1), so the bottom faces down.
                 b.polygon((0..m).map(|k| at(1 + m - k, bottom)).collect());

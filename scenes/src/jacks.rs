@@ -34,7 +34,12 @@ fn jack(b: &mut SceneBuilder, m: &Mat4, center: Vec3d, scale: f64, levels: u32) 
     let axes = [v3(1.0, 0.0, 0.0), v3(0.0, 1.0, 0.0), v3(0.0, 0.0, 1.0)];
     let end = |a: Vec3d, sign: f64| m.point(center + a * (sign * ARM * scale));
     for a in axes {
-        b.cone(end(a, -1.0), ARM_RADIUS * scale, end(a, 1.0), ARM_RADIUS * scale);
+        b.cone(
+            end(a, -1.0),
+            ARM_RADIUS * scale,
+            end(a, 1.0),
+            ARM_RADIUS * scale,
+        );
     }
     for sign in [1.0, -1.0] {
         for a in axes {
@@ -59,7 +64,14 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
     let count = check_size(NAME, size, jack_count(size).and_then(|j| j.checked_mul(9)))?;
     let mut b = SceneBuilder::new(
         v3(0.2, 0.05, 0.2),
-        view(v3(0.0, 0.0, -8.0), v3(0.0, 0.0, 0.0), v3(0.0, 1.0, 0.0), 25.0, 0.001, 256),
+        view(
+            v3(0.0, 0.0, -8.0),
+            v3(0.0, 0.0, 0.0),
+            v3(0.0, 1.0, 0.0),
+            25.0,
+            0.001,
+            256,
+        ),
         vec![light(-10.0, 3.0, -20.0)],
         count,
     );

@@ -29,7 +29,14 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
     let eye = v3(0.5 + 0.5 / nf, 1.0, 1.0 - 0.5 / nf);
     let mut b = SceneBuilder::new(
         SPD_BACKGROUND,
-        view(eye, eye + v3(0.0, -2.0, -2.0), v3(0.2, 1.0, 0.0), 60.0, 0.0, 512),
+        view(
+            eye,
+            eye + v3(0.0, -2.0, -2.0),
+            v3(0.2, 1.0, 0.0),
+            60.0,
+            0.0,
+            512,
+        ),
         vec![
             light(2.0, 0.5, 0.5),
             light(-1.0, 0.5, 0.5),
@@ -41,10 +48,16 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
         count,
     );
     let ball = material(0.9, 0.9, 0.9, 0.5, 0.5, 3.0827, 0.0, 0.0);
-    let rod = |r: f64, g: f64, bl: f64| -> Material { material(r, g, bl, 0.99, 0.0, 100000.0, 0.0, 0.0) };
+    let rod =
+        |r: f64, g: f64, bl: f64| -> Material { material(r, g, bl, 0.99, 0.0, 100000.0, 0.0, 0.0) };
     let rods = [rod(0.9, 0.1, 0.1), rod(0.1, 0.9, 0.1), rod(0.1, 0.1, 0.9)];
     let axes = [v3(1.0, 0.0, 0.0), v3(0.0, 1.0, 0.0), v3(0.0, 0.0, 1.0)];
-    let (r_ball, r_rod, inset, step) = (SPHERE_RADIUS / nf, CYLINDER_RADIUS / nf, INSET / nf, 1.0 / nf);
+    let (r_ball, r_rod, inset, step) = (
+        SPHERE_RADIUS / nf,
+        CYLINDER_RADIUS / nf,
+        INSET / nf,
+        1.0 / nf,
+    );
     for i in 0..=size {
         for j in 0..=size {
             for k in 0..=size {

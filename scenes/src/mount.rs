@@ -118,7 +118,13 @@ pub fn heights(n: u32) -> Vec<f64> {
 
 /// Writes the cells of the square at (i0, j0) of width `w` in SPD's order: quarters lower-left,
 /// lower-right, upper-right, upper-left; each cell as (ll, lr, ur) and (ur, ul, ll).
-fn emit(b: &mut SceneBuilder, point: &dyn Fn(usize, usize) -> Vec3d, i0: usize, j0: usize, w: usize) {
+fn emit(
+    b: &mut SceneBuilder,
+    point: &dyn Fn(usize, usize) -> Vec3d,
+    i0: usize,
+    j0: usize,
+    w: usize,
+) {
     if w == 1 {
         let (ll, lr) = (point(i0, j0), point(i0 + 1, j0));
         let (ur, ul) = (point(i0 + 1, j0 + 1), point(i0, j0 + 1));
@@ -138,7 +144,14 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
     let count = check_size(NAME, size, tris.and_then(|t| t.checked_add(4)))?;
     let mut b = SceneBuilder::new(
         SPD_BACKGROUND,
-        view(v3(-1.6, 1.6, 1.7), v3(0.0, 0.0, 0.0), v3(0.0, 0.0, 1.0), 45.0, 0.01, 512),
+        view(
+            v3(-1.6, 1.6, 1.7),
+            v3(0.0, 0.0, 0.0),
+            v3(0.0, 0.0, 1.0),
+            45.0,
+            0.01,
+            512,
+        ),
         vec![light(-100.0, -100.0, 100.0)],
         count,
     );
@@ -161,7 +174,13 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
     let side = cells + 1;
     let h = heights(size);
     let step = 2.0 / cells as f64;
-    let point = |i: usize, j: usize| v3(-1.0 + step * i as f64, -1.0 + step * j as f64, h[j * side + i]);
+    let point = |i: usize, j: usize| {
+        v3(
+            -1.0 + step * i as f64,
+            -1.0 + step * j as f64,
+            h[j * side + i],
+        )
+    };
     emit(&mut b, &point, 0, 0, cells);
     Ok(b.finish())
 }
@@ -175,7 +194,10 @@ mod tests {
         assert_eq!(shift(0b1011_0000, -4), 0b1011);
         assert_eq!(shift(3, 2), 12);
         // N = 10: i << 13, j << 5, i >> 3.
-        assert_eq!(seed(9, 2, 10), 21 + (((9u64 << 13) + (2 << 5) + (9 >> 3)) & 0xFFFF));
+        assert_eq!(
+            seed(9, 2, 10),
+            21 + (((9u64 << 13) + (2 << 5) + (9 >> 3)) & 0xFFFF)
+        );
     }
 
     #[test]

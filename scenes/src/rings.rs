@@ -46,8 +46,19 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
     let eye = v3(-1.0, -step, 0.5);
     let mut b = SceneBuilder::new(
         SPD_BACKGROUND,
-        view(eye, eye + v3(0.0, 1.0, 0.0), v3(0.0, 0.0, 1.0), 45.0, 1.0, 512),
-        vec![light(3.0, -step, 3.0), light(-4.0, -step, 1.0), light(2.0, -step, -4.0)],
+        view(
+            eye,
+            eye + v3(0.0, 1.0, 0.0),
+            v3(0.0, 0.0, 1.0),
+            45.0,
+            1.0,
+            512,
+        ),
+        vec![
+            light(3.0, -step, 3.0),
+            light(-4.0, -step, 1.0),
+            light(2.0, -step, -4.0),
+        ],
         total,
     );
     // The wall, facing the eye.
@@ -83,7 +94,11 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
         let y = step * f64::from(d + 1);
         for iz in 0..=d {
             for ix in 0..=d {
-                let centre = v3(f64::from(2 * ix) - f64::from(d), y, f64::from(2 * iz) - f64::from(d));
+                let centre = v3(
+                    f64::from(2 * ix) - f64::from(d),
+                    y,
+                    f64::from(2 * iz) - f64::from(d),
+                );
                 for (ring, c) in rings.iter().zip(COLOURS) {
                     b.material(material(c[0], c[1], c[2], 0.5, 0.2, 3.0827, 0.0, 0.0));
                     for i in 0..5 {

@@ -25,7 +25,14 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
     let s = (count - 1) as i64;
     let mut b = SceneBuilder::new(
         SPD_BACKGROUND,
-        view(v3(-6.0, -60.0, 35.0), v3(0.0, 8.0, -15.0), v3(0.0, 0.0, 1.0), 45.0, 0.5, 512),
+        view(
+            v3(-6.0, -60.0, 35.0),
+            v3(0.0, 8.0, -15.0),
+            v3(0.0, 0.0, 1.0),
+            45.0,
+            0.5,
+            512,
+        ),
         vec![light(-100.0, -100.0, 100.0)],
         count,
     );

@@ -27,14 +27,23 @@ fn height(x: f64, z: f64) -> f64 {
 
 /// Generates the sombrero at size factor `size` (grid side 32·2^(size−1) samples).
 pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
-    let side = 2u64.checked_pow(size.saturating_sub(1)).and_then(|p| p.checked_mul(32));
+    let side = 2u64
+        .checked_pow(size.saturating_sub(1))
+        .and_then(|p| p.checked_mul(32));
     let tris = side.and_then(|n| (n - 1).checked_mul(n - 1)?.checked_mul(2));
     let count = check_size(NAME, size, tris)?;
     // count ≤ MAX_PRIMITIVES, so the side fits a u32.
     let n = side.unwrap_or(0) as u32;
     let mut b = SceneBuilder::new(
         SPD_BACKGROUND,
-        view(v3(0.0, 5.0, -8.0), v3(0.0, 0.0, 0.0), v3(0.0, 0.0, 1.0), 40.0, 0.01, 512),
+        view(
+            v3(0.0, 5.0, -8.0),
+            v3(0.0, 0.0, 0.0),
+            v3(0.0, 0.0, 1.0),
+            40.0,
+            0.01,
+            512,
+        ),
         vec![light(10.0, 10.0, -10.0)],
         count,
     );

@@ -38,13 +38,22 @@ fn branch(b: &mut SceneBuilder, kids: &[Mat4; 2], frame: &Mat4, radius: f64, dep
 
 /// Generates the tree at size factor `size` (levels of branching below the trunk).
 pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
-    let cones = 2u64
-        .checked_pow(size.saturating_add(1))
-        .map(|n| n - 1);
-    let count = check_size(NAME, size, cones.and_then(|c| c.checked_mul(2)?.checked_add(1)))?;
+    let cones = 2u64.checked_pow(size.saturating_add(1)).map(|n| n - 1);
+    let count = check_size(
+        NAME,
+        size,
+        cones.and_then(|c| c.checked_mul(2)?.checked_add(1)),
+    )?;
     let mut b = SceneBuilder::new(
         SPD_BACKGROUND,
-        view(v3(4.5, 0.4, 2.0), v3(0.0, 0.0, 1.5), v3(0.0, 0.0, 1.0), 45.0, 1.0, 512),
+        view(
+            v3(4.5, 0.4, 2.0),
+            v3(0.0, 0.0, 1.5),
+            v3(0.0, 0.0, 1.0),
+            45.0,
+            1.0,
+            512,
+        ),
         vec![
             light(-5.0, 5.0, 50.0),
             light(30.0, -30.0, 30.0),
