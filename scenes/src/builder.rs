@@ -6,10 +6,12 @@ use crate::GenError;
 use parrt::description::{Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View};
 use parrt::vec3::Vec3d;
 
-/// The most primitives a generator may produce. Equal to the NFF parser's default limit, so every
-/// scene we generate can be written out and read back with default limits. Sizes that would
-/// exceed it are refused with [`GenError::BadSize`] before anything is allocated.
-pub const MAX_PRIMITIVES: u64 = parrt::nff::limits::DEFAULT_MAX_PRIMITIVES;
+/// The most primitives a generator may produce: 2^24 (16.7 million). A generated triangle costs
+/// about 170 bytes in a [`SceneDescription`], so the largest allowed scene needs about 3 GB; the
+/// limit is a quarter of the NFF parser's default primitive limit, so every scene we generate can
+/// also be written out and read back with default limits. Sizes that would exceed it (mount 12,
+/// balls 8, tetra 13, ...) are refused with [`GenError::BadSize`] before anything is allocated.
+pub const MAX_PRIMITIVES: u64 = 1 << 24;
 
 /// SPD's usual background colour (a mid blue).
 pub const SPD_BACKGROUND: Vec3d = Vec3d::new(0.078, 0.361, 0.753);
@@ -167,3 +169,6 @@ impl SceneBuilder {
         self.desc
     }
 }
+
+// Generated scenes must stay readable by the parser with its default limits.
+const _: () = assert!(MAX_PRIMITIVES <= parrt::nff::limits::DEFAULT_MAX_PRIMITIVES);
