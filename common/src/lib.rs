@@ -11,12 +11,17 @@
 //! - [`settings`], [`stats`]: what decides pixels, and what was counted.
 #![deny(missing_docs)]
 
+pub mod accel;
+pub mod camera;
 pub mod description;
 pub mod film;
+pub mod geometry;
 pub mod nff;
 pub mod real;
 pub mod render;
+pub mod scene;
 pub mod settings;
+pub mod shade;
 pub mod smp;
 pub mod stats;
 pub mod tile;

@@ -1,17 +1,26 @@
 //! The renderer facade: builds a render-ready scene and accelerator from a description and
 //! settings once, then renders any tile on any thread. Every pixel depends only on the scene,
-//! the settings and its own coordinates, so tiles can be rendered in any order, anywhere.
-//!
-//! PLACEHOLDER BODY: the tracing core lands in the renderer-core change; until then
-//! `render_tile` paints a deterministic gradient so callers (SMP, distributed) can be built and
-//! tested against the final API.
+//! the settings and its own coordinates, so tiles can be rendered in any order, anywhere, and
+//! the image is the same bits.
 
+use crate::accel::{Accel, AccelStats};
+use crate::camera::Camera;
 use crate::description::SceneDescription;
 use crate::film::Rgb;
-use crate::settings::RenderSettings;
+use crate::real::Real;
+use crate::scene::{Scene, SceneError};
+use crate::settings::{Precision, RenderSettings};
+use crate::shade::{Integrator, RayKind, ShadeOptions};
 use crate::stats::RayStats;
 use crate::tile::Tile;
+use crate::vec3::V3;
+use std::time::Instant;
 use thiserror::Error;
+
+/// Deepest recursion a render may ask for (the tracer recurses on the stack).
+pub const MAX_DEPTH_LIMIT: u32 = 64;
+/// Most samples per pixel a render may ask for.
+pub const MAX_SPP: u32 = 4096;
 
 /// Errors building a renderer.
 #[derive(Debug, Error)]
@@ -19,33 +28,218 @@ pub enum RenderError {
     /// The image has no pixels.
     #[error("image size {0}x{1} has no pixels")]
     EmptyImage(u32, u32),
+    /// A setting is out of range.
+    #[error("bad setting: {0}")]
+    BadSetting(String),
+    /// The scene cannot be rendered.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
 }
 
 /// Preprocessing figures of a built renderer.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct BuildInfo {
     /// Seconds spent building the render-ready scene and the accelerator.
     pub build_s: f64,
+    /// Primitives after triangulation.
+    pub primitives: usize,
+    /// Accelerator statistics.
+    pub accel: AccelStats,
+}
+
+struct Core<R> {
+    integrator: Integrator<R>,
+    camera: Camera<R>,
+}
+
+enum Inner {
+    F32(Core<f32>),
+    F64(Core<f64>),
 }
 
 /// A scene ready to trace, with its settings.
 pub struct Renderer {
     settings: RenderSettings,
-    background: [f32; 3],
+    inner: Inner,
     info: BuildInfo,
+}
+
+/// Checks settings that come from the command line or the network.
+pub fn validate_settings(s: &RenderSettings) -> Result<(), RenderError> {
+    if s.width == 0 || s.height == 0 {
+        return Err(RenderError::EmptyImage(s.width, s.height));
+    }
+    if s.max_depth == 0 || s.max_depth > MAX_DEPTH_LIMIT {
+        return Err(RenderError::BadSetting(format!(
+            "max depth {} is outside 1..={MAX_DEPTH_LIMIT}",
+            s.max_depth
+        )));
+    }
+    if s.spp == 0 || s.spp > MAX_SPP {
+        return Err(RenderError::BadSetting(format!(
+            "samples per pixel {} is outside 1..={MAX_SPP}",
+            s.spp
+        )));
+    }
+    if !s.cutoff.is_finite() || s.cutoff < 0.0 || s.cutoff > 1.0 {
+        return Err(RenderError::BadSetting(format!(
+            "cut-off {} is outside [0, 1]",
+            s.cutoff
+        )));
+    }
+    if !s.grid_density.is_finite() || s.grid_density <= 0.0 {
+        return Err(RenderError::BadSetting(format!(
+            "grid density {} must be a positive number",
+            s.grid_density
+        )));
+    }
+    Ok(())
+}
+
+fn build_core<R: Real>(
+    desc: &SceneDescription,
+    s: &RenderSettings,
+) -> Result<(Core<R>, BuildInfo), RenderError> {
+    let scene = Scene::<R>::build(desc)?;
+    let bounds = scene.all_bounds();
+    let accel = Accel::build(s.accel, &bounds, s.grid_density);
+    let info = BuildInfo {
+        build_s: 0.0,
+        primitives: scene.len(),
+        accel: accel.stats(),
+    };
+    let opts = ShadeOptions {
+        max_depth: s.max_depth,
+        cutoff: if s.spd_standard {
+            R::ZERO
+        } else {
+            R::from_f64(s.cutoff)
+        },
+        spd: s.spd_standard,
+        two_sided: s.two_sided,
+    };
+    Ok((
+        Core {
+            integrator: Integrator { scene, accel, opts },
+            camera: Camera::new(&desc.view, s.width, s.height),
+        },
+        info,
+    ))
+}
+
+/// A 64-bit mix (splitmix64's finaliser): the per-pixel sample sequence is a pure function of
+/// the pixel, so it does not depend on which thread or node renders it.
+#[inline]
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A uniform number in [0, 1) from a hash.
+#[inline]
+fn unit(h: u64) -> f64 {
+    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Offset in [0,1)² of sample `i` of `spp` in pixel (x, y): the centre for one sample, jittered
+/// strata for a square count, hashed points otherwise.
+pub fn sample_offset(x: u32, y: u32, i: u32, spp: u32) -> (f64, f64) {
+    if spp == 1 {
+        return (0.5, 0.5);
+    }
+    let h = mix(((y as u64) << 32 | x as u64) ^ mix(i as u64 + 1));
+    let (jx, jy) = (unit(h), unit(mix(h)));
+    let k = (spp as f64).sqrt() as u32;
+    if k * k == spp {
+        let (sx, sy) = (i % k, i / k);
+        ((sx as f64 + jx) / k as f64, (sy as f64 + jy) / k as f64)
+    } else {
+        (jx, jy)
+    }
+}
+
+impl<R: Real> Core<R> {
+    fn eye(&self, sx: f64, sy: f64, stats: &mut RayStats) -> V3<R> {
+        let ray = self.camera.ray(R::from_f64(sx), R::from_f64(sy));
+        self.integrator.trace(&ray, 1, R::ONE, RayKind::Eye, stats)
+    }
+
+    fn render_tile(
+        &self,
+        s: &RenderSettings,
+        tile: &Tile,
+        out: &mut Vec<Rgb>,
+        stats: &mut RayStats,
+    ) {
+        out.clear();
+        out.reserve(tile.pixel_count());
+        let finish = |c: V3<R>| -> Rgb {
+            let f = c.to_f32();
+            let clean = |v: f32| if v.is_finite() { v } else { 0.0 };
+            [clean(f.x), clean(f.y), clean(f.z)]
+        };
+        if s.spd_standard {
+            // Corner rays: (w+1)×(h+1) per tile; a corner shared with the next tile is traced
+            // again there but counted only by the tile that owns it, so totals are exact.
+            let cw = tile.w as usize + 1;
+            let mut corners: Vec<V3<R>> = Vec::with_capacity(cw * (tile.h as usize + 1));
+            let mut scratch = RayStats::default();
+            for cy in tile.y..=tile.y + tile.h {
+                let own_y = cy < tile.y + tile.h || cy == s.height;
+                for cx in tile.x..=tile.x + tile.w {
+                    let own = own_y && (cx < tile.x + tile.w || cx == s.width);
+                    let st = if own { &mut *stats } else { &mut scratch };
+                    corners.push(self.eye(cx as f64, cy as f64, st));
+                }
+            }
+            let quarter = R::from_f64(0.25);
+            for y in 0..tile.h as usize {
+                for x in 0..tile.w as usize {
+                    let c = corners[y * cw + x]
+                        + corners[y * cw + x + 1]
+                        + corners[(y + 1) * cw + x]
+                        + corners[(y + 1) * cw + x + 1];
+                    out.push(finish(c * quarter));
+                }
+            }
+            return;
+        }
+        let inv = R::ONE / R::from_u32(s.spp);
+        for y in tile.y..tile.y + tile.h {
+            for x in tile.x..tile.x + tile.w {
+                let mut c = V3::zero();
+                for i in 0..s.spp {
+                    let (ox, oy) = sample_offset(x, y, i, s.spp);
+                    c += self.eye(x as f64 + ox, y as f64 + oy, stats);
+                }
+                out.push(finish(if s.spp == 1 { c } else { c * inv }));
+            }
+        }
+    }
 }
 
 impl Renderer {
     /// Builds the render-ready scene and accelerator.
     pub fn new(desc: &SceneDescription, settings: &RenderSettings) -> Result<Self, RenderError> {
-        if settings.width == 0 || settings.height == 0 {
-            return Err(RenderError::EmptyImage(settings.width, settings.height));
-        }
-        let b = desc.background;
+        validate_settings(settings)?;
+        let t0 = Instant::now();
+        let (inner, mut info) = match settings.precision {
+            Precision::F32 => {
+                let (c, i) = build_core::<f32>(desc, settings)?;
+                (Inner::F32(c), i)
+            }
+            Precision::F64 => {
+                let (c, i) = build_core::<f64>(desc, settings)?;
+                (Inner::F64(c), i)
+            }
+        };
+        info.build_s = t0.elapsed().as_secs_f64();
         Ok(Renderer {
             settings: settings.clone(),
-            background: [b.x as f32, b.y as f32, b.z as f32],
-            info: BuildInfo::default(),
+            inner,
+            info,
         })
     }
 
@@ -55,22 +249,32 @@ impl Renderer {
     }
 
     /// Preprocessing figures.
-    pub fn build_info(&self) -> BuildInfo {
-        self.info
+    pub fn build_info(&self) -> &BuildInfo {
+        &self.info
     }
 
     /// Renders one tile into `out` (cleared first; row-major within the tile), adding to `stats`.
     pub fn render_tile(&self, tile: &Tile, out: &mut Vec<Rgb>, stats: &mut RayStats) {
-        out.clear();
-        let (w, h) = (self.settings.width as f32, self.settings.height as f32);
-        for y in tile.y..tile.y + tile.h {
-            for x in tile.x..tile.x + tile.w {
-                stats.eye_rays += 1;
-                out.push([
-                    self.background[0] * (x as f32 + 0.5) / w,
-                    self.background[1] * (y as f32 + 0.5) / h,
-                    self.background[2],
-                ]);
+        match &self.inner {
+            Inner::F32(c) => c.render_tile(&self.settings, tile, out, stats),
+            Inner::F64(c) => c.render_tile(&self.settings, tile, out, stats),
+        }
+    }
+
+    /// The closest hit of an eye ray through continuous image position `(sx, sy)`: the
+    /// primitive index and distance, for tests and tools.
+    pub fn probe(&self, sx: f64, sy: f64) -> Option<(u32, f64)> {
+        let mut st = RayStats::default();
+        match &self.inner {
+            Inner::F32(c) => {
+                let ray = c.camera.ray(sx as f32, sy as f32);
+                c.integrator
+                    .intersect(&ray, &mut st)
+                    .map(|h| (h.prim, h.t as f64))
+            }
+            Inner::F64(c) => {
+                let ray = c.camera.ray(sx, sy);
+                c.integrator.intersect(&ray, &mut st).map(|h| (h.prim, h.t))
             }
         }
     }

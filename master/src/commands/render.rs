@@ -1,13 +1,376 @@
-//! `parrt render`.
+//! `parrt render`: renders an NFF file, a generated scene or the built-in default scene to an
+//! image on this machine's cores (or through local workers with `--workers`), with a progress
+//! bar on a terminal and the ray statistics of DESIGN §9 on request.
 
-use clap::Args;
+use super::scene_input::{LimitArgs, SceneSpec};
+use crate::exit::input_error;
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use parrt::render::Renderer;
+use parrt::settings::{AccelKind, Precision, RenderSettings};
+use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt::stats::RayStats;
+use serde_json::json;
+use std::io::IsTerminal;
+use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Acceleration structure choices.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum AccelArg {
+    /// Bounding volume hierarchy (binned SAH).
+    Bvh,
+    /// Uniform voxel grid with 3D-DDA.
+    Grid,
+    /// No acceleration: every primitive for every ray (the test oracle; slow).
+    Brute,
+}
+
+/// Tile executor choices.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ExecutorArg {
+    /// The paper's design: N threads take the next tile from a locked queue.
+    Queue,
+    /// rayon's work-stealing pool.
+    Rayon,
+}
+
+/// Precision choices.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum PrecisionArg {
+    /// Single precision (fast).
+    F32,
+    /// Double precision (reference).
+    F64,
+}
+
+/// Settings shared by every command that renders (render, master, bench).
+#[derive(Debug, Clone, Args)]
+pub struct RenderFlags {
+    /// Image width in pixels (default: the scene's resolution; 512 with --spd-standard).
+    #[arg(long, value_name = "W")]
+    pub width: Option<u32>,
+    /// Image height in pixels (default: the scene's resolution; 512 with --spd-standard).
+    #[arg(long, value_name = "H")]
+    pub height: Option<u32>,
+    /// Maximum ray depth; the eye ray is depth 1.
+    #[arg(long, value_name = "D", default_value_t = parrt::settings::DEFAULT_MAX_DEPTH)]
+    pub max_depth: u32,
+    /// Adaptive cut-off: a reflected/refracted ray is not traced when the product of weights
+    /// along its path falls below X (0 disables; ignored with --spd-standard).
+    #[arg(long, value_name = "X", default_value_t = parrt::settings::DEFAULT_CUTOFF)]
+    pub cutoff: f64,
+    /// Samples per pixel (1: one ray through each pixel centre; square numbers are stratified).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub spp: u32,
+    /// Haines' SPD testing procedure: 513×513 corner rays averaged per pixel, depth 5, no
+    /// cut-off, one-sided opaque primitives.
+    #[arg(long)]
+    pub spd_standard: bool,
+    /// With --spd-standard: treat every primitive as two-sided (SPD asks this for the teapot).
+    #[arg(long)]
+    pub two_sided: bool,
+    /// Acceleration structure.
+    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
+    pub accel: AccelArg,
+    /// Uniform grid density: about cbrt(density × primitives) cells along the longest axis.
+    #[arg(long, value_name = "X", default_value_t = parrt::settings::DEFAULT_GRID_DENSITY)]
+    pub grid_density: f64,
+    /// Geometric precision: f32 (fast path) or f64 (reference path).
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    pub precision: PrecisionArg,
+}
+
+impl RenderFlags {
+    /// The render settings for a scene whose file asks for `file_w × file_h`.
+    pub fn settings(&self, file_w: u32, file_h: u32) -> anyhow::Result<RenderSettings> {
+        let (dw, dh) = if self.spd_standard {
+            (512, 512)
+        } else {
+            (file_w, file_h)
+        };
+        let mut s = RenderSettings::new(self.width.unwrap_or(dw), self.height.unwrap_or(dh));
+        s.max_depth = self.max_depth;
+        s.cutoff = self.cutoff;
+        s.spp = self.spp;
+        s.spd_standard = self.spd_standard;
+        s.two_sided = self.two_sided;
+        s.accel = match self.accel {
+            AccelArg::Bvh => AccelKind::Bvh,
+            AccelArg::Grid => AccelKind::Grid,
+            AccelArg::Brute => AccelKind::Brute,
+        };
+        s.grid_density = self.grid_density;
+        s.precision = match self.precision {
+            PrecisionArg::F32 => Precision::F32,
+            PrecisionArg::F64 => Precision::F64,
+        };
+        parrt::render::validate_settings(&s).map_err(input_error)?;
+        Ok(s)
+    }
+}
 
 /// Arguments of `parrt render`.
 #[derive(Debug, Args)]
-pub struct RenderArgs {}
+pub struct RenderArgs {
+    /// NFF scene file (omit it, and --scene, to render the built-in default scene: mount).
+    #[arg(value_name = "SCENE.nff")]
+    pub file: Option<PathBuf>,
+    /// Render a generated scene instead of a file: NAME or NAME:SIZE (see `parrt scene --list`).
+    #[arg(long, value_name = "NAME[:SIZE]")]
+    pub scene: Option<String>,
+    /// Output image: .png (default), .ppm (8-bit) or .exr (linear float).
+    #[arg(short, long, value_name = "OUT", default_value = "parrt.png")]
+    pub output: PathBuf,
+    /// Render threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Tile edge in pixels.
+    #[arg(long, value_name = "S", default_value_t = 32)]
+    pub tile: u32,
+    /// How tiles are handed to threads.
+    #[arg(long, value_enum, default_value_t = ExecutorArg::Queue)]
+    pub executor: ExecutorArg,
+    /// Print ray statistics and timings after the render.
+    #[arg(long)]
+    pub stats: bool,
+    /// Write ray statistics and timings as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub stats_json: Option<PathBuf>,
+    /// Render through N local worker processes (master/worker over TCP on 127.0.0.1).
+    #[arg(long, value_name = "N")]
+    pub workers: Option<usize>,
+    /// Render settings.
+    #[command(flatten)]
+    pub render: RenderFlags,
+    /// Parser limits.
+    #[command(flatten)]
+    pub limits: LimitArgs,
+}
+
+/// Everything a finished render reports.
+pub struct RenderReport {
+    /// Ray statistics.
+    pub stats: RayStats,
+    /// Seconds parsing or generating the scene.
+    pub parse_s: f64,
+    /// Seconds building the render-ready scene and accelerator.
+    pub build_s: f64,
+    /// Seconds tracing.
+    pub trace_s: f64,
+}
+
+impl RenderReport {
+    /// The `--stats-json` object (DESIGN §10 keys, plus extras).
+    pub fn to_json(&self, extra: serde_json::Value) -> serde_json::Value {
+        let s = &self.stats;
+        let mut v = json!({
+            "eye_rays": s.eye_rays,
+            "eye_hits": s.eye_hits,
+            "shadow_rays": s.shadow_rays,
+            "shadow_hits": s.shadow_hits,
+            "reflection_rays": s.reflection_rays,
+            "reflection_hits": s.reflection_hits,
+            "refraction_rays": s.refraction_rays,
+            "refraction_hits": s.refraction_hits,
+            "box_tests": s.box_tests,
+            "primitive_tests": s.primitive_tests,
+            "cell_steps": s.cell_steps,
+            "total_rays": s.total_rays(),
+            "parse_s": self.parse_s,
+            "build_s": self.build_s,
+            "trace_s": self.trace_s,
+            "mrays_per_s": self.mrays_per_s(),
+        });
+        if let (Some(obj), serde_json::Value::Object(e)) = (v.as_object_mut(), extra) {
+            obj.extend(e);
+        }
+        v
+    }
+
+    /// Millions of rays per second of tracing time.
+    pub fn mrays_per_s(&self) -> f64 {
+        if self.trace_s > 0.0 {
+            self.stats.total_rays() as f64 / self.trace_s / 1e6
+        } else {
+            0.0
+        }
+    }
+
+    /// Human-readable statistics.
+    pub fn print(&self) {
+        let s = &self.stats;
+        let per = |n: u64, rays: u64| {
+            if rays > 0 {
+                n as f64 / rays as f64
+            } else {
+                0.0
+            }
+        };
+        let rays = s.total_rays();
+        println!(
+            "rays              {:>14}  ({:.2} Mrays/s)",
+            rays,
+            self.mrays_per_s()
+        );
+        println!("  eye             {:>14}  hits {}", s.eye_rays, s.eye_hits);
+        println!(
+            "  shadow          {:>14}  blocked {}",
+            s.shadow_rays, s.shadow_hits
+        );
+        println!(
+            "  reflection      {:>14}  hits {}",
+            s.reflection_rays, s.reflection_hits
+        );
+        println!(
+            "  refraction      {:>14}  hits {}",
+            s.refraction_rays, s.refraction_hits
+        );
+        println!(
+            "box tests         {:>14}  ({:.1} per ray)",
+            s.box_tests,
+            per(s.box_tests, rays)
+        );
+        println!(
+            "primitive tests   {:>14}  ({:.1} per ray)",
+            s.primitive_tests,
+            per(s.primitive_tests, rays)
+        );
+        if s.cell_steps > 0 {
+            println!(
+                "cell steps        {:>14}  ({:.1} per ray)",
+                s.cell_steps,
+                per(s.cell_steps, rays)
+            );
+        }
+        println!("parse             {:>13.3}s", self.parse_s);
+        println!("build             {:>13.3}s", self.build_s);
+        println!("preprocessing     {:>13.3}s", self.parse_s + self.build_s);
+        println!("trace             {:>13.3}s", self.trace_s);
+    }
+}
+
+/// A progress bar on stderr that is hidden unless both stdout and stderr are terminals.
+pub fn progress_bar(tiles: u64) -> ProgressBar {
+    if !(std::io::stdout().is_terminal() && std::io::stderr().is_terminal()) {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(tiles);
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} tiles  {msg}  ETA {eta}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    pb
+}
 
 /// Runs `parrt render`.
-pub fn run(_args: RenderArgs) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("`parrt render` is not available in this build yet")
+pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
+    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
+    parrt::film::ImageFormat::from_path(&args.output).map_err(input_error)?;
+    if args.tile == 0 {
+        return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
+    }
+    if args.threads == Some(0) {
+        return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
+    }
+    let (desc, parse_s) = spec.load(&args.limits.limits())?;
+    let settings = args.render.settings(desc.view.width, desc.view.height)?;
+    let pixels = settings.width as u64 * settings.height as u64;
+    if pixels > args.limits.max_pixels {
+        return Err(input_error(anyhow::anyhow!(
+            "{}x{} is {pixels} pixels, over the limit of {} (raise it with --max-pixels)",
+            settings.width,
+            settings.height,
+            args.limits.max_pixels
+        )));
+    }
+    if args.workers.is_some() {
+        return Err(input_error(anyhow::anyhow!(
+            "--workers is not available in this build yet"
+        )));
+    }
+    let renderer = Renderer::new(&desc, &settings)
+        .map_err(input_error)
+        .with_context(|| format!("cannot prepare {}", spec.label()))?;
+    let build_s = renderer.build_info().build_s;
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let opts = SmpOptions {
+        threads,
+        tile: args.tile,
+        executor: match args.executor {
+            ExecutorArg::Queue => Executor::Queue,
+            ExecutorArg::Rayon => Executor::Rayon,
+        },
+    };
+    let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len() as u64;
+    let pb = progress_bar(tiles);
+    let rays = AtomicU64::new(0);
+    let started = std::time::Instant::now();
+    let result = render_smp(&renderer, &opts, &|_, st| {
+        let total = rays.fetch_add(st.total_rays(), Ordering::Relaxed) + st.total_rays();
+        let secs = started.elapsed().as_secs_f64().max(1e-9);
+        pb.set_message(format!("{:.2} Mrays/s", total as f64 / secs / 1e6));
+        pb.inc(1);
+    });
+    pb.finish_and_clear();
+    result
+        .film
+        .save(&args.output)
+        .with_context(|| format!("rendering {}", spec.label()))?;
+    let report = RenderReport {
+        stats: result.stats,
+        parse_s,
+        build_s,
+        trace_s: result.trace_s,
+    };
+    if args.stats {
+        let a = &renderer.build_info().accel;
+        println!(
+            "scene             {}  ({} primitives after triangulation)",
+            spec.label(),
+            renderer.build_info().primitives
+        );
+        println!(
+            "image             {}x{}, {} threads, tile {}, {:?} executor, {:?}",
+            settings.width, settings.height, threads, args.tile, opts.executor, settings.accel
+        );
+        println!(
+            "accelerator       {}: {} nodes, {} leaves, SAH cost {:.1}, depth {}, {} KiB",
+            a.kind,
+            a.nodes,
+            a.leaves,
+            a.sah_cost,
+            a.max_depth,
+            a.bytes / 1024
+        );
+        report.print();
+    }
+    if let Some(path) = &args.stats_json {
+        let extra = json!({
+            "scene": spec.label(),
+            "width": settings.width,
+            "height": settings.height,
+            "threads": threads,
+            "tile": args.tile,
+            "accel": renderer.build_info().accel,
+            "primitives": renderer.build_info().primitives,
+        });
+        let text = serde_json::to_string_pretty(&report.to_json(extra))?;
+        std::fs::write(path, text + "\n")
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    eprintln!(
+        "parrt: wrote {} ({}x{}) in {:.2}s",
+        args.output.display(),
+        settings.width,
+        settings.height,
+        parse_s + build_s + result.trace_s
+    );
+    Ok(ExitCode::SUCCESS)
 }

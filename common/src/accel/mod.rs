@@ -1,0 +1,91 @@
+//! Acceleration structures. Each knows only boxes and primitive indices; the primitive test comes
+//! in as a closure, so one traversal serves closest hit, any hit and the tests. All of them
+//! return the same hit for the same ray: nearest `t`, ties broken by the smaller primitive index.
+
+pub mod brute;
+pub mod bvh;
+
+use crate::geometry::{Aabb, PreparedRay, PrimHit};
+use crate::real::Real;
+use crate::settings::AccelKind;
+use crate::stats::RayStats;
+
+pub use brute::Brute;
+pub use bvh::Bvh;
+
+/// Statistics of a built accelerator, for logs and `--stats`.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct AccelStats {
+    /// Which structure.
+    pub kind: String,
+    /// Nodes (BVH) or cells (grid).
+    pub nodes: u64,
+    /// Leaves (BVH) or non-empty cells (grid).
+    pub leaves: u64,
+    /// Primitive references stored.
+    pub references: u64,
+    /// SAH cost of the tree (BVH), relative to one primitive test.
+    pub sah_cost: f64,
+    /// Deepest leaf (BVH).
+    pub max_depth: u32,
+    /// Bytes of the structure's arrays.
+    pub bytes: u64,
+}
+
+/// One of the acceleration structures.
+#[derive(Debug)]
+pub enum Accel {
+    /// Bounding volume hierarchy.
+    Bvh(Bvh),
+    /// Linear scan.
+    Brute(Brute),
+}
+
+impl Accel {
+    /// Builds the structure of `kind` over primitive bounds.
+    pub fn build(kind: AccelKind, bounds: &[Aabb], _grid_density: f64) -> Accel {
+        match kind {
+            AccelKind::Bvh => Accel::Bvh(Bvh::build(bounds)),
+            AccelKind::Brute => Accel::Brute(Brute::build(bounds)),
+            // The uniform grid lands separately; until then it is served by the BVH.
+            AccelKind::Grid => Accel::Bvh(Bvh::build(bounds)),
+        }
+    }
+
+    /// Build statistics.
+    pub fn stats(&self) -> AccelStats {
+        match self {
+            Accel::Bvh(b) => b.stats(),
+            Accel::Brute(b) => b.stats(),
+        }
+    }
+
+    /// Closest hit: `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
+    #[inline]
+    pub fn intersect<R: Real, F>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        test: F,
+    ) -> Option<PrimHit<R>>
+    where
+        F: FnMut(u32, R) -> Option<PrimHit<R>>,
+    {
+        match self {
+            Accel::Bvh(b) => b.intersect(pr, stats, test),
+            Accel::Brute(b) => b.intersect(pr, stats, test),
+        }
+    }
+
+    /// Any hit within the ray's range.
+    #[inline]
+    pub fn occluded<R: Real, F>(&self, pr: &PreparedRay<R>, stats: &mut RayStats, test: F) -> bool
+    where
+        F: FnMut(u32, R) -> Option<PrimHit<R>>,
+    {
+        match self {
+            Accel::Bvh(b) => b.occluded(pr, stats, test),
+            Accel::Brute(b) => b.occluded(pr, stats, test),
+        }
+    }
+}

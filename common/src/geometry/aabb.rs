@@ -1,0 +1,178 @@
+//! Axis-aligned boxes in `f32` (the accelerators' storage precision), always rounded outward from
+//! the exact primitive bounds, and the robust slab test: NaN-safe for zero direction components
+//! and conservative at the far end (t_far widened by 1 + 2γ₃).
+
+use super::ray::PreparedRay;
+use crate::real::Real;
+use crate::vec3::V3;
+
+/// An axis-aligned box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// Minimum corner.
+    pub min: [f32; 3],
+    /// Maximum corner.
+    pub max: [f32; 3],
+}
+
+/// Rounds `v` down to an `f32` that is ≤ `v`.
+#[inline]
+pub fn f32_down(v: f64) -> f32 {
+    let f = v as f32;
+    if f as f64 > v {
+        f.next_down()
+    } else {
+        f
+    }
+}
+
+/// Rounds `v` up to an `f32` that is ≥ `v`.
+#[inline]
+pub fn f32_up(v: f64) -> f32 {
+    let f = v as f32;
+    if (f as f64) < v {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+impl Aabb {
+    /// The empty box.
+    pub const EMPTY: Aabb = Aabb {
+        min: [f32::INFINITY; 3],
+        max: [f32::NEG_INFINITY; 3],
+    };
+
+    /// The smallest `f32` box containing the exact `f64` box `[lo, hi]`.
+    pub fn from_f64(lo: V3<f64>, hi: V3<f64>) -> Self {
+        Aabb {
+            min: [f32_down(lo.x), f32_down(lo.y), f32_down(lo.z)],
+            max: [f32_up(hi.x), f32_up(hi.y), f32_up(hi.z)],
+        }
+    }
+
+    /// Grows to contain `o`.
+    #[inline]
+    pub fn union(&self, o: &Aabb) -> Aabb {
+        let mut r = *self;
+        for i in 0..3 {
+            r.min[i] = r.min[i].min(o.min[i]);
+            r.max[i] = r.max[i].max(o.max[i]);
+        }
+        r
+    }
+
+    /// Grows to contain point `p`.
+    #[inline]
+    pub fn add_point(&mut self, p: [f32; 3]) {
+        for i in 0..3 {
+            self.min[i] = self.min[i].min(p[i]);
+            self.max[i] = self.max[i].max(p[i]);
+        }
+    }
+
+    /// The centre.
+    #[inline]
+    pub fn centroid(&self) -> [f32; 3] {
+        [
+            0.5 * (self.min[0] + self.max[0]),
+            0.5 * (self.min[1] + self.max[1]),
+            0.5 * (self.min[2] + self.max[2]),
+        ]
+    }
+
+    /// Half the surface area (the SAH only needs ratios).
+    #[inline]
+    pub fn half_area(&self) -> f32 {
+        let dx = (self.max[0] - self.min[0]).max(0.0);
+        let dy = (self.max[1] - self.min[1]).max(0.0);
+        let dz = (self.max[2] - self.min[2]).max(0.0);
+        dx * dy + dy * dz + dz * dx
+    }
+
+    /// True when nothing was added.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.min[0] > self.max[0]
+    }
+
+    /// Slab test: `Some(t_near)` when the ray meets the box within `[t_min, t_max]`.
+    #[inline(always)]
+    pub fn hit<R: Real>(&self, pr: &PreparedRay<R>, t_max: R) -> Option<R> {
+        slab(&self.min, &self.max, pr, t_max)
+    }
+}
+
+/// The slab test on a box given by its corners, in the ray's precision.
+#[inline(always)]
+pub fn slab<R: Real>(min: &[f32; 3], max: &[f32; 3], pr: &PreparedRay<R>, t_max: R) -> Option<R> {
+    let o = pr.ray.o;
+    let mut t0 = pr.ray.t_min;
+    let mut t1 = t_max;
+    let widen = R::ONE + R::TWO * R::gamma(3);
+    for a in 0..3 {
+        let (lo, hi) = if pr.neg[a] {
+            (max[a], min[a])
+        } else {
+            (min[a], max[a])
+        };
+        let inv = pr.inv_d.get(a);
+        let oa = o.get(a);
+        let t_near = (R::from_f32(lo) - oa) * inv;
+        let t_far = (R::from_f32(hi) - oa) * inv * widen;
+        // NaN (0·∞ for a ray lying in a slab plane) compares false and leaves the interval as is.
+        if t_near > t0 {
+            t0 = t_near;
+        }
+        if t_far < t1 {
+            t1 = t_far;
+        }
+        if t0 > t1 {
+            return None;
+        }
+    }
+    Some(t0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::ray::Ray;
+
+    fn pr(o: [f32; 3], d: [f32; 3]) -> PreparedRay<f32> {
+        PreparedRay::new(Ray {
+            o: V3::from_array(o),
+            d: V3::from_array(d),
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+        })
+    }
+
+    #[test]
+    fn axis_parallel_rays() {
+        let b = Aabb {
+            min: [0.0; 3],
+            max: [1.0; 3],
+        };
+        assert!(b
+            .hit(&pr([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .is_some());
+        assert!(b
+            .hit(&pr([1.5, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .is_none());
+        // Lying exactly in the box's face plane: counted as a hit (conservative).
+        assert!(b
+            .hit(&pr([0.0, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .is_some());
+        assert!(b
+            .hit(&pr([0.5, 0.5, 2.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .is_none());
+    }
+
+    #[test]
+    fn outward_rounding() {
+        let b = Aabb::from_f64(V3::new(0.1, 0.1, 0.1), V3::new(0.3, 0.3, 0.3));
+        assert!((b.min[0] as f64) <= 0.1 && (b.max[0] as f64) >= 0.3);
+    }
+}

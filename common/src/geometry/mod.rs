@@ -1,0 +1,15 @@
+//! Geometry: rays, boxes, the primitives' intersection routines and hit records. Every
+//! intersectable answers two queries: the closest hit (`intersect`) and any hit (`occluded`).
+//! Nothing here allocates.
+
+pub mod aabb;
+pub mod cone;
+pub mod hit;
+pub mod ray;
+pub mod sphere;
+pub mod triangle;
+pub mod triangulate;
+
+pub use aabb::Aabb;
+pub use hit::{offset_ray_origin, PrimHit};
+pub use ray::{PreparedRay, Ray};

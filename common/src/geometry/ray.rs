@@ -1,0 +1,63 @@
+//! Rays, and a ray prepared once for many tests: reciprocal direction for the slab test and the
+//! permutation/shear of the watertight triangle test.
+
+use crate::real::Real;
+use crate::vec3::V3;
+
+/// A ray `o + t·d` for `t` in `[t_min, t_max]`.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray<R> {
+    /// Origin.
+    pub o: V3<R>,
+    /// Direction (unit length for every ray the renderer casts).
+    pub d: V3<R>,
+    /// Nearest accepted distance.
+    pub t_min: R,
+    /// Farthest accepted distance.
+    pub t_max: R,
+}
+
+/// A ray with the per-ray constants of the box and triangle tests.
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedRay<R> {
+    /// The ray.
+    pub ray: Ray<R>,
+    /// `1/d` per component (±infinity for a zero component).
+    pub inv_d: V3<R>,
+    /// Whether each direction component is negative.
+    pub neg: [bool; 3],
+    /// Axis of the largest direction component (triangle test's z).
+    pub kz: usize,
+    /// Triangle test's x axis.
+    pub kx: usize,
+    /// Triangle test's y axis.
+    pub ky: usize,
+    /// Shear constants of the triangle test.
+    pub shear: V3<R>,
+}
+
+impl<R: Real> PreparedRay<R> {
+    /// Prepares `ray`.
+    #[inline]
+    pub fn new(ray: Ray<R>) -> Self {
+        let d = ray.d;
+        let inv_d = V3::new(R::ONE / d.x, R::ONE / d.y, R::ONE / d.z);
+        let kz = d.max_abs_axis();
+        let mut kx = if kz == 2 { 0 } else { kz + 1 };
+        let mut ky = if kx == 2 { 0 } else { kx + 1 };
+        if d.get(kz) < R::ZERO {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let dz = d.get(kz);
+        let shear = V3::new(d.get(kx) / dz, d.get(ky) / dz, R::ONE / dz);
+        PreparedRay {
+            ray,
+            inv_d,
+            neg: [d.x < R::ZERO, d.y < R::ZERO, d.z < R::ZERO],
+            kz,
+            kx,
+            ky,
+            shear,
+        }
+    }
+}

@@ -1,0 +1,432 @@
+//! The render-ready scene: the description turned into primitives in the renderer's precision
+//! (polygons triangulated exactly, negative radii turned into inward normals), materials, lights
+//! with their SPD intensities, and the primitive bounds the accelerators are built from.
+
+use crate::description::{SceneDescription, Shape};
+use crate::geometry::aabb::Aabb;
+use crate::geometry::cone::Cone;
+use crate::geometry::sphere::Sphere;
+use crate::geometry::triangle::{intersect_triangle, triangle_point};
+use crate::geometry::triangulate::{newell_normal, triangulate};
+use crate::geometry::{PreparedRay, PrimHit, Ray};
+use crate::real::Real;
+use crate::vec3::V3;
+use thiserror::Error;
+
+/// Errors turning a description into a scene.
+#[derive(Debug, Error, PartialEq)]
+pub enum SceneError {
+    /// A primitive cannot be rendered.
+    #[error("primitive {index} ({kind}): {reason}")]
+    Degenerate {
+        /// Index of the primitive in the description.
+        index: usize,
+        /// `sphere`, `cone`, `polygon` or `patch`.
+        kind: &'static str,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A primitive names a material that does not exist.
+    #[error("primitive {index} uses material {material} but the scene has {count}")]
+    BadMaterial {
+        /// Index of the primitive.
+        index: usize,
+        /// The material index.
+        material: u32,
+        /// Number of materials.
+        count: usize,
+    },
+    /// A value is NaN or infinite.
+    #[error("{0} is not finite")]
+    NotFinite(String),
+    /// More primitives than a `u32` index can name.
+    #[error("too many primitives after triangulation ({0})")]
+    TooMany(usize),
+}
+
+/// One traceable primitive.
+#[derive(Clone, Copy, Debug)]
+pub enum Prim<R> {
+    /// A sphere.
+    Sphere(Sphere<R>),
+    /// An open cone or cylinder.
+    Cone(Cone<R>),
+    /// A triangle of a polygon or patch (vertices counter-clockwise around the front).
+    Triangle([V3<R>; 3]),
+}
+
+/// What shading needs to know about a primitive besides its geometry.
+#[derive(Clone, Copy, Debug)]
+pub struct PrimInfo {
+    /// Material index.
+    pub material: u32,
+    /// Index into [`Scene::normals`] for patch triangles, `u32::MAX` otherwise.
+    pub normals: u32,
+    /// The geometric normal points inward (negative radii).
+    pub inward: bool,
+    /// Index of the primitive in the description it came from.
+    pub source: u32,
+}
+
+/// A material in the renderer's precision.
+#[derive(Clone, Copy, Debug)]
+pub struct Mat<R> {
+    /// Surface colour.
+    pub color: V3<R>,
+    /// Diffuse weight.
+    pub kd: R,
+    /// Specular weight (highlight and mirror).
+    pub ks: R,
+    /// Phong exponent.
+    pub shine: R,
+    /// Transmission weight.
+    pub t: R,
+    /// Index of refraction of the inside (≤ 0 treated as 1).
+    pub ior: R,
+}
+
+/// A point light with its intensity already scaled.
+#[derive(Clone, Copy, Debug)]
+pub struct PointLight<R> {
+    /// Position.
+    pub position: V3<R>,
+    /// RGB intensity.
+    pub intensity: V3<R>,
+}
+
+/// A hit made ready for shading.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface<R> {
+    /// Hit point.
+    pub p: V3<R>,
+    /// Absolute error bound of `p` per component.
+    pub p_err: V3<R>,
+    /// Unit geometric normal, pointing to the primitive's front (outside).
+    pub ng: V3<R>,
+    /// Unit shading normal on the same side as `ng`.
+    pub ns: V3<R>,
+    /// Material index.
+    pub material: u32,
+}
+
+/// The render-ready scene.
+#[derive(Clone, Debug)]
+pub struct Scene<R> {
+    /// Primitives; accelerators refer to them by index.
+    pub prims: Vec<Prim<R>>,
+    /// Per-primitive shading data, same indexing.
+    pub info: Vec<PrimInfo>,
+    /// Unit vertex normals of patch triangles.
+    pub normals: Vec<[V3<R>; 3]>,
+    /// Materials.
+    pub materials: Vec<Mat<R>>,
+    /// Lights.
+    pub lights: Vec<PointLight<R>>,
+    /// Ambient intensity (SPD: √L / 2L for L lights).
+    pub ambient: R,
+    /// Background colour.
+    pub background: V3<R>,
+}
+
+fn finite3(v: V3<f64>, what: &str) -> Result<(), SceneError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SceneError::NotFinite(what.to_string()))
+    }
+}
+
+impl<R: Real> Scene<R> {
+    /// Builds the scene from a description.
+    pub fn build(desc: &SceneDescription) -> Result<Self, SceneError> {
+        let nl = desc.lights.len().max(1) as f64;
+        let factor = nl.sqrt() / (2.0 * nl);
+        let mut lights = Vec::with_capacity(desc.lights.len());
+        for (i, l) in desc.lights.iter().enumerate() {
+            finite3(l.position, &format!("light {i} position"))?;
+            let c = l.color.unwrap_or(V3::new(1.0, 1.0, 1.0));
+            finite3(c, &format!("light {i} colour"))?;
+            lights.push(PointLight {
+                position: V3::from_f64(l.position),
+                intensity: V3::from_f64(c * factor),
+            });
+        }
+        let mut materials = Vec::with_capacity(desc.materials.len());
+        for (i, m) in desc.materials.iter().enumerate() {
+            let vals = [m.kd, m.ks, m.shine, m.t, m.ior];
+            if !m.color.is_finite() || vals.iter().any(|v| !v.is_finite()) {
+                return Err(SceneError::NotFinite(format!("material {i}")));
+            }
+            materials.push(Mat {
+                color: V3::from_f64(m.color),
+                kd: R::from_f64(m.kd),
+                ks: R::from_f64(m.ks),
+                shine: R::from_f64(m.shine),
+                t: R::from_f64(m.t),
+                ior: R::from_f64(if m.ior > 0.0 { m.ior } else { 1.0 }),
+            });
+        }
+        finite3(desc.background, "background")?;
+        let mut scene = Scene {
+            prims: Vec::with_capacity(desc.primitives.len()),
+            info: Vec::with_capacity(desc.primitives.len()),
+            normals: Vec::new(),
+            materials,
+            lights,
+            ambient: R::from_f64(factor),
+            background: V3::from_f64(desc.background),
+        };
+        for (index, p) in desc.primitives.iter().enumerate() {
+            if p.material as usize >= scene.materials.len() {
+                return Err(SceneError::BadMaterial {
+                    index,
+                    material: p.material,
+                    count: scene.materials.len(),
+                });
+            }
+            scene.add_shape(index, &p.shape, p.material)?;
+        }
+        if scene.prims.len() >= u32::MAX as usize {
+            return Err(SceneError::TooMany(scene.prims.len()));
+        }
+        Ok(scene)
+    }
+
+    fn push(&mut self, prim: Prim<R>, material: u32, normals: u32, inward: bool, source: usize) {
+        self.prims.push(prim);
+        self.info.push(PrimInfo {
+            material,
+            normals,
+            inward,
+            source: source as u32,
+        });
+    }
+
+    fn add_shape(&mut self, index: usize, shape: &Shape, material: u32) -> Result<(), SceneError> {
+        let degenerate = |kind: &'static str, reason: &str| SceneError::Degenerate {
+            index,
+            kind,
+            reason: reason.to_string(),
+        };
+        match shape {
+            Shape::Sphere { center, radius } => {
+                if !center.is_finite() || !radius.is_finite() {
+                    return Err(degenerate("sphere", "non-finite centre or radius"));
+                }
+                if *radius == 0.0 {
+                    return Err(degenerate("sphere", "radius is zero"));
+                }
+                let s = Sphere {
+                    center: V3::from_f64(*center),
+                    radius: R::from_f64(radius.abs()),
+                };
+                self.push(Prim::Sphere(s), material, u32::MAX, *radius < 0.0, index);
+            }
+            Shape::Cone {
+                base,
+                base_radius,
+                apex,
+                apex_radius,
+            } => {
+                let (r0, r1) = (*base_radius, *apex_radius);
+                if !base.is_finite() || !apex.is_finite() || !r0.is_finite() || !r1.is_finite() {
+                    return Err(degenerate("cone", "non-finite value"));
+                }
+                if (r0 < 0.0) != (r1 < 0.0) && r0 != 0.0 && r1 != 0.0 {
+                    return Err(degenerate("cone", "exactly one radius is negative"));
+                }
+                let inward = r0 < 0.0 || r1 < 0.0;
+                let c = Cone::new(
+                    V3::from_f64(*base),
+                    R::from_f64(r0.abs()),
+                    V3::from_f64(*apex),
+                    R::from_f64(r1.abs()),
+                )
+                .ok_or_else(|| degenerate("cone", "base equals apex or both radii are zero"))?;
+                self.push(Prim::Cone(c), material, u32::MAX, inward, index);
+            }
+            Shape::Polygon(vs) => {
+                self.add_polygon(index, vs, None, material)?;
+            }
+            Shape::Patch(pvs) => {
+                let vs: Vec<V3<f64>> = pvs.iter().map(|v| v.position).collect();
+                let ns: Vec<V3<f64>> = pvs.iter().map(|v| v.normal).collect();
+                self.add_polygon(index, &vs, Some(&ns), material)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn add_polygon(
+        &mut self,
+        index: usize,
+        vs: &[V3<f64>],
+        normals: Option<&[V3<f64>]>,
+        material: u32,
+    ) -> Result<(), SceneError> {
+        let kind = if normals.is_some() {
+            "patch"
+        } else {
+            "polygon"
+        };
+        let degenerate = |reason: &str| SceneError::Degenerate {
+            index,
+            kind,
+            reason: reason.to_string(),
+        };
+        if vs.len() < 3 {
+            return Err(degenerate("fewer than 3 vertices"));
+        }
+        if vs.iter().any(|v| !v.is_finite()) {
+            return Err(degenerate("non-finite vertex"));
+        }
+        let n = newell_normal(vs);
+        if !(n.length_squared() > 0.0) {
+            return Err(degenerate("zero area (all vertices collinear)"));
+        }
+        let n_unit = n.normalize();
+        for t in triangulate(vs) {
+            let p = t.map(|i| V3::from_f64(vs[i as usize]));
+            let ni = match normals {
+                Some(ns) => {
+                    let pick = |i: u32| {
+                        let v = ns[i as usize];
+                        let len = v.length();
+                        // A zero or unusable normal falls back to the polygon's; every vertex
+                        // normal is turned to the front side.
+                        let v = if len > 0.0 && len.is_finite() {
+                            v / len
+                        } else {
+                            n_unit
+                        };
+                        V3::from_f64(v.face_forward(n_unit))
+                    };
+                    self.normals.push(t.map(pick));
+                    (self.normals.len() - 1) as u32
+                }
+                None => u32::MAX,
+            };
+            self.push(Prim::Triangle(p), material, ni, false, index);
+        }
+        Ok(())
+    }
+
+    /// Number of primitives.
+    pub fn len(&self) -> usize {
+        self.prims.len()
+    }
+
+    /// True when the scene has no primitives.
+    pub fn is_empty(&self) -> bool {
+        self.prims.is_empty()
+    }
+
+    /// Conservative `f32` bounds of primitive `i`.
+    pub fn prim_bounds(&self, i: usize) -> Aabb {
+        match &self.prims[i] {
+            Prim::Sphere(s) => {
+                let c = s.center.to_f64();
+                let r = V3::splat(s.radius.to_f64());
+                Aabb::from_f64(c - r, c + r)
+            }
+            Prim::Cone(c) => {
+                let a = c.axis.to_f64();
+                let base = c.base.to_f64();
+                let apex = base + a * c.height.to_f64();
+                let r0 = c.r0.to_f64();
+                let r1 = r0 + c.slope.to_f64() * c.height.to_f64();
+                let ext = V3::new(
+                    (1.0 - a.x * a.x).max(0.0).sqrt(),
+                    (1.0 - a.y * a.y).max(0.0).sqrt(),
+                    (1.0 - a.z * a.z).max(0.0).sqrt(),
+                );
+                // Widen slightly: the stored axis and slope are rounded.
+                let pad = V3::splat(
+                    1e-6 * (base.abs().max_component() + apex.abs().max_component() + r0 + r1),
+                );
+                let lo = (base - ext * r0).min(apex - ext * r1) - pad;
+                let hi = (base + ext * r0).max(apex + ext * r1) + pad;
+                Aabb::from_f64(lo, hi)
+            }
+            Prim::Triangle(p) => {
+                let lo = p[0].min(p[1]).min(p[2]).to_f64();
+                let hi = p[0].max(p[1]).max(p[2]).to_f64();
+                Aabb::from_f64(lo, hi)
+            }
+        }
+    }
+
+    /// Bounds of every primitive, by index.
+    pub fn all_bounds(&self) -> Vec<Aabb> {
+        (0..self.prims.len()).map(|i| self.prim_bounds(i)).collect()
+    }
+
+    /// Closest-hit test of primitive `i` against `pr` within `t_max` (inclusive).
+    #[inline(always)]
+    pub fn intersect_prim(&self, i: u32, pr: &PreparedRay<R>, t_max: R) -> Option<PrimHit<R>> {
+        match &self.prims[i as usize] {
+            Prim::Triangle(p) => intersect_triangle(pr, p[0], p[1], p[2], t_max).map(|h| PrimHit {
+                t: h.t,
+                prim: i,
+                u: h.b1,
+                v: h.b2,
+            }),
+            Prim::Sphere(s) => s.intersect(&pr.ray, t_max).map(|t| PrimHit {
+                t,
+                prim: i,
+                u: R::ZERO,
+                v: R::ZERO,
+            }),
+            Prim::Cone(c) => c.intersect(&pr.ray, t_max).map(|t| PrimHit {
+                t,
+                prim: i,
+                u: R::ZERO,
+                v: R::ZERO,
+            }),
+        }
+    }
+
+    /// The full surface description of a hit.
+    pub fn surface(&self, ray: &Ray<R>, hit: &PrimHit<R>) -> Surface<R> {
+        let info = self.info[hit.prim as usize];
+        let (p, p_err, mut ng, mut ns) = match &self.prims[hit.prim as usize] {
+            Prim::Triangle(v) => {
+                let (p, err) = triangle_point(*v, hit.u, hit.v);
+                let ng = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+                let ns = if info.normals != u32::MAX {
+                    let n = self.normals[info.normals as usize];
+                    let b0 = R::ONE - hit.u - hit.v;
+                    let s = n[0] * b0 + n[1] * hit.u + n[2] * hit.v;
+                    let len = s.length();
+                    if len > R::ZERO {
+                        (s / len).face_forward(ng)
+                    } else {
+                        ng
+                    }
+                } else {
+                    ng
+                };
+                (p, err, ng, ns)
+            }
+            Prim::Sphere(s) => {
+                let (p, err, n) = s.surface(ray, hit.t);
+                (p, err, n, n)
+            }
+            Prim::Cone(c) => {
+                let (p, err, n) = c.surface(ray, hit.t);
+                (p, err, n, n)
+            }
+        };
+        if info.inward {
+            ng = -ng;
+            ns = -ns;
+        }
+        Surface {
+            p,
+            p_err,
+            ng,
+            ns,
+            material: info.material,
+        }
+    }
+}

@@ -1,0 +1,210 @@
+//! Whitted shading (DESIGN §4): ambient, diffuse and Phong highlight from every light a shadow
+//! ray finds unblocked, mirror reflection weighted by Ks, Snell refraction weighted by T with total
+//! internal reflection, recursion ended by the depth limit and the adaptive cut-off. Spawns no ray
+//! the material does not need, and allocates nothing.
+
+use crate::accel::Accel;
+use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
+use crate::real::Real;
+use crate::scene::Scene;
+use crate::stats::RayStats;
+use crate::vec3::V3;
+
+/// What a traced ray is, for the statistics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKind {
+    /// From the camera.
+    Eye,
+    /// Mirror reflection (also total internal reflection).
+    Reflection,
+    /// Refraction.
+    Refraction,
+}
+
+/// Shading switches derived from the render settings.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadeOptions<R> {
+    /// Maximum depth (eye ray = 1).
+    pub max_depth: u32,
+    /// Adaptive cut-off on the path weight; 0 disables.
+    pub cutoff: R,
+    /// SPD testing procedure.
+    pub spd: bool,
+    /// Every primitive two-sided in the SPD procedure.
+    pub two_sided: bool,
+}
+
+/// A scene, its accelerator and the shading options: everything a ray needs.
+#[derive(Debug)]
+pub struct Integrator<R> {
+    /// The scene.
+    pub scene: Scene<R>,
+    /// Its accelerator.
+    pub accel: Accel,
+    /// Shading options.
+    pub opts: ShadeOptions<R>,
+}
+
+impl<R: Real> Integrator<R> {
+    /// Closest hit along `ray`.
+    #[inline]
+    pub fn intersect(
+        &self,
+        ray: &Ray<R>,
+        stats: &mut RayStats,
+    ) -> Option<crate::geometry::PrimHit<R>> {
+        let pr = PreparedRay::new(*ray);
+        self.accel
+            .intersect(&pr, stats, |i, t| self.scene.intersect_prim(i, &pr, t))
+    }
+
+    /// True when anything blocks `ray` within its range.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray<R>, stats: &mut RayStats) -> bool {
+        let pr = PreparedRay::new(*ray);
+        self.accel
+            .occluded(&pr, stats, |i, t| self.scene.intersect_prim(i, &pr, t))
+    }
+
+    /// Radiance along `ray`. `weight` is the product of reflect/transmit weights so far.
+    pub fn trace(
+        &self,
+        ray: &Ray<R>,
+        depth: u32,
+        weight: R,
+        kind: RayKind,
+        stats: &mut RayStats,
+    ) -> V3<R> {
+        match kind {
+            RayKind::Eye => stats.eye_rays += 1,
+            RayKind::Reflection => stats.reflection_rays += 1,
+            RayKind::Refraction => stats.refraction_rays += 1,
+        }
+        let Some(hit) = self.intersect(ray, stats) else {
+            return self.scene.background;
+        };
+        match kind {
+            RayKind::Eye => stats.eye_hits += 1,
+            RayKind::Reflection => stats.reflection_hits += 1,
+            RayKind::Refraction => stats.refraction_hits += 1,
+        }
+        let s = self.scene.surface(ray, &hit);
+        let m = self.scene.materials[s.material as usize];
+        let d = ray.d;
+        let view = -d;
+        let arrives_front = d.dot(s.ng) < R::ZERO;
+        // Normals facing the viewer, except SPD's one-sided opaque primitives, which keep their
+        // front normal for the light test.
+        let one_sided = self.opts.spd && !self.opts.two_sided && m.t == R::ZERO;
+        let ns = if arrives_front || one_sided {
+            s.ns
+        } else {
+            -s.ns
+        };
+
+        let mut color = m.color * (self.scene.ambient * m.kd);
+        for light in &self.scene.lights {
+            let to_light = light.position - s.p;
+            let n_dot_l_raw = ns.dot(to_light);
+            if n_dot_l_raw <= R::ZERO {
+                continue; // faces away: no shadow ray
+            }
+            let dist = to_light.length();
+            if !(dist > R::ZERO) {
+                continue;
+            }
+            let l = to_light / dist;
+            let origin = offset_ray_origin(s.p, s.p_err, s.ng, l);
+            let to_light_o = light.position - origin;
+            let dist_o = to_light_o.length();
+            let shadow = Ray {
+                o: origin,
+                d: to_light_o / dist_o,
+                t_min: R::ZERO,
+                t_max: dist_o,
+            };
+            stats.shadow_rays += 1;
+            if self.occluded(&shadow, stats) {
+                stats.shadow_hits += 1;
+                continue;
+            }
+            let n_dot_l = n_dot_l_raw / dist;
+            let mut c = m.color * (m.kd * n_dot_l);
+            if m.ks > R::ZERO {
+                let r = ns * (R::TWO * n_dot_l) - l;
+                let rv = r.dot(view);
+                if rv > R::ZERO {
+                    c += V3::splat(m.ks * rv.powf(m.shine));
+                }
+            }
+            color += c.mul_elem(light.intensity);
+        }
+
+        if depth >= self.opts.max_depth {
+            return color;
+        }
+        let cutoff = self.opts.cutoff;
+        let wants = |w: R| -> bool {
+            if self.opts.spd {
+                true
+            } else {
+                w > R::ZERO && weight * w >= cutoff
+            }
+        };
+        // Refraction geometry from the geometric normal: entering when arriving at the front.
+        let (n_in, eta) = if arrives_front {
+            (s.ng, R::ONE / m.ior)
+        } else {
+            (-s.ng, m.ior)
+        };
+        let cos_i = -d.dot(n_in);
+        let sin2_t = eta * eta * (R::ONE - cos_i * cos_i).max(R::ZERO);
+        let transmits = m.t > R::ZERO;
+        let tir = transmits && sin2_t >= R::ONE;
+        let refl_w = m.ks + if tir { m.t } else { R::ZERO };
+        let spawn_reflection = if self.opts.spd {
+            m.ks > R::ZERO || transmits
+        } else {
+            wants(refl_w)
+        };
+        if spawn_reflection {
+            let nf = if arrives_front { s.ns } else { -s.ns };
+            let mut r = d - nf * (R::TWO * d.dot(nf));
+            let ng_f = if arrives_front { s.ng } else { -s.ng };
+            if r.dot(ng_f) <= R::ZERO {
+                // An interpolated normal bent the mirror ray into the surface: use the true one.
+                r = d - ng_f * (R::TWO * d.dot(ng_f));
+            }
+            let r = r.normalize();
+            let o = offset_ray_origin(s.p, s.p_err, s.ng, r);
+            let refl = Ray {
+                o,
+                d: r,
+                t_min: R::ZERO,
+                t_max: R::INFINITY,
+            };
+            let c = self.trace(
+                &refl,
+                depth + 1,
+                weight * refl_w,
+                RayKind::Reflection,
+                stats,
+            );
+            color += c * refl_w;
+        }
+        if transmits && !tir && wants(m.t) {
+            let cos_t = (R::ONE - sin2_t).sqrt();
+            let t_dir = (d * eta + n_in * (eta * cos_i - cos_t)).normalize();
+            let o = offset_ray_origin(s.p, s.p_err, s.ng, t_dir);
+            let refr = Ray {
+                o,
+                d: t_dir,
+                t_min: R::ZERO,
+                t_max: R::INFINITY,
+            };
+            let c = self.trace(&refr, depth + 1, weight * m.t, RayKind::Refraction, stats);
+            color += c * m.t;
+        }
+        color
+    }
+}

@@ -1,0 +1,107 @@
+//! `parrt bench render`: times full renders (parse or generate, build, trace) of one or more
+//! scenes, K times each, and prints the medians with Mrays/s as a Markdown table.
+
+use crate::commands::render::RenderFlags;
+use crate::commands::scene_input::{parse_scene_name, LimitArgs, SceneSpec};
+use crate::exit::input_error;
+use clap::Args;
+use parrt::render::Renderer;
+use parrt::smp::{render_smp, Executor, SmpOptions};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `parrt bench render`.
+#[derive(Debug, Args)]
+pub struct BenchRenderArgs {
+    /// Scenes: NFF files or generated scenes as NAME[:SIZE] (default: mount:6 and balls:4).
+    #[arg(value_name = "SCENE")]
+    pub scenes: Vec<String>,
+    /// Render threads.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub threads: usize,
+    /// Tile edge in pixels.
+    #[arg(long, value_name = "S", default_value_t = 32)]
+    pub tile: u32,
+    /// Runs per scene; the median is reported.
+    #[arg(long, value_name = "K", default_value_t = 3)]
+    pub repeat: usize,
+    /// Render settings (use --width/--height 512 for the paper's size).
+    #[command(flatten)]
+    pub render: RenderFlags,
+    /// Parser limits.
+    #[command(flatten)]
+    pub limits: LimitArgs,
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Resolves a bench scene argument: an existing file, else a generator name.
+pub fn scene_arg(s: &str) -> anyhow::Result<SceneSpec> {
+    let p = PathBuf::from(s);
+    if p.extension().is_some_and(|e| e == "nff") || p.exists() {
+        Ok(SceneSpec::File(p))
+    } else {
+        parse_scene_name(s)
+    }
+}
+
+/// Runs `parrt bench render`.
+pub fn run(args: BenchRenderArgs) -> anyhow::Result<ExitCode> {
+    if args.repeat == 0 || args.threads == 0 || args.tile == 0 {
+        return Err(input_error(anyhow::anyhow!(
+            "--repeat, --threads and --tile must be at least 1"
+        )));
+    }
+    let names = if args.scenes.is_empty() {
+        vec!["mount:6".to_string(), "balls:4".to_string()]
+    } else {
+        args.scenes.clone()
+    };
+    println!("| scene | size | prims | parse s | build s | trace s | total s | rays | Mrays/s |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for name in &names {
+        let spec = scene_arg(name)?;
+        let (mut parse, mut build, mut trace) = (Vec::new(), Vec::new(), Vec::new());
+        let mut rays = 0;
+        let mut prims = 0;
+        let mut size = (0, 0);
+        for _ in 0..args.repeat {
+            let (desc, parse_s) = spec.load(&args.limits.limits())?;
+            let settings = args.render.settings(desc.view.width, desc.view.height)?;
+            size = (settings.width, settings.height);
+            let r = Renderer::new(&desc, &settings).map_err(input_error)?;
+            prims = r.build_info().primitives;
+            let res = render_smp(
+                &r,
+                &SmpOptions {
+                    threads: args.threads,
+                    tile: args.tile,
+                    executor: Executor::Queue,
+                },
+                &|_, _| {},
+            );
+            parse.push(parse_s);
+            build.push(r.build_info().build_s);
+            trace.push(res.trace_s);
+            rays = res.stats.total_rays();
+        }
+        let (p, b, t) = (median(&mut parse), median(&mut build), median(&mut trace));
+        println!(
+            "| {} | {}x{} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {:.2} |",
+            spec.label(),
+            size.0,
+            size.1,
+            prims,
+            p,
+            b,
+            t,
+            p + b + t,
+            rays,
+            rays as f64 / t / 1e6
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
