@@ -31,7 +31,10 @@ pub struct SceneArgs {
 fn listing() -> String {
     let mut out = String::from("generator  default size  description\n");
     for g in parrt_scenes::generators() {
-        out.push_str(&format!("{:<10} {:>12}  {}\n", g.name, g.default_size, g.about));
+        out.push_str(&format!(
+            "{:<10} {:>12}  {}\n",
+            g.name, g.default_size, g.about
+        ));
     }
     out
 }
