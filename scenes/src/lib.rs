@@ -25,7 +25,7 @@ pub mod rings;
 pub mod shells;
 pub mod sombrero;
 pub mod teapot;
-mod teapot_data;
+pub mod teapot_data;
 pub mod tetra;
 pub mod tree;
 
