@@ -14,6 +14,7 @@
 pub mod accel;
 pub mod camera;
 pub mod description;
+pub mod efficiency;
 pub mod film;
 pub mod geometry;
 pub mod nff;
@@ -22,6 +23,7 @@ pub mod render;
 pub mod scene;
 pub mod settings;
 pub mod shade;
+pub mod simulate;
 pub mod smp;
 pub mod stats;
 pub mod tile;

@@ -2,7 +2,9 @@
 //! per study.
 
 pub mod accuracy;
+pub mod efficiency;
 pub mod render;
+pub mod simulate;
 
 use clap::{Args, Subcommand};
 use std::process::ExitCode;
@@ -20,6 +22,10 @@ pub struct BenchArgs {
 pub enum BenchCommand {
     /// Time full renders (parse + build + trace) of scenes: median of K runs, Mrays/s.
     Render(render::BenchRenderArgs),
+    /// The paper's efficiency tables: threads × tile sizes, per accelerator, mode and executor.
+    Efficiency(efficiency::EfficiencyArgs),
+    /// Predict master/worker efficiency for 1 to 1024 workers from measured tile costs.
+    Simulate(simulate::SimulateArgs),
     /// Speed against error: a reference render against a grid of configurations.
     Accuracy(accuracy::AccuracyArgs),
 }
@@ -29,5 +35,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.which {
         BenchCommand::Render(a) => render::run(a),
         BenchCommand::Accuracy(a) => accuracy::run(a),
+        BenchCommand::Efficiency(a) => efficiency::run(a),
+        BenchCommand::Simulate(a) => simulate::run(a),
     }
 }
