@@ -7,7 +7,8 @@ use parrt::description::{Light, Material, PatchVertex, Primitive, SceneDescripti
 use parrt::vec3::Vec3d;
 
 /// The most primitives a generator may produce: 2^24 (16.7 million). A generated triangle costs
-/// about 170 bytes in a [`SceneDescription`], so the largest allowed scene needs about 3 GB; the
+/// about 170 bytes in a [`SceneDescription`] (a gear quad about 240 with its share of the 144-gon
+/// faces), so the largest allowed scene needs about 3–4 GB; the
 /// limit is a quarter of the NFF parser's default primitive limit, so every scene we generate can
 /// also be written out and read back with default limits. Sizes that would exceed it (mount 12,
 /// balls 8, tetra 13, ...) are refused with [`GenError::BadSize`] before anything is allocated.
@@ -86,11 +87,6 @@ pub fn check_size(name: &str, size: u32, count: Option<u64>) -> Result<u64, GenE
             "it would have more primitives than fit in 64 bits (limit {MAX_PRIMITIVES})"
         ))),
     }
-}
-
-/// `base^exp` with overflow reported as `None`.
-pub fn checked_pow(base: u64, exp: u32) -> Option<u64> {
-    base.checked_pow(exp)
 }
 
 /// Accumulates a scene in SPD's output order.
