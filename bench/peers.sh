@@ -77,7 +77,7 @@ for s in "$@"; do
     e=$("$NFFCAST" -threads 1 -mintime "$MINTIME" $cones "$nff" | grep '^RESULT')
     est=$(echo "$e" | tr ' ' '\n' | awk -F= '$1=="st_cpu_mrays" {print $2}')
     epk=$(echo "$e" | tr ' ' '\n' | awk -F= '$1=="pk16_st_cpu_mrays" {print $2}')
-    q=$("$PARRT" bench cast "$nff" --size 512 --mintime "$MINTIME" | tail -1 | awk -F'|' '{gsub(/ /,"",$11); print $11}')
+    q=$("$PARRT" bench cast "$nff" --size 512 --mintime "$MINTIME" | tail -1 | awk -F'|' '{gsub(/ /,"",$10); print $10}')
     r=$(awk -v a="$q" -v b="$est" 'BEGIN {printf "%.3f", a / b}')
     ok=$(awk -v r="$r" 'BEGIN {print (r >= 0.5) ? "met" : "not met"}')
     echo "| $s | $est | $q | $r | $ok | $epk |"
