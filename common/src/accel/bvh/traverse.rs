@@ -57,9 +57,7 @@ impl Bvh {
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
-        let Some(root) = self.nodes.first() else {
-            return None;
-        };
+        let root = self.nodes.first()?;
         let mut box_tests = 1u64;
         let mut prim_tests = 0u64;
         let mut best: Option<PrimHit<R>> = None;

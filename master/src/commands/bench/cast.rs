@@ -8,7 +8,7 @@ use crate::commands::scene_input::LimitArgs;
 use crate::exit::input_error;
 use clap::Args;
 use parrt::render::Renderer;
-use parrt::settings::{AccelKind, RenderSettings};
+use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -69,11 +69,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
             None => (desc.view.width, desc.view.height),
         };
         let mut settings = RenderSettings::new(w, h);
-        settings.accel = match args.accel {
-            AccelArg::Bvh => AccelKind::Bvh,
-            AccelArg::Grid => AccelKind::Grid,
-            AccelArg::Brute => AccelKind::Brute,
-        };
+        settings.accel = args.accel.kind();
         let r = Renderer::new(&desc, &settings).map_err(input_error)?;
         let tiles = parrt::tile::tiles(w, h, 32);
         let mut frames = 0u64;
