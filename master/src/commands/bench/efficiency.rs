@@ -123,16 +123,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
             "threads, tiles, sizes and --repeat must be at least 1"
         )));
     }
-    let accels = args
-        .accel
-        .iter()
-        .map(|a| parse_accel(a))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let executors = args
-        .executors
-        .iter()
-        .map(|e| parse_executor(e))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let accels: Vec<AccelKind> = args.accel.iter().map(|a| a.kind()).collect();
+    let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
     if args.mode.contains(&Mode::Distributed) {
         return Err(input_error(anyhow::anyhow!(
             "--mode distributed is not available in this build yet"
