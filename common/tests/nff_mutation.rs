@@ -85,13 +85,13 @@ fn mutation() -> impl Strategy<Value = Mutation> {
     let byte = prop_oneof![prop::sample::select(BYTES), any::<u8>()];
     let tok = 0..TOKENS.len();
     prop_oneof![
-        (pos.clone()).prop_map(Mutation::DeleteByte),
-        (pos.clone(), byte.clone()).prop_map(|(p, b)| Mutation::InsertByte(p, b)),
-        (pos.clone(), byte).prop_map(|(p, b)| Mutation::ReplaceByte(p, b)),
-        pos.clone().prop_map(Mutation::DeleteToken),
-        (pos.clone(), tok.clone()).prop_map(|(p, t)| Mutation::ReplaceToken(p, t)),
-        (pos.clone(), tok).prop_map(|(p, t)| Mutation::InsertToken(p, t)),
-        pos.clone().prop_map(Mutation::DuplicateToken),
+        pos.prop_map(Mutation::DeleteByte),
+        (pos, byte.clone()).prop_map(|(p, b)| Mutation::InsertByte(p, b)),
+        (pos, byte).prop_map(|(p, b)| Mutation::ReplaceByte(p, b)),
+        pos.prop_map(Mutation::DeleteToken),
+        (pos, tok.clone()).prop_map(|(p, t)| Mutation::ReplaceToken(p, t)),
+        (pos, tok).prop_map(|(p, t)| Mutation::InsertToken(p, t)),
+        pos.prop_map(Mutation::DuplicateToken),
         pos.prop_map(Mutation::Truncate),
     ]
 }
