@@ -193,7 +193,11 @@ impl<'a> Parser<'a> {
     /// Reads one real number and its token.
     #[inline]
     fn real_tok(&mut self, field: Field) -> Result<(f64, Token), NffError> {
-        let tok = self.lx.next();
+        let tok = match self.lx.next_number() {
+            Some((t, Some(v))) => return Ok((v, t)),
+            Some((t, None)) => Some(t),
+            None => None,
+        };
         if let Some(t) = tok {
             match number::parse_real(self.lx.text(&t)) {
                 Ok(v) => return Ok((v, t)),
@@ -252,7 +256,11 @@ impl<'a> Parser<'a> {
         let mut view: Option<(View, Token)> = None;
         let mut lights = Vec::new();
         let mut materials: Vec<Material> = Vec::new();
-        let mut primitives: Vec<Primitive> = Vec::new();
+        // SPD files spend 50-200 bytes per primitive: reserving for one per 64 bytes avoids
+        // regrowth copies and costs only untouched address space when too much.
+        let guess = (self.lx.src().len() / 64) as u64;
+        let mut primitives: Vec<Primitive> =
+            Vec::with_capacity(guess.min(self.limits.max_primitives).min(1 << 24) as usize);
         let mut material_lines = 0usize;
         let mut default_material_inserted = false;
         // The last entity read, for "extra field" messages.
@@ -579,7 +587,12 @@ impl<'a> Parser<'a> {
         entity: &'static str,
         bytes_per_vertex: u64,
     ) -> Result<usize, NffError> {
-        let (n, t) = self.count(&format!("the {entity}'s vertex count"))?;
+        let what = if entity == "patch" {
+            "the patch's vertex count"
+        } else {
+            "the polygon's vertex count"
+        };
+        let (n, t) = self.count(what)?;
         if n < 3 {
             return Err(self.syntax(
                 &t,
