@@ -11,7 +11,11 @@
 //! Choices where the format leaves one (see `DESIGN.md` §3): `b`, `l` and `v` may come after
 //! objects (a late `v` is logged); a second `b` replaces the first (logged); a primitive before
 //! any `f` gets [`Material::default_white`] as material 0 (logged); a first token `nff` is refused
-//! as Sense8 NFF.
+//! as Sense8 NFF. Refused as degenerate (rules in [`super::checks`]): from = at, a zero `up` or
+//! one parallel to the view, an angle outside (0, 180), a negative hither, a zero resolution, a
+//! polygon or patch with fewer than 3 vertices or a zero Newell normal, a cone without an axis,
+//! with exactly one negative radius (`-0` is not negative) or with both radii zero, a sphere of
+//! radius zero.
 
 use super::checks::{self, CameraProblem, ConeProblem, PolygonProblem};
 use super::error::{NffError, NffErrorKind};
@@ -121,7 +125,7 @@ struct Parser<'a> {
 fn show(bytes: &[u8]) -> String {
     const MAX: usize = 40;
     let s = String::from_utf8_lossy(&bytes[..bytes.len().min(MAX)]);
-    let mut out: String = s.chars().flat_map(char::escape_default).collect();
+    let mut out: String = s.chars().flat_map(char::escape_debug).collect();
     if bytes.len() > MAX {
         out.push('…');
     }
