@@ -165,7 +165,19 @@ proptest! {
             apply(&mut src, m);
         }
         let limits = Limits::default();
-        match nff::parse_bytes(&src, "mutated.nff", &limits) {
+        let by_bytes = nff::parse_bytes(&src, "mutated.nff", &limits);
+        // The &str entry point gives the same answer on valid UTF-8, and never panics on
+        // lossily decoded text.
+        match std::str::from_utf8(&src) {
+            Ok(text) => prop_assert_eq!(
+                nff::parse(text, "mutated.nff", &limits),
+                by_bytes.clone().map(|p| p.description)
+            ),
+            Err(_) => {
+                let _ = nff::parse(&String::from_utf8_lossy(&src), "mutated.nff", &limits);
+            }
+        }
+        match by_bytes {
             Ok(parsed) => {
                 let text = nff::to_nff(&parsed.description);
                 let back = nff::parse(&text, "rewritten.nff", &limits);
@@ -179,8 +191,5 @@ proptest! {
                 prop_assert!(!e.message.is_empty());
             }
         }
-        // The &str entry point agrees on lossily decoded text too.
-        let text = String::from_utf8_lossy(&src);
-        let _ = nff::parse(&text, "mutated.nff", &limits);
     }
 }
