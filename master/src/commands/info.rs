@@ -26,8 +26,8 @@ unreadable: the message names the path); 1 any other failure (e.g. stdout closed
 With --json, the keys spheres, cones (radii differ), cylinders (equal radii), polygons (p), \
 patches (pp), lights, materials (f lines), width, height (integers) and bounds \
 ({\"min\":[x,y,z],\"max\":[x,y,z]}, null for a scene without primitives) are stable; \
-polygons_by_vertices, patches_by_vertices, primitives, camera, background, file, bytes and \
-parse_s are extra.")]
+polygons_by_vertices, patches_by_vertices, primitives, default_material_inserted, camera, \
+background, file, bytes and parse_s are extra.")]
 pub struct InfoArgs {
     /// The NFF file to read (Eric Haines' Neutral File Format, as the SPD generators write it).
     #[arg(value_name = "SCENE.nff")]
