@@ -266,8 +266,8 @@ mod tests {
         let agg = aggregate_costs(&read, &coarse, 16);
         assert_eq!(agg.len(), coarse.len());
         assert!((agg.iter().sum::<f64>() - secs.iter().sum::<f64>()).abs() < 1e-9);
-        // Coarse tile 0 holds fine tiles (0,0),(8,0),(0,8),(8,8): ids 0, 1, 8, 9.
-        assert!((agg[0] - 0.5 * (0 + 1 + 8 + 9) as f64).abs() < 1e-9);
+        // Coarse tile 0 holds fine tiles (0,0),(8,0),(0,8),(8,8): ids 0, 1, 8, 9, summing to 18.
+        assert!((agg[0] - 0.5 * 18.0).abs() < 1e-9);
         assert!(read_tile_costs("tile,x,y,w,h,seconds\n1,2,3\n").is_err());
         assert!(read_tile_costs("1,0,0,8,8,-1\n").is_err());
     }

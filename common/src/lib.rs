@@ -11,9 +11,12 @@
 //! - [`settings`], [`stats`]: what decides pixels, and what was counted.
 //! - [`protocol`]: the master/worker wire protocol (messages, codec, auth, connection).
 #![deny(missing_docs)]
+// `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
 pub mod camera;
+pub mod cast;
 pub mod description;
 pub mod efficiency;
 pub mod film;

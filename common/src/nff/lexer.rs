@@ -5,6 +5,8 @@
 //! to the end of the line (also in the middle of a token, which it ends). Lines and columns are
 //! 1-based; a column counts bytes from the start of the line (a tab counts as one).
 
+use super::number;
+
 /// A token: a byte range of the source and where it starts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Token {
@@ -133,9 +135,39 @@ impl<'a> Lexer<'a> {
         }
     }
 
-    /// Skips separators and comments, then reads one token.
+    /// The next token, consumed, and its value when it is a plain number that the exact fast
+    /// path of [`number::fast_prefix`] reads (one pass over the bytes: the hot path of the
+    /// reader). `None` as the value means "look at the token's text" — it may still be a number.
     #[inline]
-    fn scan(&mut self) -> Option<Token> {
+    pub fn next_number(&mut self) -> Option<(Token, Option<f64>)> {
+        if self.peeked.is_some() {
+            return self.peeked.take().map(|t| (t, None));
+        }
+        let start = self.skip_separators()?;
+        let src = self.src;
+        if let Some((v, end)) = number::fast_prefix(src, start) {
+            if src.get(end).is_none_or(|&b| CLASS[b as usize] != TOKEN) {
+                self.pos = end;
+                return Some((self.token(start, end), Some(v)));
+            }
+        }
+        self.scan().map(|t| (t, None))
+    }
+
+    /// A token from `start` to `end` on the current line.
+    #[inline]
+    fn token(&self, start: usize, end: usize) -> Token {
+        Token {
+            start,
+            end,
+            line: self.line,
+            column: col(start - self.line_start),
+        }
+    }
+
+    /// Skips separators and comments; returns the offset of the next token's first byte.
+    #[inline]
+    fn skip_separators(&mut self) -> Option<usize> {
         let src = self.src;
         let mut i = self.pos;
         loop {
@@ -159,17 +191,21 @@ impl<'a> Lexer<'a> {
                 _ => i += 1,
             }
         }
-        let start = i;
+        self.pos = i;
+        Some(i)
+    }
+
+    /// Skips separators and comments, then reads one token.
+    #[inline]
+    fn scan(&mut self) -> Option<Token> {
+        let start = self.skip_separators()?;
+        let src = self.src;
+        let mut i = start;
         while i < src.len() && CLASS[src[i] as usize] == TOKEN {
             i += 1;
         }
         self.pos = i;
-        Some(Token {
-            start,
-            end: i,
-            line: self.line,
-            column: col(start - self.line_start),
-        })
+        Some(self.token(start, i))
     }
 }
 
@@ -223,6 +259,34 @@ mod tests {
         assert_eq!(lx.text(&y), b"y");
         assert_eq!(lx.next(), None);
         assert_eq!(lx.peek(), None);
+    }
+
+    #[test]
+    fn next_number_reads_plain_numbers_in_one_pass_and_defers_the_rest() {
+        let mut lx = Lexer::new(b" 1.5\n-2e3#c\n1e999 x 5x 1.2.3 +.5");
+        let mut got = Vec::new();
+        while let Some((t, v)) = lx.next_number() {
+            got.push((
+                String::from_utf8_lossy(lx.text(&t)).into_owned(),
+                v,
+                t.line,
+                t.column,
+            ));
+        }
+        let want = [
+            ("1.5", Some(1.5), 1, 2),
+            ("-2e3", Some(-2000.0), 2, 1),
+            ("1e999", None, 3, 1),
+            ("x", None, 3, 7),
+            ("5x", None, 3, 9),
+            ("1.2.3", None, 3, 12),
+            ("+.5", Some(0.5), 3, 18),
+        ];
+        let want: Vec<_> = want
+            .iter()
+            .map(|w| (w.0.to_string(), w.1, w.2, w.3))
+            .collect();
+        assert_eq!(got, want);
     }
 
     #[test]

@@ -39,74 +39,65 @@ const MAX_EXACT: u64 = 1 << 53;
 /// Parses a real number token, correctly rounded; refuses NaN, infinities and overflow.
 #[inline]
 pub fn parse_real(tok: &[u8]) -> Result<f64, RealError> {
-    match fast_path(tok) {
-        Some(v) => Ok(v),
-        None => slow_path(tok),
+    match fast_prefix(tok, 0) {
+        Some((v, end)) if end == tok.len() => Ok(v),
+        _ => slow_path(tok),
     }
 }
 
-/// The exact fast path; `None` when the token is unusual (long, large exponent, or invalid).
-#[inline]
-fn fast_path(tok: &[u8]) -> Option<f64> {
+/// The exact fast path over the number that starts at `src[start]`: its value and the offset
+/// just past it. `None` when the number is unusual (more than 19 digits, counting leading zeros;
+/// a decimal exponent beyond ±22; a mantissa of 2^53 or more) or there is no number there. The
+/// caller checks that the number ends where the token ends; if not, the token is not this number.
+#[inline(always)]
+pub fn fast_prefix(src: &[u8], start: usize) -> Option<(f64, usize)> {
+    let s = src.get(start..)?;
     let mut i = 0;
-    let neg = match tok.first()? {
-        b'-' => {
+    let neg = match s.first() {
+        Some(b'-') => {
             i = 1;
             true
         }
-        b'+' => {
+        Some(b'+') => {
             i = 1;
             false
         }
         _ => false,
     };
+    // Up to 19 decimal digits fit in a u64; more make the token go to the general path, so the
+    // wrapping arithmetic below never produces a value that is used.
     let mut mantissa: u64 = 0;
-    let mut digits = 0u32; // significant digits accumulated (leading zeros excluded)
-    let mut any_digit = false;
-    let mut exp10: i64 = 0;
-    // Integer part.
-    while let Some(&b) = tok.get(i) {
+    let int_start = i;
+    while let Some(&b) = s.get(i) {
         let d = b.wrapping_sub(b'0');
         if d > 9 {
             break;
         }
-        any_digit = true;
-        if mantissa != 0 || d != 0 {
-            digits += 1;
-            if digits > 19 {
-                return None;
-            }
-            mantissa = mantissa * 10 + u64::from(d);
-        }
+        mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
         i += 1;
     }
-    // Fraction.
-    if tok.get(i) == Some(&b'.') {
+    let mut ndigits = i - int_start;
+    let mut exp10: i64 = 0;
+    if s.get(i) == Some(&b'.') {
         i += 1;
-        while let Some(&b) = tok.get(i) {
+        let frac_start = i;
+        while let Some(&b) = s.get(i) {
             let d = b.wrapping_sub(b'0');
             if d > 9 {
                 break;
             }
-            any_digit = true;
-            if mantissa != 0 || d != 0 {
-                digits += 1;
-                if digits > 19 {
-                    return None;
-                }
-                mantissa = mantissa * 10 + u64::from(d);
-            }
-            exp10 -= 1;
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
             i += 1;
         }
+        ndigits += i - frac_start;
+        exp10 = -((i - frac_start) as i64);
     }
-    if !any_digit {
+    if ndigits == 0 || ndigits > 19 {
         return None;
     }
-    // Exponent.
-    if let Some(b'e' | b'E') = tok.get(i) {
+    if let Some(b'e' | b'E') = s.get(i) {
         i += 1;
-        let eneg = match tok.get(i) {
+        let eneg = match s.get(i) {
             Some(b'-') => {
                 i += 1;
                 true
@@ -117,26 +108,22 @@ fn fast_path(tok: &[u8]) -> Option<f64> {
             }
             _ => false,
         };
+        let exp_start = i;
         let mut e: i64 = 0;
-        let mut edigits = 0;
-        while let Some(&b) = tok.get(i) {
+        while let Some(&b) = s.get(i) {
             let d = b.wrapping_sub(b'0');
             if d > 9 {
                 break;
             }
-            edigits += 1;
-            if edigits > 6 {
-                return None;
-            }
-            e = e * 10 + i64::from(d);
+            e = e.wrapping_mul(10).wrapping_add(i64::from(d));
             i += 1;
         }
-        if edigits == 0 {
+        if i == exp_start || i - exp_start > 6 {
             return None;
         }
         exp10 += if eneg { -e } else { e };
     }
-    if i != tok.len() || mantissa >= MAX_EXACT {
+    if mantissa >= MAX_EXACT {
         return None;
     }
     let m = mantissa as f64; // exact: mantissa < 2^53
@@ -149,10 +136,8 @@ fn fast_path(tok: &[u8]) -> Option<f64> {
     } else {
         return None;
     };
-    if !v.is_finite() {
-        return None;
-    }
-    Some(if neg { -v } else { v })
+    // Both factors are exact and below 2^53 · 10^22, so the product is finite.
+    Some((if neg { -v } else { v }, start + i))
 }
 
 /// The general path: validates the C-style grammar, then `str::parse::<f64>`.

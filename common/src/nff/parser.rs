@@ -11,7 +11,11 @@
 //! Choices where the format leaves one (see `DESIGN.md` §3): `b`, `l` and `v` may come after
 //! objects (a late `v` is logged); a second `b` replaces the first (logged); a primitive before
 //! any `f` gets [`Material::default_white`] as material 0 (logged); a first token `nff` is refused
-//! as Sense8 NFF.
+//! as Sense8 NFF. Refused as degenerate (rules in [`super::checks`]): from = at, a zero `up` or
+//! one parallel to the view, an angle outside (0, 180), a negative hither, a zero resolution, a
+//! polygon or patch with fewer than 3 vertices or a zero Newell normal, a cone without an axis,
+//! with exactly one negative radius (`-0` is not negative) or with both radii zero, a sphere of
+//! radius zero.
 
 use super::checks::{self, CameraProblem, ConeProblem, PolygonProblem};
 use super::error::{NffError, NffErrorKind};
@@ -121,7 +125,7 @@ struct Parser<'a> {
 fn show(bytes: &[u8]) -> String {
     const MAX: usize = 40;
     let s = String::from_utf8_lossy(&bytes[..bytes.len().min(MAX)]);
-    let mut out: String = s.chars().flat_map(char::escape_default).collect();
+    let mut out: String = s.chars().flat_map(char::escape_debug).collect();
     if bytes.len() > MAX {
         out.push('…');
     }
@@ -193,7 +197,11 @@ impl<'a> Parser<'a> {
     /// Reads one real number and its token.
     #[inline]
     fn real_tok(&mut self, field: Field) -> Result<(f64, Token), NffError> {
-        let tok = self.lx.next();
+        let tok = match self.lx.next_number() {
+            Some((t, Some(v))) => return Ok((v, t)),
+            Some((t, None)) => Some(t),
+            None => None,
+        };
         if let Some(t) = tok {
             match number::parse_real(self.lx.text(&t)) {
                 Ok(v) => return Ok((v, t)),
@@ -252,7 +260,11 @@ impl<'a> Parser<'a> {
         let mut view: Option<(View, Token)> = None;
         let mut lights = Vec::new();
         let mut materials: Vec<Material> = Vec::new();
-        let mut primitives: Vec<Primitive> = Vec::new();
+        // SPD files spend 50-200 bytes per primitive: reserving for one per 64 bytes avoids
+        // regrowth copies and costs only untouched address space when too much.
+        let guess = (self.lx.src().len() / 64) as u64;
+        let mut primitives: Vec<Primitive> =
+            Vec::with_capacity(guess.min(self.limits.max_primitives).min(1 << 24) as usize);
         let mut material_lines = 0usize;
         let mut default_material_inserted = false;
         // The last entity read, for "extra field" messages.
@@ -579,7 +591,12 @@ impl<'a> Parser<'a> {
         entity: &'static str,
         bytes_per_vertex: u64,
     ) -> Result<usize, NffError> {
-        let (n, t) = self.count(&format!("the {entity}'s vertex count"))?;
+        let what = if entity == "patch" {
+            "the patch's vertex count"
+        } else {
+            "the polygon's vertex count"
+        };
+        let (n, t) = self.count(what)?;
         if n < 3 {
             return Err(self.syntax(
                 &t,

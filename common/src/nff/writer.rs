@@ -2,7 +2,7 @@
 //! description: numbers in their shortest round-trip form, one entity per line, SPD's layout
 //! (`b`, `v` block, lights, then `f` and primitive runs; a cone on one line).
 
-use crate::description::{SceneDescription, Shape};
+use crate::description::{Material, SceneDescription, Shape};
 use std::fmt::Write;
 
 /// Writes one number in the shortest form that parses back to the same `f64`.
@@ -27,7 +27,8 @@ fn nums(out: &mut String, vs: &[f64]) {
 /// Materials are written in index order: an `f` line is emitted when a primitive needs a material
 /// later in the list than the current one (unused materials in between are written too, so the
 /// count of `f` lines is kept). A description whose primitives use materials in non-decreasing
-/// order — which is what the parser and the generators produce — reads back identically.
+/// order — which is what the parser and the generators produce — reads back identically. A
+/// material index past the end of the list is written as [`Material::default_white`].
 pub fn to_nff(desc: &SceneDescription) -> String {
     let mut out = String::with_capacity(64 + desc.primitives.len() * 64);
     let b = desc.background;
@@ -54,8 +55,11 @@ pub fn to_nff(desc: &SceneDescription) -> String {
         }
         out.push('\n');
     }
+    let default_white = Material::default_white();
     let write_material = |out: &mut String, i: usize| {
-        let m = &desc.materials[i];
+        // A primitive naming a material past the list is malformed; write the reader's default
+        // for it rather than panic, so the writer is total.
+        let m = desc.materials.get(i).unwrap_or(&default_white);
         out.push('f');
         nums(
             out,
@@ -131,4 +135,40 @@ pub fn to_nff(desc: &SceneDescription) -> String {
         next_material += 1;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::description::{Primitive, View};
+    use crate::vec3::Vec3d;
+
+    #[test]
+    fn a_missing_material_is_written_as_the_default_instead_of_panicking() {
+        let desc = SceneDescription {
+            background: Vec3d::zero(),
+            view: View {
+                from: Vec3d::new(0.0, 0.0, 1.0),
+                at: Vec3d::zero(),
+                up: Vec3d::new(0.0, 1.0, 0.0),
+                angle: 45.0,
+                hither: 0.0,
+                width: 2,
+                height: 2,
+            },
+            lights: vec![],
+            materials: vec![],
+            primitives: vec![Primitive {
+                shape: Shape::Sphere {
+                    center: Vec3d::zero(),
+                    radius: 1.0,
+                },
+                material: 0,
+            }],
+        };
+        let text = to_nff(&desc);
+        let back = crate::nff::parse(&text, "w", &Default::default()).unwrap();
+        assert_eq!(back.materials, vec![Material::default_white()]);
+        assert_eq!(back.primitives, desc.primitives);
+    }
 }

@@ -28,6 +28,17 @@ pub enum AccelArg {
     Brute,
 }
 
+impl AccelArg {
+    /// The library's accelerator kind.
+    pub fn kind(self) -> AccelKind {
+        match self {
+            AccelArg::Bvh => AccelKind::Bvh,
+            AccelArg::Grid => AccelKind::Grid,
+            AccelArg::Brute => AccelKind::Brute,
+        }
+    }
+}
+
 /// Tile executor choices.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum ExecutorArg {
@@ -113,11 +124,7 @@ impl RenderFlags {
         s.spp = self.spp;
         s.spd_standard = self.spd_standard;
         s.two_sided = self.two_sided;
-        s.accel = match self.accel {
-            AccelArg::Bvh => AccelKind::Bvh,
-            AccelArg::Grid => AccelKind::Grid,
-            AccelArg::Brute => AccelKind::Brute,
-        };
+        s.accel = self.accel.kind();
         s.grid_density = self.grid_density;
         s.precision = match self.precision {
             PrecisionArg::F32 => Precision::F32,

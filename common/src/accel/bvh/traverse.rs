@@ -1,5 +1,7 @@
-//! BVH traversal: a fixed stack, the nearer child first (by the ray's direction sign on the split
-//! axis), the search interval shrinking at every hit; `occluded` returns at the first hit.
+//! BVH traversal. Both children's boxes are tested at their parent: the nearer hit child is
+//! visited first, the farther is pushed with its entry distance and skipped when popped if a
+//! hit closer than that was found meanwhile. The stack is fixed-size and never zeroed per ray;
+//! `occluded` returns at the first hit.
 
 use super::build::STACK_SIZE;
 use super::Bvh;
@@ -7,6 +9,41 @@ use crate::geometry::aabb::slab;
 use crate::geometry::{PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
+use std::mem::MaybeUninit;
+
+/// A fixed traversal stack of (node, entry distance) that is not initialised up front.
+struct Stack<R> {
+    items: [MaybeUninit<(u32, R)>; STACK_SIZE],
+    len: usize,
+}
+
+impl<R: Real> Stack<R> {
+    #[inline(always)]
+    fn new() -> Self {
+        Stack {
+            items: [const { MaybeUninit::uninit() }; STACK_SIZE],
+            len: 0,
+        }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, node: u32, t: R) {
+        // The builder bounds the depth (median splits past its SAH depth limit), and a push
+        // happens at most once per level, so this cannot overflow; indexing still checks.
+        self.items[self.len].write((node, t));
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, R)> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: every slot below `len` was written by `push` before `len` grew past it.
+        Some(unsafe { self.items[self.len].assume_init() })
+    }
+}
 
 impl Bvh {
     /// Closest hit; `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
@@ -20,51 +57,58 @@ impl Bvh {
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
-        if self.nodes.is_empty() {
-            return None;
-        }
+        let root = self.nodes.first()?;
+        let mut box_tests = 1u64;
+        let mut prim_tests = 0u64;
         let mut best: Option<PrimHit<R>> = None;
         let mut best_t = pr.ray.t_max;
         let mut best_prim = u32::MAX;
-        let mut stack = [0u32; STACK_SIZE];
-        let mut sp = 0usize;
-        let mut node = 0u32;
-        let mut box_tests = 0u64;
-        let mut prim_tests = 0u64;
-        loop {
+        let mut stack = Stack::<R>::new();
+        let mut next = slab(&root.min, &root.max, pr, best_t).map(|_| 0u32);
+        while let Some(node) = next {
             let n = &self.nodes[node as usize];
-            box_tests += 1;
-            if slab(&n.min, &n.max, pr, best_t).is_some() {
-                if n.is_leaf() {
-                    let first = n.offset as usize;
-                    for &p in &self.order[first..first + n.count as usize] {
-                        prim_tests += 1;
-                        if let Some(h) = test(p, best_t) {
-                            if h.beats(best_t, best_prim) {
-                                best_t = h.t;
-                                best_prim = h.prim;
-                                best = Some(h);
-                            }
+            next = None;
+            if n.is_leaf() {
+                let first = n.offset as usize;
+                for &p in &self.order[first..first + n.count as usize] {
+                    prim_tests += 1;
+                    if let Some(h) = test(p, best_t) {
+                        if h.beats(best_t, best_prim) {
+                            best_t = h.t;
+                            best_prim = h.prim;
+                            best = Some(h);
                         }
                     }
-                } else {
-                    // Visit the child on the ray's near side first.
-                    let (near, far) = if pr.neg[n.axis as usize] {
-                        (n.offset, node + 1)
-                    } else {
-                        (node + 1, n.offset)
-                    };
-                    stack[sp] = far;
-                    sp += 1;
-                    node = near;
-                    continue;
+                }
+            } else {
+                let (a, b) = (node + 1, n.offset);
+                let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
+                box_tests += 2;
+                let ta = slab(&na.min, &na.max, pr, best_t);
+                let tb = slab(&nb.min, &nb.max, pr, best_t);
+                next = match (ta, tb) {
+                    (Some(ta), Some(tb)) => {
+                        if tb < ta {
+                            stack.push(a, ta);
+                            Some(b)
+                        } else {
+                            stack.push(b, tb);
+                            Some(a)
+                        }
+                    }
+                    (Some(_), None) => Some(a),
+                    (None, Some(_)) => Some(b),
+                    (None, None) => None,
+                };
+            }
+            while next.is_none() {
+                match stack.pop() {
+                    // Skip a subtree that starts beyond the nearest hit so far (ties still go in).
+                    Some((node, t)) if t <= best_t => next = Some(node),
+                    Some(_) => {}
+                    None => break,
                 }
             }
-            if sp == 0 {
-                break;
-            }
-            sp -= 1;
-            node = stack[sp];
         }
         stats.box_tests += box_tests;
         stats.primitive_tests += prim_tests;
@@ -82,46 +126,46 @@ impl Bvh {
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
-        if self.nodes.is_empty() {
+        let Some(root) = self.nodes.first() else {
             return false;
-        }
+        };
         let t_max = pr.ray.t_max;
-        let mut stack = [0u32; STACK_SIZE];
-        let mut sp = 0usize;
-        let mut node = 0u32;
-        let mut box_tests = 0u64;
+        let mut box_tests = 1u64;
         let mut prim_tests = 0u64;
         let mut hit = false;
-        'outer: loop {
+        let mut stack = Stack::<R>::new();
+        let mut next = slab(&root.min, &root.max, pr, t_max).map(|_| 0u32);
+        'outer: while let Some(node) = next {
             let n = &self.nodes[node as usize];
-            box_tests += 1;
-            if slab(&n.min, &n.max, pr, t_max).is_some() {
-                if n.is_leaf() {
-                    let first = n.offset as usize;
-                    for &p in &self.order[first..first + n.count as usize] {
-                        prim_tests += 1;
-                        if test(p, t_max).is_some() {
-                            hit = true;
-                            break 'outer;
-                        }
+            next = None;
+            if n.is_leaf() {
+                let first = n.offset as usize;
+                for &p in &self.order[first..first + n.count as usize] {
+                    prim_tests += 1;
+                    if test(p, t_max).is_some() {
+                        hit = true;
+                        break 'outer;
                     }
-                } else {
-                    let (near, far) = if pr.neg[n.axis as usize] {
-                        (n.offset, node + 1)
-                    } else {
-                        (node + 1, n.offset)
-                    };
-                    stack[sp] = far;
-                    sp += 1;
-                    node = near;
-                    continue;
                 }
+            } else {
+                let (a, b) = (node + 1, n.offset);
+                let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
+                box_tests += 2;
+                let ta = slab(&na.min, &na.max, pr, t_max);
+                let tb = slab(&nb.min, &nb.max, pr, t_max);
+                next = match (ta, tb) {
+                    (Some(_), Some(tb)) => {
+                        stack.push(b, tb);
+                        Some(a)
+                    }
+                    (Some(_), None) => Some(a),
+                    (None, Some(_)) => Some(b),
+                    (None, None) => None,
+                };
             }
-            if sp == 0 {
-                break;
+            if next.is_none() {
+                next = stack.pop().map(|(n, _)| n);
             }
-            sp -= 1;
-            node = stack[sp];
         }
         stats.box_tests += box_tests;
         stats.primitive_tests += prim_tests;

@@ -5,6 +5,7 @@
 //! and a check of the schedule simulator against the measured runs.
 
 use crate::commands::bench::render::scene_arg;
+use crate::commands::render::{AccelArg, ExecutorArg};
 use crate::commands::scene_input::LimitArgs;
 use crate::exit::input_error;
 use crate::plot::{save_chart, Chart, Series};
@@ -50,9 +51,10 @@ pub struct EfficiencyArgs {
         long,
         value_delimiter = ',',
         value_name = "A,...",
+        value_enum,
         default_value = "bvh,grid"
     )]
-    pub accel: Vec<String>,
+    pub accel: Vec<AccelArg>,
     /// Modes.
     #[arg(
         long,
@@ -66,9 +68,10 @@ pub struct EfficiencyArgs {
         long,
         value_delimiter = ',',
         value_name = "E,...",
+        value_enum,
         default_value = "queue,rayon,guided"
     )]
-    pub executors: Vec<String>,
+    pub executors: Vec<ExecutorArg>,
     /// Image sizes (square): the paper's 512, and a larger one where runs are short.
     #[arg(
         long,
@@ -86,28 +89,6 @@ pub struct EfficiencyArgs {
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
-}
-
-fn parse_accel(s: &str) -> anyhow::Result<AccelKind> {
-    match s {
-        "bvh" => Ok(AccelKind::Bvh),
-        "grid" => Ok(AccelKind::Grid),
-        "brute" => Ok(AccelKind::Brute),
-        _ => Err(input_error(anyhow::anyhow!(
-            "unknown accelerator '{s}' (bvh, grid, brute)"
-        ))),
-    }
-}
-
-fn parse_executor(s: &str) -> anyhow::Result<Executor> {
-    Executor::ALL
-        .into_iter()
-        .find(|e| e.name() == s)
-        .ok_or_else(|| {
-            input_error(anyhow::anyhow!(
-                "unknown executor '{s}' (queue, rayon, morton, guided)"
-            ))
-        })
 }
 
 /// A short description of this machine for the report.
@@ -142,16 +123,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
             "threads, tiles, sizes and --repeat must be at least 1"
         )));
     }
-    let accels = args
-        .accel
-        .iter()
-        .map(|a| parse_accel(a))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let executors = args
-        .executors
-        .iter()
-        .map(|e| parse_executor(e))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let accels: Vec<AccelKind> = args.accel.iter().map(|a| a.kind()).collect();
+    let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
     if args.mode.contains(&Mode::Distributed) {
         return Err(input_error(anyhow::anyhow!(
             "--mode distributed is not available in this build yet"

@@ -2,6 +2,7 @@
 //! per study.
 
 pub mod accuracy;
+pub mod cast;
 pub mod efficiency;
 pub mod render;
 pub mod simulate;
@@ -26,6 +27,8 @@ pub enum BenchCommand {
     Efficiency(efficiency::EfficiencyArgs),
     /// Predict master/worker efficiency for 1 to 1024 workers from measured tile costs.
     Simulate(simulate::SimulateArgs),
+    /// Ray-casting throughput (eye + shadow rays, no shading), as Embree's nffcast measures it.
+    Cast(cast::CastArgs),
     /// Speed against error: a reference render against a grid of configurations.
     Accuracy(accuracy::AccuracyArgs),
 }
@@ -35,6 +38,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.which {
         BenchCommand::Render(a) => render::run(a),
         BenchCommand::Accuracy(a) => accuracy::run(a),
+        BenchCommand::Cast(a) => cast::run(a),
         BenchCommand::Efficiency(a) => efficiency::run(a),
         BenchCommand::Simulate(a) => simulate::run(a),
     }
