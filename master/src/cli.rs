@@ -42,6 +42,10 @@ pub fn main() -> ExitCode {
             return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
         }
     };
+    // Library warnings (e.g. the NFF reader's) go to stderr; master and worker log more.
+    if !matches!(cli.command, Command::Master(_) | Command::Worker(_)) {
+        parrt_worker::cli::init_logging("warn");
+    }
     let result = match cli.command {
         Command::Render(a) => commands::render::run(a),
         Command::Info(a) => commands::info::run(a),

@@ -294,6 +294,148 @@ pub fn progress_bar(tiles: u64) -> ProgressBar {
     pb
 }
 
+/// What one way of rendering produced, for the common reporting.
+struct Outcome {
+    film: parrt::film::Film,
+    stats: RayStats,
+    tile_seconds: Vec<f64>,
+    trace_s: f64,
+    build_s: f64,
+    /// Lines for `--stats` after the scene line.
+    describe: Vec<String>,
+    /// Extra keys for `--stats-json`.
+    extra: serde_json::Value,
+}
+
+/// Renders on this machine's cores.
+fn render_here(
+    args: &RenderArgs,
+    spec: &SceneSpec,
+    desc: &parrt::description::SceneDescription,
+    settings: &RenderSettings,
+) -> anyhow::Result<Outcome> {
+    let renderer = Renderer::new(desc, settings)
+        .map_err(input_error)
+        .with_context(|| format!("cannot prepare {}", spec.label()))?;
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let opts = SmpOptions {
+        threads,
+        tile: args.tile,
+        executor: args.executor.executor(),
+    };
+    let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len() as u64;
+    let pb = progress_bar(tiles);
+    let rays = AtomicU64::new(0);
+    let started = std::time::Instant::now();
+    let result = render_smp(&renderer, &opts, &|_, st| {
+        let total = rays.fetch_add(st.total_rays(), Ordering::Relaxed) + st.total_rays();
+        let secs = started.elapsed().as_secs_f64().max(1e-9);
+        pb.set_message(format!("{:.2} Mrays/s", total as f64 / secs / 1e6));
+        pb.inc(1);
+    });
+    pb.finish_and_clear();
+    let info = renderer.build_info();
+    let a = &info.accel;
+    Ok(Outcome {
+        film: result.film,
+        stats: result.stats,
+        tile_seconds: result.tile_seconds,
+        trace_s: result.trace_s,
+        build_s: info.build_s,
+        describe: vec![
+            format!("primitives        {} after triangulation", info.primitives),
+            format!(
+                "image             {}x{}, {} threads, tile {}, {} executor, {:?}",
+                settings.width,
+                settings.height,
+                threads,
+                args.tile,
+                opts.executor.name(),
+                settings.accel
+            ),
+            format!(
+                "accelerator       {}: {} nodes, {} leaves, SAH cost {:.1}, depth {}, {} KiB",
+                a.kind,
+                a.nodes,
+                a.leaves,
+                a.sah_cost,
+                a.max_depth,
+                a.bytes / 1024
+            ),
+        ],
+        extra: json!({
+            "threads": threads,
+            "executor": opts.executor.name(),
+            "accel": a,
+            "primitives": info.primitives,
+        }),
+    })
+}
+
+/// Renders through `n` local worker processes started from this executable.
+fn render_through_workers(
+    args: &RenderArgs,
+    desc: &parrt::description::SceneDescription,
+    settings: &RenderSettings,
+    n: usize,
+) -> anyhow::Result<Outcome> {
+    use crate::distributed::{render_distributed, DistOptions};
+    if n == 0 {
+        return Err(input_error(anyhow::anyhow!("--workers must be at least 1")));
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let threads = args.threads.unwrap_or((cores / n).max(1));
+    let opts = DistOptions {
+        workers_to_spawn: n,
+        threads_per_worker: threads,
+        tile: args.tile,
+        min_workers: n,
+        ..DistOptions::default()
+    };
+    let r =
+        render_distributed(desc, settings, &opts, &|_| {}).context("distributed render failed")?;
+    let build_s = r.per_worker.iter().map(|w| w.build_s).fold(0.0, f64::max);
+    let mut describe = vec![format!(
+        "image             {}x{}, {n} local workers × {threads} threads, tile {}, {:?}",
+        settings.width, settings.height, args.tile, settings.accel
+    )];
+    for w in &r.per_worker {
+        describe.push(format!(
+            "  worker {:<10} {} threads, {} tiles, render {:.3}s, build {:.3}s{}",
+            w.name,
+            w.threads,
+            w.tiles,
+            w.render_s,
+            w.build_s,
+            w.left
+                .as_deref()
+                .map(|l| format!(", left: {l}"))
+                .unwrap_or_default()
+        ));
+    }
+    describe.push(format!(
+        "network           {} bytes sent, {} received, scene transfer {:.4}s",
+        r.bytes_sent, r.bytes_received, r.scene_transfer_s
+    ));
+    Ok(Outcome {
+        film: r.film,
+        stats: r.stats,
+        tile_seconds: r.tile_seconds,
+        trace_s: r.trace_s,
+        build_s,
+        describe,
+        extra: json!({
+            "workers": n,
+            "threads_per_worker": threads,
+            "bytes_sent": r.bytes_sent,
+            "bytes_received": r.bytes_received,
+            "scene_transfer_s": r.scene_transfer_s,
+        }),
+    })
+}
+
 /// Runs `parrt render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
@@ -315,81 +457,41 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
             args.limits.max_pixels
         )));
     }
-    if args.workers.is_some() {
-        return Err(input_error(anyhow::anyhow!(
-            "--workers is not available in this build yet"
-        )));
-    }
-    let renderer = Renderer::new(&desc, &settings)
-        .map_err(input_error)
-        .with_context(|| format!("cannot prepare {}", spec.label()))?;
-    let build_s = renderer.build_info().build_s;
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let opts = SmpOptions {
-        threads,
-        tile: args.tile,
-        executor: args.executor.executor(),
+    let out = match args.workers {
+        Some(n) => render_through_workers(&args, &desc, &settings, n)?,
+        None => render_here(&args, &spec, &desc, &settings)?,
     };
-    let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len() as u64;
-    let pb = progress_bar(tiles);
-    let rays = AtomicU64::new(0);
-    let started = std::time::Instant::now();
-    let result = render_smp(&renderer, &opts, &|_, st| {
-        let total = rays.fetch_add(st.total_rays(), Ordering::Relaxed) + st.total_rays();
-        let secs = started.elapsed().as_secs_f64().max(1e-9);
-        pb.set_message(format!("{:.2} Mrays/s", total as f64 / secs / 1e6));
-        pb.inc(1);
-    });
-    pb.finish_and_clear();
-    result
-        .film
+    out.film
         .save(&args.output)
         .with_context(|| format!("rendering {}", spec.label()))?;
     let report = RenderReport {
-        stats: result.stats,
+        stats: out.stats,
         parse_s,
-        build_s,
-        trace_s: result.trace_s,
+        build_s: out.build_s,
+        trace_s: out.trace_s,
     };
     if args.stats {
-        let a = &renderer.build_info().accel;
-        println!(
-            "scene             {}  ({} primitives after triangulation)",
-            spec.label(),
-            renderer.build_info().primitives
-        );
-        println!(
-            "image             {}x{}, {} threads, tile {}, {:?} executor, {:?}",
-            settings.width, settings.height, threads, args.tile, opts.executor, settings.accel
-        );
-        println!(
-            "accelerator       {}: {} nodes, {} leaves, SAH cost {:.1}, depth {}, {} KiB",
-            a.kind,
-            a.nodes,
-            a.leaves,
-            a.sah_cost,
-            a.max_depth,
-            a.bytes / 1024
-        );
+        println!("scene             {}", spec.label());
+        for line in &out.describe {
+            println!("{line}");
+        }
         report.print();
     }
     if let Some(path) = &args.tile_costs {
         let list = parrt::tile::tiles(settings.width, settings.height, args.tile);
-        parrt::efficiency::write_tile_costs(path, &list, &result.tile_seconds)
+        parrt::efficiency::write_tile_costs(path, &list, &out.tile_seconds)
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     if let Some(path) = &args.stats_json {
-        let extra = json!({
+        let mut extra = json!({
             "scene": spec.label(),
             "width": settings.width,
             "height": settings.height,
-            "threads": threads,
             "tile": args.tile,
-            "accel": renderer.build_info().accel,
-            "primitives": renderer.build_info().primitives,
         });
+        if let (Some(e), serde_json::Value::Object(more)) = (extra.as_object_mut(), out.extra) {
+            e.extend(more);
+        }
         let text = serde_json::to_string_pretty(&report.to_json(extra))?;
         std::fs::write(path, text + "\n")
             .with_context(|| format!("cannot write {}", path.display()))?;
@@ -399,7 +501,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         args.output.display(),
         settings.width,
         settings.height,
-        parse_s + build_s + result.trace_s
+        parse_s + out.build_s + out.trace_s
     );
     Ok(ExitCode::SUCCESS)
 }
