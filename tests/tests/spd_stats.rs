@@ -161,7 +161,12 @@ fn one_sided_rule_and_reflection_for_every_reflective_hit() {
         [eye, eye, eye, 0, eye, 0, 0, 0],
         "front"
     );
-    let back = render(&scene(-5.0), &spd_settings(16, false, AccelKind::Bvh), 1, 16);
+    let back = render(
+        &scene(-5.0),
+        &spd_settings(16, false, AccelKind::Bvh),
+        1,
+        16,
+    );
     assert_eq!(rays(&back.stats), [eye, eye, 0, 0, eye, 0, 0, 0], "back");
     let back2 = render(&scene(-5.0), &spd_settings(16, true, AccelKind::Bvh), 1, 16);
     assert_eq!(
@@ -190,8 +195,10 @@ fn one_sided_rule_and_reflection_for_every_reflective_hit() {
 /// 4 reflection rays (3 hitting) and 4 refraction rays (1 hitting).
 #[test]
 fn reflection_and_refraction_tree_of_a_glass_sphere() {
-    let desc = nff("v from 0 0 6 at 0 0 0 up 0 1 0 angle 30 hither 0.001 resolution 32 32\n\
-         b 0 0 0\nf 1 1 1 0 0 0 1 1.5\ns 0 0 0 1\n");
+    let desc = nff(
+        "v from 0 0 6 at 0 0 0 up 0 1 0 angle 30 hither 0.001 resolution 32 32\n\
+         b 0 0 0\nf 1 1 1 0 0 0 1 1.5\ns 0 0 0 1\n",
+    );
     let r = render(&desc, &spd_settings(32, false, AccelKind::Bvh), 2, 8);
     let s = r.stats;
     let h = s.eye_hits;

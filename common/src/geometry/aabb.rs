@@ -179,7 +179,10 @@ mod tests {
             max: [1.0, 1.0, 0.0],
         };
         for d in [[-0.0, -0.0, -1.0], [0.0, -0.0, -1.0], [-0.0, 0.0, -1.0]] {
-            assert!(b.hit(&pr([0.3, 0.2, 5.0], d), f32::INFINITY).is_some(), "{d:?}");
+            assert!(
+                b.hit(&pr([0.3, 0.2, 5.0], d), f32::INFINITY).is_some(),
+                "{d:?}"
+            );
         }
         assert!(b
             .hit(&pr([0.3, 0.2, -5.0], [-0.0, -0.0, 1.0]), f32::INFINITY)
