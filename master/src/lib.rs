@@ -4,9 +4,11 @@
 //! - [`cli`]: argument definitions and dispatch; `main.rs` only calls [`cli::main`].
 //! - [`commands`]: one module per subcommand (`render`, `info`, `scene`, `master`, `worker`,
 //!   `bench`).
+//! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
 //! - [`exit`]: how errors map to exit codes (2 bad input or usage, 1 anything else).
 #![deny(missing_docs)]
 
+pub mod accuracy;
 pub mod cli;
 pub mod commands;
 pub mod exit;
