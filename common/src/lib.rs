@@ -10,10 +10,14 @@
 //! - [`tile`], [`smp`], [`film`]: tile tasks, shared-memory executors, the image.
 //! - [`settings`], [`stats`]: what decides pixels, and what was counted.
 #![deny(missing_docs)]
+// `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
 pub mod camera;
+pub mod cast;
 pub mod description;
+pub mod efficiency;
 pub mod film;
 pub mod geometry;
 pub mod nff;
@@ -22,6 +26,7 @@ pub mod render;
 pub mod scene;
 pub mod settings;
 pub mod shade;
+pub mod simulate;
 pub mod smp;
 pub mod stats;
 pub mod tile;

@@ -167,9 +167,9 @@ mod tests {
 
     #[test]
     fn gamma_is_small_and_grows() {
-        assert!(f32::gamma(3) > 0.0 && f32::gamma(3) < 1e-6);
-        assert!(f64::gamma(3) < 1e-15);
-        assert!(f32::gamma(7) > f32::gamma(3));
+        assert!(<f32 as Real>::gamma(3) > 0.0 && <f32 as Real>::gamma(3) < 1e-6);
+        assert!(<f64 as Real>::gamma(3) < 1e-15);
+        assert!(<f32 as Real>::gamma(7) > <f32 as Real>::gamma(3));
     }
 
     #[test]

@@ -261,6 +261,14 @@ impl Renderer {
         }
     }
 
+    /// Casts eye and shadow rays only (no shading) for one tile: see [`crate::cast`].
+    pub fn cast_tile(&self, tile: &Tile, cull: bool, stats: &mut RayStats) {
+        match &self.inner {
+            Inner::F32(c) => crate::cast::cast_tile(&c.integrator, &c.camera, tile, cull, stats),
+            Inner::F64(c) => crate::cast::cast_tile(&c.integrator, &c.camera, tile, cull, stats),
+        }
+    }
+
     /// The closest hit of an eye ray through continuous image position `(sx, sy)`: the
     /// primitive index and distance, for tests and tools.
     pub fn probe(&self, sx: f64, sy: f64) -> Option<(u32, f64)> {

@@ -1,6 +1,10 @@
 //! Shared-memory parallel rendering: executors that hand tiles to threads. `queue` is the paper's
-//! design (N threads take the next tile from a locked queue); `rayon` is work stealing. The image
-//! never depends on the executor, the thread count or the tile size.
+//! design (N threads take the next tile from a locked queue, row by row); `rayon` is work
+//! stealing; `morton` takes tiles in Z-order from an atomic counter (neighbouring tiles share
+//! cache lines of the scene); `guided` hands out runs of Z-ordered tiles whose length shrinks as
+//! the work runs out (OpenMP's guided schedule), so small tiles cost no locality and big chunks
+//! leave no thread idle at the end. The image never depends on the executor, the thread count or
+//! the tile size.
 
 use crate::film::{Film, Rgb};
 use crate::render::Renderer;
@@ -8,17 +12,43 @@ use crate::stats::RayStats;
 use crate::tile::{tiles, Tile};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
 /// How tiles are handed to threads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 pub enum Executor {
-    /// The paper's: N OS threads pop the next tile from a mutex-guarded queue.
+    /// The paper's: N OS threads pop the next tile (row-major) from a mutex-guarded queue.
     #[default]
     Queue,
     /// rayon's work-stealing pool over the tile list.
     Rayon,
+    /// N OS threads take tiles in Morton (Z) order from an atomic counter.
+    Morton,
+    /// N OS threads take runs of Morton-ordered tiles, each run `remaining / (2·N)` tiles long
+    /// (at least one): large first, shrinking towards the end.
+    Guided,
+}
+
+impl Executor {
+    /// Every executor, for studies.
+    pub const ALL: [Executor; 4] = [
+        Executor::Queue,
+        Executor::Rayon,
+        Executor::Morton,
+        Executor::Guided,
+    ];
+
+    /// Lower-case name as used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Executor::Queue => "queue",
+            Executor::Rayon => "rayon",
+            Executor::Morton => "morton",
+            Executor::Guided => "guided",
+        }
+    }
 }
 
 /// Options of an SMP render.
@@ -43,6 +73,34 @@ pub struct SmpResult {
     pub tile_seconds: Vec<f64>,
     /// Wall time of the tracing phase.
     pub trace_s: f64,
+}
+
+/// Interleaves the bits of `x` and `y` (x in the even bits).
+pub fn morton2(x: u32, y: u32) -> u64 {
+    fn spread(v: u32) -> u64 {
+        let mut v = v as u64;
+        v = (v | (v << 16)) & 0x0000_FFFF_0000_FFFF;
+        v = (v | (v << 8)) & 0x00FF_00FF_00FF_00FF;
+        v = (v | (v << 4)) & 0x0F0F_0F0F_0F0F_0F0F;
+        v = (v | (v << 2)) & 0x3333_3333_3333_3333;
+        v = (v | (v << 1)) & 0x5555_5555_5555_5555;
+        v
+    }
+    spread(x) | (spread(y) << 1)
+}
+
+/// The tile list in Morton order of the tiles' grid positions.
+pub fn morton_order(list: &[Tile], tile: u32) -> Vec<Tile> {
+    let mut v = list.to_vec();
+    let t = tile.max(1);
+    v.sort_by_key(|tl| (morton2(tl.x / t, tl.y / t), tl.id));
+    v
+}
+
+/// The run length the guided schedule hands out when `remaining` tiles are left.
+#[inline]
+pub fn guided_chunk(remaining: usize, threads: usize) -> usize {
+    (remaining / (2 * threads.max(1))).max(1)
 }
 
 /// Renders the whole image. `progress` is called after each tile with the tile and its stats.
@@ -74,21 +132,22 @@ pub fn render_smp(
         renderer.render_tile(tile, buf, &mut st);
         finish(tile, buf, st, t0.elapsed().as_secs_f64());
     };
+    // N OS threads, each running `work` until it returns.
+    let run_threads = |work: &(dyn Fn(&mut Vec<Rgb>) + Sync)| {
+        std::thread::scope(|scope| {
+            for _ in 0..threads {
+                scope.spawn(|| work(&mut Vec::new()));
+            }
+        });
+    };
     match opts.executor {
         Executor::Queue => {
             let queue = Mutex::new(list.iter().copied().collect::<VecDeque<Tile>>());
-            std::thread::scope(|scope| {
-                for _ in 0..threads {
-                    scope.spawn(|| {
-                        let mut buf = Vec::new();
-                        loop {
-                            let next = queue.lock().unwrap_or_else(|e| e.into_inner()).pop_front();
-                            match next {
-                                Some(tile) => render_one(&tile, &mut buf),
-                                None => break,
-                            }
-                        }
-                    });
+            run_threads(&|buf| loop {
+                let next = queue.lock().unwrap_or_else(|e| e.into_inner()).pop_front();
+                match next {
+                    Some(tile) => render_one(&tile, buf),
+                    None => break,
                 }
             });
         }
@@ -103,6 +162,36 @@ pub fn render_smp(
                     .for_each_init(Vec::new, |buf, tile| render_one(tile, buf));
             });
         }
+        Executor::Morton => {
+            let order = morton_order(&list, opts.tile);
+            let next = AtomicUsize::new(0);
+            run_threads(&|buf| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                match order.get(i) {
+                    Some(tile) => render_one(tile, buf),
+                    None => break,
+                }
+            });
+        }
+        Executor::Guided => {
+            let order = morton_order(&list, opts.tile);
+            let next = Mutex::new(0usize);
+            run_threads(&|buf| loop {
+                let (lo, hi) = {
+                    let mut n = next.lock().unwrap_or_else(|e| e.into_inner());
+                    let lo = *n;
+                    let len = guided_chunk(order.len().saturating_sub(lo), threads);
+                    *n = (lo + len).min(order.len());
+                    (lo, *n)
+                };
+                if lo >= hi {
+                    break;
+                }
+                for tile in &order[lo..hi] {
+                    render_one(tile, buf);
+                }
+            });
+        }
     }
     let trace_s = start.elapsed().as_secs_f64();
     let (stats, tile_seconds) = totals.into_inner().unwrap_or_else(|e| e.into_inner());
@@ -111,5 +200,43 @@ pub fn render_smp(
         stats,
         tile_seconds,
         trace_s,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_interleaves() {
+        assert_eq!(morton2(0, 0), 0);
+        assert_eq!(morton2(1, 0), 1);
+        assert_eq!(morton2(0, 1), 2);
+        assert_eq!(morton2(3, 3), 15);
+        assert_eq!(morton2(4, 0), 16);
+    }
+
+    #[test]
+    fn morton_order_is_a_permutation() {
+        let list = tiles(100, 70, 16);
+        let m = morton_order(&list, 16);
+        let mut ids: Vec<u32> = m.iter().map(|t| t.id).collect();
+        ids.sort_unstable();
+        assert_eq!(ids, (0..list.len() as u32).collect::<Vec<_>>());
+        assert_eq!(m[0].id, 0);
+    }
+
+    #[test]
+    fn guided_chunks_shrink_and_cover_everything() {
+        let (mut left, mut sizes) = (256usize, Vec::new());
+        while left > 0 {
+            let c = guided_chunk(left, 2).min(left);
+            sizes.push(c);
+            left -= c;
+        }
+        assert_eq!(sizes.iter().sum::<usize>(), 256);
+        assert_eq!(sizes[0], 64);
+        assert!(sizes.windows(2).all(|w| w[1] <= w[0]));
+        assert_eq!(*sizes.last().unwrap(), 1);
     }
 }

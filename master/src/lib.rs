@@ -12,3 +12,4 @@ pub mod accuracy;
 pub mod cli;
 pub mod commands;
 pub mod exit;
+pub mod plot;

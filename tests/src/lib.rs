@@ -1,1 +1,25 @@
 //! Helpers shared by parrt's integration tests.
+
+use std::path::PathBuf;
+
+/// The directory of the SPD scenes: `$PARRT_SPD_DIR`, else `shared/spd` found by walking up from
+/// this crate (the repository sits beside `shared/`). Panics with a clear message when missing:
+/// the tests need those files, and CI has them.
+pub fn spd_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("PARRT_SPD_DIR") {
+        return PathBuf::from(d);
+    }
+    let mut dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    loop {
+        let cand = dir.join("shared").join("spd");
+        if cand.join("README.md").is_file() {
+            return cand;
+        }
+        if !dir.pop() {
+            panic!(
+                "cannot find shared/spd above {}: set PARRT_SPD_DIR to the SPD scenes directory",
+                env!("CARGO_MANIFEST_DIR")
+            );
+        }
+    }
+}

@@ -35,6 +35,22 @@ pub enum ExecutorArg {
     Queue,
     /// rayon's work-stealing pool.
     Rayon,
+    /// Tiles in Morton (Z) order from an atomic counter.
+    Morton,
+    /// Runs of Morton-ordered tiles that shrink as work runs out (large first).
+    Guided,
+}
+
+impl ExecutorArg {
+    /// The library's executor.
+    pub fn executor(self) -> Executor {
+        match self {
+            ExecutorArg::Queue => Executor::Queue,
+            ExecutorArg::Rayon => Executor::Rayon,
+            ExecutorArg::Morton => Executor::Morton,
+            ExecutorArg::Guided => Executor::Guided,
+        }
+    }
 }
 
 /// Precision choices.
@@ -139,6 +155,10 @@ pub struct RenderArgs {
     /// Write ray statistics and timings as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     pub stats_json: Option<PathBuf>,
+    /// Write each tile's render time as CSV (tile,x,y,w,h,seconds) to FILE, for
+    /// `parrt bench simulate`.
+    #[arg(long, value_name = "FILE")]
+    pub tile_costs: Option<PathBuf>,
     /// Render through N local worker processes (master/worker over TCP on 127.0.0.1).
     #[arg(long, value_name = "N")]
     pub workers: Option<usize>,
@@ -303,10 +323,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let opts = SmpOptions {
         threads,
         tile: args.tile,
-        executor: match args.executor {
-            ExecutorArg::Queue => Executor::Queue,
-            ExecutorArg::Rayon => Executor::Rayon,
-        },
+        executor: args.executor.executor(),
     };
     let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len() as u64;
     let pb = progress_bar(tiles);
@@ -350,6 +367,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
             a.bytes / 1024
         );
         report.print();
+    }
+    if let Some(path) = &args.tile_costs {
+        let list = parrt::tile::tiles(settings.width, settings.height, args.tile);
+        parrt::efficiency::write_tile_costs(path, &list, &result.tile_seconds)
+            .with_context(|| format!("cannot write {}", path.display()))?;
     }
     if let Some(path) = &args.stats_json {
         let extra = json!({

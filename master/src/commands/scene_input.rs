@@ -82,9 +82,10 @@ impl SceneSpec {
     pub fn load(&self, limits: &Limits) -> anyhow::Result<(SceneDescription, f64)> {
         let t0 = Instant::now();
         let desc = match self {
+            // A file the user named that cannot be read is bad input too (exit 2).
             SceneSpec::File(p) => parrt::nff::parse_file(p, limits).map_err(|e| {
                 if e.kind == parrt::nff::NffErrorKind::Io {
-                    anyhow::Error::new(e)
+                    input_error(anyhow::anyhow!("{}: {}", e.file, e.message))
                 } else {
                     input_error(e)
                 }

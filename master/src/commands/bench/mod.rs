@@ -2,7 +2,10 @@
 //! per study.
 
 pub mod accuracy;
+pub mod cast;
+pub mod efficiency;
 pub mod render;
+pub mod simulate;
 
 use clap::{Args, Subcommand};
 use std::process::ExitCode;
@@ -20,6 +23,12 @@ pub struct BenchArgs {
 pub enum BenchCommand {
     /// Time full renders (parse + build + trace) of scenes: median of K runs, Mrays/s.
     Render(render::BenchRenderArgs),
+    /// The paper's efficiency tables: threads × tile sizes, per accelerator, mode and executor.
+    Efficiency(efficiency::EfficiencyArgs),
+    /// Predict master/worker efficiency for 1 to 1024 workers from measured tile costs.
+    Simulate(simulate::SimulateArgs),
+    /// Ray-casting throughput (eye + shadow rays, no shading), as Embree's nffcast measures it.
+    Cast(cast::CastArgs),
     /// Speed against error: a reference render against a grid of configurations.
     Accuracy(accuracy::AccuracyArgs),
 }
@@ -29,5 +38,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.which {
         BenchCommand::Render(a) => render::run(a),
         BenchCommand::Accuracy(a) => accuracy::run(a),
+        BenchCommand::Cast(a) => cast::run(a),
+        BenchCommand::Efficiency(a) => efficiency::run(a),
+        BenchCommand::Simulate(a) => simulate::run(a),
     }
 }

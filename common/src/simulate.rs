@@ -1,0 +1,311 @@
+//! A discrete-event model of the master/worker schedule (DESIGN §8, §9): measured per-tile costs,
+//! workers × threads, a window of tiles in flight per worker, one-way latency, link bandwidth,
+//! the master's per-result work and the scene transfer. It predicts the makespan and efficiency
+//! of configurations larger than this machine, and says where the time goes.
+
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, VecDeque};
+
+/// The model's parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimParams {
+    /// Worker processes (nodes).
+    pub workers: usize,
+    /// Render threads per worker.
+    pub threads: usize,
+    /// Tiles in flight per worker (assigned but not yet returned).
+    pub window: usize,
+    /// One-way network latency, seconds.
+    pub latency_s: f64,
+    /// Bandwidth of each worker's link, bytes per second (infinity: no limit).
+    pub bandwidth_bps: f64,
+    /// Master CPU time per result (decode, copy into the film, assign the next tile), seconds.
+    pub master_per_tile_s: f64,
+    /// Bytes of the job message (scene and settings) sent to each worker.
+    pub scene_bytes: f64,
+    /// Seconds each worker spends building its accelerator after receiving the scene.
+    pub build_s: f64,
+    /// Bytes of a result per pixel (12 for three f32) plus a fixed header per tile.
+    pub result_bytes_per_pixel: f64,
+    /// Fixed bytes per message (frame header, ids, statistics).
+    pub message_bytes: f64,
+}
+
+impl SimParams {
+    /// Ideal conditions: no latency, infinite bandwidth, free master, window = threads.
+    pub fn ideal(workers: usize, threads: usize) -> Self {
+        SimParams {
+            workers,
+            threads,
+            window: threads,
+            latency_s: 0.0,
+            bandwidth_bps: f64::INFINITY,
+            master_per_tile_s: 0.0,
+            scene_bytes: 0.0,
+            build_s: 0.0,
+            result_bytes_per_pixel: 12.0,
+            message_bytes: 0.0,
+        }
+    }
+}
+
+/// What the model predicts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimResult {
+    /// Time from the start of the job to the last result processed by the master.
+    pub makespan: f64,
+    /// Sum of tile costs (the one-thread trace time t₁).
+    pub work: f64,
+    /// Total render threads n = workers × threads.
+    pub n: usize,
+    /// Efficiency t₁ / (n · makespan).
+    pub efficiency: f64,
+    /// Fraction of the master's time spent busy (near 1: the master is the bottleneck).
+    pub master_utilisation: f64,
+    /// Time until every worker could start rendering (scene transfer + build + latency).
+    pub startup_s: f64,
+    /// Thread-seconds idle after the first thread ran out of work (tail imbalance).
+    pub tail_idle_s: f64,
+    /// Bytes sent over all links.
+    pub bytes: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    /// An assignment reaches a worker.
+    Assign { worker: usize, tile: usize },
+    /// A thread of a worker finishes a tile.
+    Done { worker: usize, tile: usize },
+    /// A result reaches the master.
+    Result { worker: usize },
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Event {
+    time: f64,
+    seq: u64,
+    kind: Kind,
+}
+
+impl PartialEq for Event {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o) == Ordering::Equal
+    }
+}
+impl Eq for Event {}
+impl PartialOrd for Event {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Event {
+    fn cmp(&self, o: &Self) -> Ordering {
+        // Earliest first on a max-heap; ties in insertion order, so runs are deterministic.
+        o.time.total_cmp(&self.time).then(o.seq.cmp(&self.seq))
+    }
+}
+
+struct Sim<'a> {
+    p: &'a SimParams,
+    costs: &'a [f64],
+    pixels: &'a [u64],
+    heap: BinaryHeap<Event>,
+    seq: u64,
+    queue: Vec<VecDeque<usize>>,
+    idle: Vec<usize>,
+    link_free: Vec<f64>,
+    bytes: f64,
+    first_idle: f64,
+    tail_idle: f64,
+}
+
+impl Sim<'_> {
+    fn push(&mut self, time: f64, kind: Kind) {
+        self.seq += 1;
+        self.heap.push(Event {
+            time,
+            seq: self.seq,
+            kind,
+        });
+    }
+
+    fn transfer(&self, bytes: f64) -> f64 {
+        if self.p.bandwidth_bps.is_finite() && self.p.bandwidth_bps > 0.0 {
+            bytes / self.p.bandwidth_bps
+        } else {
+            0.0
+        }
+    }
+
+    /// Starts queued tiles on idle threads of `worker`.
+    fn start(&mut self, worker: usize, now: f64) {
+        while self.idle[worker] > 0 {
+            let Some(tile) = self.queue[worker].pop_front() else {
+                break;
+            };
+            self.idle[worker] -= 1;
+            self.push(now + self.costs[tile], Kind::Done { worker, tile });
+        }
+    }
+}
+
+/// Simulates rendering tiles with the given one-thread `costs` (seconds) and pixel counts.
+pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
+    let workers = p.workers.max(1);
+    let threads = p.threads.max(1);
+    let window = p.window.max(1);
+    let n = workers * threads;
+    let work: f64 = costs.iter().sum();
+    let mut sim = Sim {
+        p,
+        costs,
+        pixels,
+        heap: BinaryHeap::new(),
+        seq: 0,
+        queue: vec![VecDeque::new(); workers],
+        idle: vec![threads; workers],
+        link_free: vec![0.0; workers],
+        bytes: 0.0,
+        first_idle: f64::INFINITY,
+        tail_idle: 0.0,
+    };
+    let mut next = 0usize;
+    let mut startup: f64 = 0.0;
+    // The job and the first window of assignments go out at time 0.
+    for w in 0..workers {
+        let job = p.scene_bytes + p.message_bytes;
+        sim.bytes += job;
+        let ready = p.latency_s + sim.transfer(job) + p.build_s;
+        startup = startup.max(ready);
+        for _ in 0..window {
+            if next >= costs.len() {
+                break;
+            }
+            sim.bytes += p.message_bytes;
+            sim.push(
+                ready,
+                Kind::Assign {
+                    worker: w,
+                    tile: next,
+                },
+            );
+            next += 1;
+        }
+    }
+    let mut master_free = 0.0f64;
+    let mut master_busy = 0.0f64;
+    let mut done = 0usize;
+    let mut makespan = 0.0f64;
+    while let Some(ev) = sim.heap.pop() {
+        let now = ev.time;
+        match ev.kind {
+            Kind::Assign { worker, tile } => {
+                sim.queue[worker].push_back(tile);
+                sim.start(worker, now);
+            }
+            Kind::Done { worker, tile } => {
+                let bytes = p.message_bytes + p.result_bytes_per_pixel * sim.pixels[tile] as f64;
+                sim.bytes += bytes;
+                let sent = sim.link_free[worker].max(now) + sim.transfer(bytes);
+                sim.link_free[worker] = sent;
+                sim.push(sent + p.latency_s, Kind::Result { worker });
+                sim.idle[worker] += 1;
+                sim.start(worker, now);
+                if sim.idle[worker] > 0 && next >= costs.len() {
+                    sim.first_idle = sim.first_idle.min(now);
+                }
+            }
+            Kind::Result { worker } => {
+                master_free = master_free.max(now) + p.master_per_tile_s;
+                master_busy += p.master_per_tile_s;
+                done += 1;
+                makespan = makespan.max(master_free);
+                if next < costs.len() {
+                    sim.bytes += p.message_bytes;
+                    let arrive = master_free + p.latency_s + sim.transfer(p.message_bytes);
+                    sim.push(arrive, Kind::Assign { worker, tile: next });
+                    next += 1;
+                }
+            }
+        }
+    }
+    debug_assert_eq!(done, costs.len());
+    // Idle thread-time after the first thread ran dry: n·makespan − work − idle before that.
+    if sim.first_idle.is_finite() {
+        let busy_after: f64 = n as f64 * makespan - work - n as f64 * startup;
+        sim.tail_idle = busy_after.max(0.0);
+    }
+    SimResult {
+        makespan,
+        work,
+        n,
+        efficiency: if makespan > 0.0 {
+            work / (n as f64 * makespan)
+        } else {
+            1.0
+        },
+        master_utilisation: if makespan > 0.0 {
+            master_busy / makespan
+        } else {
+            0.0
+        },
+        startup_s: startup,
+        tail_idle_s: sim.tail_idle,
+        bytes: sim.bytes,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_costs_zero_latency_is_ceil_n_over_p() {
+        for (tiles, workers, threads) in [(10, 2, 2), (64, 4, 1), (7, 1, 3), (100, 3, 2), (5, 8, 1)]
+        {
+            let costs = vec![0.25; tiles];
+            let px = vec![64; tiles];
+            let r = simulate(&costs, &px, &SimParams::ideal(workers, threads));
+            let p = workers * threads;
+            let expect = tiles.div_ceil(p) as f64 * 0.25;
+            assert_eq!(r.makespan, expect, "{tiles} tiles on {workers}x{threads}");
+            assert_eq!(r.efficiency, tiles as f64 * 0.25 / (p as f64 * expect));
+        }
+    }
+
+    #[test]
+    fn one_worker_one_thread_with_latency_pays_a_round_trip_per_tile() {
+        let (c, l, tiles) = (0.5, 0.01, 20);
+        let mut p = SimParams::ideal(1, 1);
+        p.latency_s = l;
+        let r = simulate(&vec![c; tiles], &vec![1; tiles], &p);
+        let expect = tiles as f64 * (c + 2.0 * l);
+        assert!(
+            (r.makespan - expect).abs() < 1e-9,
+            "{} vs {expect}",
+            r.makespan
+        );
+    }
+
+    #[test]
+    fn a_window_hides_latency() {
+        let mut p = SimParams::ideal(1, 1);
+        p.latency_s = 0.01;
+        let costs = vec![0.5; 20];
+        let px = vec![1; 20];
+        let w1 = simulate(&costs, &px, &p).makespan;
+        p.window = 2;
+        let w2 = simulate(&costs, &px, &p).makespan;
+        assert!((w2 - (0.01 + 20.0 * 0.5 + 0.01)).abs() < 1e-9);
+        assert!(w2 < w1);
+    }
+
+    #[test]
+    fn a_slow_master_bounds_throughput() {
+        let mut p = SimParams::ideal(64, 1);
+        p.master_per_tile_s = 0.01;
+        let r = simulate(&vec![0.001; 1000], &vec![1; 1000], &p);
+        assert!(r.makespan >= 1000.0 * 0.01);
+        assert!(r.master_utilisation > 0.99);
+    }
+}

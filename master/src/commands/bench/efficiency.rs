@@ -1,0 +1,305 @@
+//! `parrt bench efficiency`: the paper's experiment in one command. Measures t₁ and tₙ (median
+//! of K runs, same build and settings) for every accelerator, executor, tile size and thread
+//! count, and writes the paper-shaped tables (rows threads, columns tile sizes; efficiency of the
+//! tracing phase and of the whole render) as Markdown and CSV, plots like its Figures 2 and 3,
+//! and a check of the schedule simulator against the measured runs.
+
+use crate::commands::bench::render::scene_arg;
+use crate::commands::scene_input::LimitArgs;
+use crate::exit::input_error;
+use crate::plot::{save_chart, Chart, Series};
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use parrt::efficiency::{median, EfficiencyTable};
+use parrt::render::Renderer;
+use parrt::settings::{AccelKind, RenderSettings};
+use parrt::simulate::{simulate, SimParams};
+use parrt::smp::{render_smp, Executor, SmpOptions};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Execution modes compared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Mode {
+    /// One process, N threads.
+    Smp,
+    /// A master and N local worker processes of one thread each, over TCP on loopback.
+    Distributed,
+}
+
+/// Arguments of `parrt bench efficiency`.
+#[derive(Debug, Args)]
+pub struct EfficiencyArgs {
+    /// Scene: an NFF file or NAME[:SIZE] (default: mount, the paper's test scene).
+    #[arg(value_name = "SCENE", default_value = "mount")]
+    pub scene: String,
+    /// Thread counts (rows). Counts above the core count are marked oversubscribed.
+    #[arg(long, value_delimiter = ',', value_name = "N,...")]
+    pub threads: Vec<usize>,
+    /// Tile sizes (columns).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "S,...",
+        default_value = "8,16,32,64"
+    )]
+    pub tiles: Vec<u32>,
+    /// Accelerators.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "A,...",
+        default_value = "bvh,grid"
+    )]
+    pub accel: Vec<String>,
+    /// Modes.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "M,...",
+        default_value = "smp"
+    )]
+    pub mode: Vec<Mode>,
+    /// SMP executors (queue is the paper's; guided removes its tile-size trade-off).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "E,...",
+        default_value = "queue,rayon,guided"
+    )]
+    pub executors: Vec<String>,
+    /// Image sizes (square): the paper's 512, and a larger one where runs are short.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "PX,...",
+        default_value = "512,1024"
+    )]
+    pub sizes: Vec<u32>,
+    /// Runs per measurement; the median is used.
+    #[arg(long, value_name = "K", default_value_t = 3)]
+    pub repeat: usize,
+    /// Output directory for tables and plots.
+    #[arg(long, value_name = "DIR", default_value = "bench-out/efficiency")]
+    pub out: PathBuf,
+    /// Parser limits.
+    #[command(flatten)]
+    pub limits: LimitArgs,
+}
+
+fn parse_accel(s: &str) -> anyhow::Result<AccelKind> {
+    match s {
+        "bvh" => Ok(AccelKind::Bvh),
+        "grid" => Ok(AccelKind::Grid),
+        "brute" => Ok(AccelKind::Brute),
+        _ => Err(input_error(anyhow::anyhow!(
+            "unknown accelerator '{s}' (bvh, grid, brute)"
+        ))),
+    }
+}
+
+fn parse_executor(s: &str) -> anyhow::Result<Executor> {
+    Executor::ALL
+        .into_iter()
+        .find(|e| e.name() == s)
+        .ok_or_else(|| {
+            input_error(anyhow::anyhow!(
+                "unknown executor '{s}' (queue, rayon, morton, guided)"
+            ))
+        })
+}
+
+/// A short description of this machine for the report.
+pub fn machine() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    format!("{cpu}, {cores} cores available")
+}
+
+/// Runs `parrt bench efficiency`.
+pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = if args.threads.is_empty() {
+        (1..=cores).collect()
+    } else {
+        args.threads.clone()
+    };
+    if threads.contains(&0)
+        || args.tiles.contains(&0)
+        || args.sizes.contains(&0)
+        || args.repeat == 0
+    {
+        return Err(input_error(anyhow::anyhow!(
+            "threads, tiles, sizes and --repeat must be at least 1"
+        )));
+    }
+    let accels = args
+        .accel
+        .iter()
+        .map(|a| parse_accel(a))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let executors = args
+        .executors
+        .iter()
+        .map(|e| parse_executor(e))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    if args.mode.contains(&Mode::Distributed) {
+        return Err(input_error(anyhow::anyhow!(
+            "--mode distributed is not available in this build yet"
+        )));
+    }
+    let spec = scene_arg(&args.scene)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let mut md = String::new();
+    let mut csv = String::new();
+    let _ = writeln!(
+        md,
+        "# Efficiency: {}\n\nMachine: {}. Command: `parrt {}`. Median of {} runs. e = t₁/(n·tₙ), \
+         t₁ the one-thread time at the same tile size. Cells: efficiency (tₙ).\n",
+        spec.label(),
+        machine(),
+        std::env::args().skip(1).collect::<Vec<_>>().join(" "),
+        args.repeat
+    );
+    let mut first_csv = true;
+    for &size in &args.sizes {
+        let (desc, parse_s) = spec.load(&args.limits.limits())?;
+        for &accel in &accels {
+            let mut settings = RenderSettings::new(size, size);
+            settings.accel = accel;
+            let mut builds = Vec::new();
+            let mut renderer = None;
+            for _ in 0..args.repeat {
+                let r = Renderer::new(&desc, &settings).map_err(input_error)?;
+                builds.push(r.build_info().build_s);
+                renderer = Some(r);
+            }
+            let renderer = renderer.expect("repeat >= 1");
+            let build_s = median(&builds);
+            let pre = parse_s + build_s;
+            let _ = writeln!(
+                md,
+                "## {size}×{size}, {accel:?}\n\nPreprocessing (sequential): parse {parse_s:.4}s, build {build_s:.4}s.\n"
+            );
+            let time = |n: usize, tile: u32, ex: Executor| -> (f64, Vec<f64>) {
+                let mut ts = Vec::new();
+                let mut costs = Vec::new();
+                for _ in 0..args.repeat {
+                    let res = render_smp(
+                        &renderer,
+                        &SmpOptions {
+                            threads: n,
+                            tile,
+                            executor: ex,
+                        },
+                        &|_, _| {},
+                    );
+                    ts.push(res.trace_s);
+                    costs = res.tile_seconds;
+                }
+                (median(&ts), costs)
+            };
+            let mut chart_series = Vec::new();
+            let mut sim_lines = String::new();
+            for &ex in &executors {
+                let title = format!("{} {size}px {accel:?} smp {}", spec.label(), ex.name());
+                let mut trace = EfficiencyTable::new(
+                    format!("{title}: tracing"),
+                    threads.clone(),
+                    args.tiles.clone(),
+                    cores,
+                );
+                let mut whole = EfficiencyTable::new(
+                    format!("{title}: whole render"),
+                    threads.clone(),
+                    args.tiles.clone(),
+                    cores,
+                );
+                for &tile in &args.tiles {
+                    let (t1, costs1) = time(1, tile, ex);
+                    for &n in &threads {
+                        let tn = if n == 1 { t1 } else { time(n, tile, ex).0 };
+                        trace.set(n, tile, t1, tn);
+                        whole.set(n, tile, pre + t1, pre + tn);
+                        if ex == Executor::Queue && n > 1 {
+                            // The simulator's prediction for the paper's queue: one worker with n
+                            // threads, every tile queued locally, no network.
+                            let list = parrt::tile::tiles(size, size, tile);
+                            let px: Vec<u64> =
+                                list.iter().map(|t| t.pixel_count() as u64).collect();
+                            let mut p = SimParams::ideal(1, n);
+                            p.window = list.len();
+                            let sim = simulate(&costs1, &px, &p);
+                            let _ = writeln!(
+                                sim_lines,
+                                "| {tile} | {n} | {:.4} | {:.4} | {:+.1}% |",
+                                tn,
+                                sim.makespan,
+                                100.0 * (sim.makespan - tn) / tn
+                            );
+                        }
+                    }
+                }
+                md.push_str(&trace.to_markdown());
+                md.push('\n');
+                md.push_str(&whole.to_markdown());
+                md.push('\n');
+                csv.push_str(&trace.to_csv(first_csv));
+                csv.push_str(&whole.to_csv(false));
+                first_csv = false;
+                for &n in threads.iter().filter(|&&n| n > 1) {
+                    chart_series.push(Series {
+                        label: format!("{} n={n}", ex.name()),
+                        points: args
+                            .tiles
+                            .iter()
+                            .filter_map(|&t| trace.get(n, t).map(|c| (t as f64, c.efficiency)))
+                            .collect(),
+                        line: true,
+                    });
+                }
+            }
+            if !sim_lines.is_empty() {
+                let _ = writeln!(
+                    md,
+                    "Simulator check (queue executor; prediction from the measured one-thread tile costs):\n\n\
+                     | tile | n | measured tₙ s | predicted s | error |\n|---:|---:|---:|---:|---:|\n{sim_lines}"
+                );
+            }
+            let stem = format!("efficiency-{size}-{accel:?}").to_lowercase();
+            let chart = Chart {
+                title: format!(
+                    "{} {size}×{size} {accel:?}: tracing efficiency",
+                    spec.label()
+                ),
+                x_label: "tile size (pixels)".into(),
+                y_label: "efficiency t1/(n·tn)".into(),
+                series: chart_series,
+                log_x: true,
+                y_range: None,
+            };
+            save_chart(
+                &chart,
+                &args.out.join(format!("{stem}.svg")),
+                &args.out.join(format!("{stem}.png")),
+            )?;
+            let _ = writeln!(md, "![{stem}]({stem}.png)\n");
+            eprintln!("parrt: measured {size}px {accel:?}");
+        }
+    }
+    std::fs::write(args.out.join("efficiency.md"), &md)?;
+    std::fs::write(args.out.join("efficiency.csv"), &csv)?;
+    println!("{md}");
+    eprintln!("parrt: wrote {}", args.out.display());
+    Ok(ExitCode::SUCCESS)
+}

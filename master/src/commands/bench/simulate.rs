@@ -1,0 +1,199 @@
+//! `parrt bench simulate`: feeds measured per-tile costs (from `parrt render --tile-costs`) to the
+//! discrete-event model of the master/worker schedule and predicts efficiency for 1 to 1024
+//! workers and each tile size, with what limits it (tail imbalance, the master, the network).
+
+use crate::exit::input_error;
+use crate::plot::{save_chart, Chart, Series};
+use anyhow::Context;
+use clap::Args;
+use parrt::efficiency::{aggregate_costs, read_tile_costs};
+use parrt::simulate::{simulate, SimParams};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `parrt bench simulate`.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Per-tile costs measured at one thread (`parrt render --threads 1 --tile 8 --tile-costs F`).
+    #[arg(long, value_name = "FILE")]
+    pub tile_costs: PathBuf,
+    /// Tile sizes to model; each must be a multiple of the measured tile size.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "S,...",
+        default_value = "8,16,32,64"
+    )]
+    pub tiles: Vec<u32>,
+    /// Worker counts.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "W,...",
+        default_value = "1,2,4,8,16,32,64,128,256,512,1024"
+    )]
+    pub workers: Vec<usize>,
+    /// Render threads per worker.
+    #[arg(long, value_name = "T", default_value_t = 1)]
+    pub threads: usize,
+    /// Tiles in flight per worker (default: 2 × threads).
+    #[arg(long, value_name = "K")]
+    pub window: Option<usize>,
+    /// One-way network latency in milliseconds.
+    #[arg(long, value_name = "MS", default_value_t = 0.1)]
+    pub latency_ms: f64,
+    /// Link bandwidth in megabits per second.
+    #[arg(long, value_name = "MBIT", default_value_t = 1000.0)]
+    pub bandwidth_mbps: f64,
+    /// Master CPU time per tile result in microseconds.
+    #[arg(long, value_name = "US", default_value_t = 20.0)]
+    pub master_us: f64,
+    /// Bytes of the job message (scene) per worker.
+    #[arg(long, value_name = "BYTES", default_value_t = 700_000.0)]
+    pub scene_bytes: f64,
+    /// Seconds each worker needs to build its accelerator.
+    #[arg(long, value_name = "S", default_value_t = 0.006)]
+    pub build_s: f64,
+    /// Output directory.
+    #[arg(long, value_name = "DIR", default_value = "bench-out/simulate")]
+    pub out: PathBuf,
+}
+
+/// Runs `parrt bench simulate`.
+pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
+    let text = std::fs::read_to_string(&args.tile_costs)
+        .with_context(|| format!("cannot read {}", args.tile_costs.display()))
+        .map_err(input_error)?;
+    let fine = read_tile_costs(&text)
+        .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", args.tile_costs.display())))?;
+    let Some(first) = fine.first() else {
+        return Err(input_error(anyhow::anyhow!(
+            "{}: no tiles",
+            args.tile_costs.display()
+        )));
+    };
+    let base = first.0.w.max(first.0.h);
+    let width = fine.iter().map(|(t, _)| t.x + t.w).max().unwrap_or(0);
+    let height = fine.iter().map(|(t, _)| t.y + t.h).max().unwrap_or(0);
+    if args.threads == 0 || args.workers.contains(&0) {
+        return Err(input_error(anyhow::anyhow!(
+            "--threads and --workers must be at least 1"
+        )));
+    }
+    for &t in &args.tiles {
+        if t == 0 || t % base != 0 {
+            return Err(input_error(anyhow::anyhow!(
+                "tile size {t} is not a multiple of the measured tile size {base}"
+            )));
+        }
+    }
+    std::fs::create_dir_all(&args.out)?;
+    let mut md = String::new();
+    let work: f64 = fine.iter().map(|(_, c)| c).sum();
+    let _ = writeln!(
+        md,
+        "# Simulated efficiency\n\nCosts: {} ({width}×{height}, {} tiles of {base} px, t₁ = {work:.4}s). \
+         {} thread(s) per worker, window {}, latency {} ms, {} Mbit/s, master {} µs/tile, scene {} bytes, \
+         build {} s. Cells: efficiency (makespan s); notes name the limiting factor.\n",
+        args.tile_costs.display(),
+        fine.len(),
+        args.threads,
+        args.window.unwrap_or(2 * args.threads),
+        args.latency_ms,
+        args.bandwidth_mbps,
+        args.master_us,
+        args.scene_bytes,
+        args.build_s
+    );
+    md.push_str("| workers | n |");
+    for t in &args.tiles {
+        let _ = write!(md, " tile {t} |");
+    }
+    md.push_str(" limit (largest tile) |\n|---:|---:|");
+    for _ in &args.tiles {
+        md.push_str("---:|");
+    }
+    md.push_str("---|\n");
+    let mut series: Vec<Series> = args
+        .tiles
+        .iter()
+        .map(|t| Series {
+            label: format!("tile {t}"),
+            points: Vec::new(),
+            line: true,
+        })
+        .collect();
+    let mut csv = String::from(
+        "workers,threads,n,tile,makespan_s,efficiency,master_utilisation,startup_s,bytes\n",
+    );
+    for &w in &args.workers {
+        let n = w * args.threads;
+        let _ = write!(md, "| {w} | {n} |");
+        let mut note = String::new();
+        for (i, &tile) in args.tiles.iter().enumerate() {
+            let list = parrt::tile::tiles(width, height, tile);
+            let costs = aggregate_costs(&fine, &list, tile);
+            let px: Vec<u64> = list.iter().map(|t| t.pixel_count() as u64).collect();
+            let p = SimParams {
+                workers: w,
+                threads: args.threads,
+                window: args.window.unwrap_or(2 * args.threads),
+                latency_s: args.latency_ms / 1e3,
+                bandwidth_bps: args.bandwidth_mbps * 1e6 / 8.0,
+                master_per_tile_s: args.master_us / 1e6,
+                scene_bytes: args.scene_bytes,
+                build_s: args.build_s,
+                result_bytes_per_pixel: 12.0,
+                message_bytes: 64.0,
+            };
+            let r = simulate(&costs, &px, &p);
+            let _ = write!(md, " {:.3} ({:.4}s) |", r.efficiency, r.makespan);
+            let _ = writeln!(
+                csv,
+                "{w},{},{n},{tile},{:.6},{:.6},{:.4},{:.6},{:.0}",
+                args.threads, r.makespan, r.efficiency, r.master_utilisation, r.startup_s, r.bytes
+            );
+            series[i].points.push((n as f64, r.efficiency));
+            if i + 1 == args.tiles.len() {
+                let ideal = work / n as f64;
+                let max_tile = costs.iter().cloned().fold(0.0, f64::max);
+                note = if r.master_utilisation > 0.8 {
+                    format!("master busy {:.0}%", 100.0 * r.master_utilisation)
+                } else if r.startup_s > 0.3 * r.makespan {
+                    format!(
+                        "start-up {:.0}% (scene transfer + build)",
+                        100.0 * r.startup_s / r.makespan
+                    )
+                } else if list.len() < 2 * n || max_tile > ideal {
+                    format!(
+                        "tail: {} tiles for {n} threads, largest tile {:.1}× the ideal share",
+                        list.len(),
+                        max_tile / ideal.max(1e-12)
+                    )
+                } else {
+                    "balanced".into()
+                };
+            }
+        }
+        let _ = writeln!(md, " {note} |");
+    }
+    let chart = Chart {
+        title: "Predicted efficiency against render threads".into(),
+        x_label: "render threads n (workers × threads)".into(),
+        y_label: "efficiency".into(),
+        series,
+        log_x: true,
+        y_range: Some((0.0, 1.05)),
+    };
+    save_chart(
+        &chart,
+        &args.out.join("simulate.svg"),
+        &args.out.join("simulate.png"),
+    )?;
+    let _ = writeln!(md, "\n![simulate](simulate.png)");
+    std::fs::write(args.out.join("simulate.md"), &md)?;
+    std::fs::write(args.out.join("simulate.csv"), &csv)?;
+    println!("{md}");
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,187 @@
+//! Line and scatter charts for the studies, written as SVG and PNG with plotters. Text needs a
+//! font: DejaVu Sans from the system is registered once; without it, charts are drawn unlabelled
+//! and the Markdown tables carry the numbers.
+
+use anyhow::Context;
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// One line (or point set) of a chart.
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// Legend label.
+    pub label: String,
+    /// Points (x, y).
+    pub points: Vec<(f64, f64)>,
+    /// Draw a connecting line (else points only).
+    pub line: bool,
+}
+
+/// A chart description.
+#[derive(Clone, Debug)]
+pub struct Chart {
+    /// Caption.
+    pub title: String,
+    /// X axis label.
+    pub x_label: String,
+    /// Y axis label.
+    pub y_label: String,
+    /// Data.
+    pub series: Vec<Series>,
+    /// Logarithmic x axis (base 2 ticks are labelled as numbers).
+    pub log_x: bool,
+    /// Fixed y range; `None`: from the data.
+    pub y_range: Option<(f64, f64)>,
+}
+
+const FONT_PATHS: [&str; 2] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+];
+
+/// Registers a system font with plotters once; false when none was found.
+fn font_ready() -> bool {
+    static READY: OnceLock<bool> = OnceLock::new();
+    *READY.get_or_init(|| {
+        for p in FONT_PATHS {
+            if let Ok(bytes) = std::fs::read(p) {
+                let leaked: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if plotters::style::register_font("sans-serif", FontStyle::Normal, leaked).is_ok() {
+                    return true;
+                }
+            }
+        }
+        false
+    })
+}
+
+fn bounds(chart: &Chart) -> ((f64, f64), (f64, f64)) {
+    let pts = chart.series.iter().flat_map(|s| s.points.iter());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y) in pts {
+        if x.is_finite() && y.is_finite() {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+    }
+    if x0 > x1 {
+        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    }
+    if x0 == x1 {
+        x1 = x0 + 1.0;
+    }
+    if y0 == y1 {
+        y1 = y0 + 1.0;
+    }
+    let ypad = (y1 - y0) * 0.05;
+    let y = chart.y_range.unwrap_or((y0 - ypad, y1 + ypad));
+    ((x0, x1), y)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let text = font_ready();
+    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let ((x0, x1), (y0, y1)) = bounds(chart);
+    let mut builder = ChartBuilder::on(&root);
+    builder
+        .margin(16)
+        .x_label_area_size(if text { 40 } else { 0 })
+        .y_label_area_size(if text { 60 } else { 0 });
+    if text {
+        builder.caption(&chart.title, ("sans-serif", 20));
+    }
+    let colors = [
+        RED,
+        BLUE,
+        GREEN,
+        MAGENTA,
+        CYAN,
+        BLACK,
+        RGBColor(230, 140, 0),
+        RGBColor(120, 60, 160),
+    ];
+    macro_rules! body {
+        ($ctx:expr, $map:expr) => {{
+            let mut ctx = $ctx;
+            if text {
+                ctx.configure_mesh()
+                    .x_desc(chart.x_label.as_str())
+                    .y_desc(chart.y_label.as_str())
+                    .draw()
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            } else {
+                ctx.configure_mesh()
+                    .disable_x_mesh()
+                    .disable_y_mesh()
+                    .x_labels(0)
+                    .y_labels(0)
+                    .draw()
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            }
+            for (i, s) in chart.series.iter().enumerate() {
+                let color = colors[i % colors.len()];
+                let pts: Vec<(f64, f64)> = s.points.iter().map($map).collect();
+                if s.line {
+                    let anno = ctx
+                        .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                    if text {
+                        anno.label(s.label.as_str()).legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                        });
+                    }
+                }
+                let anno = ctx
+                    .draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                if text && !s.line {
+                    anno.label(s.label.as_str())
+                        .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
+                }
+            }
+            if text {
+                ctx.configure_series_labels()
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .position(SeriesLabelPosition::LowerRight)
+                    .draw()
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            }
+        }};
+    }
+    if chart.log_x && x0 > 0.0 {
+        let ctx = builder
+            .build_cartesian_2d((x0 * 0.9..x1 * 1.1).log_scale(), y0..y1)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        body!(ctx, |&p: &(f64, f64)| p);
+    } else {
+        let pad = (x1 - x0) * 0.05;
+        let ctx = builder
+            .build_cartesian_2d(x0 - pad..x1 + pad, y0..y1)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        body!(ctx, |&p: &(f64, f64)| p);
+    }
+    root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    Ok(())
+}
+
+/// Writes the chart as SVG and PNG (800×500).
+pub fn save_chart(chart: &Chart, svg: &Path, png: &Path) -> anyhow::Result<()> {
+    draw(SVGBackend::new(svg, (800, 500)).into_drawing_area(), chart)
+        .with_context(|| format!("cannot draw {}", svg.display()))?;
+    draw(
+        BitMapBackend::new(png, (800, 500)).into_drawing_area(),
+        chart,
+    )
+    .with_context(|| format!("cannot draw {}", png.display()))?;
+    Ok(())
+}

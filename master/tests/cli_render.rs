@@ -1,0 +1,297 @@
+//! End-to-end tests of `parrt render` and the bench commands through the real binary: outputs,
+//! machine-readable statistics, exit codes for bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn parrt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_parrt"))
+        .args(args)
+        .output()
+        .expect("the parrt binary runs")
+}
+
+fn spd(name: &str) -> String {
+    let mut dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    loop {
+        let cand = dir.join("shared/spd").join(name);
+        if cand.is_file() {
+            return cand.display().to_string();
+        }
+        assert!(dir.pop(), "shared/spd/{name} not found above the crate");
+    }
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn png_size(path: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).expect("image written");
+    assert_eq!(&bytes[1..4], b"PNG");
+    let be = |i: usize| u32::from_be_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+    (be(16), be(20))
+}
+
+#[test]
+fn renders_png_and_writes_stats_json_and_tile_costs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.png");
+    let json = dir.path().join("s.json");
+    let costs = dir.path().join("c.csv");
+    let o = parrt(&[
+        "render",
+        &spd("mount-4.nff"),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "48",
+        "--height",
+        "32",
+        "--tile",
+        "16",
+        "--stats-json",
+        json.to_str().unwrap(),
+        "--tile-costs",
+        costs.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(png_size(&out), (48, 32));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for key in [
+        "eye_rays",
+        "eye_hits",
+        "shadow_rays",
+        "shadow_hits",
+        "reflection_rays",
+        "reflection_hits",
+        "refraction_rays",
+        "refraction_hits",
+        "box_tests",
+        "primitive_tests",
+    ] {
+        assert!(v[key].is_u64(), "{key} missing or not an integer: {v}");
+    }
+    for key in ["parse_s", "build_s", "trace_s"] {
+        assert!(v[key].is_f64(), "{key} missing: {v}");
+    }
+    assert_eq!(v["eye_rays"], 48 * 32);
+    // Mount's glass spheres refract.
+    assert!(v["refraction_rays"].as_u64().unwrap() > 0);
+    let csv = std::fs::read_to_string(&costs).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3 * 2, "{csv}");
+}
+
+#[test]
+fn writes_ppm_and_exr() {
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["ppm", "exr"] {
+        let out = dir.path().join(format!("t.{ext}"));
+        let o = parrt(&[
+            "render",
+            &spd("tetra-4.nff"),
+            "-o",
+            out.to_str().unwrap(),
+            "--width",
+            "20",
+            "--height",
+            "20",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(std::fs::metadata(&out).unwrap().len() > 20 * 20);
+    }
+}
+
+#[test]
+fn bad_usage_exits_2_with_a_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("x.png");
+    let png = png.to_str().unwrap();
+    let scene = spd("tetra-4.nff");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["render", &scene, "-o", png, "--tile", "0"], "--tile"),
+        (
+            vec!["render", &scene, "-o", png, "--threads", "0"],
+            "--threads",
+        ),
+        (
+            vec!["render", &scene, "-o", "out.gif"],
+            "unknown image format",
+        ),
+        (
+            vec!["render", &scene, "-o", png, "--max-depth", "0"],
+            "max depth",
+        ),
+        (
+            vec!["render", &scene, "-o", png, "--max-depth", "1000"],
+            "max depth",
+        ),
+        (
+            vec!["render", &scene, "-o", png, "--cutoff", "2"],
+            "cut-off",
+        ),
+        (
+            vec!["render", &scene, "-o", png, "--spp", "0"],
+            "samples per pixel",
+        ),
+        (
+            vec!["render", &scene, "-o", png, "--width", "0"],
+            "no pixels",
+        ),
+        (
+            vec!["render", &scene, "-o", png, "--accel", "octree"],
+            "invalid value",
+        ),
+        (
+            vec![
+                "render", &scene, "-o", png, "--width", "100000", "--height", "100000",
+            ],
+            "over the limit",
+        ),
+        (
+            vec!["render", &scene, "--scene", "mount", "-o", png],
+            "not both",
+        ),
+        (
+            vec!["render", "--scene", "mount:x", "-o", png],
+            "not a whole number",
+        ),
+        (
+            vec!["render", "/nonexistent/scene.nff", "-o", png],
+            "cannot read",
+        ),
+        (vec!["render", "--bogus-flag"], "unexpected argument"),
+        (
+            vec!["bench", "simulate", "--tile-costs", "/nonexistent.csv"],
+            "cannot read",
+        ),
+    ];
+    for (args, phrase) in cases {
+        let o = parrt(&args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(phrase),
+            "{args:?}: expected '{phrase}' in: {err}"
+        );
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn help_explains_every_render_flag() {
+    let o = parrt(&["render", "--help"]);
+    assert!(o.status.success());
+    let help = String::from_utf8_lossy(&o.stdout);
+    for flag in [
+        "--threads",
+        "--tile",
+        "--accel",
+        "--executor",
+        "--width",
+        "--height",
+        "--max-depth",
+        "--cutoff",
+        "--spp",
+        "--spd-standard",
+        "--stats",
+        "--stats-json",
+        "--workers",
+        "--tile-costs",
+        "--precision",
+    ] {
+        assert!(help.contains(flag), "--help lacks {flag}");
+    }
+}
+
+#[test]
+fn efficiency_and_simulate_write_tables_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let eff = dir.path().join("eff");
+    let o = parrt(&[
+        "bench",
+        "efficiency",
+        &spd("tetra-4.nff"),
+        "--sizes",
+        "32",
+        "--tiles",
+        "8,16",
+        "--threads",
+        "1,2",
+        "--accel",
+        "bvh",
+        "--executors",
+        "queue,guided",
+        "--repeat",
+        "1",
+        "--out",
+        eff.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(eff.join("efficiency.md")).unwrap();
+    // Two executors × (tracing + whole) tables, each with a header and two thread rows.
+    assert_eq!(
+        md.matches("| threads | tile 8 | tile 16 |").count(),
+        4,
+        "{md}"
+    );
+    let csv = std::fs::read_to_string(eff.join("efficiency.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 * 2 * 2 * 2, "{csv}");
+    for f in ["efficiency-32-bvh.svg", "efficiency-32-bvh.png"] {
+        assert!(eff.join(f).is_file(), "{f}");
+    }
+    // Tile costs at tile 8 → the simulator.
+    let costs = dir.path().join("costs.csv");
+    let png = dir.path().join("t.png");
+    let o = parrt(&[
+        "render",
+        &spd("tetra-4.nff"),
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "32",
+        "--height",
+        "32",
+        "--tile",
+        "8",
+        "--threads",
+        "1",
+        "--tile-costs",
+        costs.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let sim = dir.path().join("sim");
+    let o = parrt(&[
+        "bench",
+        "simulate",
+        "--tile-costs",
+        costs.to_str().unwrap(),
+        "--tiles",
+        "8,16,32",
+        "--workers",
+        "1,2,64",
+        "--out",
+        sim.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(sim.join("simulate.md")).unwrap();
+    assert_eq!(
+        md.lines()
+            .filter(|l| l.starts_with("| ") && !l.starts_with("| workers"))
+            .count(),
+        3,
+        "{md}"
+    );
+    assert!(sim.join("simulate.png").is_file());
+    let o = parrt(&[
+        "bench",
+        "simulate",
+        "--tile-costs",
+        costs.to_str().unwrap(),
+        "--tiles",
+        "12",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("not a multiple"));
+}
