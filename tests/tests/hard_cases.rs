@@ -939,7 +939,8 @@ fn triangles_reintersect<R: Real>() {
         let p = [0, 1, 2].map(|_| centre + rand_v(&mut rng, 10.0 * scale));
         let pr = p.map(V3::<R>::from_f64);
         let ng = (pr[1] - pr[0]).cross(pr[2] - pr[0]);
-        if !(ng.length_squared() > R::ZERO) {
+        let area2 = ng.length_squared();
+        if !area2.is_finite() || area2 <= R::ZERO {
             continue;
         }
         let ng = ng.normalize();

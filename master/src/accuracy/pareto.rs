@@ -55,7 +55,7 @@ mod tests {
             .collect();
         let f = front(&pts);
         for w in f.windows(2) {
-            assert!(pts[w[0]].0 < pts[w[1]].0 || pts[w[0]].0 == pts[w[1]].0);
+            assert!(pts[w[0]].0 <= pts[w[1]].0);
             assert!(pts[w[0]].1 > pts[w[1]].1);
         }
         // Nothing beats a front point in both coordinates.

@@ -179,9 +179,10 @@ pub fn markdown(studies: &[SceneStudy], width: u32, height: u32, threads: usize)
     }
     let _ = writeln!(
         s,
-        "\nPlots: `pareto-<scene>.svg` (labelled) and `.png` (same picture, no text: x = trace \
-         seconds, y = RMSE, both log scale with grid lines at powers of ten; grey f32/1 sample, \
-         green f64/1 sample, orange 4 samples, red line the Pareto front, blue ring the default)."
+        "\nPlots: `pareto-<scene>.svg` and `.png`: x = trace seconds, y = RMSE against the \
+         reference, both log scale (the plots have no text when no system font was found; the grid \
+         lines are then at powers of ten); grey f32/1 sample, green f64/1 sample, orange \
+         4 samples, red line the Pareto front, blue ring the default."
     );
     s
 }
@@ -241,7 +242,7 @@ mod tests {
         assert_eq!((c, d), (0.1, 2));
         assert!((rel - (0.5 + 0.75) / 2.0).abs() < 1e-12);
         assert_eq!(cheapest_good(&a).map(|r| r.config.depth), Some(2));
-        let text = markdown(&[a.clone()], 8, 8, 1);
+        let text = markdown(std::slice::from_ref(&a), 8, 8, 1);
         assert!(text.contains("| **0.001** | **5** |"));
         let csv = csv(&[a]);
         assert_eq!(csv.lines().count(), 4);
