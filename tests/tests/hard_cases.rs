@@ -210,7 +210,7 @@ fn compare(a: &Film, b: &Film) -> (f64, f64) {
 // Watertight meshes
 // ---------------------------------------------------------------------------------------------
 
-/// A 70×70-cell grid of jittered vertices (9,522 triangles sharing every edge) filling the view:
+/// A 70×70-cell grid of jittered vertices (9,800 triangles sharing every edge) filling the view:
 /// no eye ray may slip between neighbours, looked at straight on and at a slant.
 #[test]
 fn jittered_mesh_has_no_leaks() {

@@ -18,7 +18,7 @@ pub struct StudyOptions {
     pub height: u32,
     /// Render threads.
     pub threads: usize,
-    /// Renders per configuration; the median trace time is reported.
+    /// Renders per configuration; the median trace time is reported (references render once).
     pub repeat: usize,
 }
 
@@ -51,10 +51,13 @@ pub struct SceneStudy {
     pub rows: Vec<Row>,
 }
 
+/// Renders `c` `repeat` times (at least once); returns the last film, the median trace seconds
+/// and the rays of one render.
 fn render(
     desc: &SceneDescription,
     c: &Config,
     o: &StudyOptions,
+    repeat: usize,
 ) -> anyhow::Result<(Film, f64, u64)> {
     let r = Renderer::new(desc, &c.settings(o.width, o.height))?;
     let opts = SmpOptions {
@@ -62,9 +65,9 @@ fn render(
         tile: 32,
         executor: Executor::Queue,
     };
-    let mut times = Vec::with_capacity(o.repeat.max(1));
+    let mut times = Vec::with_capacity(repeat.max(1));
     let mut last = None;
-    for _ in 0..o.repeat.max(1) {
+    for _ in 0..repeat.max(1) {
         let res = render_smp(&r, &opts, &|_, _| {});
         times.push(res.trace_s);
         last = Some(res);
@@ -85,7 +88,7 @@ pub fn run(
     progress(&format!(
         "{scene}: reference ({REF_SPP} spp, f64, depth 16, no cut-off)"
     ));
-    let (main_ref, reference_time, reference_rays) = render(desc, &reference(REF_SPP), o)?;
+    let (main_ref, reference_time, reference_rays) = render(desc, &reference(REF_SPP), o, 1)?;
     // Same-sampling references, one per sample count in the grid.
     let mut same: Vec<(u32, Film)> = Vec::new();
     for c in grid {
@@ -94,14 +97,14 @@ pub fn run(
                 main_ref.clone()
             } else {
                 progress(&format!("{scene}: reference at {} spp", c.spp));
-                render(desc, &reference(c.spp), o)?.0
+                render(desc, &reference(c.spp), o, 1)?.0
             };
             same.push((c.spp, film));
         }
     }
     let mut rows = Vec::with_capacity(grid.len());
     for (i, c) in grid.iter().enumerate() {
-        let (film, time, rays) = render(desc, c, o)?;
+        let (film, time, rays) = render(desc, c, o, o.repeat)?;
         let own = same
             .iter()
             .find(|(s, _)| *s == c.spp)
