@@ -5,9 +5,12 @@
 //! - [`commands`]: one module per subcommand (`render`, `info`, `scene`, `master`, `worker`,
 //!   `bench`).
 //! - [`distributed`]: the master side of distributed rendering (server, scheduler, workers).
+//! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
+//! - [`plot`]: charts (SVG and PNG) for the studies.
 //! - [`exit`]: how errors map to exit codes (2 bad input or usage, 1 anything else).
 #![deny(missing_docs)]
 
+pub mod accuracy;
 pub mod cli;
 pub mod commands;
 pub mod distributed;

@@ -40,8 +40,9 @@ const FONT_PATHS: [&str; 2] = [
     "/usr/share/fonts/dejavu/DejaVuSans.ttf",
 ];
 
-/// Registers a system font with plotters once; false when none was found.
-fn font_ready() -> bool {
+/// Registers a system font with plotters once; false when none was found. Other plots (the
+/// accuracy study's) ask this before drawing text on a bitmap.
+pub fn font_ready() -> bool {
     static READY: OnceLock<bool> = OnceLock::new();
     *READY.get_or_init(|| {
         for p in FONT_PATHS {

@@ -171,6 +171,25 @@ mod tests {
     }
 
     #[test]
+    fn negative_zero_direction_components() {
+        // Regression (hard case "axis-parallel rays"): a ray along −z built as −(0, 0, 1) has
+        // −0 in x and y; 1/−0 = −∞ and the box was missed.
+        let b = Aabb {
+            min: [-1.0, -1.0, 0.0],
+            max: [1.0, 1.0, 0.0],
+        };
+        for d in [[-0.0, -0.0, -1.0], [0.0, -0.0, -1.0], [-0.0, 0.0, -1.0]] {
+            assert!(
+                b.hit(&pr([0.3, 0.2, 5.0], d), f32::INFINITY).is_some(),
+                "{d:?}"
+            );
+        }
+        assert!(b
+            .hit(&pr([0.3, 0.2, -5.0], [-0.0, -0.0, 1.0]), f32::INFINITY)
+            .is_some());
+    }
+
+    #[test]
     fn outward_rounding() {
         let b = Aabb::from_f64(V3::new(0.1, 0.1, 0.1), V3::new(0.3, 0.3, 0.3));
         assert!((b.min[0] as f64) <= 0.1 && (b.max[0] as f64) >= 0.3);

@@ -53,7 +53,9 @@ impl<R: Real> PreparedRay<R> {
         PreparedRay {
             ray,
             inv_d,
-            neg: [d.x < R::ZERO, d.y < R::ZERO, d.z < R::ZERO],
+            // From the reciprocal, not from `d < 0`: a −0 component gives 1/−0 = −∞, and the
+            // slab test must then swap that axis's bounds like for any negative direction.
+            neg: [inv_d.x < R::ZERO, inv_d.y < R::ZERO, inv_d.z < R::ZERO],
             kz,
             kx,
             ky,

@@ -81,7 +81,6 @@ pub fn intersect_triangle<R: Real>(
     if t < pr.ray.t_min {
         return None;
     }
-    let b0 = e0 * inv_det;
     let b1 = e1 * inv_det;
     let b2 = e2 * inv_det;
     // Conservative bound on t's rounding error: reject hits indistinguishable from t = 0.
@@ -92,7 +91,9 @@ pub fn intersect_triangle<R: Real>(
     let delta_x = R::gamma(5) * (max_xt + max_zt);
     let delta_y = R::gamma(5) * (max_yt + max_zt);
     let delta_e = R::TWO * (R::gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = b0.abs().max(b1.abs()).max(b2.abs());
+    // The bound is in terms of the edge functions themselves (scale length²), not the
+    // barycentrics: using b (scale-free) made it wrong by the square of the scene's scale.
+    let max_e = e0.abs().max(e1.abs()).max(e2.abs());
     let delta_t = R::from_u32(3)
         * (R::gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
         * inv_det.abs();
@@ -169,6 +170,30 @@ mod tests {
             f32::INFINITY
         )
         .is_none());
+    }
+
+    #[test]
+    fn tiny_triangle_far_from_its_size_is_hit_in_f32() {
+        // Regression (hard case "scene scaled by 2^-10"): the t error bound used barycentrics
+        // where the edge functions belong, so small-scale triangles were rejected as
+        // self-intersections. Scaling by a power of two must not change the answer.
+        for scale in [1.0f32, 1.0 / 1024.0, 1.0 / 65536.0, 1024.0] {
+            let (a, b, c) = (
+                V3::new(0.625f32, 0.0, 0.782486) * scale,
+                V3::new(0.75, 0.0, 0.908892) * scale,
+                V3::new(0.75, 0.125, 0.644322) * scale,
+            );
+            let o = V3::new(-1.6f32, 1.6, 1.7) * scale;
+            let target = (a + b + c) * (1.0 / 3.0);
+            let r = PreparedRay::new(Ray {
+                o,
+                d: (target - o).normalize(),
+                t_min: 0.0,
+                t_max: f32::INFINITY,
+            });
+            let h = intersect_triangle(&r, a, b, c, f32::INFINITY).expect("hit");
+            assert!(((h.t - (target - o).length()) / (target - o).length()).abs() < 1e-5);
+        }
     }
 
     #[test]

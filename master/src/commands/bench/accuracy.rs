@@ -1,13 +1,163 @@
-//! `parrt bench accuracy`: speed against error (issue 6). Not yet built.
+//! `parrt bench accuracy`: speed against error (DESIGN §9). Renders a reference (f64, no
+//! cut-off, depth 16, 16 samples per pixel) and a grid of configurations per scene, and writes
+//! the tables (Markdown, CSV) and Pareto plots (SVG, PNG) to an output directory. The pieces live
+//! in [`crate::accuracy`]; this file only parses arguments and writes files.
 
+use super::render::scene_arg;
+use crate::accuracy::configs::{grid, Config};
+use crate::accuracy::plot::{self, PlotPoint, Series};
+use crate::accuracy::report;
+use crate::accuracy::study::{self, StudyOptions};
+use crate::commands::scene_input::LimitArgs;
+use crate::exit::input_error;
+use anyhow::Context;
 use clap::Args;
+use parrt::settings::Precision;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// Arguments of `parrt bench accuracy`.
 #[derive(Debug, Args)]
-pub struct AccuracyArgs {}
+pub struct AccuracyArgs {
+    /// Scenes: NFF files or generated scenes as NAME[:SIZE].
+    #[arg(value_name = "SCENE", required = true)]
+    pub scenes: Vec<String>,
+    /// Image size of the reference and every configuration.
+    #[arg(long, value_name = "WxH", default_value = "256x256")]
+    pub size: String,
+    /// Output directory for accuracy.md, accuracy.csv and the plots.
+    #[arg(long, value_name = "DIR", default_value = "accuracy-out")]
+    pub out: PathBuf,
+    /// Render threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Renders per configuration; the median trace time is reported.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    pub repeat: usize,
+    /// Measure the full cross product (160 configurations per scene) instead of the pruned grid.
+    #[arg(long)]
+    pub full: bool,
+    /// Parser limits.
+    #[command(flatten)]
+    pub limits: LimitArgs,
+}
+
+/// Parses `WxH` (both at least 1).
+pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
+    let bad = || input_error(anyhow::anyhow!("--size {s}: expected WxH, e.g. 256x256"));
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+fn series(c: &Config) -> Series {
+    if c.spp > 1 {
+        Series::FourSamples
+    } else if c.precision == Precision::F64 {
+        Series::F64OneSample
+    } else {
+        Series::F32OneSample
+    }
+}
+
+/// A file-name-safe stem for a scene label.
+fn stem(label: &str) -> String {
+    let base = std::path::Path::new(label)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| label.to_string());
+    base.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
 
 /// Runs `parrt bench accuracy`.
-pub fn run(_args: AccuracyArgs) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("`parrt bench accuracy` is not available in this build yet")
+pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
+    let (width, height) = parse_size(&args.size)?;
+    if args.threads == Some(0) || args.repeat == 0 {
+        return Err(input_error(anyhow::anyhow!(
+            "--threads and --repeat must be at least 1"
+        )));
+    }
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let opts = StudyOptions {
+        width,
+        height,
+        threads,
+        repeat: args.repeat,
+    };
+    let specs = args
+        .scenes
+        .iter()
+        .map(|s| scene_arg(s))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let configs = grid(args.full);
+    let mut studies = Vec::new();
+    for spec in &specs {
+        let (desc, _) = spec.load(&args.limits.limits())?;
+        let label = stem(&spec.label());
+        let st = study::run(&label, &desc, &configs, &opts, &|line| eprintln!("{line}"))?;
+        let front = report::front_of(&st);
+        let points: Vec<PlotPoint> = st
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(i, r)| PlotPoint {
+                time: r.time,
+                rmse: r.error.rmse,
+                series: series(&r.config),
+                is_default: r.config.is_default(),
+                on_front: front.contains(&i),
+            })
+            .collect();
+        plot::write(
+            &args.out.join(format!("pareto-{label}")),
+            &format!("{label}: trace time vs RMSE ({width}x{height})"),
+            &points,
+        )?;
+        studies.push(st);
+    }
+    let md = report::markdown(&studies, width, height, threads);
+    let md_path = args.out.join("accuracy.md");
+    std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
+    let csv_path = args.out.join("accuracy.csv");
+    std::fs::write(&csv_path, report::csv(&studies))
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    println!("{md}");
+    eprintln!("parrt: wrote {}", args.out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_and_bad_ones_are_rejected() {
+        assert_eq!(parse_size("256x128").ok(), Some((256, 128)));
+        assert_eq!(parse_size("64X64").ok(), Some((64, 64)));
+        for bad in ["", "256", "0x4", "ax4", "4x-1"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn stems_are_file_names() {
+        assert_eq!(stem("/work/shared/spd/mount-6.nff"), "mount-6");
+        assert_eq!(stem("mount:6"), "mount_6");
+    }
 }
