@@ -106,6 +106,36 @@ pub fn machine() -> String {
     format!("{cpu}, {cores} cores available")
 }
 
+/// Median tracing time of `repeat` distributed renders through `n` local one-thread workers,
+/// with the mean bytes on the wire and scene transfer time.
+fn time_distributed(
+    desc: &parrt::description::SceneDescription,
+    settings: &RenderSettings,
+    n: usize,
+    tile: u32,
+    repeat: usize,
+) -> anyhow::Result<(f64, f64, f64)> {
+    use crate::distributed::{render_distributed, DistOptions};
+    let mut ts = Vec::new();
+    let (mut bytes, mut transfer) = (0.0, 0.0);
+    for _ in 0..repeat {
+        let opts = DistOptions {
+            workers_to_spawn: n,
+            threads_per_worker: 1,
+            tile,
+            min_workers: n,
+            progress: false,
+            ..DistOptions::default()
+        };
+        let r =
+            render_distributed(desc, settings, &opts, &|_| {}).context("distributed run failed")?;
+        ts.push(r.trace_s);
+        bytes = (r.bytes_sent + r.bytes_received) as f64;
+        transfer = r.scene_transfer_s;
+    }
+    Ok((median(&ts), bytes, transfer))
+}
+
 /// Runs `parrt bench efficiency`.
 pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -125,11 +155,6 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     }
     let accels: Vec<AccelKind> = args.accel.iter().map(|a| a.kind()).collect();
     let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
-    if args.mode.contains(&Mode::Distributed) {
-        return Err(input_error(anyhow::anyhow!(
-            "--mode distributed is not available in this build yet"
-        )));
-    }
     let spec = scene_arg(&args.scene)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -184,7 +209,12 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
             };
             let mut chart_series = Vec::new();
             let mut sim_lines = String::new();
-            for &ex in &executors {
+            let smp_executors: &[Executor] = if args.mode.contains(&Mode::Smp) {
+                &executors
+            } else {
+                &[]
+            };
+            for &ex in smp_executors {
                 let title = format!("{} {size}px {accel:?} smp {}", spec.label(), ex.name());
                 let mut trace = EfficiencyTable::new(
                     format!("{title}: tracing"),
@@ -233,6 +263,64 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 for &n in threads.iter().filter(|&&n| n > 1) {
                     chart_series.push(Series {
                         label: format!("{} n={n}", ex.name()),
+                        points: args
+                            .tiles
+                            .iter()
+                            .filter_map(|&t| trace.get(n, t).map(|c| (t as f64, c.efficiency)))
+                            .collect(),
+                        line: true,
+                    });
+                }
+            }
+            if args.mode.contains(&Mode::Distributed) {
+                let title = format!(
+                    "{} {size}px {accel:?} distributed (n workers × 1 thread, loopback)",
+                    spec.label()
+                );
+                let mut trace = EfficiencyTable::new(
+                    format!("{title}: tracing"),
+                    threads.clone(),
+                    args.tiles.clone(),
+                    cores,
+                );
+                let mut whole = EfficiencyTable::new(
+                    format!("{title}: whole render"),
+                    threads.clone(),
+                    args.tiles.clone(),
+                    cores,
+                );
+                let mut overhead = String::new();
+                for &tile in &args.tiles {
+                    let mut t1 = None;
+                    for &n in &threads {
+                        let (tn, bytes, transfer) =
+                            time_distributed(&desc, &settings, n, tile, args.repeat)?;
+                        let t1v = *t1.get_or_insert(tn);
+                        trace.set(n, tile, t1v, tn);
+                        whole.set(n, tile, pre + t1v, pre + tn);
+                        let tiles = parrt::tile::tiles(size, size, tile).len() as f64;
+                        let _ = writeln!(
+                            overhead,
+                            "| {tile} | {n} | {:.0} | {:.2} ms |",
+                            bytes / tiles,
+                            transfer * 1e3
+                        );
+                    }
+                }
+                md.push_str(&trace.to_markdown());
+                md.push('\n');
+                md.push_str(&whole.to_markdown());
+                md.push('\n');
+                let _ = writeln!(
+                    md,
+                    "Protocol overhead (distributed):\n\n| tile | workers | bytes on the wire per tile | scene transfer |\n|---:|---:|---:|---:|\n{overhead}"
+                );
+                csv.push_str(&trace.to_csv(first_csv));
+                csv.push_str(&whole.to_csv(false));
+                first_csv = false;
+                for &n in threads.iter().filter(|&&n| n > 1) {
+                    chart_series.push(Series {
+                        label: format!("distributed n={n}"),
                         points: args
                             .tiles
                             .iter()
