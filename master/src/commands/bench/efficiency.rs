@@ -313,7 +313,7 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 md.push('\n');
                 let _ = writeln!(
                     md,
-                    "Protocol overhead (distributed):\n\n| tile | workers | bytes on the wire per tile | scene transfer |\n|---:|---:|---:|---:|\n{overhead}"
+                    "Protocol overhead (distributed):\n\n| tile | workers | bytes on the wire per tile (scene included) | scene transfer |\n|---:|---:|---:|---:|\n{overhead}"
                 );
                 csv.push_str(&trace.to_csv(first_csv));
                 csv.push_str(&whole.to_csv(false));
