@@ -1,1 +1,3 @@
 //! Helpers shared by parrt's integration tests.
+
+pub mod spd;
