@@ -15,6 +15,8 @@ use crate::stats::RayStats;
 struct Dda<R> {
     /// Current cell per axis.
     idx: [u32; 3],
+    /// Linear index of the current cell, kept in step with `idx`.
+    cell: usize,
     /// Ray parameter at which the walk leaves the current cell through each axis' next plane
     /// (infinity for an axis the ray does not move along).
     t_next: [R; 3],
@@ -46,6 +48,7 @@ impl Grid {
         let t0 = slab(&self.bounds.min, &self.bounds.max, pr, pr.ray.t_max)?;
         let mut w = Dda {
             idx: [0; 3],
+            cell: 0,
             t_next: [R::INFINITY; 3],
             up: [false; 3],
         };
@@ -69,7 +72,18 @@ impl Grid {
                 w.t_next[a] = self.crossing(pr, a, if w.up[a] { i + 1 } else { i });
             }
         }
+        w.cell = self.cell_index(w.idx[0], w.idx[1], w.idx[2]);
         Some(w)
+    }
+
+    /// How far the linear cell index moves for one step along axis `a`.
+    #[inline(always)]
+    fn stride(&self, a: usize) -> usize {
+        match a {
+            0 => 1,
+            1 => self.res[0] as usize,
+            _ => self.res[0] as usize * self.res[1] as usize,
+        }
     }
 
     /// Steps to the next cell along the ray. False when the walk is over: the next cell begins
@@ -97,12 +111,14 @@ impl Grid {
                 return false;
             }
             w.idx[a] += 1;
+            w.cell += self.stride(a);
             w.t_next[a] = self.crossing(pr, a, w.idx[a] + 1);
         } else {
             if w.idx[a] == 0 {
                 return false;
             }
             w.idx[a] -= 1;
+            w.cell -= self.stride(a);
             w.t_next[a] = self.crossing(pr, a, w.idx[a]);
         }
         true
@@ -129,8 +145,7 @@ impl Grid {
         let mut prim_tests = 0u64;
         loop {
             steps += 1;
-            let c = self.cell_index(w.idx[0], w.idx[1], w.idx[2]);
-            for &p in self.cell_prims(c) {
+            for &p in self.cell_prims(w.cell) {
                 if !mailbox.first_visit(p) {
                     continue;
                 }
@@ -173,8 +188,7 @@ impl Grid {
         let mut hit = false;
         'walk: loop {
             steps += 1;
-            let c = self.cell_index(w.idx[0], w.idx[1], w.idx[2]);
-            for &p in self.cell_prims(c) {
+            for &p in self.cell_prims(w.cell) {
                 if !mailbox.first_visit(p) {
                     continue;
                 }
