@@ -80,7 +80,12 @@ fn random_rays<R: Real>(t: &Trio<R>, eye: Rv, n: usize, seed: u64) -> Vec<Ray<R>
     let mut rays = Vec::with_capacity(n);
     for i in 0..n {
         let r = match i % 5 {
-            0 => ray(point_in(&mut rng, lo, hi, 0.25), unit_dir(&mut rng), 0.0, f64::INFINITY),
+            0 => ray(
+                point_in(&mut rng, lo, hi, 0.25),
+                unit_dir(&mut rng),
+                0.0,
+                f64::INFINITY,
+            ),
             1 => {
                 let p = point_in(&mut rng, lo, hi, 0.0);
                 ray(eye, (p - eye).normalize(), 0.0, f64::INFINITY)
@@ -142,9 +147,9 @@ fn rays_from_hits<R: Real>(t: &Trio<R>, from: &[Ray<R>], seed: u64) -> Vec<Ray<R
     let mut out = Vec::new();
     for r in from.iter().step_by(3) {
         let pr = parrt::geometry::PreparedRay::new(*r);
-        let hit = t
-            .brute
-            .intersect(&pr, &mut st.brute, |i, tm| t.scene.intersect_prim(i, &pr, tm));
+        let hit = t.brute.intersect(&pr, &mut st.brute, |i, tm| {
+            t.scene.intersect_prim(i, &pr, tm)
+        });
         if let Some(h) = hit {
             let p = r.o + r.d * h.t;
             let d = unit_dir(&mut rng);
@@ -185,7 +190,10 @@ fn spd_small_scenes_agree_f32() {
     for (i, name) in SMALL_SCENES.iter().enumerate() {
         let desc = load(name);
         let st = agree::<f32>(name, &desc, DEFAULT_GRID_DENSITY, 1000 + i as u64);
-        assert!(st.hits > st.rays / 10, "{name}: too few hits to mean anything");
+        assert!(
+            st.hits > st.rays / 10,
+            "{name}: too few hits to mean anything"
+        );
         assert!(
             st.grid.primitive_tests < st.brute.primitive_tests,
             "{name}: the grid should cull: {} tests against brute {}",
@@ -250,7 +258,13 @@ fn triangle_soup(seed: u64) -> SceneDescription {
             *z = rng.gen_range(-0.3..0.3);
         }
     }
-    let p = |i: usize, j: usize| v(i as f64 / n as f64 * 2.0 - 1.0, j as f64 / n as f64 * 2.0 - 1.0, h[i][j]);
+    let p = |i: usize, j: usize| {
+        v(
+            i as f64 / n as f64 * 2.0 - 1.0,
+            j as f64 / n as f64 * 2.0 - 1.0,
+            h[i][j],
+        )
+    };
     let mut prims = Vec::new();
     for i in 0..n {
         for j in 0..n {
@@ -297,10 +311,19 @@ fn overlapping_spheres(seed: u64) -> SceneDescription {
         } else {
             rng.gen_range(0.01..0.2)
         };
-        prims.push(Shape::Sphere { center: c, radius: r });
+        prims.push(Shape::Sphere {
+            center: c,
+            radius: r,
+        });
         if rng.gen_bool(0.1) {
-            prims.push(Shape::Sphere { center: c, radius: r });
-            prims.push(Shape::Sphere { center: c, radius: r * 0.5 });
+            prims.push(Shape::Sphere {
+                center: c,
+                radius: r,
+            });
+            prims.push(Shape::Sphere {
+                center: c,
+                radius: r * 0.5,
+            });
         }
     }
     describe(prims, v(0.3, -4.0, 1.0))
@@ -432,7 +455,10 @@ fn images_identical_across_accelerators() {
         for accel in [AccelKind::Bvh, AccelKind::Grid] {
             let img = render(&desc, accel, precision);
             let differ = img.iter().zip(&brute).filter(|(a, b)| a != b).count();
-            assert_eq!(differ, 0, "{name} {precision:?}: {accel:?} differs from brute in {differ} channels");
+            assert_eq!(
+                differ, 0,
+                "{name} {precision:?}: {accel:?} differs from brute in {differ} channels"
+            );
         }
     }
 }

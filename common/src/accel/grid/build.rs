@@ -19,14 +19,20 @@ pub const MAX_REFERENCES: u64 = 1 << 26;
 /// or late at a cell face, edge or corner, still lands in a visited cell holding the primitive.
 pub const MARGIN_REL: f64 = 1.0 / 16384.0;
 
+/// How far (in cells) the grid reaches past the scene's box on the high side of each axis. SPD
+/// geometry sits on round (often dyadic) coordinates; cells of exactly `extent / res` then put
+/// many cell planes exactly on primitive box faces, where the margin drags each box into the
+/// neighbouring cells too (tetra: 25 references per primitive instead of 5). Stretching the
+/// cells by this irrational-ish fraction (2 − φ) moves the planes off those coordinates.
+pub const PLANE_SHIFT: f64 = 0.381_966;
+
 /// The absolute insertion margin of a scene whose primitives span `world`.
 pub fn margin(world: &Aabb) -> f64 {
-    let mut mag = 0.0f64;
-    for a in 0..3 {
-        mag = mag
-            .max((world.min[a] as f64).abs())
-            .max((world.max[a] as f64).abs());
-    }
+    let mag = world
+        .min
+        .iter()
+        .chain(world.max.iter())
+        .fold(0.0f64, |m, &v| m.max((v as f64).abs()));
     (mag * MARGIN_REL).max(f64::from(f32::MIN_POSITIVE))
 }
 
@@ -41,11 +47,7 @@ pub fn resolution(ext: [f64; 3], count: usize, density: f64) -> [u32; 3] {
     };
     let longest = ext[0].max(ext[1]).max(ext[2]);
     let along = (density * count as f64).cbrt();
-    let mut res = [1u32; 3];
-    for a in 0..3 {
-        let r = (ext[a] / longest * along).round();
-        res[a] = r.clamp(1.0, MAX_CELLS as f64) as u32;
-    }
+    let mut res = ext.map(|e| (e / longest * along).round().clamp(1.0, MAX_CELLS as f64) as u32);
     let total = |r: &[u32; 3]| r[0] as u64 * r[1] as u64 * r[2] as u64;
     while total(&res) > MAX_CELLS {
         let shrink = (MAX_CELLS as f64 / total(&res) as f64).cbrt();
@@ -78,9 +80,8 @@ impl Grid {
     /// axis ≈ ∛(density·N)). Boxes that are empty or not finite are put into every cell, so
     /// their primitives are still tested.
     pub fn build(bounds: &[Aabb], density: f64) -> Grid {
-        let finite = |b: &Aabb| {
-            !b.is_empty() && b.min.iter().chain(b.max.iter()).all(|v| v.is_finite())
-        };
+        let finite =
+            |b: &Aabb| !b.is_empty() && b.min.iter().chain(b.max.iter()).all(|v| v.is_finite());
         let mut world = Aabb::EMPTY;
         for b in bounds.iter().filter(|b| finite(b)) {
             world = world.union(b);
@@ -96,27 +97,34 @@ impl Grid {
             };
         }
         let m = margin(&world);
-        let lo = V3::new(world.min[0] as f64, world.min[1] as f64, world.min[2] as f64);
-        let hi = V3::new(world.max[0] as f64, world.max[1] as f64, world.max[2] as f64);
+        let lo = V3::new(
+            world.min[0] as f64,
+            world.min[1] as f64,
+            world.min[2] as f64,
+        );
+        let hi = V3::new(
+            world.max[0] as f64,
+            world.max[1] as f64,
+            world.max[2] as f64,
+        );
         let lo = lo - V3::splat(m);
         let hi = hi + V3::splat(m);
+        debug_assert!((hi - lo).to_array().iter().all(|&e| e > 0.0));
         let min = lo.to_array();
         let ext = (hi - lo).to_array();
         let mut res = resolution(ext, bounds.len(), density);
         let mut grid = loop {
-            let cell = [
-                ext[0] / res[0] as f64,
-                ext[1] / res[1] as f64,
-                ext[2] / res[2] as f64,
-            ];
+            // The grid reaches PLANE_SHIFT of a cell past the scene's top on each axis.
+            let cell = [0, 1, 2].map(|a| ext[a] / (res[a] as f64 - PLANE_SHIFT));
+            let top = [0, 1, 2].map(|a| min[a] + res[a] as f64 * cell[a]);
             let g = Grid {
                 res,
                 min,
                 cell,
-                inv_cell: [1.0 / cell[0], 1.0 / cell[1], 1.0 / cell[2]],
+                inv_cell: cell.map(|c| 1.0 / c),
                 bounds: Aabb {
-                    min: [f32_down(lo.x), f32_down(lo.y), f32_down(lo.z)],
-                    max: [f32_up(hi.x), f32_up(hi.y), f32_up(hi.z)],
+                    min: min.map(f32_down),
+                    max: top.map(f32_up),
                 },
                 lists: Vec::new(),
                 empty_cells: 0,
@@ -126,7 +134,9 @@ impl Grid {
                 .iter()
                 .map(|b| {
                     let s = g.spans(b, m);
-                    (0..3).map(|a| (s[a].1 - s[a].0 + 1) as u64).product::<u64>()
+                    (0..3)
+                        .map(|a| (s[a].1 - s[a].0 + 1) as u64)
+                        .product::<u64>()
                 })
                 .sum();
             if refs <= MAX_REFERENCES || res == [1, 1, 1] {
@@ -249,7 +259,9 @@ mod tests {
         assert!(seen.iter().all(|&n| n >= 1), "every primitive in some cell");
         assert_eq!(
             g.empty_cells,
-            (0..g.cells()).filter(|&c| g.cell_prims(c).is_empty()).count() as u64
+            (0..g.cells())
+                .filter(|&c| g.cell_prims(c).is_empty())
+                .count() as u64
         );
     }
 

@@ -16,6 +16,11 @@
 //! the margin every box is widened by at insertion ([`build::margin`]). That margin is relative to
 //! the scene's coordinates, so floating-point at cell faces, edges and corners cannot lose a hit;
 //! testing a primitive too many times is only slower, never wrong.
+//!
+//! The margin (2⁻¹⁴ of the largest coordinate, ~1000 `f32` ulps) bounds what this covers: ray
+//! origins within a few hundred scene magnitudes of the origin in `f32` (far more in `f64`).
+//! It does not make the grid adaptive: a small dense object beside a huge polygon (pbrt's
+//! "teapot in a stadium", SPD balls and tree) leaves most primitives in a few cells.
 
 pub mod build;
 pub mod mailbox;
