@@ -399,9 +399,12 @@ fn huge_background(seed: u64) -> SceneDescription {
     describe(prims, v(2.0, -4.0, 1.5))
 }
 
+/// A named generator of seeded random scenes.
+type SceneMaker = (&'static str, fn(u64) -> SceneDescription);
+
 #[test]
 fn random_scenes_agree() {
-    let makers: [(&str, fn(u64) -> SceneDescription); 4] = [
+    let makers: [SceneMaker; 4] = [
         ("triangle soup", triangle_soup),
         ("overlapping spheres", overlapping_spheres),
         ("cones", cones),
