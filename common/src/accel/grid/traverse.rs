@@ -90,36 +90,44 @@ impl Grid {
     /// beyond `limit` (an equal parameter still steps, for the tie rule), or lies outside.
     #[inline(always)]
     fn advance<R: Real>(&self, pr: &PreparedRay<R>, w: &mut Dda<R>, limit: R) -> bool {
-        let t = w.t_next;
-        let a = if t[0] < t[1] {
+        // The axis is picked by branches so that every array access below has a constant
+        // index and the walk state stays in registers.
+        let t = &w.t_next;
+        if t[0] < t[1] {
             if t[0] < t[2] {
-                0
+                self.step::<0, R>(pr, w, limit)
             } else {
-                2
+                self.step::<2, R>(pr, w, limit)
             }
         } else if t[1] < t[2] {
-            1
+            self.step::<1, R>(pr, w, limit)
         } else {
-            2
-        };
+            self.step::<2, R>(pr, w, limit)
+        }
+    }
+
+    /// One step of [`Grid::advance`] across the next plane of axis `A`.
+    #[inline(always)]
+    fn step<const A: usize, R: Real>(&self, pr: &PreparedRay<R>, w: &mut Dda<R>, limit: R) -> bool {
+        let t = w.t_next[A];
         // Also false for NaN and for an infinite crossing (no axis moves).
-        if !(t[a] <= limit && t[a] < R::INFINITY) {
+        if !(t <= limit && t < R::INFINITY) {
             return false;
         }
-        if w.up[a] {
-            if w.idx[a] + 1 >= self.res[a] {
+        if w.up[A] {
+            if w.idx[A] + 1 >= self.res[A] {
                 return false;
             }
-            w.idx[a] += 1;
-            w.cell += self.stride(a);
-            w.t_next[a] = self.crossing(pr, a, w.idx[a] + 1);
+            w.idx[A] += 1;
+            w.cell += self.stride(A);
+            w.t_next[A] = self.crossing(pr, A, w.idx[A] + 1);
         } else {
-            if w.idx[a] == 0 {
+            if w.idx[A] == 0 {
                 return false;
             }
-            w.idx[a] -= 1;
-            w.cell -= self.stride(a);
-            w.t_next[a] = self.crossing(pr, a, w.idx[a]);
+            w.idx[A] -= 1;
+            w.cell -= self.stride(A);
+            w.t_next[A] = self.crossing(pr, A, w.idx[A]);
         }
         true
     }
