@@ -29,8 +29,12 @@ pub enum AccelKind {
 pub const DEFAULT_CUTOFF: f64 = 0.001;
 /// The default recursion limit (the eye ray is depth 1).
 pub const DEFAULT_MAX_DEPTH: u32 = 5;
-/// The default uniform-grid density (cells per primitive, before the cube root).
-pub const DEFAULT_GRID_DENSITY: f64 = 3.0;
+/// The default uniform-grid density (cells per primitive, before the cube root): 27 gives
+/// pbrt-v2's 3·∛N cells along the longest axis. Measured on the SPD default scenes at densities
+/// 3, 8, 27 and 100 (`bench/accel_table.sh`, `bench/results/`): 27 has the smallest geometric
+/// mean of grid/BVH trace time on the scenes without a huge floor; on balls and tree, whose
+/// floors squeeze everything into a few cells, only higher densities help (and not enough).
+pub const DEFAULT_GRID_DENSITY: f64 = 27.0;
 
 /// All settings that decide pixel values.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

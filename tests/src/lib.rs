@@ -26,3 +26,4 @@ pub fn spd_dir() -> PathBuf {
 
 pub mod dist;
 pub use dist::*;
+pub mod spd;

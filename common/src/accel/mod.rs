@@ -4,6 +4,7 @@
 
 pub mod brute;
 pub mod bvh;
+pub mod grid;
 
 use crate::geometry::{Aabb, PreparedRay, PrimHit};
 use crate::real::Real;
@@ -12,6 +13,7 @@ use crate::stats::RayStats;
 
 pub use brute::Brute;
 pub use bvh::Bvh;
+pub use grid::Grid;
 
 /// Statistics of a built accelerator, for logs and `--stats`.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
@@ -37,18 +39,19 @@ pub struct AccelStats {
 pub enum Accel {
     /// Bounding volume hierarchy.
     Bvh(Bvh),
+    /// Uniform voxel grid.
+    Grid(Grid),
     /// Linear scan.
     Brute(Brute),
 }
 
 impl Accel {
     /// Builds the structure of `kind` over primitive bounds.
-    pub fn build(kind: AccelKind, bounds: &[Aabb], _grid_density: f64) -> Accel {
+    pub fn build(kind: AccelKind, bounds: &[Aabb], grid_density: f64) -> Accel {
         match kind {
             AccelKind::Bvh => Accel::Bvh(Bvh::build(bounds)),
             AccelKind::Brute => Accel::Brute(Brute::build(bounds)),
-            // The uniform grid lands separately; until then it is served by the BVH.
-            AccelKind::Grid => Accel::Bvh(Bvh::build(bounds)),
+            AccelKind::Grid => Accel::Grid(Grid::build(bounds, grid_density)),
         }
     }
 
@@ -56,6 +59,7 @@ impl Accel {
     pub fn stats(&self) -> AccelStats {
         match self {
             Accel::Bvh(b) => b.stats(),
+            Accel::Grid(g) => g.stats(),
             Accel::Brute(b) => b.stats(),
         }
     }
@@ -73,6 +77,7 @@ impl Accel {
     {
         match self {
             Accel::Bvh(b) => b.intersect(pr, stats, test),
+            Accel::Grid(g) => g.intersect(pr, stats, test),
             Accel::Brute(b) => b.intersect(pr, stats, test),
         }
     }
@@ -85,6 +90,7 @@ impl Accel {
     {
         match self {
             Accel::Bvh(b) => b.occluded(pr, stats, test),
+            Accel::Grid(g) => g.occluded(pr, stats, test),
             Accel::Brute(b) => b.occluded(pr, stats, test),
         }
     }

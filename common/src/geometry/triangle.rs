@@ -68,17 +68,21 @@ pub fn intersect_triangle<R: Real>(
     }
     let (saz, sbz, scz) = (s.z * az, s.z * bz, s.z * cz);
     let t_scaled = e0 * saz + e1 * sbz + e2 * scz;
-    // Range checks on the scaled distance avoid a division for most misses.
+    // Range checks on the scaled distance avoid a division for most misses. They are only a
+    // filter, widened so they never reject a hit whose computed `t` is ≤ `t_max`: the exact
+    // check is on `t` itself, so `t_max` is inclusive of the very `t` this test returns (the
+    // accelerators' tie rule re-tests primitives with `t_max` = the best `t` so far).
+    let reach = t_max * (R::ONE + R::TWO * R::gamma(3));
     if det < R::ZERO {
-        if t_scaled >= R::ZERO || t_scaled < t_max * det {
+        if t_scaled >= R::ZERO || t_scaled < reach * det {
             return None;
         }
-    } else if t_scaled <= R::ZERO || t_scaled > t_max * det {
+    } else if t_scaled <= R::ZERO || t_scaled > reach * det {
         return None;
     }
     let inv_det = R::ONE / det;
     let t = t_scaled * inv_det;
-    if t < pr.ray.t_min {
+    if t < pr.ray.t_min || t > t_max {
         return None;
     }
     let b1 = e1 * inv_det;
