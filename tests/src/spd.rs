@@ -2,6 +2,7 @@
 //! [`crate::spd_dir`]), build BVH, grid and brute force over one scene, and check that a ray gets
 //! the same answer from all three. Test support only; never used by the renderer.
 
+use crate::spd_dir;
 use parrt::accel::Accel;
 use parrt::description::SceneDescription;
 use parrt::geometry::{PreparedRay, PrimHit, Ray};
@@ -9,7 +10,6 @@ use parrt::real::Real;
 use parrt::scene::Scene;
 use parrt::settings::AccelKind;
 use parrt::stats::RayStats;
-use crate::spd_dir;
 
 /// The small SPD files (a few hundred primitives each) of the scene table.
 pub const SMALL_SCENES: &[&str] = &[
@@ -28,7 +28,6 @@ pub const SMALL_SCENES: &[&str] = &[
     "sample-1",
     "nurbtst-1",
 ];
-
 
 /// Parses SPD scene `name` (without `.nff`); panics with the reason when it cannot.
 pub fn load(name: &str) -> SceneDescription {

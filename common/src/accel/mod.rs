@@ -15,6 +15,25 @@ pub use brute::Brute;
 pub use bvh::Bvh;
 pub use grid::Grid;
 
+/// The margin every accelerator widens primitive boxes by, relative to the scene's largest
+/// coordinate magnitude: 2⁻¹⁴, about a thousand `f32` ulps. A primitive's hit then lies strictly
+/// inside every box that holds it, so a box's (rounded) entry distance can never pass the hit's
+/// (rounded) `t`: the BVH never prunes the nearest hit, and a grid step decided a few ulps early
+/// or late at a cell face still lands in a cell holding the primitive. It covers rays that start
+/// within a few hundred scene magnitudes of the origin.
+pub const MARGIN_REL: f64 = 1.0 / 16384.0;
+
+/// The absolute margin of a scene whose primitives span `world`.
+pub fn margin(world: &Aabb) -> f64 {
+    let mag = world
+        .min
+        .iter()
+        .chain(world.max.iter())
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, |m, &v| m.max((v as f64).abs()));
+    (mag * MARGIN_REL).max(f64::from(f32::MIN_POSITIVE))
+}
+
 /// Statistics of a built accelerator, for logs and `--stats`.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct AccelStats {

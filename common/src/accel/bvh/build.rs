@@ -4,7 +4,7 @@
 
 use super::node::BvhNode;
 use super::Bvh;
-use crate::accel::AccelStats;
+use crate::accel::{margin, AccelStats};
 use crate::geometry::Aabb;
 
 /// Bins per axis.
@@ -33,6 +33,7 @@ struct Builder {
 impl Bvh {
     /// Builds over primitive bounds (indexed by primitive).
     pub fn build(bounds: &[Aabb]) -> Bvh {
+        let world = bounds.iter().fold(Aabb::EMPTY, |w, b| w.union(b));
         let mut items: Vec<Item> = bounds
             .iter()
             .enumerate()
@@ -51,6 +52,7 @@ impl Bvh {
         }
         let order = items.iter().map(|it| it.index).collect();
         let mut bvh = Bvh {
+            margin: margin(&world),
             nodes: b.nodes,
             order,
             sah_cost: 0.0,

@@ -19,4 +19,7 @@ pub struct Bvh {
     pub sah_cost: f64,
     /// Deepest leaf.
     pub max_depth: u32,
+    /// The scene's [`crate::accel::margin`]: a node is pruned only when it starts more than this
+    /// (in distance) beyond the best hit, so a rounded entry distance never skips the nearest hit.
+    pub margin: f64,
 }

@@ -1,7 +1,10 @@
 //! BVH traversal. Both children's boxes are tested at their parent: the nearer hit child is
 //! visited first, the farther is pushed with its entry distance and skipped when popped if a
-//! hit closer than that was found meanwhile. The stack is fixed-size and never zeroed per ray;
-//! `occluded` returns at the first hit.
+//! hit closer than that was found meanwhile. Pruning allows a slack of the scene's margin beyond
+//! the best hit: box entry distances and primitive distances are rounded differently, and
+//! without it a primitive hit at (or a few ulps below) the best `t` — a shared edge, a ray in a
+//! box face — could be skipped. The stack is fixed-size and never zeroed per ray; `occluded`
+//! returns at the first hit.
 
 use super::build::STACK_SIZE;
 use super::Bvh;
@@ -46,6 +49,12 @@ impl<R: Real> Stack<R> {
 }
 
 impl Bvh {
+    /// The pruning slack in units of the ray's `t`.
+    #[inline(always)]
+    fn slack<R: Real>(&self, pr: &PreparedRay<R>) -> R {
+        R::from_f64(self.margin) / pr.ray.d.length()
+    }
+
     /// Closest hit; `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
     #[inline]
     pub fn intersect<R: Real, F>(
@@ -63,8 +72,9 @@ impl Bvh {
         let mut best: Option<PrimHit<R>> = None;
         let mut best_t = pr.ray.t_max;
         let mut best_prim = u32::MAX;
+        let slack = self.slack(pr);
         let mut stack = Stack::<R>::new();
-        let mut next = slab(&root.min, &root.max, pr, best_t).map(|_| 0u32);
+        let mut next = slab(&root.min, &root.max, pr, best_t + slack).map(|_| 0u32);
         while let Some(node) = next {
             let n = &self.nodes[node as usize];
             next = None;
@@ -84,8 +94,8 @@ impl Bvh {
                 let (a, b) = (node + 1, n.offset);
                 let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
                 box_tests += 2;
-                let ta = slab(&na.min, &na.max, pr, best_t);
-                let tb = slab(&nb.min, &nb.max, pr, best_t);
+                let ta = slab(&na.min, &na.max, pr, best_t + slack);
+                let tb = slab(&nb.min, &nb.max, pr, best_t + slack);
                 next = match (ta, tb) {
                     (Some(ta), Some(tb)) => {
                         if tb < ta {
@@ -104,7 +114,7 @@ impl Bvh {
             while next.is_none() {
                 match stack.pop() {
                     // Skip a subtree that starts beyond the nearest hit so far (ties still go in).
-                    Some((node, t)) if t <= best_t => next = Some(node),
+                    Some((node, t)) if t <= best_t + slack => next = Some(node),
                     Some(_) => {}
                     None => break,
                 }
@@ -130,11 +140,12 @@ impl Bvh {
             return false;
         };
         let t_max = pr.ray.t_max;
+        let reach = t_max + self.slack(pr);
         let mut box_tests = 1u64;
         let mut prim_tests = 0u64;
         let mut hit = false;
         let mut stack = Stack::<R>::new();
-        let mut next = slab(&root.min, &root.max, pr, t_max).map(|_| 0u32);
+        let mut next = slab(&root.min, &root.max, pr, reach).map(|_| 0u32);
         'outer: while let Some(node) = next {
             let n = &self.nodes[node as usize];
             next = None;
@@ -151,8 +162,8 @@ impl Bvh {
                 let (a, b) = (node + 1, n.offset);
                 let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
                 box_tests += 2;
-                let ta = slab(&na.min, &na.max, pr, t_max);
-                let tb = slab(&nb.min, &nb.max, pr, t_max);
+                let ta = slab(&na.min, &na.max, pr, reach);
+                let tb = slab(&nb.min, &nb.max, pr, reach);
                 next = match (ta, tb) {
                     (Some(_), Some(tb)) => {
                         stack.push(b, tb);

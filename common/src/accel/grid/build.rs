@@ -3,6 +3,7 @@
 //! never called while tracing.
 
 use super::Grid;
+use crate::accel::margin;
 use crate::geometry::aabb::{f32_down, f32_up};
 use crate::geometry::Aabb;
 use crate::vec3::V3;
@@ -13,28 +14,12 @@ pub const MAX_CELLS: u64 = 1 << 22;
 /// Most primitive references a grid may store; past it the resolution is halved until it fits.
 pub const MAX_REFERENCES: u64 = 1 << 26;
 
-/// The insertion margin relative to the scene's largest coordinate magnitude: 2⁻¹⁴, about a
-/// thousand `f32` ulps. Every primitive box (and the grid box itself) is widened by it, so a hit
-/// point computed a few ulps outside its primitive's box, or a DDA step decided a few ulps early
-/// or late at a cell face, edge or corner, still lands in a visited cell holding the primitive.
-pub const MARGIN_REL: f64 = 1.0 / 16384.0;
-
 /// How far (in cells) the grid reaches past the scene's box on the high side of each axis. SPD
 /// geometry sits on round (often dyadic) coordinates; cells of exactly `extent / res` then put
 /// many cell planes exactly on primitive box faces, where the margin drags each box into the
 /// neighbouring cells too (tetra: 25 references per primitive instead of 5). Stretching the
 /// cells by this irrational-ish fraction (2 − φ) moves the planes off those coordinates.
 pub const PLANE_SHIFT: f64 = 0.381_966;
-
-/// The absolute insertion margin of a scene whose primitives span `world`.
-pub fn margin(world: &Aabb) -> f64 {
-    let mag = world
-        .min
-        .iter()
-        .chain(world.max.iter())
-        .fold(0.0f64, |m, &v| m.max((v as f64).abs()));
-    (mag * MARGIN_REL).max(f64::from(f32::MIN_POSITIVE))
-}
 
 /// Cells per axis for `count` primitives in a box of extents `ext` (all > 0): about
 /// ∛(density·count) along the longest axis, the others in proportion, each at least 1, the

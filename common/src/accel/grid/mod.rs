@@ -13,7 +13,7 @@
 //! tie with a smaller index in the next cell is still found). A primitive whose hit is nearer
 //! than the stop is tested because its hit point lies in a cell the walk visited — provided the
 //! walk's and the primitive test's rounding never move a point across a cell face by more than
-//! the margin every box is widened by at insertion ([`build::margin`]). That margin is relative to
+//! the margin every box is widened by at insertion ([`crate::accel::margin`]). That margin is relative to
 //! the scene's coordinates, so floating-point at cell faces, edges and corners cannot lose a hit;
 //! testing a primitive too many times is only slower, never wrong.
 //!
