@@ -158,6 +158,16 @@ impl Bounds {
     }
 }
 
+/// Half-extent per axis of a unit-radius disc whose normal is the unit vector `axis`:
+/// `sqrt(1 − a_i²)`. A disc of radius r around centre c spans exactly c ± r·extent.
+pub fn disc_extent(axis: Vec3d) -> Vec3d {
+    Vec3d::new(
+        (1.0 - axis.x * axis.x).max(0.0).sqrt(),
+        (1.0 - axis.y * axis.y).max(0.0).sqrt(),
+        (1.0 - axis.z * axis.z).max(0.0).sqrt(),
+    )
+}
+
 impl Shape {
     /// The shape's bounding box.
     pub fn bounds(&self) -> Bounds {
@@ -174,13 +184,7 @@ impl Shape {
                 apex,
                 apex_radius,
             } => {
-                // Exact box of a circle of radius r around axis a: r·sqrt(1 − a_i²) per axis.
-                let axis = (*apex - *base).normalize();
-                let ext = Vec3d::new(
-                    (1.0 - axis.x * axis.x).max(0.0).sqrt(),
-                    (1.0 - axis.y * axis.y).max(0.0).sqrt(),
-                    (1.0 - axis.z * axis.z).max(0.0).sqrt(),
-                );
+                let ext = disc_extent((*apex - *base).normalize());
                 for (c, r) in [(*base, base_radius.abs()), (*apex, apex_radius.abs())] {
                     b.add_point(c - ext * r);
                     b.add_point(c + ext * r);

@@ -335,11 +335,7 @@ impl<R: Real> Scene<R> {
                 let apex = base + a * c.height.to_f64();
                 let r0 = c.r0.to_f64();
                 let r1 = r0 + c.slope.to_f64() * c.height.to_f64();
-                let ext = V3::new(
-                    (1.0 - a.x * a.x).max(0.0).sqrt(),
-                    (1.0 - a.y * a.y).max(0.0).sqrt(),
-                    (1.0 - a.z * a.z).max(0.0).sqrt(),
-                );
+                let ext = crate::description::disc_extent(a);
                 // Widen slightly: the stored axis and slope are rounded.
                 let pad = V3::splat(
                     1e-6 * (base.abs().max_component() + apex.abs().max_component() + r0 + r1),
