@@ -60,7 +60,13 @@ async fn jobs_back_to_back_with_workers_killed_at_random() {
             let victim = rng.gen_range(0..workers.len());
             let _ = workers[victim].0.kill();
             kills += 1;
-            workers.push(spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(4), TEST_TOKEN));
+            workers.push(spawn_worker_process(
+                EXE.as_ref(),
+                m.addr,
+                1,
+                Some(4),
+                TEST_TOKEN,
+            ));
         }
         let r = timeout(Duration::from_secs(60), m.handle)
             .await
@@ -68,7 +74,10 @@ async fn jobs_back_to_back_with_workers_killed_at_random() {
             .expect("master task")
             .unwrap_or_else(|e| panic!("job {job} failed: {e}"));
         assert_same_bits(&r.film, &reference, &format!("job {job}"));
-        assert_eq!(r.stats, ref_stats, "job {job}: statistics (nothing counted twice)");
+        assert_eq!(
+            r.stats, ref_stats,
+            "job {job}: statistics (nothing counted twice)"
+        );
         requeued += r.faults.requeued;
         drop(workers);
         if job == warm_up {
