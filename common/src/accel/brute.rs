@@ -2,7 +2,7 @@
 //! are tested against.
 
 use super::AccelStats;
-use crate::geometry::{Aabb, PreparedRay, PrimHit};
+use crate::geometry::{Aabb, Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
 
@@ -39,20 +39,12 @@ impl Brute {
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
-        let mut best: Option<PrimHit<R>> = None;
-        let mut best_t = pr.ray.t_max;
-        let mut best_prim = u32::MAX;
+        let mut best = Nearest::new(pr.ray.t_max);
         for i in 0..self.count {
             stats.primitive_tests += 1;
-            if let Some(h) = test(i, best_t) {
-                if h.beats(best_t, best_prim) {
-                    best_t = h.t;
-                    best_prim = h.prim;
-                    best = Some(h);
-                }
-            }
+            best.offer(test(i, best.t));
         }
-        best
+        best.hit
     }
 
     /// Any hit.

@@ -28,6 +28,41 @@ impl<R: Real> PrimHit<R> {
     }
 }
 
+/// The nearest hit found so far along a ray, kept by the one rule every accelerator shares
+/// ([`PrimHit::beats`]), so they all return the same hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Nearest<R> {
+    /// The hit, if any.
+    pub hit: Option<PrimHit<R>>,
+    /// Its distance, or the ray's `t_max` while there is none: the bound for further tests.
+    pub t: R,
+    prim: u32,
+}
+
+impl<R: Real> Nearest<R> {
+    /// Nothing found yet within `t_max`.
+    #[inline(always)]
+    pub fn new(t_max: R) -> Self {
+        Nearest {
+            hit: None,
+            t: t_max,
+            prim: u32::MAX,
+        }
+    }
+
+    /// Keeps `h` when it beats the current hit.
+    #[inline(always)]
+    pub fn offer(&mut self, h: Option<PrimHit<R>>) {
+        if let Some(h) = h {
+            if h.beats(self.t, self.prim) {
+                self.t = h.t;
+                self.prim = h.prim;
+                self.hit = Some(h);
+            }
+        }
+    }
+}
+
 /// Moves `p` (with absolute error bound `p_err` per component) off its surface, whose normal is
 /// `n`, to the side of direction `w`, far enough that the surface cannot be re-hit, and rounds
 /// the result away from the surface.

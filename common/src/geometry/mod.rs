@@ -11,5 +11,5 @@ pub mod triangle;
 pub mod triangulate;
 
 pub use aabb::Aabb;
-pub use hit::{offset_ray_origin, PrimHit};
+pub use hit::{offset_ray_origin, Nearest, PrimHit};
 pub use ray::{PreparedRay, Ray};

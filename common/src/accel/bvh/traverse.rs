@@ -9,7 +9,7 @@
 use super::build::STACK_SIZE;
 use super::Bvh;
 use crate::geometry::aabb::slab;
-use crate::geometry::{PreparedRay, PrimHit};
+use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
 use std::mem::MaybeUninit;
@@ -69,12 +69,10 @@ impl Bvh {
         let root = self.nodes.first()?;
         let mut box_tests = 1u64;
         let mut prim_tests = 0u64;
-        let mut best: Option<PrimHit<R>> = None;
-        let mut best_t = pr.ray.t_max;
-        let mut best_prim = u32::MAX;
+        let mut best = Nearest::new(pr.ray.t_max);
         let slack = self.slack(pr);
         let mut stack = Stack::<R>::new();
-        let mut next = slab(&root.min, &root.max, pr, best_t + slack).map(|_| 0u32);
+        let mut next = slab(&root.min, &root.max, pr, best.t + slack).map(|_| 0u32);
         while let Some(node) = next {
             let n = &self.nodes[node as usize];
             next = None;
@@ -82,20 +80,14 @@ impl Bvh {
                 let first = n.offset as usize;
                 for &p in &self.order[first..first + n.count as usize] {
                     prim_tests += 1;
-                    if let Some(h) = test(p, best_t) {
-                        if h.beats(best_t, best_prim) {
-                            best_t = h.t;
-                            best_prim = h.prim;
-                            best = Some(h);
-                        }
-                    }
+                    best.offer(test(p, best.t));
                 }
             } else {
                 let (a, b) = (node + 1, n.offset);
                 let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
                 box_tests += 2;
-                let ta = slab(&na.min, &na.max, pr, best_t + slack);
-                let tb = slab(&nb.min, &nb.max, pr, best_t + slack);
+                let ta = slab(&na.min, &na.max, pr, best.t + slack);
+                let tb = slab(&nb.min, &nb.max, pr, best.t + slack);
                 next = match (ta, tb) {
                     (Some(ta), Some(tb)) => {
                         if tb < ta {
@@ -114,7 +106,7 @@ impl Bvh {
             while next.is_none() {
                 match stack.pop() {
                     // Skip a subtree that starts beyond the nearest hit so far (ties still go in).
-                    Some((node, t)) if t <= best_t + slack => next = Some(node),
+                    Some((node, t)) if t <= best.t + slack => next = Some(node),
                     Some(_) => {}
                     None => break,
                 }
@@ -122,7 +114,7 @@ impl Bvh {
         }
         stats.box_tests += box_tests;
         stats.primitive_tests += prim_tests;
-        best
+        best.hit
     }
 
     /// True when anything is hit within the ray's range.

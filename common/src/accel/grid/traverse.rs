@@ -6,7 +6,7 @@
 use super::mailbox::Mailbox;
 use super::Grid;
 use crate::geometry::aabb::slab;
-use crate::geometry::{PreparedRay, PrimHit};
+use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
 
@@ -146,9 +146,7 @@ impl Grid {
     {
         let mut w = self.enter(pr, stats)?;
         let mut mailbox = Mailbox::new();
-        let mut best: Option<PrimHit<R>> = None;
-        let mut best_t = pr.ray.t_max;
-        let mut best_prim = u32::MAX;
+        let mut best = Nearest::new(pr.ray.t_max);
         let mut steps = 0u64;
         let mut prim_tests = 0u64;
         loop {
@@ -158,21 +156,15 @@ impl Grid {
                     continue;
                 }
                 prim_tests += 1;
-                if let Some(h) = test(p, best_t) {
-                    if h.beats(best_t, best_prim) {
-                        best_t = h.t;
-                        best_prim = h.prim;
-                        best = Some(h);
-                    }
-                }
+                best.offer(test(p, best.t));
             }
-            if !self.advance(pr, &mut w, best_t) {
+            if !self.advance(pr, &mut w, best.t) {
                 break;
             }
         }
         stats.cell_steps += steps;
         stats.primitive_tests += prim_tests;
-        best
+        best.hit
     }
 
     /// True when anything is hit within the ray's range; returns at the first hit.
