@@ -3,7 +3,7 @@
 #   usage: fuzz/run.sh [TARGET] [SECONDS]     TARGET: parse_nff | decode_frames (default: both)
 # Uses `cargo fuzz` when it is installed; otherwise builds the target with the nightly toolchain
 # and the same sanitizer-coverage flags cargo-fuzz passes (rustup toolchain install nightly).
-# Seeds parse_nff's corpus with the small SPD scenes from ../shared/spd when it is empty.
+# The corpora in fuzz/corpus/ are small committed seeds; runs add to them (commit only what stays small).
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 SECONDS_EACH=${2:-120}
