@@ -159,6 +159,7 @@ pub fn render_smp(
                 .expect("a rayon pool of a valid size builds");
             pool.install(|| {
                 list.par_iter()
+                    .with_max_len(1)
                     .for_each_init(Vec::new, |buf, tile| render_one(tile, buf));
             });
         }
