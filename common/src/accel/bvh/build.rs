@@ -2,9 +2,8 @@
 //! array. Leaves hold at most [`MAX_LEAF`] primitives; deep branches fall back to median splits
 //! so the traversal stack can never overflow.
 
+use super::binary::BinaryBvh;
 use super::node::BvhNode;
-use super::Bvh;
-use crate::accel::{margin, AccelStats};
 use crate::geometry::Aabb;
 
 /// Bins per axis.
@@ -12,7 +11,7 @@ const BINS: usize = 16;
 /// Largest leaf the SAH may choose.
 pub const MAX_LEAF: usize = 4;
 /// Cost of one node visit relative to one primitive test.
-const TRAVERSAL_COST: f32 = 1.0;
+pub const TRAVERSAL_COST: f32 = 1.0;
 /// Below this depth the SAH decides; deeper, splits are at the median so depth stays bounded.
 const SAH_DEPTH_LIMIT: u32 = 56;
 /// Traversal stack size: SAH depth limit plus a balanced tree over 2^32 primitives.
@@ -30,80 +29,28 @@ struct Builder {
     max_depth: u32,
 }
 
-impl Bvh {
-    /// Builds over primitive bounds (indexed by primitive).
-    pub fn build(bounds: &[Aabb]) -> Bvh {
-        let world = bounds.iter().fold(Aabb::EMPTY, |w, b| w.union(b));
-        let mut items: Vec<Item> = bounds
-            .iter()
-            .enumerate()
-            .map(|(i, b)| Item {
-                bounds: *b,
-                centroid: b.centroid(),
-                index: i as u32,
-            })
-            .collect();
-        let mut b = Builder {
-            nodes: Vec::with_capacity(2 * items.len().max(1) / MAX_LEAF + 1),
-            max_depth: 0,
-        };
-        if !items.is_empty() {
-            b.build(&mut items, 0, 0);
-        }
-        let order = items.iter().map(|it| it.index).collect();
-        let mut bvh = Bvh {
-            margin: margin(&world),
-            nodes: b.nodes,
-            order,
-            sah_cost: 0.0,
-            max_depth: b.max_depth,
-        };
-        bvh.sah_cost = bvh.compute_sah_cost();
-        bvh
+/// Builds the binary SAH hierarchy over primitive bounds (indexed by primitive).
+pub fn build_binary(bounds: &[Aabb]) -> BinaryBvh {
+    let mut items: Vec<Item> = bounds
+        .iter()
+        .enumerate()
+        .map(|(i, b)| Item {
+            bounds: *b,
+            centroid: b.centroid(),
+            index: i as u32,
+        })
+        .collect();
+    let mut b = Builder {
+        nodes: Vec::with_capacity(2 * items.len().max(1) / MAX_LEAF + 1),
+        max_depth: 0,
+    };
+    if !items.is_empty() {
+        b.build(&mut items, 0, 0);
     }
-
-    fn compute_sah_cost(&self) -> f64 {
-        let Some(root) = self.nodes.first() else {
-            return 0.0;
-        };
-        let root_area = Aabb {
-            min: root.min,
-            max: root.max,
-        }
-        .half_area() as f64;
-        if root_area <= 0.0 {
-            return self.order.len() as f64;
-        }
-        self.nodes
-            .iter()
-            .map(|n| {
-                let a = Aabb {
-                    min: n.min,
-                    max: n.max,
-                }
-                .half_area() as f64
-                    / root_area;
-                if n.is_leaf() {
-                    a * n.count as f64
-                } else {
-                    a * TRAVERSAL_COST as f64
-                }
-            })
-            .sum()
-    }
-
-    /// Build statistics.
-    pub fn stats(&self) -> AccelStats {
-        AccelStats {
-            kind: "bvh".into(),
-            nodes: self.nodes.len() as u64,
-            leaves: self.nodes.iter().filter(|n| n.is_leaf()).count() as u64,
-            references: self.order.len() as u64,
-            sah_cost: self.sah_cost,
-            max_depth: self.max_depth,
-            bytes: (self.nodes.len() * std::mem::size_of::<BvhNode>() + self.order.len() * 4)
-                as u64,
-        }
+    BinaryBvh {
+        nodes: b.nodes,
+        order: items.iter().map(|it| it.index).collect(),
+        max_depth: b.max_depth,
     }
 }
 
