@@ -74,6 +74,14 @@ pub trait Real:
     /// Tangent.
     fn tan(self) -> Self;
 
+    /// Four slab tests at once ([`crate::geometry::slab4`]): SSE for `f32` on x86-64, lane by
+    /// lane otherwise; both compute exactly what the scalar slab test computes.
+    fn slab4(
+        b: &crate::geometry::slab4::Box4,
+        r: &crate::geometry::slab4::SlabRay<Self>,
+        t_max: Self,
+    ) -> (u32, [Self; 4]);
+
     /// `gamma(n) = n·u / (1 − n·u)`, the bound on the relative error of `n` rounded operations.
     #[inline]
     fn gamma(n: u32) -> Self {
@@ -83,8 +91,16 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $name:literal) => {
+    ($t:ty, $name:literal, $slab4:path) => {
         impl Real for $t {
+            #[inline(always)]
+            fn slab4(
+                b: &crate::geometry::slab4::Box4,
+                r: &crate::geometry::slab4::SlabRay<Self>,
+                t_max: Self,
+            ) -> (u32, [Self; 4]) {
+                $slab4(b, r, t_max)
+            }
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const HALF: Self = 0.5;
@@ -158,8 +174,8 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(f32, "f32");
-impl_real!(f64, "f64");
+impl_real!(f32, "f32", crate::geometry::slab4::slab4_f32);
+impl_real!(f64, "f64", crate::geometry::slab4::slab4_lanes::<f64>);
 
 #[cfg(test)]
 mod tests {

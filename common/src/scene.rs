@@ -39,7 +39,7 @@ pub enum SceneError {
     /// A value is NaN or infinite.
     #[error("{0} is not finite")]
     NotFinite(String),
-    /// More primitives than a `u32` index can name.
+    /// More primitives than the accelerators can index (2²⁹).
     #[error("too many primitives after triangulation ({0})")]
     TooMany(usize),
 }
@@ -186,7 +186,8 @@ impl<R: Real> Scene<R> {
             }
             scene.add_shape(index, &p.shape, p.material)?;
         }
-        if scene.prims.len() >= u32::MAX as usize {
+        // The BVH's leaf references hold 29 bits of position.
+        if scene.prims.len() > crate::accel::bvh::wide::MAX_LEAF_OFFSET as usize {
             return Err(SceneError::TooMany(scene.prims.len()));
         }
         Ok(scene)

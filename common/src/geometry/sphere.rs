@@ -21,9 +21,16 @@ impl<R: Real> Sphere<R> {
     pub fn intersect(&self, ray: &Ray<R>, t_max: R) -> Option<R> {
         let f = ray.o - self.center;
         let d = ray.d;
-        let a = d.length_squared();
         let b = f.dot(d); // half of the usual b
         let r2 = self.radius * self.radius;
+        let c = f.length_squared() - r2;
+        // Origin outside and heading away: both roots below are negative (q < 0, so q/a < 0 and
+        // c/q < 0), so this returns exactly what the full computation would, without the root
+        // and the divisions. Most shadow rays leaving a cluster of spheres end here.
+        if c > R::ZERO && b > R::ZERO {
+            return None;
+        }
+        let a = d.length_squared();
         // b² − a·c computed as a·(r² − |f − (b/a)·d|²): no cancellation for distant rays.
         let v = f - d * (b / a);
         let disc = a * (r2 - v.length_squared());
@@ -32,7 +39,6 @@ impl<R: Real> Sphere<R> {
         }
         let root = disc.sqrt();
         let q = -(b + root.copysign(b));
-        let c = f.length_squared() - r2;
         let (mut t0, mut t1) = if q == R::ZERO {
             (R::ZERO, R::ZERO)
         } else {

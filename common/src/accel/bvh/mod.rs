@@ -1,29 +1,33 @@
 //! The bounding volume hierarchy: built with binned SAH ([`build`]) into a binary tree
-//! ([`binary`]) of 32-byte nodes ([`node`]), traversed nearer child first with a fixed stack
-//! ([`traverse`]).
+//! ([`binary`]) of 32-byte nodes ([`node`]), collapsed into 4-wide nodes ([`wide`]) and
+//! traversed nearest child first with a fixed stack ([`traverse`]).
 
 pub mod binary;
 pub mod build;
 pub mod node;
 pub mod traverse;
+pub mod wide;
 
 pub use binary::BinaryBvh;
 pub use node::BvhNode;
+pub use wide::WideNode;
 
 use crate::accel::{margin, AccelStats};
 use crate::geometry::Aabb;
 
-/// A built BVH: nodes and the primitive order its leaves index into.
+/// A built BVH: 4-wide nodes and the primitive order its leaves index into.
 #[derive(Debug)]
 pub struct Bvh {
-    /// Nodes, depth-first; node 0 is the root; a left child follows its parent.
-    pub nodes: Vec<BvhNode>,
+    /// Wide nodes; node 0 is the root (none for an empty scene).
+    pub nodes: Vec<WideNode>,
     /// Primitive indices in leaf order.
     pub order: Vec<u32>,
-    /// SAH cost of the tree.
+    /// SAH cost of the binary tree the nodes were collapsed from.
     pub sah_cost: f64,
-    /// Deepest leaf.
+    /// Deepest leaf of the binary tree.
     pub max_depth: u32,
+    /// Leaves.
+    pub leaves: u64,
     /// The scene's [`crate::accel::margin`]: a node is pruned only when it starts more than this
     /// (in distance) beyond the best hit, so a rounded entry distance never skips the nearest hit.
     pub margin: f64,
@@ -36,13 +40,23 @@ impl Bvh {
     }
 
     /// The traversal structure of a built binary hierarchy.
+    ///
+    /// # Panics
+    /// When the tree holds more than 2²⁹ primitive references; scenes are limited far below
+    /// that (`--max-primitives`).
     pub fn from_binary(bin: BinaryBvh) -> Bvh {
-        let world = bin.world();
+        let nodes = match wide::collapse(&bin) {
+            Ok(nodes) => nodes,
+            Err(wide::TooManyReferences(n)) => {
+                panic!("{n} primitive references exceed the BVH's 2^29 limit")
+            }
+        };
         Bvh {
-            margin: margin(&world),
+            margin: margin(&bin.world()),
             sah_cost: bin.sah_cost(),
             max_depth: bin.max_depth,
-            nodes: bin.nodes,
+            leaves: bin.nodes.iter().filter(|n| n.is_leaf()).count() as u64,
+            nodes,
             order: bin.order,
         }
     }
@@ -52,11 +66,11 @@ impl Bvh {
         AccelStats {
             kind: "bvh".into(),
             nodes: self.nodes.len() as u64,
-            leaves: self.nodes.iter().filter(|n| n.is_leaf()).count() as u64,
+            leaves: self.leaves,
             references: self.order.len() as u64,
             sah_cost: self.sah_cost,
             max_depth: self.max_depth,
-            bytes: (self.nodes.len() * std::mem::size_of::<BvhNode>() + self.order.len() * 4)
+            bytes: (self.nodes.len() * std::mem::size_of::<WideNode>() + self.order.len() * 4)
                 as u64,
         }
     }

@@ -1,22 +1,27 @@
-//! BVH traversal. Both children's boxes are tested at their parent: the nearer hit child is
-//! visited first, the farther is pushed with its entry distance and skipped when popped if a
-//! hit closer than that was found meanwhile. Pruning allows a slack of the scene's margin beyond
-//! the best hit: box entry distances and primitive distances are rounded differently, and
-//! without it a primitive hit at (or a few ulps below) the best `t` — a shared edge, a ray in a
-//! box face — could be skipped. The stack is fixed-size and never zeroed per ray; `occluded`
-//! returns at the first hit.
+//! BVH traversal over 4-wide nodes. One SIMD slab test gives the entry distances of all of a
+//! node's children: the nearest hit child is visited next, the others are pushed farthest first
+//! with their entry distances and skipped when popped if a hit closer than that was found
+//! meanwhile. Pruning allows a slack of the scene's margin beyond the best hit: box entry
+//! distances and primitive distances are rounded differently, and without it a primitive hit at
+//! (or a few ulps below) the best `t` — a shared edge, a ray in a box face — could be skipped.
+//! The stack is fixed-size and never zeroed per ray; `occluded` returns at the first hit.
 
 use super::build::STACK_SIZE;
+use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
-use crate::geometry::aabb::slab;
+use crate::geometry::slab4::SlabRay;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
 use std::mem::MaybeUninit;
 
-/// A fixed traversal stack of (node, entry distance) that is not initialised up front.
+/// Stack entries: a wide node pushes at most `WIDTH − 1` children, and the collapsed tree is no
+/// deeper than the binary one, whose depth the builder bounds by `STACK_SIZE`.
+const WIDE_STACK: usize = (WIDTH - 1) * STACK_SIZE;
+
+/// A fixed traversal stack of (child, entry distance) that is not initialised up front.
 struct Stack<R> {
-    items: [MaybeUninit<(u32, R)>; STACK_SIZE],
+    items: [MaybeUninit<(ChildRef, R)>; WIDE_STACK],
     len: usize,
 }
 
@@ -24,21 +29,20 @@ impl<R: Real> Stack<R> {
     #[inline(always)]
     fn new() -> Self {
         Stack {
-            items: [const { MaybeUninit::uninit() }; STACK_SIZE],
+            items: [const { MaybeUninit::uninit() }; WIDE_STACK],
             len: 0,
         }
     }
 
     #[inline(always)]
-    fn push(&mut self, node: u32, t: R) {
-        // The builder bounds the depth (median splits past its SAH depth limit), and a push
-        // happens at most once per level, so this cannot overflow; indexing still checks.
-        self.items[self.len].write((node, t));
+    fn push(&mut self, child: ChildRef, t: R) {
+        // Bounded as WIDE_STACK says; indexing still checks.
+        self.items[self.len].write((child, t));
         self.len += 1;
     }
 
     #[inline(always)]
-    fn pop(&mut self) -> Option<(u32, R)> {
+    fn pop(&mut self) -> Option<(ChildRef, R)> {
         if self.len == 0 {
             return None;
         }
@@ -48,11 +52,44 @@ impl<R: Real> Stack<R> {
     }
 }
 
+/// The hit children of a node in ascending entry distance (insertion sort; ties keep lane
+/// order).
+#[inline(always)]
+fn sorted_hits<R: Real>(mask: u32, t: &[R; 4], child: &[ChildRef; 4]) -> ([(R, ChildRef); 4], usize) {
+    let mut hits = [(R::ZERO, 0); 4];
+    let mut k = 0;
+    let mut m = mask;
+    while m != 0 {
+        let i = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let e = (t[i], child[i]);
+        let mut j = k;
+        while j > 0 && e.0 < hits[j - 1].0 {
+            hits[j] = hits[j - 1];
+            j -= 1;
+        }
+        hits[j] = e;
+        k += 1;
+    }
+    (hits, k)
+}
+
 impl Bvh {
     /// The pruning slack in units of the ray's `t`.
     #[inline(always)]
     fn slack<R: Real>(&self, pr: &PreparedRay<R>) -> R {
         R::from_f64(self.margin) / pr.ray.d.length()
+    }
+
+    #[inline(always)]
+    fn slab_ray<R: Real>(pr: &PreparedRay<R>) -> SlabRay<R> {
+        let (o, inv) = (pr.ray.o, pr.inv_d);
+        SlabRay {
+            o: [o.x, o.y, o.z],
+            inv: [inv.x, inv.y, inv.z],
+            neg: pr.neg,
+            t_min: pr.ray.t_min,
+        }
     }
 
     /// Closest hit; `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
@@ -66,49 +103,51 @@ impl Bvh {
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
-        let root = self.nodes.first()?;
-        let mut box_tests = 1u64;
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let sr = Self::slab_ray(pr);
+        let mut box_tests = 0u64;
         let mut prim_tests = 0u64;
         let mut best = Nearest::new(pr.ray.t_max);
         let slack = self.slack(pr);
         let mut stack = Stack::<R>::new();
-        let mut next = slab(&root.min, &root.max, pr, best.t + slack).map(|_| 0u32);
-        while let Some(node) = next {
-            let n = &self.nodes[node as usize];
-            next = None;
-            if n.is_leaf() {
-                let first = n.offset as usize;
-                for &p in &self.order[first..first + n.count as usize] {
+        let mut cur: ChildRef = 0;
+        'walk: loop {
+            if is_leaf(cur) {
+                let (first, count) = leaf_range(cur);
+                for &p in &self.order[first..first + count] {
                     prim_tests += 1;
                     best.offer(test(p, best.t));
                 }
             } else {
-                let (a, b) = (node + 1, n.offset);
-                let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
-                box_tests += 2;
-                let ta = slab(&na.min, &na.max, pr, best.t + slack);
-                let tb = slab(&nb.min, &nb.max, pr, best.t + slack);
-                next = match (ta, tb) {
-                    (Some(ta), Some(tb)) => {
-                        if tb < ta {
-                            stack.push(a, ta);
-                            Some(b)
-                        } else {
-                            stack.push(b, tb);
-                            Some(a)
-                        }
+                let n = &self.nodes[cur as usize];
+                box_tests += u64::from(n.used);
+                let (mask, t) = R::slab4(&n.bounds, &sr, best.t + slack);
+                // Empty lanes are never entered; the mask makes that independent of the ray.
+                let mask = mask & n.lanes();
+                if mask != 0 {
+                    if mask & (mask - 1) == 0 {
+                        cur = n.child[mask.trailing_zeros() as usize];
+                        continue 'walk;
                     }
-                    (Some(_), None) => Some(a),
-                    (None, Some(_)) => Some(b),
-                    (None, None) => None,
-                };
+                    let (hits, k) = sorted_hits(mask, &t, &n.child);
+                    for &(t, c) in hits[1..k].iter().rev() {
+                        stack.push(c, t);
+                    }
+                    cur = hits[0].1;
+                    continue 'walk;
+                }
             }
-            while next.is_none() {
+            loop {
                 match stack.pop() {
                     // Skip a subtree that starts beyond the nearest hit so far (ties still go in).
-                    Some((node, t)) if t <= best.t + slack => next = Some(node),
+                    Some((c, t)) if t <= best.t + slack => {
+                        cur = c;
+                        continue 'walk;
+                    }
                     Some(_) => {}
-                    None => break,
+                    None => break 'walk,
                 }
             }
         }
@@ -128,46 +167,47 @@ impl Bvh {
     where
         F: FnMut(u32, R) -> Option<PrimHit<R>>,
     {
-        let Some(root) = self.nodes.first() else {
+        if self.nodes.is_empty() {
             return false;
-        };
+        }
+        let sr = Self::slab_ray(pr);
         let t_max = pr.ray.t_max;
         let reach = t_max + self.slack(pr);
-        let mut box_tests = 1u64;
+        let mut box_tests = 0u64;
         let mut prim_tests = 0u64;
         let mut hit = false;
         let mut stack = Stack::<R>::new();
-        let mut next = slab(&root.min, &root.max, pr, reach).map(|_| 0u32);
-        'outer: while let Some(node) = next {
-            let n = &self.nodes[node as usize];
-            next = None;
-            if n.is_leaf() {
-                let first = n.offset as usize;
-                for &p in &self.order[first..first + n.count as usize] {
+        let mut cur: ChildRef = 0;
+        'walk: loop {
+            if is_leaf(cur) {
+                let (first, count) = leaf_range(cur);
+                for &p in &self.order[first..first + count] {
                     prim_tests += 1;
                     if test(p, t_max).is_some() {
                         hit = true;
-                        break 'outer;
+                        break 'walk;
                     }
                 }
             } else {
-                let (a, b) = (node + 1, n.offset);
-                let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
-                box_tests += 2;
-                let ta = slab(&na.min, &na.max, pr, reach);
-                let tb = slab(&nb.min, &nb.max, pr, reach);
-                next = match (ta, tb) {
-                    (Some(_), Some(tb)) => {
-                        stack.push(b, tb);
-                        Some(a)
+                let n = &self.nodes[cur as usize];
+                box_tests += u64::from(n.used);
+                let (mask, t) = R::slab4(&n.bounds, &sr, reach);
+                let mut mask = mask & n.lanes();
+                if mask != 0 {
+                    let first = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack.push(n.child[i], t[i]);
                     }
-                    (Some(_), None) => Some(a),
-                    (None, Some(_)) => Some(b),
-                    (None, None) => None,
-                };
+                    cur = n.child[first];
+                    continue 'walk;
+                }
             }
-            if next.is_none() {
-                next = stack.pop().map(|(n, _)| n);
+            match stack.pop() {
+                Some((c, _)) => cur = c,
+                None => break 'walk,
             }
         }
         stats.box_tests += box_tests;

@@ -1,0 +1,237 @@
+//! The 4-wide BVH the traversal walks: the binary SAH tree collapsed so that each node holds up
+//! to four children's boxes side by side ([`Box4`]) and one ray tests all four in a single SIMD
+//! slab test. A child is an inner node or a leaf (a run of at most [`MAX_LEAF`] primitives in
+//! the primitive order), packed into one `u32` ([`ChildRef`]).
+
+use super::binary::BinaryBvh;
+use super::build::MAX_LEAF;
+use super::node::BvhNode;
+use crate::geometry::slab4::Box4;
+use crate::geometry::Aabb;
+
+/// Children per node.
+pub const WIDTH: usize = 4;
+
+/// A packed child reference: an inner node's index (top bit clear), or a leaf (top bit set, two
+/// bits of `count − 1`, 29 bits of first position in the primitive order), or [`EMPTY`].
+pub type ChildRef = u32;
+
+/// An unused child slot.
+pub const EMPTY: ChildRef = u32::MAX;
+const LEAF_BIT: u32 = 1 << 31;
+const COUNT_SHIFT: u32 = 29;
+/// Largest first position a leaf reference can hold.
+pub const MAX_LEAF_OFFSET: u32 = (1 << COUNT_SHIFT) - 1;
+
+const _: () = assert!(MAX_LEAF <= 4, "a leaf's count must fit in two bits");
+
+/// A leaf reference.
+#[inline(always)]
+pub fn leaf_ref(first: u32, count: u32) -> ChildRef {
+    LEAF_BIT | ((count - 1) << COUNT_SHIFT) | first
+}
+
+/// True for a leaf reference (including [`EMPTY`], which is never followed).
+#[inline(always)]
+pub fn is_leaf(c: ChildRef) -> bool {
+    c & LEAF_BIT != 0
+}
+
+/// `(first, count)` of a leaf reference.
+#[inline(always)]
+pub fn leaf_range(c: ChildRef) -> (usize, usize) {
+    (
+        (c & MAX_LEAF_OFFSET) as usize,
+        (((c >> COUNT_SHIFT) & 3) + 1) as usize,
+    )
+}
+
+/// A node: its children's boxes, their references, and how many are used. 128 bytes, aligned
+/// to a cache-line pair.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct WideNode {
+    /// The children's boxes (unused lanes empty).
+    pub bounds: Box4,
+    /// The children (unused slots [`EMPTY`]), used ones first.
+    pub child: [ChildRef; WIDTH],
+    /// Children in use (1..=4).
+    pub used: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
+
+impl WideNode {
+    /// The mask of used lanes.
+    #[inline(always)]
+    pub fn lanes(&self) -> u32 {
+        (1 << self.used) - 1
+    }
+}
+
+/// Why a binary tree cannot be collapsed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TooManyReferences(pub usize);
+
+/// Collapses a binary tree: each wide node takes its binary node's two children and, while it
+/// has fewer than four, replaces the inner child with the largest surface by that child's own
+/// two children. No nodes for an empty tree; a tree that is a single leaf gets one node with
+/// one leaf child.
+pub fn collapse(bin: &BinaryBvh) -> Result<Vec<WideNode>, TooManyReferences> {
+    if bin.order.len() > MAX_LEAF_OFFSET as usize {
+        return Err(TooManyReferences(bin.order.len()));
+    }
+    let mut out = Vec::with_capacity(bin.nodes.len() / 3 + 1);
+    let Some(root) = bin.nodes.first() else {
+        return Ok(out);
+    };
+    if root.is_leaf() {
+        let mut n = WideNode {
+            bounds: Box4::EMPTY,
+            child: [EMPTY; WIDTH],
+            used: 1,
+        };
+        n.bounds.set(0, root.min, root.max);
+        n.child[0] = leaf_ref(root.offset, root.count as u32);
+        out.push(n);
+        return Ok(out);
+    }
+    // Depth-first with an explicit work list: (binary node, wide slot to fill).
+    out.push(placeholder());
+    let mut work = vec![(0u32, 0u32)];
+    while let Some((b, slot)) = work.pop() {
+        let kids = gather(&bin.nodes, b);
+        let mut node = placeholder();
+        node.used = kids.len() as u32;
+        for (i, &k) in kids.iter().enumerate() {
+            let n = &bin.nodes[k as usize];
+            node.bounds.set(i, n.min, n.max);
+            node.child[i] = if n.is_leaf() {
+                leaf_ref(n.offset, n.count as u32)
+            } else {
+                let index = out.len() as u32;
+                out.push(placeholder());
+                work.push((k, index));
+                index
+            };
+        }
+        out[slot as usize] = node;
+    }
+    Ok(out)
+}
+
+fn placeholder() -> WideNode {
+    WideNode {
+        bounds: Box4::EMPTY,
+        child: [EMPTY; WIDTH],
+        used: 0,
+    }
+}
+
+/// Up to four binary descendants of inner node `b` that together hold its whole subtree.
+fn gather(nodes: &[BvhNode], b: u32) -> Vec<u32> {
+    let n = &nodes[b as usize];
+    let mut kids = vec![b + 1, n.offset];
+    while kids.len() < WIDTH {
+        let area = |k: u32| {
+            let n = &nodes[k as usize];
+            Aabb {
+                min: n.min,
+                max: n.max,
+            }
+            .half_area()
+        };
+        let Some((pos, _)) = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| !nodes[k as usize].is_leaf())
+            .max_by(|(_, &a), (_, &b)| area(a).total_cmp(&area(b)))
+        else {
+            break;
+        };
+        let k = kids[pos];
+        let inner = &nodes[k as usize];
+        kids[pos] = k + 1;
+        kids.insert(pos + 1, inner.offset);
+    }
+    kids
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::bvh::build::build_binary;
+
+    fn boxes(n: usize) -> Vec<Aabb> {
+        (0..n)
+            .map(|i| {
+                let x = (i * 7919 % 1000) as f32 * 0.01;
+                let y = (i * 104_729 % 997) as f32 * 0.01;
+                let z = (i % 13) as f32 * 0.3;
+                Aabb {
+                    min: [x, y, z],
+                    max: [x + 0.05, y + 0.02, z + 0.1],
+                }
+            })
+            .collect()
+    }
+
+    /// Every primitive reachable exactly once, every child box inside its parent's, nodes
+    /// mostly full.
+    #[test]
+    fn collapse_keeps_every_primitive_and_nests_boxes() {
+        for n in [0usize, 1, 3, 4, 5, 17, 1000] {
+            let b = boxes(n);
+            let bin = build_binary(&b);
+            let wide = collapse(&bin).expect("collapses");
+            let mut seen = vec![0u32; n];
+            let mut stack = vec![(0u32, None::<([f32; 3], [f32; 3])>)];
+            while let Some((i, parent)) = stack.pop().filter(|_| n > 0) {
+                let node = &wide[i as usize];
+                assert!((1..=4).contains(&node.used));
+                for lane in 0..WIDTH {
+                    let c = node.child[lane];
+                    if lane >= node.used as usize {
+                        assert_eq!(c, EMPTY);
+                        continue;
+                    }
+                    let lo = [0, 1, 2].map(|a| node.bounds.lo[a][lane]);
+                    let hi = [0, 1, 2].map(|a| node.bounds.hi[a][lane]);
+                    if let Some((plo, phi)) = parent {
+                        for a in 0..3 {
+                            assert!(plo[a] <= lo[a] && hi[a] <= phi[a]);
+                        }
+                    }
+                    if is_leaf(c) {
+                        let (first, count) = leaf_range(c);
+                        for &p in &bin.order[first..first + count] {
+                            seen[p as usize] += 1;
+                            let pb = &b[p as usize];
+                            for a in 0..3 {
+                                assert!(lo[a] <= pb.min[a] && pb.max[a] <= hi[a]);
+                            }
+                        }
+                    } else {
+                        stack.push((c, Some((lo, hi))));
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&s| s == 1), "n = {n}");
+            if n == 1000 {
+                // At least two binary inner nodes folded into each wide node on average.
+                let wide_nodes = wide.len();
+                assert!(wide_nodes * 2 < bin.nodes.len() / 2, "{wide_nodes} wide nodes");
+            }
+        }
+    }
+
+    #[test]
+    fn leaf_refs_round_trip() {
+        for (first, count) in [(0u32, 1u32), (5, 4), (MAX_LEAF_OFFSET, 3)] {
+            let c = leaf_ref(first, count);
+            assert!(is_leaf(c));
+            assert_eq!(leaf_range(c), (first as usize, count as usize));
+        }
+        assert!(!is_leaf(12345));
+    }
+}
