@@ -17,7 +17,7 @@ pub struct Sphere<R> {
 
 impl<R: Real> Sphere<R> {
     /// The nearest `t` in `[t_min, t_max]` where the ray meets the sphere (either side).
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray<R>, t_max: R) -> Option<R> {
         let f = ray.o - self.center;
         let d = ray.d;
