@@ -1,6 +1,9 @@
 //! Exact triangulation of planar, possibly concave polygons by ear clipping in the polygon's
 //! dominant plane. The triangles use only the polygon's own vertices and keep its winding, so
-//! they cover exactly the polygon (a triangle fan would be wrong for the gears' 144-gons).
+//! they cover exactly the polygon (a triangle fan would be wrong for the gears' 144-gons). The
+//! ear with the shortest new diagonal goes first: a convex run is peeled every other vertex, so
+//! triangles stay compact instead of fanning into slivers whose boxes all overlap — on gears-4
+//! that halves the BVH's primitive tests per ray.
 
 use crate::vec3::V3;
 
@@ -56,44 +59,88 @@ pub fn triangulate(vs: &[V3<f64>]) -> Vec<[u32; 3]> {
             }
         })
         .collect();
-    let mut idx: Vec<u32> = (0..n as u32).collect();
-    let mut out = Vec::with_capacity(n - 2);
-    while idx.len() > 3 {
-        let m = idx.len();
-        let mut chosen = None;
-        let mut fallback = None;
-        for i in 0..m {
-            let (ip, ic, inx) = (idx[(i + m - 1) % m], idx[i], idx[(i + 1) % m]);
-            let (a, b, c) = (pts[ip as usize], pts[ic as usize], pts[inx as usize]);
-            let turn = cross2(a, b, c);
-            if turn < 0.0 {
-                continue; // reflex
-            }
-            if turn == 0.0 {
-                fallback.get_or_insert(i);
-                continue;
-            }
-            let blocked = idx.iter().any(|&j| {
-                let p = pts[j as usize];
-                j != ip
-                    && j != ic
-                    && j != inx
-                    && p != a
-                    && p != b
-                    && p != c
-                    && in_triangle(p, a, b, c)
-            });
-            if !blocked {
-                chosen = Some(i);
-                break;
-            }
+    // The polygon as a doubly linked ring; `ear[i]` caches vertex i's ear quality (the squared
+    // length of the diagonal clipping it would cut; smaller is better) or None. Clipping only
+    // changes its two neighbours' triangles, and removing a vertex can only unblock others, so
+    // a cached ear stays an ear; a cached "not an ear" may go stale, which the full rescan below
+    // catches when no cached ear is left.
+    let mut prev: Vec<usize> = (0..n).map(|i| (i + n - 1) % n).collect();
+    let mut next: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
+    let mut alive = vec![true; n];
+    let mut head = 0usize;
+    let mut left = n;
+    let ear_of = |i: usize, prev: &[usize], next: &[usize], alive: &[bool]| -> Option<f64> {
+        let (ip, inx) = (prev[i], next[i]);
+        let (a, b, c) = (pts[ip], pts[i], pts[inx]);
+        if cross2(a, b, c) <= 0.0 {
+            return None; // reflex or collinear
         }
-        let i = chosen.or(fallback).unwrap_or(0);
-        let m = idx.len();
-        out.push([idx[(i + m - 1) % m], idx[i], idx[(i + 1) % m]]);
-        idx.remove(i);
+        let blocked = (0..n).any(|j| {
+            let p = pts[j];
+            alive[j]
+                && j != ip
+                && j != i
+                && j != inx
+                && p != a
+                && p != b
+                && p != c
+                && in_triangle(p, a, b, c)
+        });
+        (!blocked).then(|| {
+            let (dx, dy) = (c[0] - a[0], c[1] - a[1]);
+            dx * dx + dy * dy
+        })
+    };
+    let mut ear: Vec<Option<f64>> = (0..n).map(|i| ear_of(i, &prev, &next, &alive)).collect();
+    let mut out = Vec::with_capacity(n - 2);
+    while left > 3 {
+        // The best cached ear, first in ring order from `head` on ties.
+        let best = |ear: &[Option<f64>]| {
+            let mut best: Option<(f64, usize)> = None;
+            let mut i = head;
+            for _ in 0..left {
+                if let Some(q) = ear[i] {
+                    if best.is_none_or(|(bq, _)| q < bq) {
+                        best = Some((q, i));
+                    }
+                }
+                i = next[i];
+            }
+            best.map(|(_, i)| i)
+        };
+        let chosen = best(&ear).or_else(|| {
+            let mut i = head;
+            for _ in 0..left {
+                ear[i] = ear_of(i, &prev, &next, &alive);
+                i = next[i];
+            }
+            best(&ear)
+        });
+        // No ear at all (a polygon that is not simple): a collinear vertex, else the head.
+        let i = chosen.unwrap_or_else(|| {
+            let mut i = head;
+            for _ in 0..left {
+                if cross2(pts[prev[i]], pts[i], pts[next[i]]) == 0.0 {
+                    return i;
+                }
+                i = next[i];
+            }
+            head
+        });
+        let (ip, inx) = (prev[i], next[i]);
+        out.push([ip as u32, i as u32, inx as u32]);
+        alive[i] = false;
+        ear[i] = None;
+        next[ip] = inx;
+        prev[inx] = ip;
+        left -= 1;
+        if head == i {
+            head = inx;
+        }
+        ear[ip] = ear_of(ip, &prev, &next, &alive);
+        ear[inx] = ear_of(inx, &prev, &next, &alive);
     }
-    out.push([idx[0], idx[1], idx[2]]);
+    out.push([prev[head] as u32, head as u32, next[head] as u32]);
     out
 }
 
@@ -138,6 +185,34 @@ mod tests {
                 a.x * b.y - b.x * a.y
             })
             .sum();
+        assert!((total - exact).abs() < 1e-9);
+    }
+
+    /// A convex 144-gon (a gear's outline is near that) is peeled, not fanned: every vertex ends
+    /// up in O(log n) triangles (a fan puts one vertex in all 142) and no triangle is a sliver
+    /// spanning the polygon from one vertex.
+    #[test]
+    fn convex_polygon_is_peeled_not_fanned() {
+        let n = 144;
+        let vs: Vec<V3<f64>> = (0..n)
+            .map(|i| {
+                let a = i as f64 / n as f64 * std::f64::consts::TAU;
+                V3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let tris = triangulate(&vs);
+        assert_eq!(tris.len(), n - 2);
+        let mut uses = vec![0usize; n];
+        for t in &tris {
+            assert!(area2(&vs, *t) > 0.0);
+            for &i in t {
+                uses[i as usize] += 1;
+            }
+        }
+        let most = uses.iter().copied().max().unwrap_or(0);
+        assert!(most <= 2 * 8 + 2, "a vertex is in {most} triangles");
+        let total: f64 = tris.iter().map(|&t| area2(&vs, t)).sum();
+        let exact = n as f64 * (std::f64::consts::TAU / n as f64).sin();
         assert!((total - exact).abs() < 1e-9);
     }
 }

@@ -55,7 +55,11 @@ impl<R: Real> Stack<R> {
 /// The hit children of a node in ascending entry distance (insertion sort; ties keep lane
 /// order).
 #[inline(always)]
-fn sorted_hits<R: Real>(mask: u32, t: &[R; 4], child: &[ChildRef; 4]) -> ([(R, ChildRef); 4], usize) {
+fn sorted_hits<R: Real>(
+    mask: u32,
+    t: &[R; 4],
+    child: &[ChildRef; 4],
+) -> ([(R, ChildRef); 4], usize) {
     let mut hits = [(R::ZERO, 0); 4];
     let mut k = 0;
     let mut m = mask;

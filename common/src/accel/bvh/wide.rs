@@ -220,7 +220,10 @@ mod tests {
             if n == 1000 {
                 // At least two binary inner nodes folded into each wide node on average.
                 let wide_nodes = wide.len();
-                assert!(wide_nodes * 2 < bin.nodes.len() / 2, "{wide_nodes} wide nodes");
+                assert!(
+                    wide_nodes * 2 < bin.nodes.len() / 2,
+                    "{wide_nodes} wide nodes"
+                );
             }
         }
     }
