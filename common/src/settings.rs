@@ -23,6 +23,10 @@ pub enum AccelKind {
     Grid,
     /// Every primitive for every ray: the oracle.
     Brute,
+    /// Bounding volume hierarchy built by Goldsmith–Salmon incremental insertion: the classic
+    /// hierarchy the SAH build is compared against. Last, so the wire encoding of the others
+    /// stays the same.
+    BvhGoldsmithSalmon,
 }
 
 /// The default adaptive cut-off: a path whose weight product falls below this is not continued.

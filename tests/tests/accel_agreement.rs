@@ -2,14 +2,17 @@
 //! BVH, the uniform grid and the brute-force scan give every ray the same closest hit (primitive
 //! and distance, bit for bit) and the same occlusion answer — for the camera's eye rays, seeded
 //! random rays, shadow-like segments and rays leaving surfaces — and render bit-identical images.
+//! The Goldsmith–Salmon BVH (the quality baseline, `--accel bvh-gs`) is held to the same rule.
 
+use parrt::accel::Accel;
 use parrt::camera::Camera;
 use parrt::description::{Material, Primitive, SceneDescription, Shape, View};
-use parrt::geometry::{Aabb, Ray};
+use parrt::geometry::{Aabb, PreparedRay, PrimHit, Ray};
 use parrt::real::Real;
 use parrt::render::Renderer;
 use parrt::settings::{AccelKind, Precision, RenderSettings, DEFAULT_GRID_DENSITY};
 use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt::stats::RayStats;
 use parrt::vec3::V3;
 use parrt_tests::spd::{load, Trio, TrioStats, SMALL_SCENES};
 use rand::rngs::StdRng;
@@ -221,6 +224,81 @@ fn grid_density_does_not_change_answers() {
         for density in [0.05, 1.0, 8.0, 100.0] {
             agree::<f32>(name, &desc, density, 3000);
         }
+    }
+}
+
+// ---- the Goldsmith–Salmon hierarchy ----
+
+/// The Goldsmith–Salmon BVH against brute force on the eye, random and secondary rays of
+/// [`agree`]: the same closest hit bit for bit and the same occlusion answer. Returns (rays,
+/// hits).
+fn goldsmith_salmon_agrees<R: Real>(name: &str, desc: &SceneDescription, seed: u64) -> (u64, u64) {
+    let trio = Trio::<R>::new(desc, DEFAULT_GRID_DENSITY);
+    let gs = Accel::build(
+        AccelKind::BvhGoldsmithSalmon,
+        &trio.scene.all_bounds(),
+        DEFAULT_GRID_DENSITY,
+    );
+    let eye = eye_rays::<R>(&desc.view, 24);
+    let mut rays = random_rays(&trio, desc.view.from, 1500, seed);
+    rays.extend(rays_from_hits(&trio, &eye, seed ^ 0x5eed));
+    rays.extend(eye);
+    let key = |h: &Option<PrimHit<R>>| {
+        h.map(|h| {
+            let bits = |x: R| x.to_f64().to_bits();
+            (h.prim, bits(h.t), bits(h.u), bits(h.v))
+        })
+    };
+    let (mut st_gs, mut st_brute) = (RayStats::default(), RayStats::default());
+    let mut hits = 0;
+    let mut bad = Vec::new();
+    for r in &rays {
+        let pr = PreparedRay::new(*r);
+        let test = |i: u32, t: R| trio.scene.intersect_prim(i, &pr, t);
+        let want = trio.brute.intersect(&pr, &mut st_brute, test);
+        let got = gs.intersect(&pr, &mut st_gs, test);
+        let occ_want = trio.brute.occluded(&pr, &mut st_brute, test);
+        let occ = gs.occluded(&pr, &mut st_gs, test);
+        hits += want.is_some() as u64;
+        if key(&got) != key(&want) || occ != occ_want {
+            bad.push(format!(
+                "closest {got:?} (brute {want:?}), occluded {occ} (brute {occ_want}), ray {r:?}"
+            ));
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "{name} ({}): Goldsmith–Salmon BVH disagrees with brute force on {} of {} rays; first: {}",
+        R::NAME,
+        bad.len(),
+        rays.len(),
+        bad.iter().take(3).cloned().collect::<Vec<_>>().join("\n")
+    );
+    assert!(
+        st_gs.primitive_tests < st_brute.primitive_tests,
+        "{name}: the Goldsmith–Salmon BVH should cull"
+    );
+    (rays.len() as u64, hits)
+}
+
+#[test]
+fn goldsmith_salmon_agrees_with_brute_force() {
+    for (i, name) in SMALL_SCENES.iter().enumerate() {
+        let (rays, hits) = goldsmith_salmon_agrees::<f32>(name, &load(name), 6000 + i as u64);
+        assert!(hits > rays / 10, "{name}: too few hits to mean anything");
+    }
+    for (i, name) in ["teapot-2", "tetra-4", "balls-3"].iter().enumerate() {
+        goldsmith_salmon_agrees::<f64>(name, &load(name), 7000 + i as u64);
+    }
+    let makers: [SceneMaker; 4] = [
+        ("triangle soup", triangle_soup),
+        ("overlapping spheres", overlapping_spheres),
+        ("cones", cones),
+        ("huge background", huge_background),
+    ];
+    for (name, make) in makers {
+        let (_, hits) = goldsmith_salmon_agrees::<f32>(name, &make(0), 8000);
+        assert!(hits > 0, "{name}: nothing hit");
     }
 }
 
@@ -455,7 +533,11 @@ fn images_identical_across_accelerators() {
     for (name, precision) in cases {
         let desc = load(name);
         let brute = render(&desc, AccelKind::Brute, precision);
-        for accel in [AccelKind::Bvh, AccelKind::Grid] {
+        for accel in [
+            AccelKind::Bvh,
+            AccelKind::Grid,
+            AccelKind::BvhGoldsmithSalmon,
+        ] {
             let img = render(&desc, accel, precision);
             let differ = img.iter().zip(&brute).filter(|(a, b)| a != b).count();
             assert_eq!(

@@ -71,6 +71,7 @@ impl Accel {
             AccelKind::Bvh => Accel::Bvh(Bvh::build(bounds)),
             AccelKind::Brute => Accel::Brute(Brute::build(bounds)),
             AccelKind::Grid => Accel::Grid(Grid::build(bounds, grid_density)),
+            AccelKind::BvhGoldsmithSalmon => Accel::Bvh(Bvh::build_goldsmith_salmon(bounds)),
         }
     }
 

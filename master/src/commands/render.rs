@@ -26,6 +26,8 @@ pub enum AccelArg {
     Grid,
     /// No acceleration: every primitive for every ray (the test oracle; slow).
     Brute,
+    /// BVH built by Goldsmith–Salmon incremental insertion (the quality baseline for `bvh`).
+    BvhGs,
 }
 
 impl AccelArg {
@@ -35,6 +37,7 @@ impl AccelArg {
             AccelArg::Bvh => AccelKind::Bvh,
             AccelArg::Grid => AccelKind::Grid,
             AccelArg::Brute => AccelKind::Brute,
+            AccelArg::BvhGs => AccelKind::BvhGoldsmithSalmon,
         }
     }
 }

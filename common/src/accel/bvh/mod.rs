@@ -4,6 +4,7 @@
 
 pub mod binary;
 pub mod build;
+pub mod goldsmith;
 pub mod node;
 pub mod traverse;
 pub mod wide;
@@ -37,6 +38,11 @@ impl Bvh {
     /// Builds the binned-SAH hierarchy over primitive bounds (indexed by primitive).
     pub fn build(bounds: &[Aabb]) -> Bvh {
         Bvh::from_binary(build::build_binary(bounds))
+    }
+
+    /// Builds the Goldsmith–Salmon hierarchy ([`goldsmith`]), the comparator for the SAH build.
+    pub fn build_goldsmith_salmon(bounds: &[Aabb]) -> Bvh {
+        Bvh::from_binary(goldsmith::build_goldsmith_salmon(bounds))
     }
 
     /// The traversal structure of a built binary hierarchy.
