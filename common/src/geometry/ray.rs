@@ -49,7 +49,8 @@ impl<R: Real> PreparedRay<R> {
             std::mem::swap(&mut kx, &mut ky);
         }
         let dz = d.get(kz);
-        let shear = V3::new(d.get(kx) / dz, d.get(ky) / dz, R::ONE / dz);
+        // 1/dz is the reciprocal already computed for the slab test (the same division).
+        let shear = V3::new(d.get(kx) / dz, d.get(ky) / dz, inv_d.get(kz));
         PreparedRay {
             ray,
             inv_d,
