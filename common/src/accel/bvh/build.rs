@@ -42,11 +42,13 @@ struct Item {
     hi: V4,
 }
 
+/// Lane-wise minimum; a NaN in `a` gives `b` (one `minps`).
 #[inline(always)]
 fn vmin(a: V4, b: V4) -> V4 {
     std::array::from_fn(|k| if a[k] < b[k] { a[k] } else { b[k] })
 }
 
+/// Lane-wise maximum; a NaN in `a` gives `b` (one `maxps`).
 #[inline(always)]
 fn vmax(a: V4, b: V4) -> V4 {
     std::array::from_fn(|k| if a[k] > b[k] { a[k] } else { b[k] })
@@ -80,18 +82,18 @@ impl Item {
         std::array::from_fn(|k| 0.5 * (self.lo[k] + self.hi[k]))
     }
 
-    /// Grows to contain box `o`.
+    /// Grows to contain box `o`; NaN coordinates of `o` are ignored, as [`Aabb::union`] does.
     #[inline(always)]
     fn grow(&mut self, o: &Item) {
-        self.lo = vmin(self.lo, o.lo);
-        self.hi = vmax(self.hi, o.hi);
+        self.lo = vmin(o.lo, self.lo);
+        self.hi = vmax(o.hi, self.hi);
     }
 
-    /// Grows to contain point `p`.
+    /// Grows to contain point `p`; NaN coordinates are ignored, as [`Aabb::add_point`] does.
     #[inline(always)]
     fn grow_point(&mut self, p: V4) {
-        self.lo = vmin(self.lo, p);
-        self.hi = vmax(self.hi, p);
+        self.lo = vmin(p, self.lo);
+        self.hi = vmax(p, self.hi);
     }
 
     /// Half the surface area, computed as [`Aabb::half_area`] does.
@@ -448,18 +450,37 @@ fn sah_split_small(
         }
     }
     for a in (0..3).filter(|&a| n > 2 && binning.spread[a]) {
-        // Counting sort by bin.
-        let mut start = [0u8; BINS + 1];
-        for b in &bins[..n] {
-            start[b[a] as usize + 1] += 1;
-        }
-        for k in 1..=BINS {
-            start[k] += start[k - 1];
-        }
-        for (i, b) in bins[..n].iter().enumerate() {
-            let s = &mut start[b[a] as usize];
-            perm[*s as usize] = i as u8;
-            *s += 1;
+        if n <= 4 {
+            // A sorting network over (bin, item) keys: no branches.
+            let mut k: [u16; 4] = std::array::from_fn(|i| {
+                if i < n {
+                    (bins[i][a] as u16) << 8 | i as u16
+                } else {
+                    u16::MAX
+                }
+            });
+            for (x, y) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                let (lo, hi) = (k[x].min(k[y]), k[x].max(k[y]));
+                k[x] = lo;
+                k[y] = hi;
+            }
+            for (p, k) in perm.iter_mut().zip(k) {
+                *p = k as u8;
+            }
+        } else {
+            // Counting sort by bin.
+            let mut start = [0u8; BINS + 1];
+            for b in &bins[..n] {
+                start[b[a] as usize + 1] += 1;
+            }
+            for k in 1..=BINS {
+                start[k] += start[k - 1];
+            }
+            for (i, b) in bins[..n].iter().enumerate() {
+                let s = &mut start[b[a] as usize];
+                perm[*s as usize] = i as u8;
+                *s += 1;
+            }
         }
         let perm = &perm[..n];
         // right_area[j]: the box of perm[j..].
@@ -582,7 +603,13 @@ mod tests {
     }
 
     /// Checks the `BinaryBvh` contract; returns the primitive count below `node`.
-    fn check(bvh: &BinaryBvh, bounds: &[Aabb], node: usize, depth: u32, seen: &mut [bool]) -> usize {
+    fn check(
+        bvh: &BinaryBvh,
+        bounds: &[Aabb],
+        node: usize,
+        depth: u32,
+        seen: &mut [bool],
+    ) -> usize {
         let nd = &bvh.nodes[node];
         assert!(depth <= bvh.max_depth);
         if nd.is_leaf() {
@@ -676,6 +703,26 @@ mod tests {
     }
 
     #[test]
+    fn nan_and_infinite_boxes_still_make_a_tree() {
+        let mut rng = Rng(99);
+        let mut bounds = random_boxes(&mut rng, 200, 16);
+        for (i, b) in bounds.iter_mut().enumerate().step_by(7) {
+            b.min[i % 3] = if i % 2 == 0 {
+                f32::NAN
+            } else {
+                f32::NEG_INFINITY
+            };
+            b.max[(i + 1) % 3] = f32::INFINITY;
+        }
+        let bvh = build_binary(&bounds);
+        let mut order = bvh.order.clone();
+        order.sort_unstable();
+        assert_eq!(order, (0..200).collect::<Vec<u32>>());
+        assert!(bvh.nodes.iter().all(|n| n.is_leaf() == (n.count > 0)));
+        assert!(bvh.nodes[0].min.iter().all(|v| !v.is_nan()));
+    }
+
+    #[test]
     fn the_build_is_deterministic() {
         let mut rng = Rng(7);
         let bounds = random_boxes(&mut rng, 3000, 64);
@@ -722,7 +769,10 @@ mod tests {
                     l2.sort_unstable();
                     assert_eq!(l1, l2, "round {round}");
                     for (p, q) in [(&s.left, &t.left), (&s.right, &t.right)] {
-                        assert!(same_box(&p.0, &q.0) && same_box(&p.1, &q.1), "round {round}");
+                        assert!(
+                            same_box(&p.0, &q.0) && same_box(&p.1, &q.1),
+                            "round {round}"
+                        );
                     }
                 }
                 _ => panic!("round {round}: one path splits, the other does not"),
