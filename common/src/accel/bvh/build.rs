@@ -341,8 +341,7 @@ impl Bins {
 
     #[inline(always)]
     fn add(&mut self, it: &Item, bins: [usize; 4]) {
-        for a in 0..3 {
-            let b = bins[a];
+        for (a, &b) in bins[..3].iter().enumerate() {
             self.counts[a][b] += 1;
             self.boxes[a][b].grow(it);
         }
