@@ -96,13 +96,22 @@ pub fn validate_settings(s: &RenderSettings) -> Result<(), RenderError> {
     Ok(())
 }
 
-fn build_core<R: Real>(
+/// The first half of a build: the render-ready scene and the camera, all a build needs from the
+/// description.
+fn prepare<R: Real>(
     desc: &SceneDescription,
     s: &RenderSettings,
-) -> Result<(Core<R>, BuildInfo), RenderError> {
+) -> Result<(Scene<R>, Camera<R>), RenderError> {
     let scene = Scene::<R>::build(desc)?;
+    Ok((scene, Camera::new(&desc.view, s.width, s.height)))
+}
+
+/// The second half: the accelerator over the scene (its primitive bounds are dropped once it is
+/// built).
+fn finish<R: Real>(scene: Scene<R>, camera: Camera<R>, s: &RenderSettings) -> (Core<R>, BuildInfo) {
     let bounds = scene.all_bounds();
     let accel = Accel::build(s.accel, &bounds, s.grid_density);
+    drop(bounds);
     let info = BuildInfo {
         build_s: 0.0,
         primitives: scene.len(),
@@ -118,13 +127,36 @@ fn build_core<R: Real>(
         spd: s.spd_standard,
         two_sided: s.two_sided,
     };
-    Ok((
+    (
         Core {
             integrator: Integrator { scene, accel, opts },
-            camera: Camera::new(&desc.view, s.width, s.height),
+            camera,
         },
         info,
-    ))
+    )
+}
+
+/// A description, borrowed or owned (then dropped as soon as the scene is built).
+enum Desc<'a> {
+    Borrowed(&'a SceneDescription),
+    Owned(SceneDescription),
+}
+
+fn build_core<R: Real>(
+    desc: Desc<'_>,
+    s: &RenderSettings,
+) -> Result<(Core<R>, BuildInfo), RenderError> {
+    let (scene, camera) = match desc {
+        Desc::Borrowed(d) => prepare::<R>(d, s)?,
+        Desc::Owned(d) => {
+            let prepared = prepare::<R>(&d, s)?;
+            // The description (f64, a vector per polygon) is far larger than the scene: free
+            // it before the accelerator's memory is taken.
+            drop(d);
+            prepared
+        }
+    };
+    Ok(finish(scene, camera, s))
 }
 
 /// A 64-bit mix (splitmix64's finaliser): the per-pixel sample sequence is a pure function of
@@ -223,6 +255,20 @@ impl<R: Real> Core<R> {
 impl Renderer {
     /// Builds the render-ready scene and accelerator.
     pub fn new(desc: &SceneDescription, settings: &RenderSettings) -> Result<Self, RenderError> {
+        Self::build(Desc::Borrowed(desc), settings)
+    }
+
+    /// Like [`Renderer::new`], but takes the description and drops it as soon as the scene is
+    /// built, before the accelerator: peak memory is then the larger of description plus scene
+    /// and scene plus accelerator, not all three.
+    pub fn from_description(
+        desc: SceneDescription,
+        settings: &RenderSettings,
+    ) -> Result<Self, RenderError> {
+        Self::build(Desc::Owned(desc), settings)
+    }
+
+    fn build(desc: Desc<'_>, settings: &RenderSettings) -> Result<Self, RenderError> {
         validate_settings(settings)?;
         let t0 = Instant::now();
         let (inner, mut info) = match settings.precision {

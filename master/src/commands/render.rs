@@ -310,14 +310,15 @@ struct Outcome {
     extra: serde_json::Value,
 }
 
-/// Renders on this machine's cores.
+/// Renders on this machine's cores. Takes the description so that it is freed before the
+/// accelerator is built.
 fn render_here(
     args: &RenderArgs,
     spec: &SceneSpec,
-    desc: &parrt::description::SceneDescription,
+    desc: parrt::description::SceneDescription,
     settings: &RenderSettings,
 ) -> anyhow::Result<Outcome> {
-    let renderer = Renderer::new(desc, settings)
+    let renderer = Renderer::from_description(desc, settings)
         .map_err(input_error)
         .with_context(|| format!("cannot prepare {}", spec.label()))?;
     let threads = args
@@ -462,7 +463,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     }
     let out = match args.workers {
         Some(n) => render_through_workers(&args, &desc, &settings, n)?,
-        None => render_here(&args, &spec, &desc, &settings)?,
+        None => render_here(&args, &spec, desc, &settings)?,
     };
     out.film
         .save(&args.output)
