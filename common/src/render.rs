@@ -110,12 +110,17 @@ fn prepare<R: Real>(
 /// built).
 fn finish<R: Real>(scene: Scene<R>, camera: Camera<R>, s: &RenderSettings) -> (Core<R>, BuildInfo) {
     let bounds = scene.all_bounds();
+    let t0 = Instant::now();
     let accel = Accel::build(s.accel, &bounds, s.grid_density);
+    let accel_build_s = t0.elapsed().as_secs_f64();
     drop(bounds);
     let info = BuildInfo {
         build_s: 0.0,
         primitives: scene.len(),
-        accel: accel.stats(),
+        accel: AccelStats {
+            build_s: accel_build_s,
+            ..accel.stats()
+        },
     };
     let opts = ShadeOptions {
         max_depth: s.max_depth,

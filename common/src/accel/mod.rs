@@ -51,6 +51,9 @@ pub struct AccelStats {
     pub max_depth: u32,
     /// Bytes of the structure's arrays.
     pub bytes: u64,
+    /// Seconds the build took (from the primitive bounds on; set by the renderer).
+    #[serde(default)]
+    pub build_s: f64,
 }
 
 /// One of the acceleration structures.

@@ -360,13 +360,14 @@ fn render_here(
                 settings.accel
             ),
             format!(
-                "accelerator       {}: {} nodes, {} leaves, SAH cost {:.1}, depth {}, {} KiB",
+                "accelerator       {}: {} nodes, {} leaves, SAH cost {:.1}, depth {}, {} KiB, built in {:.3}s",
                 a.kind,
                 a.nodes,
                 a.leaves,
                 a.sah_cost,
                 a.max_depth,
-                a.bytes / 1024
+                a.bytes / 1024,
+                a.build_s
             ),
         ],
         extra: json!({

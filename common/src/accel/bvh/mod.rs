@@ -78,6 +78,7 @@ impl Bvh {
             max_depth: self.max_depth,
             bytes: (self.nodes.len() * std::mem::size_of::<WideNode>() + self.order.len() * 4)
                 as u64,
+            ..AccelStats::default()
         }
     }
 }

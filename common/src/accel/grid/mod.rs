@@ -92,6 +92,7 @@ impl Grid {
             sah_cost: 0.0,
             max_depth: 0,
             bytes: (self.lists.len() * std::mem::size_of::<u32>()) as u64,
+            ..AccelStats::default()
         }
     }
 }
