@@ -43,6 +43,8 @@ pub struct BuildInfo {
     pub build_s: f64,
     /// Primitives after triangulation.
     pub primitives: usize,
+    /// Bytes of the render-ready scene's arrays ([`Scene::bytes`]).
+    pub scene_bytes: u64,
     /// Accelerator statistics.
     pub accel: AccelStats,
 }
@@ -117,6 +119,7 @@ fn finish<R: Real>(scene: Scene<R>, camera: Camera<R>, s: &RenderSettings) -> (C
     let info = BuildInfo {
         build_s: 0.0,
         primitives: scene.len(),
+        scene_bytes: scene.bytes(),
         accel: AccelStats {
             build_s: accel_build_s,
             ..accel.stats()

@@ -353,6 +353,17 @@ impl<R: Real> Scene<R> {
         }
     }
 
+    /// Bytes of the scene's arrays (primitives, shading data, patch normals, materials, lights):
+    /// with the accelerator's bytes, the memory a render holds per primitive.
+    pub fn bytes(&self) -> u64 {
+        use std::mem::size_of;
+        (self.prims.len() * size_of::<Prim<R>>()
+            + self.info.len() * size_of::<PrimInfo>()
+            + self.normals.len() * size_of::<[V3<R>; 3]>()
+            + self.materials.len() * size_of::<Mat<R>>()
+            + self.lights.len() * size_of::<PointLight<R>>()) as u64
+    }
+
     /// Bounds of every primitive, by index.
     pub fn all_bounds(&self) -> Vec<Aabb> {
         (0..self.prims.len()).map(|i| self.prim_bounds(i)).collect()

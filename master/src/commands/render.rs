@@ -349,7 +349,12 @@ fn render_here(
         trace_s: result.trace_s,
         build_s: info.build_s,
         describe: vec![
-            format!("primitives        {} after triangulation", info.primitives),
+            format!(
+                "primitives        {} after triangulation, scene {} KiB ({:.0} B/primitive with the accelerator)",
+                info.primitives,
+                info.scene_bytes / 1024,
+                (info.scene_bytes + a.bytes) as f64 / info.primitives.max(1) as f64
+            ),
             format!(
                 "image             {}x{}, {} threads, tile {}, {} executor, {:?}",
                 settings.width,
@@ -375,6 +380,7 @@ fn render_here(
             "executor": opts.executor.name(),
             "accel": a,
             "primitives": info.primitives,
+            "scene_bytes": info.scene_bytes,
         }),
     })
 }
