@@ -290,12 +290,7 @@ fn goldsmith_salmon_agrees_with_brute_force() {
     for (i, name) in ["teapot-2", "tetra-4", "balls-3"].iter().enumerate() {
         goldsmith_salmon_agrees::<f64>(name, &load(name), 7000 + i as u64);
     }
-    let makers: [SceneMaker; 4] = [
-        ("triangle soup", triangle_soup),
-        ("overlapping spheres", overlapping_spheres),
-        ("cones", cones),
-        ("huge background", huge_background),
-    ];
+    let makers = RANDOM_SCENES;
     for (name, make) in makers {
         let (_, hits) = goldsmith_salmon_agrees::<f32>(name, &make(0), 8000);
         assert!(hits > 0, "{name}: nothing hit");
@@ -480,14 +475,17 @@ fn huge_background(seed: u64) -> SceneDescription {
 /// A named generator of seeded random scenes.
 type SceneMaker = (&'static str, fn(u64) -> SceneDescription);
 
+/// The seeded random scenes every accelerator is checked on.
+const RANDOM_SCENES: [SceneMaker; 4] = [
+    ("triangle soup", triangle_soup),
+    ("overlapping spheres", overlapping_spheres),
+    ("cones", cones),
+    ("huge background", huge_background),
+];
+
 #[test]
 fn random_scenes_agree() {
-    let makers: [SceneMaker; 4] = [
-        ("triangle soup", triangle_soup),
-        ("overlapping spheres", overlapping_spheres),
-        ("cones", cones),
-        ("huge background", huge_background),
-    ];
+    let makers = RANDOM_SCENES;
     for (name, make) in makers {
         for seed in 0..3u64 {
             let desc = make(seed);
