@@ -1,13 +1,47 @@
 //! Casting only, for comparing raw ray throughput with other kernels (Embree's `nffcast`): one eye
 //! ray through each pixel centre and, for every hit, one shadow ray per light — to every light,
-//! or (culling) only to lights in front of the surface. No shading, no secondary rays.
+//! or (culling) only to lights in front of the surface. No shading, no secondary rays. The rays
+//! go in 4 × 4 packets like a render's eye rays, or one by one.
 
+use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
-use crate::geometry::{offset_ray_origin, Ray};
+use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
 use crate::real::Real;
+use crate::scene::Surface;
 use crate::shade::Integrator;
 use crate::stats::RayStats;
 use crate::tile::Tile;
+
+/// The shadow ray from the surface `s` hit by `ray` to light `light`, or `None` when culled or
+/// the light sits on the surface.
+#[inline]
+fn shadow_ray<R: Real>(
+    integrator: &Integrator<R>,
+    ray: &Ray<R>,
+    s: &Surface<R>,
+    light: usize,
+    cull: bool,
+) -> Option<Ray<R>> {
+    let position = integrator.scene.lights[light].position;
+    let ng = s.ng.face_forward(-ray.d);
+    let to_light = position - s.p;
+    if cull && ng.dot(to_light) <= R::ZERO {
+        return None;
+    }
+    let dist = to_light.length();
+    if !(dist > R::ZERO) {
+        return None;
+    }
+    let o = offset_ray_origin(s.p, s.p_err, s.ng, to_light / dist);
+    let d = position - o;
+    let len = d.length();
+    Some(Ray {
+        o,
+        d: d / len,
+        t_min: R::ZERO,
+        t_max: len,
+    })
+}
 
 /// Casts the rays of one tile; counts go to `stats` (eye and shadow rays and hits).
 pub fn cast_tile<R: Real>(
@@ -15,43 +49,64 @@ pub fn cast_tile<R: Real>(
     camera: &Camera<R>,
     tile: &Tile,
     cull: bool,
+    packets: bool,
     stats: &mut RayStats,
 ) {
-    let scene = &integrator.scene;
-    for y in tile.y..tile.y + tile.h {
-        for x in tile.x..tile.x + tile.w {
-            let half = R::HALF;
-            let ray = camera.ray(R::from_u32(x) + half, R::from_u32(y) + half);
-            stats.eye_rays += 1;
-            let Some(hit) = integrator.intersect(&ray, stats) else {
-                continue;
-            };
-            stats.eye_hits += 1;
-            let s = scene.surface(&ray, &hit);
-            let ng = s.ng.face_forward(-ray.d);
-            for light in &scene.lights {
-                let to_light = light.position - s.p;
-                if cull && ng.dot(to_light) <= R::ZERO {
+    let eye = |x: u32, y: u32| camera.ray(R::from_u32(x) + R::HALF, R::from_u32(y) + R::HALF);
+    let lights = integrator.scene.lights.len();
+    if !packets {
+        for y in tile.y..tile.y + tile.h {
+            for x in tile.x..tile.x + tile.w {
+                let ray = eye(x, y);
+                stats.eye_rays += 1;
+                let Some(hit) = integrator.intersect(&ray, stats) else {
                     continue;
-                }
-                let dist = to_light.length();
-                if !(dist > R::ZERO) {
-                    continue;
-                }
-                let o = offset_ray_origin(s.p, s.p_err, s.ng, to_light / dist);
-                let d = light.position - o;
-                let len = d.length();
-                let shadow = Ray {
-                    o,
-                    d: d / len,
-                    t_min: R::ZERO,
-                    t_max: len,
                 };
-                stats.shadow_rays += 1;
-                if integrator.occluded(&shadow, stats) {
-                    stats.shadow_hits += 1;
+                stats.eye_hits += 1;
+                let s = integrator.scene.surface(&ray, &hit);
+                for light in 0..lights {
+                    if let Some(shadow) = shadow_ray(integrator, &ray, &s, light, cull) {
+                        stats.shadow_rays += 1;
+                        if integrator.occluded(&shadow, stats) {
+                            stats.shadow_hits += 1;
+                        }
+                    }
                 }
             }
         }
+        return;
+    }
+    let mut rays = [PreparedRay::new(eye(tile.x, tile.y)); PACKET];
+    let mut hits = [None; PACKET];
+    let mut surfaces = [None; PACKET];
+    for (bx, by, bw, bh) in tile.blocks() {
+        let mut n = 0;
+        for y in by..by + bh {
+            for x in bx..bx + bw {
+                rays[n] = PreparedRay::new(eye(x, y));
+                n += 1;
+            }
+        }
+        stats.eye_rays += n as u64;
+        integrator.intersect_packet(&rays[..n], &mut hits[..n], stats);
+        for i in 0..n {
+            surfaces[i] = hits[i].map(|h| integrator.scene.surface(&rays[i].ray, &h));
+        }
+        for light in 0..lights {
+            let mut shadow = [rays[0]; PACKET];
+            let mut k = 0;
+            for i in 0..n {
+                let Some(s) = &surfaces[i] else { continue };
+                if let Some(r) = shadow_ray(integrator, &rays[i].ray, s, light, cull) {
+                    shadow[k] = PreparedRay::new(r);
+                    k += 1;
+                }
+            }
+            let mut occ = [false; PACKET];
+            integrator.occluded_packet(&shadow[..k], &mut occ[..k], stats);
+            stats.shadow_rays += k as u64;
+            stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;
+        }
+        stats.eye_hits += hits[..n].iter().filter(|h| h.is_some()).count() as u64;
     }
 }

@@ -6,7 +6,8 @@
 //! - [`description`]: the scene as NFF describes it (`f64`), produced by [`nff`] and the generators.
 //! - [`nff`]: the strict token-based reader and the round-tripping writer.
 //! - [`real`], [`vec3`]: the scalar trait (`f32` fast path, `f64` reference path) and vectors.
-//! - [`render`]: builds a render-ready scene and accelerator, renders tiles.
+//! - [`render`]: builds a render-ready scene and accelerator, renders tiles ([`packet_trace`]:
+//!   eye rays and their shadow rays in packets).
 //! - [`tile`], [`smp`], [`film`]: tile tasks, shared-memory executors, the image.
 //! - [`settings`], [`stats`]: what decides pixels, and what was counted.
 //! - [`protocol`]: the master/worker wire protocol (messages, codec, auth, connection).
@@ -22,6 +23,7 @@ pub mod efficiency;
 pub mod film;
 pub mod geometry;
 pub mod nff;
+pub mod packet_trace;
 pub mod protocol;
 pub mod real;
 pub mod render;

@@ -3,6 +3,7 @@
 //! the settings and its own coordinates, so tiles can be rendered in any order, anywhere, and
 //! the image is the same bits.
 
+use crate::accel::bvh::packet::PACKET;
 use crate::accel::{Accel, AccelStats};
 use crate::camera::Camera;
 use crate::description::SceneDescription;
@@ -64,6 +65,7 @@ pub struct Renderer {
     settings: RenderSettings,
     inner: Inner,
     info: BuildInfo,
+    packets: bool,
 }
 
 /// Checks settings that come from the command line or the network.
@@ -209,6 +211,7 @@ impl<R: Real> Core<R> {
     fn render_tile(
         &self,
         s: &RenderSettings,
+        packets: bool,
         tile: &Tile,
         out: &mut Vec<Rgb>,
         stats: &mut RayStats,
@@ -242,6 +245,34 @@ impl<R: Real> Core<R> {
                         + corners[(y + 1) * cw + x]
                         + corners[(y + 1) * cw + x + 1];
                     out.push(finish(c * quarter));
+                }
+            }
+            return;
+        }
+        if packets && s.spp == 1 {
+            // The tile's parts of the image's 4 × 4 blocks, a packet each.
+            let w = tile.w as usize;
+            out.resize(tile.pixel_count(), [0.0; 3]);
+            let mut rays = [self.camera.ray(R::HALF, R::HALF); PACKET];
+            let mut colors = [V3::zero(); PACKET];
+            let mut blocked = Vec::with_capacity(self.integrator.scene.lights.len());
+            for (bx, by, bw, bh) in tile.blocks() {
+                let mut n = 0;
+                for y in by..by + bh {
+                    for x in bx..bx + bw {
+                        let (sx, sy) = (x as f64 + 0.5, y as f64 + 0.5);
+                        rays[n] = self.camera.ray(R::from_f64(sx), R::from_f64(sy));
+                        n += 1;
+                    }
+                }
+                self.integrator
+                    .trace_eye_packet(&rays[..n], &mut colors[..n], &mut blocked, stats);
+                let mut k = 0;
+                for y in by..by + bh {
+                    for x in bx..bx + bw {
+                        out[(y - tile.y) as usize * w + (x - tile.x) as usize] = finish(colors[k]);
+                        k += 1;
+                    }
                 }
             }
             return;
@@ -294,6 +325,7 @@ impl Renderer {
             settings: settings.clone(),
             inner,
             info,
+            packets: true,
         })
     }
 
@@ -307,19 +339,33 @@ impl Renderer {
         &self.info
     }
 
+    /// Traces eye rays (with one sample per pixel) and their shadow rays in 4 × 4 packets
+    /// ([`crate::packet_trace`]; the default), or each ray on its own. The pixels are the same
+    /// bits either way; the box and primitive test counts differ.
+    pub fn set_packets(&mut self, on: bool) {
+        self.packets = on;
+    }
+
+    /// Whether eye rays go in packets ([`Renderer::set_packets`]).
+    pub fn packets(&self) -> bool {
+        self.packets
+    }
+
     /// Renders one tile into `out` (cleared first; row-major within the tile), adding to `stats`.
     pub fn render_tile(&self, tile: &Tile, out: &mut Vec<Rgb>, stats: &mut RayStats) {
+        let p = self.packets;
         match &self.inner {
-            Inner::F32(c) => c.render_tile(&self.settings, tile, out, stats),
-            Inner::F64(c) => c.render_tile(&self.settings, tile, out, stats),
+            Inner::F32(c) => c.render_tile(&self.settings, p, tile, out, stats),
+            Inner::F64(c) => c.render_tile(&self.settings, p, tile, out, stats),
         }
     }
 
     /// Casts eye and shadow rays only (no shading) for one tile: see [`crate::cast`].
     pub fn cast_tile(&self, tile: &Tile, cull: bool, stats: &mut RayStats) {
+        let p = self.packets;
         match &self.inner {
-            Inner::F32(c) => crate::cast::cast_tile(&c.integrator, &c.camera, tile, cull, stats),
-            Inner::F64(c) => crate::cast::cast_tile(&c.integrator, &c.camera, tile, cull, stats),
+            Inner::F32(c) => crate::cast::cast_tile(&c.integrator, &c.camera, tile, cull, p, stats),
+            Inner::F64(c) => crate::cast::cast_tile(&c.integrator, &c.camera, tile, cull, p, stats),
         }
     }
 

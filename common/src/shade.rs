@@ -4,9 +4,10 @@
 //! the material does not need, and allocates nothing.
 
 use crate::accel::Accel;
-use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
+use crate::geometry::{offset_ray_origin, PreparedRay, PrimHit, Ray};
 use crate::real::Real;
 use crate::scene::Scene;
+use crate::scene::{Mat, Surface};
 use crate::stats::RayStats;
 use crate::vec3::V3;
 
@@ -19,6 +20,19 @@ pub enum RayKind {
     Reflection,
     /// Refraction.
     Refraction,
+}
+
+/// A hit made ready for shading ([`Integrator::lit`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Lit<R> {
+    /// The surface at the hit.
+    pub s: Surface<R>,
+    /// Its material.
+    pub m: Mat<R>,
+    /// The shading normal the lights are tested against.
+    pub ns: V3<R>,
+    /// The ray arrived at the primitive's front.
+    pub arrives_front: bool,
 }
 
 /// Shading switches derived from the render settings.
@@ -88,11 +102,19 @@ impl<R: Real> Integrator<R> {
             RayKind::Reflection => stats.reflection_hits += 1,
             RayKind::Refraction => stats.refraction_hits += 1,
         }
-        let s = self.scene.surface(ray, &hit);
+        let lit = self.lit(ray, &hit);
+        self.shade(ray, &lit, depth, weight, stats, |_, shadow, st| {
+            self.occluded(shadow, st)
+        })
+    }
+
+    /// A hit made ready for shading: its surface, material and the normal the lights are
+    /// tested against.
+    #[inline]
+    pub fn lit(&self, ray: &Ray<R>, hit: &PrimHit<R>) -> Lit<R> {
+        let s = self.scene.surface(ray, hit);
         let m = self.scene.materials[s.material as usize];
-        let d = ray.d;
-        let view = -d;
-        let arrives_front = d.dot(s.ng) < R::ZERO;
+        let arrives_front = ray.d.dot(s.ng) < R::ZERO;
         // Normals facing the viewer, except SPD's one-sided opaque primitives, which keep their
         // front normal for the light test.
         let one_sided = self.opts.spd && !self.opts.two_sided && m.t == R::ZERO;
@@ -101,33 +123,71 @@ impl<R: Real> Integrator<R> {
         } else {
             -s.ns
         };
+        Lit {
+            s,
+            m,
+            ns,
+            arrives_front,
+        }
+    }
 
+    /// The shadow ray from a lit hit to light `light`, with `n·l` before normalising and the
+    /// distance to the light; `None` when the surface faces away from the light (no shadow ray
+    /// is cast then).
+    #[inline]
+    pub fn shadow_ray(&self, lit: &Lit<R>, light: usize) -> Option<(Ray<R>, R, R)> {
+        let s = &lit.s;
+        let position = self.scene.lights[light].position;
+        let to_light = position - s.p;
+        let n_dot_l_raw = lit.ns.dot(to_light);
+        if n_dot_l_raw <= R::ZERO {
+            return None; // faces away: no shadow ray
+        }
+        let dist = to_light.length();
+        if !(dist > R::ZERO) {
+            return None;
+        }
+        let l = to_light / dist;
+        let origin = offset_ray_origin(s.p, s.p_err, s.ng, l);
+        let to_light_o = position - origin;
+        let dist_o = to_light_o.length();
+        let shadow = Ray {
+            o: origin,
+            d: to_light_o / dist_o,
+            t_min: R::ZERO,
+            t_max: dist_o,
+        };
+        Some((shadow, n_dot_l_raw, dist))
+    }
+
+    /// Radiance leaving a lit hit back along `ray`: `occluded(light, shadow ray, stats)`
+    /// answers the shadow rays (traced on the spot, or looked up from a packet traced before).
+    pub fn shade<O>(
+        &self,
+        ray: &Ray<R>,
+        lit: &Lit<R>,
+        depth: u32,
+        weight: R,
+        stats: &mut RayStats,
+        mut occluded: O,
+    ) -> V3<R>
+    where
+        O: FnMut(usize, &Ray<R>, &mut RayStats) -> bool,
+    {
+        let (s, m, ns, arrives_front) = (&lit.s, lit.m, lit.ns, lit.arrives_front);
+        let d = ray.d;
+        let view = -d;
         let mut color = m.color * (self.scene.ambient * m.kd);
-        for light in &self.scene.lights {
-            let to_light = light.position - s.p;
-            let n_dot_l_raw = ns.dot(to_light);
-            if n_dot_l_raw <= R::ZERO {
-                continue; // faces away: no shadow ray
-            }
-            let dist = to_light.length();
-            if !(dist > R::ZERO) {
+        for (li, light) in self.scene.lights.iter().enumerate() {
+            let Some((shadow, n_dot_l_raw, dist)) = self.shadow_ray(lit, li) else {
                 continue;
-            }
-            let l = to_light / dist;
-            let origin = offset_ray_origin(s.p, s.p_err, s.ng, l);
-            let to_light_o = light.position - origin;
-            let dist_o = to_light_o.length();
-            let shadow = Ray {
-                o: origin,
-                d: to_light_o / dist_o,
-                t_min: R::ZERO,
-                t_max: dist_o,
             };
             stats.shadow_rays += 1;
-            if self.occluded(&shadow, stats) {
+            if occluded(li, &shadow, stats) {
                 stats.shadow_hits += 1;
                 continue;
             }
+            let l = (light.position - s.p) / dist;
             let n_dot_l = n_dot_l_raw / dist;
             let mut c = m.color * (m.kd * n_dot_l);
             if m.ks > R::ZERO {

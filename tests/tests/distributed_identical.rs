@@ -32,7 +32,18 @@ async fn matches_smp_for_workers_threads_and_tile_sizes() {
                     .unwrap()
                     .unwrap_or_else(|e| panic!("{what}: {e}"));
                 assert_same_bits(&r.film, &reference, &what);
-                assert_eq!(r.stats, ref_stats, "{what}: stats");
+                if tile % parrt::tile::BLOCK == 0 {
+                    assert_eq!(r.stats, ref_stats, "{what}: stats");
+                } else {
+                    // Tiles that cut the image's 4 × 4 packet blocks trace other packets, so
+                    // the box and primitive test counts differ; the rays do not.
+                    let rays = |s: &parrt::stats::RayStats| {
+                        let mut s = *s;
+                        (s.box_tests, s.primitive_tests) = (0, 0);
+                        s
+                    };
+                    assert_eq!(rays(&r.stats), rays(&ref_stats), "{what}: ray counts");
+                }
                 assert_eq!(r.tile_seconds.len(), r.tiles);
                 assert_eq!(
                     r.per_worker.iter().map(|w| w.tiles).sum::<u64>(),

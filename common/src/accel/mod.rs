@@ -117,4 +117,47 @@ impl Accel {
             Accel::Brute(b) => b.occluded(pr, stats, test),
         }
     }
+
+    /// Closest hits of a packet of at most [`bvh::packet::PACKET`] rays into `out`:
+    /// `test(ray, prim, t_max)` is the primitive test. The BVH traces the packet together; the
+    /// other accelerators trace its rays one by one. Either way each ray gets the hit it gets
+    /// alone.
+    pub fn intersect_packet<R: Real, F>(
+        &self,
+        rays: &[PreparedRay<R>],
+        out: &mut [Option<PrimHit<R>>],
+        stats: &mut RayStats,
+        mut test: F,
+    ) where
+        F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>,
+    {
+        match self {
+            Accel::Bvh(b) => b.intersect_packet(rays, out, stats, test),
+            _ => {
+                for (pr, o) in rays.iter().zip(out.iter_mut()) {
+                    *o = self.intersect(pr, stats, |p, t| test(pr, p, t));
+                }
+            }
+        }
+    }
+
+    /// Occlusion of each ray of a packet of at most [`bvh::packet::PACKET`] rays into `out`.
+    pub fn occluded_packet<R: Real, F>(
+        &self,
+        rays: &[PreparedRay<R>],
+        out: &mut [bool],
+        stats: &mut RayStats,
+        mut test: F,
+    ) where
+        F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>,
+    {
+        match self {
+            Accel::Bvh(b) => b.occluded_packet(rays, out, stats, test),
+            _ => {
+                for (pr, o) in rays.iter().zip(out.iter_mut()) {
+                    *o = self.occluded(pr, stats, |p, t| test(pr, p, t));
+                }
+            }
+        }
+    }
 }

@@ -6,6 +6,7 @@ pub mod aabb;
 pub mod cone;
 pub mod hit;
 pub mod ray;
+pub mod slab16;
 pub mod slab4;
 pub mod sphere;
 pub mod triangle;

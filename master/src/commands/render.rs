@@ -162,6 +162,11 @@ pub struct RenderArgs {
     /// Print ray statistics and timings after the render.
     #[arg(long)]
     pub stats: bool,
+    /// Trace every eye ray on its own instead of in 4×4 packets with their shadow rays. The
+    /// image is the same bits; the box and primitive test counts of --stats are then per single
+    /// ray (what `bench/bvh_quality.sh` compares).
+    #[arg(long)]
+    pub no_packets: bool,
     /// Write ray statistics and timings as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     pub stats_json: Option<PathBuf>,
@@ -318,9 +323,10 @@ fn render_here(
     desc: parrt::description::SceneDescription,
     settings: &RenderSettings,
 ) -> anyhow::Result<Outcome> {
-    let renderer = Renderer::from_description(desc, settings)
+    let mut renderer = Renderer::from_description(desc, settings)
         .map_err(input_error)
         .with_context(|| format!("cannot prepare {}", spec.label()))?;
+    renderer.set_packets(!args.no_packets);
     let threads = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

@@ -2,7 +2,7 @@
 //! array. Leaves hold at most [`MAX_LEAF`] primitives; deep branches fall back to median splits
 //! so the traversal stack can never overflow.
 //!
-//! Speed and memory: each primitive is a 32-byte box ([`Item`], four lanes per corner so the
+//! Speed and memory: each primitive is a 32-byte box (`Item`, four lanes per corner so the
 //! box arithmetic vectorises) plus its index in a parallel array that ends up as the primitive
 //! order. A node makes one pass over its items to bin all three axes at once (alternating
 //! between two sets of bins, so consecutive items in the same bin do not wait on each other),

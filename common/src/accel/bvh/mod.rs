@@ -1,11 +1,13 @@
 //! The bounding volume hierarchy: built with binned SAH ([`build`]) into a binary tree
 //! ([`binary`]) of 32-byte nodes ([`node`]), collapsed into 4-wide nodes ([`wide`]) and
-//! traversed nearest child first with a fixed stack ([`traverse`]).
+//! traversed nearest child first with a fixed stack ([`traverse`]), one ray at a time or in
+//! packets of coherent rays ([`packet`]).
 
 pub mod binary;
 pub mod build;
 pub mod goldsmith;
 pub mod node;
+pub mod packet;
 pub mod traverse;
 pub mod wide;
 

@@ -20,14 +20,14 @@ use std::mem::MaybeUninit;
 const WIDE_STACK: usize = (WIDTH - 1) * STACK_SIZE;
 
 /// A fixed traversal stack of (child, entry distance) that is not initialised up front.
-struct Stack<R> {
+pub(super) struct Stack<R> {
     items: [MaybeUninit<(ChildRef, R)>; WIDE_STACK],
     len: usize,
 }
 
 impl<R: Real> Stack<R> {
     #[inline(always)]
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         Stack {
             items: [const { MaybeUninit::uninit() }; WIDE_STACK],
             len: 0,
@@ -35,14 +35,14 @@ impl<R: Real> Stack<R> {
     }
 
     #[inline(always)]
-    fn push(&mut self, child: ChildRef, t: R) {
+    pub(super) fn push(&mut self, child: ChildRef, t: R) {
         // Bounded as WIDE_STACK says; indexing still checks.
         self.items[self.len].write((child, t));
         self.len += 1;
     }
 
     #[inline(always)]
-    fn pop(&mut self) -> Option<(ChildRef, R)> {
+    pub(super) fn pop(&mut self) -> Option<(ChildRef, R)> {
         if self.len == 0 {
             return None;
         }

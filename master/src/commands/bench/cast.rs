@@ -25,6 +25,9 @@ pub struct CastArgs {
     /// Skip shadow rays to lights behind the surface (Embree harness: -cull).
     #[arg(long)]
     pub cull: bool,
+    /// Cast each ray on its own instead of eye rays in 4×4 packets with their shadow rays.
+    #[arg(long)]
+    pub no_packets: bool,
     /// Repeat frames until at least this many seconds were timed.
     #[arg(long, value_name = "S", default_value_t = 1.0)]
     pub mintime: f64,
@@ -70,7 +73,8 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
         };
         let mut settings = RenderSettings::new(w, h);
         settings.accel = args.accel.kind();
-        let r = Renderer::new(&desc, &settings).map_err(input_error)?;
+        let mut r = Renderer::new(&desc, &settings).map_err(input_error)?;
+        r.set_packets(!args.no_packets);
         let tiles = parrt::tile::tiles(w, h, 32);
         let mut frames = 0u64;
         let t0 = Instant::now();
