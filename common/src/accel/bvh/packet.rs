@@ -163,7 +163,16 @@ impl Bvh {
     /// Whether `rays` would be traced together (more than one ray, bounds the interval test
     /// can take, origins close enough) rather than one by one.
     pub fn takes_as_packet<R: Real>(&self, rays: &[PreparedRay<R>]) -> bool {
-        rays.len() > 1 && rays.len() <= PACKET && Frustum::new(rays).is_some()
+        self.packet_bounds(rays).is_some()
+    }
+
+    /// The bounds `rays` are traced together with, or `None` when they go one by one.
+    fn packet_bounds<R: Real>(&self, rays: &[PreparedRay<R>]) -> Option<Frustum<R>> {
+        if rays.len() > 1 && rays.len() <= PACKET && !self.nodes.is_empty() {
+            Frustum::new(rays)
+        } else {
+            None
+        }
     }
 
     /// Closest hits of a packet of at most [`PACKET`] rays into `out` (same indexing);
@@ -182,14 +191,11 @@ impl Bvh {
         F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>,
     {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
-        let frustum = match Frustum::new(rays) {
-            Some(f) if rays.len() > 1 && !self.nodes.is_empty() => f,
-            _ => {
-                for (pr, o) in rays.iter().zip(out.iter_mut()) {
-                    *o = self.intersect(pr, stats, |p, t| test(pr, p, t));
-                }
-                return;
+        let Some(frustum) = self.packet_bounds(rays) else {
+            for (pr, o) in rays.iter().zip(out.iter_mut()) {
+                *o = self.intersect(pr, stats, |p, t| test(pr, p, t));
             }
+            return;
         };
         let n = rays.len();
         let lanes = RayLanes::new(rays, frustum.neg);
@@ -286,14 +292,11 @@ impl Bvh {
         F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>,
     {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
-        let frustum = match Frustum::new(rays) {
-            Some(f) if rays.len() > 1 && !self.nodes.is_empty() => f,
-            _ => {
-                for (pr, o) in rays.iter().zip(out.iter_mut()) {
-                    *o = self.occluded(pr, stats, |p, t| test(pr, p, t));
-                }
-                return;
+        let Some(frustum) = self.packet_bounds(rays) else {
+            for (pr, o) in rays.iter().zip(out.iter_mut()) {
+                *o = self.occluded(pr, stats, |p, t| test(pr, p, t));
             }
+            return;
         };
         let n = rays.len();
         let all: u32 = (1 << n) - 1;
