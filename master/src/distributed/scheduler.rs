@@ -7,12 +7,14 @@
 //! Rules: tiles are handed out dynamically, up to a window of in-flight tiles per worker sized
 //! to its threads; the first valid result for a tile wins and is written once, later ones are
 //! ignored; a result must name this job, a tile this worker holds (with its attempt) and the
-//! right pixel count; a worker that leaves, or misses a deadline, loses its tiles to the front
+//! right pixel count, every pixel finite, and ray statistics a render of that tile could have
+//! produced ([`RayStats::check_tile`]); a worker that leaves, or misses a deadline, loses its tiles to the front
 //! of the queue; a worker that keeps failing is dropped; when the queue is empty, an idle worker
 //! gets backup copies of tiles still in flight elsewhere.
 
 use parrt::film::Film;
 use parrt::protocol::{Message, WireCounters};
+use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
 use std::collections::{BTreeMap, HashMap, VecDeque};
@@ -173,7 +175,8 @@ pub struct WorkerReport {
 pub struct FaultCounts {
     /// Handshakes refused, with the reasons.
     pub refused: Vec<String>,
-    /// Results rejected (wrong job, unassigned tile, bad pixel count).
+    /// Results rejected (wrong job, unassigned tile, bad pixel count, a NaN or infinite pixel,
+    /// impossible ray statistics).
     pub rejected_results: u64,
     /// Valid results that came second and were ignored.
     pub duplicate_results: u64,
@@ -196,6 +199,10 @@ enum TileState {
 pub struct Scheduler {
     job_id: u64,
     opts: SchedOptions,
+    /// The job's settings: what a result's statistics are checked against.
+    settings: RenderSettings,
+    /// Lights in the scene (each hit casts at most one shadow ray per light).
+    lights: usize,
     tiles: Vec<Tile>,
     state: Vec<TileState>,
     attempts: Vec<u32>,
@@ -210,12 +217,22 @@ pub struct Scheduler {
 }
 
 impl Scheduler {
-    /// A scheduler for `tiles` of a `width × height` image, job `job_id`.
-    pub fn new(job_id: u64, width: u32, height: u32, tiles: Vec<Tile>, opts: SchedOptions) -> Self {
+    /// A scheduler for `tiles` of the image `settings` describe, job `job_id`, in a scene with
+    /// `lights` lights.
+    pub fn new(
+        job_id: u64,
+        settings: &RenderSettings,
+        lights: usize,
+        tiles: Vec<Tile>,
+        opts: SchedOptions,
+    ) -> Self {
         let n = tiles.len();
+        let (width, height) = (settings.width, settings.height);
         Scheduler {
             job_id,
             opts,
+            settings: settings.clone(),
+            lights,
             state: vec![TileState::Queued; n],
             attempts: vec![0; n],
             queue: (0..n as u32).collect(),
@@ -388,6 +405,24 @@ impl Scheduler {
                     tile.pixel_count()
                 ),
             );
+            return;
+        }
+        let invalid = if let Some(i) = pixels.iter().flatten().position(|v| !v.is_finite()) {
+            Some(format!(
+                "tile {tile_id}: pixel {} has a non-finite value ({})",
+                i / 3,
+                pixels[i / 3][i % 3]
+            ))
+        } else {
+            stats
+                .check_tile(&tile, &self.settings, self.lights)
+                .err()
+                .map(|e| format!("tile {tile_id}: {e}"))
+        };
+        if let Some(reason) = invalid {
+            self.faults.rejected_results += 1;
+            self.requeue(tile_id);
+            self.fail(id, reason);
             return;
         }
         if self.state[t] == TileState::Done {
@@ -665,8 +700,8 @@ mod tests {
     fn sched(max_failures: u32) -> Scheduler {
         Scheduler::new(
             JOB,
-            16,
-            8,
+            &RenderSettings::new(16, 8),
+            1,
             tiles(16, 8, 4), // 8 tiles of 4x4
             SchedOptions {
                 window_per_thread: 2,
@@ -806,6 +841,50 @@ mod tests {
         assert_eq!(s.progress().0, 0);
         let f = s.finish();
         assert_eq!(f.faults.rejected_results, 5);
+    }
+
+    /// Issue 20 items 13 and 15: a result with a NaN or infinite pixel, or with ray counts no
+    /// render could produce (a wrapped `u64::MAX`), is rejected and its tile requeued, so the
+    /// film stays finite and the totals honest; an honest result for the tile then wins.
+    #[tokio::test(start_paused = true)]
+    async fn non_finite_pixels_and_impossible_stats_are_rejected_and_requeued() {
+        let mut s = sched(10);
+        let mut rx = join(&mut s, 1, 1);
+        s.fill(Instant::now());
+        let a = assigned(&mut rx);
+        let (first, mut attempt) = a[0];
+        let (second, att2) = a[1];
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut ev = result(1, &first, attempt, 0.5);
+            if let Event::Result { pixels, .. } = &mut ev {
+                pixels[3][1] = bad;
+            }
+            s.handle(ev, Instant::now());
+            // Requeued: the next fill hands the tile out again, as a new attempt.
+            s.fill(Instant::now());
+            let again = assigned(&mut rx);
+            assert_eq!(again.len(), 1, "{bad}: {again:?}");
+            assert_eq!(again[0].0.id, first.id, "{bad}");
+            assert!(again[0].1 > attempt);
+            attempt = again[0].1;
+        }
+        s.handle(result(1, &first, attempt, 0.25), Instant::now());
+        let mut wrapped = result(1, &second, att2, 0.75);
+        if let Event::Result { stats, .. } = &mut wrapped {
+            stats.eye_rays = u64::MAX;
+        }
+        s.handle(wrapped, Instant::now());
+        let f = s.finish();
+        assert!(f.film.pixels.iter().flatten().all(|v| v.is_finite()));
+        assert_eq!(f.film.get(first.x, first.y), [0.25; 3]);
+        assert_eq!(
+            f.film.get(second.x, second.y),
+            [0.0; 3],
+            "wrapped stats accepted"
+        );
+        assert_eq!(f.faults.rejected_results, 4);
+        assert_eq!(f.faults.requeued, 4);
+        assert_eq!(f.stats.eye_rays, first.pixel_count() as u64);
     }
 
     #[tokio::test(start_paused = true)]

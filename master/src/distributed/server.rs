@@ -78,8 +78,8 @@ impl Master {
         let n_tiles = list.len();
         let mut sched = Scheduler::new(
             job_id,
-            settings.width,
-            settings.height,
+            settings,
+            desc.lights.len(),
             list,
             SchedOptions {
                 window_per_thread: opts.window_per_thread,
