@@ -7,12 +7,14 @@
 //! - [`distributed`]: the master side of distributed rendering (server, scheduler, workers).
 //! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
 //! - [`plot`]: charts (SVG and PNG) for the studies.
+//! - [`cpu_time`]: thread and process CPU clocks (benchmarks, the master's own cost).
 //! - [`exit`]: how errors map to exit codes (2 bad input or usage, 1 anything else).
 #![deny(missing_docs)]
 
 pub mod accuracy;
 pub mod cli;
 pub mod commands;
+pub mod cpu_time;
 pub mod distributed;
 pub mod exit;
 pub mod plot;

@@ -238,7 +238,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         job_id: job.job_id,
         tile_id: last,
         attempt: 1,
-        pixels: vec![[9.0; 3]; 64],
+        pixels: parrt::protocol::TilePixels::encode(&[[9.0; 3]; 64], Default::default()),
         stats: parrt::stats::RayStats::default(),
         seconds: 0.0,
     })
@@ -300,6 +300,7 @@ async fn worker_reports_a_job_it_cannot_build() {
         scene: desc,
         settings: parrt::settings::RenderSettings::new(0, 8),
         tile_size: 8,
+        pixel_format: Default::default(),
     })))
     .await
     .unwrap();

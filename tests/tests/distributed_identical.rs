@@ -211,3 +211,62 @@ fn worker_binary_and_subcommand_refuse_to_start_without_a_token() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("token"));
 }
+
+/// Issue 15: for an 8-bit output the workers send 3 bytes a pixel instead of 12, quantized by
+/// the film's own 8-bit rule, so the written image is the SMP image's bytes; and the pixel
+/// traffic is a quarter of the f32 run's.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rgb8_pixels_write_the_smp_png_with_a_quarter_of_the_bytes() {
+    use parrt::protocol::PixelFormat;
+    let desc = test_scene(96, 64);
+    let settings = settings_for(&desc);
+    let (reference, ref_stats) = smp_reference(&desc, &settings, 16);
+    let mut received = Vec::new();
+    for format in [PixelFormat::F32, PixelFormat::Rgb8] {
+        let opts = parrt_master::distributed::DistOptions {
+            min_workers: 2,
+            backups: false,
+            pixel_format: format,
+            ..test_options(16)
+        };
+        let m = start_master(&desc, &settings, &opts).await;
+        let _ws: Vec<_> = (0..2)
+            .map(|i| start_worker(worker_options(m.addr, 1, &format!("w{i}"))))
+            .collect();
+        let r = m.handle.await.unwrap().unwrap();
+        assert_eq!(
+            r.film.to_rgb8(),
+            reference.to_rgb8(),
+            "{format:?}: 8-bit image"
+        );
+        assert_eq!(r.stats, ref_stats, "{format:?}");
+        received.push(r.bytes_received);
+    }
+    let pixels = 96 * 64;
+    // F32: 12 bytes a pixel plus headers; Rgb8: 3 bytes a pixel plus the same headers.
+    assert!(received[0] >= pixels * 12, "{received:?}");
+    assert!(received[1] < received[0] - pixels * 9 + 64, "{received:?}");
+    assert!(received[1] >= pixels * 3, "{received:?}");
+}
+
+#[test]
+fn render_workers_png_is_byte_identical_to_smp_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let smp = dir.path().join("smp.png");
+    let dist = dir.path().join("dist.png");
+    let run = |out: &std::path::Path, extra: &[&str]| {
+        let o = Command::new(EXE)
+            .args([
+                "render", "--scene", "mount:3", "--width", "96", "--height", "72",
+            ])
+            .args(["--tile", "16", "-o"])
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&smp, &["--threads", "2"]);
+    run(&dist, &["--workers", "2", "--threads", "1"]);
+    assert_eq!(std::fs::read(&smp).unwrap(), std::fs::read(&dist).unwrap());
+}

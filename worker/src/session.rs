@@ -48,6 +48,7 @@ struct CurrentJob {
     width: u32,
     height: u32,
     cancelled: Arc<AtomicBool>,
+    pixel_format: parrt::protocol::PixelFormat,
     handle: Option<JobHandle>,
     /// Tiles assigned before the renderer was ready.
     waiting: Vec<(Tile, u32)>,
@@ -216,7 +217,7 @@ async fn serve(
                                         tile.id, tile.w, tile.h, tile.x, tile.y, j.width, j.height),
                                 }).await?;
                             }
-                            Some(_) if tile.pixel_count().saturating_mul(12).saturating_add(1024) > opts.max_frame => {
+                            Some(j) if tile.pixel_count().saturating_mul(j.pixel_format.bytes_per_pixel()).saturating_add(1024) > opts.max_frame => {
                                 conn.write(&Message::Error {
                                     reason: format!("tile {} of {}x{} pixels does not fit one {}-byte frame",
                                         tile.id, tile.w, tile.h, opts.max_frame),
@@ -256,6 +257,7 @@ async fn serve(
                             job_id: b.job_id,
                             renderer: Arc::new(r),
                             cancelled: j.cancelled.clone(),
+                            pixel_format: j.pixel_format,
                         };
                         conn.write(&Message::Ready { job_id: b.job_id, build_s: b.seconds }).await?;
                         for (tile, attempt) in j.waiting.drain(..) {
@@ -295,6 +297,7 @@ fn start_build(spec: JobSpec, done: mpsc::UnboundedSender<Built>) -> CurrentJob 
         width: spec.settings.width,
         height: spec.settings.height,
         cancelled: Arc::new(AtomicBool::new(false)),
+        pixel_format: spec.pixel_format,
         handle: None,
         waiting: Vec::new(),
     };

@@ -2,7 +2,7 @@
 //! `ThreadPool::spawn`, rendered there, and its result comes back as a message on an unbounded
 //! channel (the master's window bounds how many are outstanding). Never renders on the runtime.
 
-use parrt::protocol::Message;
+use parrt::protocol::{Message, PixelFormat, TilePixels};
 use parrt::render::Renderer;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
@@ -21,6 +21,8 @@ pub struct JobHandle {
     pub renderer: Arc<Renderer>,
     /// Set when the job is cancelled: queued tiles are skipped.
     pub cancelled: Arc<AtomicBool>,
+    /// How the job wants pixels sent.
+    pub pixel_format: PixelFormat,
 }
 
 /// Renders tiles on a rayon pool and sends each result (or an error) to `out`.
@@ -64,7 +66,7 @@ impl TileRenderer {
                     job_id: job.job_id,
                     tile_id: tile.id,
                     attempt,
-                    pixels,
+                    pixels: TilePixels::encode(&pixels, job.pixel_format),
                     stats,
                     seconds: t0.elapsed().as_secs_f64(),
                 },

@@ -265,6 +265,7 @@ mod tests {
                 scene: scene(),
                 settings: RenderSettings::new(8, 8),
                 tile_size: 8,
+                pixel_format: crate::protocol::PixelFormat::Rgb8,
             })),
             Message::Ready {
                 job_id: 5,
@@ -279,7 +280,10 @@ mod tests {
                 job_id: 5,
                 tile_id: 3,
                 attempt: 2,
-                pixels: vec![[0.5, f32::MIN_POSITIVE, -0.0]; 40],
+                pixels: crate::protocol::TilePixels::encode(
+                    &[[0.5, f32::MIN_POSITIVE, -0.0]; 40],
+                    crate::protocol::PixelFormat::F32,
+                ),
                 stats: RayStats {
                     eye_rays: 40,
                     primitive_tests: 1 << 40,
@@ -402,7 +406,8 @@ mod tests {
             let msgs = vec![
                 Message::Assign { job_id, tile: Tile { id: tile_id, x, y, w, h }, attempt },
                 Message::TileResult {
-                    job_id, tile_id, attempt, pixels: pixels.clone(),
+                    job_id, tile_id, attempt,
+                    pixels: crate::protocol::TilePixels::encode(&pixels, crate::protocol::PixelFormat::F32),
                     stats: RayStats { eye_rays: job_id, ..RayStats::default() }, seconds,
                 },
                 Message::Hello { version: attempt, name, threads: tile_id },
@@ -417,7 +422,8 @@ mod tests {
                 // Compare through the encoding: NaN != NaN, but equal bytes are equal bits.
                 proptest::prop_assert_eq!(encode_payload(&back).unwrap(), encode_payload(m).unwrap());
             }
-            if let Message::TileResult { pixels: p, .. } = decode_payload(&encode_payload(&msgs[1]).unwrap()).unwrap() {
+            if let Message::TileResult { pixels: tp, .. } = decode_payload(&encode_payload(&msgs[1]).unwrap()).unwrap() {
+                let p: Vec<[f32; 3]> = tp.bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect::<Vec<_>>().chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
                 let same = p.iter().flatten().zip(pixels.iter().flatten()).all(|(a, b)| a.to_bits() == b.to_bits());
                 proptest::prop_assert!(same && p.len() == pixels.len());
             }

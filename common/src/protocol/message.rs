@@ -1,6 +1,7 @@
 //! The messages master and worker exchange. Plain data: no I/O, no validation beyond types
 //! (the receiver checks ids, attempts and pixel counts against its own state).
 
+use super::pixels::{PixelFormat, TilePixels};
 use crate::description::SceneDescription;
 use crate::settings::RenderSettings;
 use crate::stats::RayStats;
@@ -22,6 +23,8 @@ pub struct JobSpec {
     pub settings: RenderSettings,
     /// Tile edge in pixels (informational: tiles arrive whole in `Assign`).
     pub tile_size: u32,
+    /// How results carry their pixels (8-bit when the output keeps no more).
+    pub pixel_format: PixelFormat,
 }
 
 /// A protocol message. Variant order is part of the wire format: never reorder, only append.
@@ -79,8 +82,8 @@ pub enum Message {
         tile_id: u32,
         /// The attempt this answers.
         attempt: u32,
-        /// Pixels, row-major within the tile.
-        pixels: Vec<[f32; 3]>,
+        /// Pixels, row-major within the tile, in the job's [`PixelFormat`].
+        pixels: TilePixels,
         /// Ray statistics of this tile.
         stats: RayStats,
         /// Seconds the worker spent rendering it.

@@ -1,5 +1,5 @@
 //! The master/worker wire protocol (DESIGN §8): what the messages are ([`message`]), how they are
-//! framed and encoded ([`codec`]), how a worker proves it knows the shared token ([`auth`]), and
+//! framed and encoded ([`codec`]), how a tile's pixels travel ([`pixels`]), how a worker proves it knows the shared token ([`auth`]), and
 //! the one type that touches a socket ([`connection`]).
 //!
 //! ## Wire format
@@ -28,14 +28,16 @@ pub mod auth;
 pub mod codec;
 pub mod connection;
 pub mod message;
+pub mod pixels;
 
 pub use auth::{AuthError, Token};
 pub use codec::{MessageCodec, ProtocolError, WireCounters};
 pub use connection::Connection;
 pub use message::{JobSpec, Message};
+pub use pixels::{PixelError, PixelFormat, TilePixels};
 
 /// The protocol version spoken by this build; bumped on any incompatible change.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// The default largest frame accepted from an authenticated peer: 256 MiB (a large scene).
 pub const DEFAULT_MAX_FRAME: usize = 256 * 1024 * 1024;

@@ -113,6 +113,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         heartbeat_timeout: seconds("--heartbeat-timeout", args.heartbeat_timeout)?,
         window_per_thread: args.window.max(1),
         backups: !args.no_backups,
+        pixel_format: crate::distributed::pixel_format_for(&args.output),
         ..DistOptions::default()
     };
     let result = render_distributed(&desc, &settings, &opts, &|addr| {
@@ -186,6 +187,9 @@ pub fn report_json(r: &DistResult) -> serde_json::Value {
         "bytes_received": r.bytes_received,
         "bytes_per_tile": (r.bytes_sent + r.bytes_received) as f64 / r.tiles.max(1) as f64,
         "scene_transfer_s": r.scene_transfer_s,
+        "master_cpu_s": r.master_cpu_s,
+        "master_cpu_per_tile_us": r.master_cpu_per_tile_us(),
+        "master_cpu_per_mb_ms": r.master_cpu_per_mb_ms(),
         "eye_rays": r.stats.eye_rays,
         "refused": r.faults.refused,
         "rejected_results": r.faults.rejected_results,

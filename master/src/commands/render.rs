@@ -409,6 +409,7 @@ fn render_through_workers(
         threads_per_worker: threads,
         tile: args.tile,
         min_workers: n,
+        pixel_format: crate::distributed::pixel_format_for(&args.output),
         ..DistOptions::default()
     };
     let r =
@@ -436,6 +437,11 @@ fn render_through_workers(
         "network           {} bytes sent, {} received, scene transfer {:.4}s",
         r.bytes_sent, r.bytes_received, r.scene_transfer_s
     ));
+    let (per_tile_us, per_mb_ms) = (r.master_cpu_per_tile_us(), r.master_cpu_per_mb_ms());
+    describe.push(format!(
+        "master CPU        {:.4}s ({per_tile_us:.1} µs per tile, {per_mb_ms:.2} ms per MB received)",
+        r.master_cpu_s
+    ));
     Ok(Outcome {
         film: r.film,
         stats: r.stats,
@@ -449,6 +455,9 @@ fn render_through_workers(
             "bytes_sent": r.bytes_sent,
             "bytes_received": r.bytes_received,
             "scene_transfer_s": r.scene_transfer_s,
+            "master_cpu_s": r.master_cpu_s,
+            "master_cpu_per_tile_us": per_tile_us,
+            "master_cpu_per_mb_ms": per_mb_ms,
         }),
     })
 }

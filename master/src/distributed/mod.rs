@@ -24,7 +24,7 @@ pub use spawn::{spawn_local_workers, LocalWorkers};
 
 use parrt::description::SceneDescription;
 use parrt::film::Film;
-use parrt::protocol::{Token, DEFAULT_MAX_FRAME};
+use parrt::protocol::{PixelFormat, Token, DEFAULT_MAX_FRAME};
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use rand::Rng;
@@ -131,6 +131,10 @@ pub struct DistOptions {
     pub max_connections: usize,
     /// Show the progress bar (only ever drawn on a terminal).
     pub progress: bool,
+    /// How workers send pixels: [`PixelFormat::Rgb8`] when only an 8-bit image will be
+    /// written (a quarter of the bytes; the written image is the same), `F32` for the exact
+    /// film (the default).
+    pub pixel_format: PixelFormat,
 }
 
 impl Default for DistOptions {
@@ -154,6 +158,7 @@ impl Default for DistOptions {
             max_frame: DEFAULT_MAX_FRAME,
             max_connections: 1024,
             progress: true,
+            pixel_format: PixelFormat::F32,
         }
     }
 }
@@ -169,6 +174,9 @@ pub struct DistResult {
     pub tile_seconds: Vec<f64>,
     /// Wall time from the first tile handed out to the last one received.
     pub trace_s: f64,
+    /// CPU seconds the master process spent over the same span (all its threads): receiving,
+    /// decoding and checking results, filling the film, scheduling, heartbeats.
+    pub master_cpu_s: f64,
     /// Every worker that took part.
     pub per_worker: Vec<WorkerReport>,
     /// Bytes sent to authenticated workers (frames with prefixes).
@@ -181,6 +189,31 @@ pub struct DistResult {
     pub faults: FaultCounts,
     /// Tiles in the image.
     pub tiles: usize,
+}
+
+impl DistResult {
+    /// The master's CPU microseconds per tile delivered.
+    pub fn master_cpu_per_tile_us(&self) -> f64 {
+        self.master_cpu_s * 1e6 / self.tiles.max(1) as f64
+    }
+
+    /// The master's CPU milliseconds per megabyte (10⁶ bytes) received from workers.
+    pub fn master_cpu_per_mb_ms(&self) -> f64 {
+        if self.bytes_received == 0 {
+            0.0
+        } else {
+            self.master_cpu_s * 1e3 / (self.bytes_received as f64 / 1e6)
+        }
+    }
+}
+
+/// The pixel format workers should send for an image written to `output`: 8-bit for PNG and
+/// PPM (all those files keep), exact f32 for EXR or an unknown extension.
+pub fn pixel_format_for(output: &std::path::Path) -> PixelFormat {
+    match parrt::film::ImageFormat::from_path(output) {
+        Ok(parrt::film::ImageFormat::Png | parrt::film::ImageFormat::Ppm) => PixelFormat::Rgb8,
+        _ => PixelFormat::F32,
+    }
 }
 
 /// A random 32-character hex token, for workers this process starts itself.
@@ -218,8 +251,7 @@ pub fn render_distributed(
     on_listen: &dyn Fn(SocketAddr),
 ) -> Result<DistResult, DistError> {
     let token = opts.token.clone().unwrap_or_else(generate_token);
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
+    let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .map_err(DistError::Runtime)?;

@@ -13,7 +13,8 @@
 //! gets backup copies of tiles still in flight elsewhere.
 
 use parrt::film::Film;
-use parrt::protocol::{Message, WireCounters};
+use parrt::film::Rgb;
+use parrt::protocol::{Message, PixelFormat, TilePixels, WireCounters};
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
@@ -71,8 +72,8 @@ pub enum Event {
         tile_id: u32,
         /// The attempt named.
         attempt: u32,
-        /// The pixels.
-        pixels: Vec<[f32; 3]>,
+        /// The pixels, as they came.
+        pixels: TilePixels,
         /// Its statistics.
         stats: RayStats,
         /// Its render seconds.
@@ -105,6 +106,8 @@ pub struct SchedOptions {
     pub max_failures: u32,
     /// Hand out backup copies of in-flight tiles when the queue is empty.
     pub backups: bool,
+    /// The pixel format the job asked results to use.
+    pub pixel_format: PixelFormat,
 }
 
 /// One assignment of a tile to a worker.
@@ -213,6 +216,8 @@ pub struct Scheduler {
     tile_seconds: Vec<f64>,
     workers: BTreeMap<WorkerId, Slot>,
     gone: Vec<WorkerReport>,
+    /// A result's decoded pixels, reused from one result to the next.
+    scratch: Vec<Rgb>,
     faults: FaultCounts,
 }
 
@@ -243,6 +248,7 @@ impl Scheduler {
             tile_seconds: vec![0.0; n],
             workers: BTreeMap::new(),
             gone: Vec::new(),
+            scratch: Vec::new(),
             faults: FaultCounts::default(),
         }
     }
@@ -366,7 +372,7 @@ impl Scheduler {
         job_id: u64,
         tile_id: u32,
         attempt: u32,
-        pixels: &[[f32; 3]],
+        pixels: &TilePixels,
         stats: RayStats,
         seconds: f64,
     ) {
@@ -394,40 +400,32 @@ impl Scheduler {
         // Held tiles come from our own list, so the id indexes it.
         let t = tile_id as usize;
         let tile = self.tiles[t];
-        if pixels.len() != tile.pixel_count() {
-            self.faults.rejected_results += 1;
-            self.requeue(tile_id);
-            self.fail(
-                id,
-                format!(
-                    "tile {tile_id}: {} pixels instead of {}",
-                    pixels.len(),
-                    tile.pixel_count()
-                ),
-            );
-            return;
+        let mut decoded = std::mem::take(&mut self.scratch);
+        let invalid =
+            match pixels.decode_into(self.opts.pixel_format, tile.pixel_count(), &mut decoded) {
+                Err(e) => Some(format!("tile {tile_id}: {e}")),
+                Ok(()) => stats
+                    .check_tile(&tile, &self.settings, self.lights)
+                    .err()
+                    .map(|e| format!("tile {tile_id}: {e}")),
+            };
+        match invalid {
+            Some(reason) => {
+                self.faults.rejected_results += 1;
+                self.requeue(tile_id);
+                self.fail(id, reason);
+            }
+            None => self.accept(id, t, &decoded, stats, seconds),
         }
-        let invalid = if let Some(i) = pixels.iter().flatten().position(|v| !v.is_finite()) {
-            Some(format!(
-                "tile {tile_id}: pixel {} has a non-finite value ({})",
-                i / 3,
-                pixels[i / 3][i % 3]
-            ))
-        } else {
-            stats
-                .check_tile(&tile, &self.settings, self.lights)
-                .err()
-                .map(|e| format!("tile {tile_id}: {e}"))
-        };
-        if let Some(reason) = invalid {
-            self.faults.rejected_results += 1;
-            self.requeue(tile_id);
-            self.fail(id, reason);
-            return;
-        }
+        self.scratch = decoded;
+    }
+
+    /// Writes a checked result into the film unless the tile is already done.
+    fn accept(&mut self, id: WorkerId, t: usize, pixels: &[Rgb], stats: RayStats, seconds: f64) {
+        let tile = self.tiles[t];
         if self.state[t] == TileState::Done {
             self.faults.duplicate_results += 1;
-            debug!(worker = id, tile_id, "duplicate result ignored");
+            debug!(worker = id, tile_id = t, "duplicate result ignored");
             return;
         }
         if let Err(e) = self.film.write_tile(&tile, pixels) {
@@ -435,9 +433,11 @@ impl Scheduler {
             warn!(error = %e, "tile does not fit the film");
             return;
         }
-        w.tiles += 1;
-        w.render_s += seconds;
-        w.failures = 0;
+        if let Some(w) = self.workers.get_mut(&id) {
+            w.tiles += 1;
+            w.render_s += seconds;
+            w.failures = 0;
+        }
         self.state[t] = TileState::Done;
         self.stats += stats;
         self.tile_seconds[t] = seconds;
@@ -708,6 +708,7 @@ mod tests {
                 tile_deadline: Duration::from_secs(5),
                 max_failures,
                 backups: true,
+                pixel_format: PixelFormat::F32,
             },
         )
     }
@@ -753,7 +754,7 @@ mod tests {
             job_id: JOB,
             tile_id: tile.id,
             attempt,
-            pixels: vec![[value; 3]; tile.pixel_count()],
+            pixels: TilePixels::encode(&vec![[value; 3]; tile.pixel_count()], PixelFormat::F32),
             stats: RayStats {
                 eye_rays: tile.pixel_count() as u64,
                 ..RayStats::default()
@@ -819,7 +820,7 @@ mod tests {
                 job_id: JOB,
                 tile_id: held.id,
                 attempt,
-                pixels: vec![[0.0; 3]; 3],
+                pixels: TilePixels::encode(&[[0.0; 3]; 3], PixelFormat::F32),
                 stats: RayStats::default(),
                 seconds: 0.0,
             },
@@ -832,7 +833,7 @@ mod tests {
                 job_id: JOB,
                 tile_id: u32::MAX,
                 attempt: 1,
-                pixels: vec![],
+                pixels: TilePixels::encode(&[], PixelFormat::F32),
                 stats: RayStats::default(),
                 seconds: 0.0,
             },
@@ -855,9 +856,11 @@ mod tests {
         let (first, mut attempt) = a[0];
         let (second, att2) = a[1];
         for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut px = vec![[0.5; 3]; first.pixel_count()];
+            px[3][1] = bad;
             let mut ev = result(1, &first, attempt, 0.5);
             if let Event::Result { pixels, .. } = &mut ev {
-                pixels[3][1] = bad;
+                *pixels = TilePixels::encode(&px, PixelFormat::F32);
             }
             s.handle(ev, Instant::now());
             // Requeued: the next fill hands the tile out again, as a new attempt.

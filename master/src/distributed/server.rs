@@ -86,6 +86,7 @@ impl Master {
                 tile_deadline: opts.tile_deadline,
                 max_failures: opts.max_failures,
                 backups: opts.backups,
+                pixel_format: opts.pixel_format,
             },
         );
         let job = Message::Job(Box::new(JobSpec {
@@ -93,6 +94,7 @@ impl Master {
             scene: desc.clone(),
             settings: settings.clone(),
             tile_size: opts.tile,
+            pixel_format: opts.pixel_format,
         }));
         let ctx = Arc::new(ConnContext {
             job,
@@ -118,6 +120,7 @@ impl Master {
         let mut tick = interval(Duration::from_millis(100));
         tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
         let mut started: Option<Instant> = None;
+        let mut cpu_at_start = 0.0;
         let mut waiting_since = Some(Instant::now());
         let min_workers = opts.min_workers.max(1);
         let outcome: Result<(), DistError> = loop {
@@ -140,6 +143,7 @@ impl Master {
                 if started.is_none() {
                     info!(workers = ready, tiles = n_tiles, "starting");
                     started = Some(now);
+                    cpu_at_start = crate::cpu_time::process_cpu_s();
                 }
                 sched.fill(now);
             } else {
@@ -163,6 +167,11 @@ impl Master {
             progress.update(sched.progress().0, &sched.throughput(now));
         };
         let trace_s = started.map_or(0.0, |s| s.elapsed().as_secs_f64());
+        let master_cpu_s = if started.is_some() {
+            crate::cpu_time::process_cpu_s() - cpu_at_start
+        } else {
+            0.0
+        };
         progress.finish();
 
         // Shutdown: the scheduler closes every outbox after a Shutdown; the stop signal ends
@@ -197,6 +206,7 @@ impl Master {
             stats: finished.stats,
             tile_seconds: finished.tile_seconds,
             trace_s,
+            master_cpu_s,
             per_worker: finished.reports,
             bytes_sent,
             bytes_received,

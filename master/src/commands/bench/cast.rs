@@ -39,20 +39,6 @@ pub struct CastArgs {
     pub limits: LimitArgs,
 }
 
-/// CPU seconds used by the calling thread (immune to other load on the machine).
-pub fn thread_cpu_seconds() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: clock_gettime writes one timespec into the valid, exclusively borrowed `ts`.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    if rc != 0 {
-        return f64::NAN;
-    }
-    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
-}
-
 /// Runs `parrt bench cast` (one thread).
 pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
     if !args.mintime.is_finite() || args.mintime < 0.0 {
@@ -78,7 +64,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
         let tiles = parrt::tile::tiles(w, h, 32);
         let mut frames = 0u64;
         let t0 = Instant::now();
-        let c0 = thread_cpu_seconds();
+        let c0 = crate::cpu_time::thread_cpu_s();
         let per_frame = loop {
             let mut st = RayStats::default();
             for t in &tiles {
@@ -90,7 +76,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
             }
         };
         let secs = t0.elapsed().as_secs_f64();
-        let cpu = thread_cpu_seconds() - c0;
+        let cpu = crate::cpu_time::thread_cpu_s() - c0;
         let rays = per_frame.eye_rays + per_frame.shadow_rays;
         println!(
             "| {} | {} | {:.4} | {} | {} | {} | {} | {:.2} | {:.2} |",

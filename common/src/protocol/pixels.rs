@@ -1,0 +1,196 @@
+//! How a tile's pixels travel from worker to master: as the image's output needs them. An
+//! 8-bit output (PNG, PPM) needs 3 bytes a pixel, quantized on the worker by the very function
+//! the film's 8-bit writer applies ([`crate::film::to_u8`]), so the written image is the same
+//! bytes as an SMP render's; a float output (EXR) and the library API get the exact f32 bits
+//! (12 bytes a pixel). Either way the pixels are one byte blob, copied in and out without a
+//! per-value encoding step.
+
+use crate::film::{to_u8, Rgb};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// The precision pixels travel in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PixelFormat {
+    /// Three little-endian `f32` per pixel: exact.
+    #[default]
+    F32,
+    /// Three bytes per pixel, each [`to_u8`] of the linear value: what 8-bit outputs keep.
+    Rgb8,
+}
+
+impl PixelFormat {
+    /// Bytes per pixel on the wire.
+    pub fn bytes_per_pixel(self) -> usize {
+        match self {
+            PixelFormat::F32 => 12,
+            PixelFormat::Rgb8 => 3,
+        }
+    }
+}
+
+/// A tile's pixels as they travel: row-major within the tile.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TilePixels {
+    /// The encoding of `bytes`.
+    pub format: PixelFormat,
+    /// The encoded pixels.
+    #[serde(with = "serde_bytes")]
+    pub bytes: Vec<u8>,
+}
+
+/// Pixels that cannot be decoded into a tile.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum PixelError {
+    /// Sent in a format the job did not ask for.
+    #[error("pixels sent as {got:?}, the job asked for {want:?}")]
+    Format {
+        /// What came.
+        got: PixelFormat,
+        /// What the job asked for.
+        want: PixelFormat,
+    },
+    /// The byte count is not the tile's pixel count times the bytes per pixel.
+    #[error("{bytes} bytes of {format:?} pixels for a tile of {pixels} pixels")]
+    Count {
+        /// Bytes received.
+        bytes: usize,
+        /// Their format.
+        format: PixelFormat,
+        /// Pixels in the tile.
+        pixels: usize,
+    },
+    /// An f32 value is NaN or infinite (no render produces one; the film must never hold one).
+    #[error("pixel {index} has a non-finite value ({value})")]
+    NonFinite {
+        /// The pixel's index within the tile.
+        index: usize,
+        /// The value.
+        value: f32,
+    },
+}
+
+impl TilePixels {
+    /// Encodes rendered pixels in `format`.
+    pub fn encode(pixels: &[Rgb], format: PixelFormat) -> Self {
+        let mut bytes = Vec::with_capacity(pixels.len() * format.bytes_per_pixel());
+        match format {
+            PixelFormat::F32 => {
+                for v in pixels.iter().flatten() {
+                    bytes.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+            PixelFormat::Rgb8 => bytes.extend(pixels.iter().flatten().map(|&v| to_u8(v))),
+        }
+        TilePixels { format, bytes }
+    }
+
+    /// Decodes into `out` (cleared first) the pixels of a tile of `count` pixels sent for a job
+    /// that asked for `want`, checking the format, the count and that every value is finite.
+    /// An 8-bit value `b` becomes `b / 255`, which [`to_u8`] maps back to `b` exactly.
+    pub fn decode_into(
+        &self,
+        want: PixelFormat,
+        count: usize,
+        out: &mut Vec<Rgb>,
+    ) -> Result<(), PixelError> {
+        if self.format != want {
+            return Err(PixelError::Format {
+                got: self.format,
+                want,
+            });
+        }
+        let per = self.format.bytes_per_pixel();
+        if self.bytes.len() != count.saturating_mul(per) {
+            return Err(PixelError::Count {
+                bytes: self.bytes.len(),
+                format: self.format,
+                pixels: count,
+            });
+        }
+        out.clear();
+        out.reserve(count);
+        match self.format {
+            PixelFormat::F32 => {
+                for (index, px) in self.bytes.chunks_exact(12).enumerate() {
+                    let v = |i: usize| f32::from_le_bytes([px[i], px[i + 1], px[i + 2], px[i + 3]]);
+                    let rgb = [v(0), v(4), v(8)];
+                    if let Some(&value) = rgb.iter().find(|x| !x.is_finite()) {
+                        return Err(PixelError::NonFinite { index, value });
+                    }
+                    out.push(rgb);
+                }
+            }
+            PixelFormat::Rgb8 => {
+                let f = |b: u8| b as f32 / 255.0;
+                out.extend(
+                    self.bytes
+                        .chunks_exact(3)
+                        .map(|px| [f(px[0]), f(px[1]), f(px[2])]),
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_byte_survives_the_round_trip_through_the_film() {
+        for b in 0..=255u8 {
+            let t = TilePixels {
+                format: PixelFormat::Rgb8,
+                bytes: vec![b; 3],
+            };
+            let mut out = Vec::new();
+            t.decode_into(PixelFormat::Rgb8, 1, &mut out).unwrap();
+            assert_eq!(to_u8(out[0][0]), b);
+        }
+    }
+
+    #[test]
+    fn rgb8_keeps_exactly_what_the_8bit_writer_keeps() {
+        let px: Vec<Rgb> = (0..2000)
+            .map(|i| {
+                let x = i as f32 / 1500.0 - 0.2;
+                [x, x * 0.37 + 1e-7, -x]
+            })
+            .collect();
+        let t = TilePixels::encode(&px, PixelFormat::Rgb8);
+        assert_eq!(t.bytes.len(), px.len() * 3);
+        let mut out = Vec::new();
+        t.decode_into(PixelFormat::Rgb8, px.len(), &mut out)
+            .unwrap();
+        for (a, b) in px.iter().zip(&out) {
+            assert_eq!(a.map(to_u8), b.map(to_u8));
+        }
+    }
+
+    #[test]
+    fn f32_is_exact_and_non_finite_count_and_format_are_refused() {
+        let px = vec![[0.1f32, -0.0, 3.5e-39], [1e30, 0.5, 0.25]];
+        let t = TilePixels::encode(&px, PixelFormat::F32);
+        let mut out = Vec::new();
+        t.decode_into(PixelFormat::F32, 2, &mut out).unwrap();
+        let bits = |v: &Vec<Rgb>| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&out), bits(&px));
+        assert!(matches!(
+            t.decode_into(PixelFormat::Rgb8, 2, &mut out),
+            Err(PixelError::Format { .. })
+        ));
+        assert!(matches!(
+            t.decode_into(PixelFormat::F32, 3, &mut out),
+            Err(PixelError::Count { bytes: 24, .. })
+        ));
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let t = TilePixels::encode(&[[0.0, 0.0, 0.0], [0.0, bad, 0.0]], PixelFormat::F32);
+            assert!(matches!(
+                t.decode_into(PixelFormat::F32, 2, &mut out),
+                Err(PixelError::NonFinite { index: 1, .. })
+            ));
+        }
+    }
+}
