@@ -50,8 +50,8 @@ struct CurrentJob {
     cancelled: Arc<AtomicBool>,
     pixel_format: parrt::protocol::PixelFormat,
     handle: Option<JobHandle>,
-    /// Tiles assigned before the renderer was ready.
-    waiting: Vec<(Tile, u32)>,
+    /// Batches of tiles assigned before the renderer was ready.
+    waiting: Vec<Vec<(Tile, u32)>>,
 }
 
 /// A finished renderer build.
@@ -159,7 +159,7 @@ async fn serve(
         .thread_name(|i| format!("parrt-render-{i}"))
         .build()
         .map_err(|source| WorkerError::Pool { threads, source })?;
-    let (out_tx, mut out_rx) = mpsc::unbounded_channel::<Message>();
+    let (out_tx, mut out_rx) = mpsc::unbounded_channel::<Vec<Message>>();
     let (built_tx, mut built_rx) = mpsc::unbounded_channel::<Built>();
     let renderer = TileRenderer::new(pool, out_tx, opts.tile_delay);
     let mut job: Option<CurrentJob> = None;
@@ -205,29 +205,10 @@ async fn serve(
                         job = Some(start_build(*spec, built_tx.clone()));
                     }
                     Message::Assign { job_id, tile, attempt } => {
-                        match job.as_mut().filter(|j| j.spec_id == job_id) {
-                            None => {
-                                conn.write(&Message::Error {
-                                    reason: format!("tile {} assigned for unknown job {job_id}", tile.id),
-                                }).await?;
-                            }
-                            Some(j) if !tile_fits(&tile, j.width, j.height) => {
-                                conn.write(&Message::Error {
-                                    reason: format!("tile {} ({}x{} at {},{}) lies outside the {}x{} image",
-                                        tile.id, tile.w, tile.h, tile.x, tile.y, j.width, j.height),
-                                }).await?;
-                            }
-                            Some(j) if tile.pixel_count().saturating_mul(j.pixel_format.bytes_per_pixel()).saturating_add(1024) > opts.max_frame => {
-                                conn.write(&Message::Error {
-                                    reason: format!("tile {} of {}x{} pixels does not fit one {}-byte frame",
-                                        tile.id, tile.w, tile.h, opts.max_frame),
-                                }).await?;
-                            }
-                            Some(j) => match &j.handle {
-                                Some(h) => renderer.submit(h, tile, attempt),
-                                None => j.waiting.push((tile, attempt)),
-                            },
-                        }
+                        take_tiles(&mut conn, opts, &renderer, job.as_mut(), job_id, vec![(tile, attempt)]).await?;
+                    }
+                    Message::AssignBatch { job_id, tiles } => {
+                        take_tiles(&mut conn, opts, &renderer, job.as_mut(), job_id, tiles).await?;
                     }
                     Message::Cancel { job_id } => {
                         if job.as_ref().is_some_and(|j| j.spec_id == job_id) {
@@ -260,8 +241,8 @@ async fn serve(
                             pixel_format: j.pixel_format,
                         };
                         conn.write(&Message::Ready { job_id: b.job_id, build_s: b.seconds }).await?;
-                        for (tile, attempt) in j.waiting.drain(..) {
-                            renderer.submit(&handle, tile, attempt);
+                        for batch in j.waiting.drain(..) {
+                            renderer.submit(&handle, batch);
                         }
                         j.handle = Some(handle);
                     }
@@ -272,15 +253,68 @@ async fn serve(
                     }
                 }
             }
-            Some(msg) = out_rx.recv() => {
-                if matches!(msg, Message::TileResult { .. }) {
-                    summary.tiles_rendered += 1;
-                }
-                conn.write(&msg).await?;
+            Some(msgs) = out_rx.recv() => {
+                summary.tiles_rendered += msgs
+                    .iter()
+                    .filter(|m| matches!(m, Message::TileResult { .. }))
+                    .count() as u64;
+                conn.write_all(&msgs).await?;
             }
             _ = beat.tick() => conn.write(&Message::Heartbeat).await?,
         }
     }
+}
+
+/// Checks an assignment of `tiles` for job `job_id` and queues the valid ones as one batch
+/// (their results go back together); each invalid tile is answered with an Error.
+async fn take_tiles(
+    conn: &mut Connection<TcpStream>,
+    opts: &WorkerOptions,
+    renderer: &TileRenderer,
+    job: Option<&mut CurrentJob>,
+    job_id: u64,
+    tiles: Vec<(Tile, u32)>,
+) -> Result<(), WorkerError> {
+    let Some(j) = job.filter(|j| j.spec_id == job_id) else {
+        let ids: Vec<u32> = tiles.iter().map(|(t, _)| t.id).collect();
+        conn.write(&Message::Error {
+            reason: format!("tile(s) {ids:?} assigned for unknown job {job_id}"),
+        })
+        .await?;
+        return Ok(());
+    };
+    let mut batch = Vec::with_capacity(tiles.len());
+    for (tile, attempt) in tiles {
+        let problem = if !tile_fits(&tile, j.width, j.height) {
+            Some(format!(
+                "tile {} ({}x{} at {},{}) lies outside the {}x{} image",
+                tile.id, tile.w, tile.h, tile.x, tile.y, j.width, j.height
+            ))
+        } else if tile
+            .pixel_count()
+            .saturating_mul(j.pixel_format.bytes_per_pixel())
+            .saturating_add(1024)
+            > opts.max_frame
+        {
+            Some(format!(
+                "tile {} of {}x{} pixels does not fit one {}-byte frame",
+                tile.id, tile.w, tile.h, opts.max_frame
+            ))
+        } else {
+            None
+        };
+        match problem {
+            Some(reason) => conn.write(&Message::Error { reason }).await?,
+            None => batch.push((tile, attempt)),
+        }
+    }
+    if !batch.is_empty() {
+        match &j.handle {
+            Some(h) => renderer.submit(h, batch),
+            None => j.waiting.push(batch),
+        }
+    }
+    Ok(())
 }
 
 fn tile_fits(t: &Tile, width: u32, height: u32) -> bool {

@@ -1,14 +1,15 @@
-//! The bridge between the async message loop and the rayon pool: a tile is handed to rayon with
-//! `ThreadPool::spawn`, rendered there, and its result comes back as a message on an unbounded
-//! channel (the master's window bounds how many are outstanding). Never renders on the runtime.
+//! The bridge between the async message loop and the rayon pool: each tile of a batch is handed
+//! to rayon with `ThreadPool::spawn`, rendered there, and the batch's results come back together
+//! as messages on an unbounded channel (the master's window bounds how many are outstanding), so
+//! the loop wakes and writes once per batch. Never renders on the runtime.
 
 use parrt::protocol::{Message, PixelFormat, TilePixels};
 use parrt::render::Renderer;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
 use std::panic::AssertUnwindSafe;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc::UnboundedSender;
 
@@ -25,57 +26,87 @@ pub struct JobHandle {
     pub pixel_format: PixelFormat,
 }
 
-/// Renders tiles on a rayon pool and sends each result (or an error) to `out`.
+/// Renders tiles on a rayon pool and sends the results of each batch (or errors) to `out`
+/// together, when the batch's last tile is done.
 pub struct TileRenderer {
     pool: rayon::ThreadPool,
-    out: UnboundedSender<Message>,
+    out: UnboundedSender<Vec<Message>>,
     delay: Option<Duration>,
+}
+
+/// A batch in progress: its finished messages and how many tiles are still to come.
+struct Batch {
+    done: Mutex<Vec<Message>>,
+    left: AtomicUsize,
+    out: UnboundedSender<Vec<Message>>,
+}
+
+impl Batch {
+    /// Adds a tile's message (none for a skipped tile); the last tile sends the lot.
+    fn finish_one(&self, msg: Option<Message>) {
+        let mut done = self.done.lock().unwrap_or_else(|p| p.into_inner());
+        done.extend(msg);
+        if self.left.fetch_sub(1, Ordering::AcqRel) == 1 && !done.is_empty() {
+            // The loop may have ended (shutdown); then nobody wants the results.
+            let _ = self.out.send(std::mem::take(&mut *done));
+        }
+    }
 }
 
 impl TileRenderer {
     /// Wraps `pool`; results go to `out`; `delay` is the test hook slept before each tile.
     pub fn new(
         pool: rayon::ThreadPool,
-        out: UnboundedSender<Message>,
+        out: UnboundedSender<Vec<Message>>,
         delay: Option<Duration>,
     ) -> Self {
         TileRenderer { pool, out, delay }
     }
 
-    /// Queues `tile` for rendering. Returns at once; the result arrives on the channel.
-    pub fn submit(&self, job: &JobHandle, tile: Tile, attempt: u32) {
-        let job = job.clone();
-        let out = self.out.clone();
-        let delay = self.delay;
-        self.pool.spawn(move || {
-            if job.cancelled.load(Ordering::Relaxed) {
-                return;
-            }
-            if let Some(d) = delay {
-                std::thread::sleep(d);
-            }
-            let t0 = Instant::now();
-            let rendered = std::panic::catch_unwind(AssertUnwindSafe(|| {
-                let mut pixels = Vec::with_capacity(tile.pixel_count());
-                let mut stats = RayStats::default();
-                job.renderer.render_tile(&tile, &mut pixels, &mut stats);
-                (pixels, stats)
-            }));
-            let msg = match rendered {
-                Ok((pixels, stats)) => Message::TileResult {
-                    job_id: job.job_id,
-                    tile_id: tile.id,
-                    attempt,
-                    pixels: TilePixels::encode(&pixels, job.pixel_format),
-                    stats,
-                    seconds: t0.elapsed().as_secs_f64(),
-                },
-                Err(_) => Message::Error {
-                    reason: format!("rendering tile {} panicked", tile.id),
-                },
-            };
-            // The loop may have ended (shutdown); then nobody wants the result.
-            let _ = out.send(msg);
+    /// Queues a batch of tiles (each with its attempt) for rendering, spread over the pool's
+    /// threads. Returns at once; the results arrive on the channel together.
+    pub fn submit(&self, job: &JobHandle, tiles: Vec<(Tile, u32)>) {
+        let batch = Arc::new(Batch {
+            done: Mutex::new(Vec::with_capacity(tiles.len())),
+            left: AtomicUsize::new(tiles.len()),
+            out: self.out.clone(),
         });
+        for (tile, attempt) in tiles {
+            let (job, batch, delay) = (job.clone(), batch.clone(), self.delay);
+            self.pool.spawn(move || {
+                if job.cancelled.load(Ordering::Relaxed) {
+                    batch.finish_one(None);
+                    return;
+                }
+                if let Some(d) = delay {
+                    std::thread::sleep(d);
+                }
+                batch.finish_one(Some(render_one(&job, tile, attempt)));
+            });
+        }
+    }
+}
+
+/// Renders one tile into its result message (an Error if rendering panicked).
+fn render_one(job: &JobHandle, tile: Tile, attempt: u32) -> Message {
+    let t0 = Instant::now();
+    let rendered = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        let mut pixels = Vec::with_capacity(tile.pixel_count());
+        let mut stats = RayStats::default();
+        job.renderer.render_tile(&tile, &mut pixels, &mut stats);
+        (pixels, stats)
+    }));
+    match rendered {
+        Ok((pixels, stats)) => Message::TileResult {
+            job_id: job.job_id,
+            tile_id: tile.id,
+            attempt,
+            pixels: TilePixels::encode(&pixels, job.pixel_format),
+            stats,
+            seconds: t0.elapsed().as_secs_f64(),
+        },
+        Err(_) => Message::Error {
+            reason: format!("rendering tile {} panicked", tile.id),
+        },
     }
 }

@@ -297,6 +297,10 @@ mod tests {
             Message::Error {
                 reason: "cannot build".into(),
             },
+            Message::AssignBatch {
+                job_id: 5,
+                tiles: vec![(tile, 1), (Tile { id: 4, ..tile }, 3)],
+            },
         ]
     }
 

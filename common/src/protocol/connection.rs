@@ -35,6 +35,14 @@ impl<S: AsyncRead + AsyncWrite + Unpin> Connection<S> {
         self.framed.send(msg).await
     }
 
+    /// Writes several messages and flushes once (one system call where they fit).
+    pub async fn write_all(&mut self, msgs: &[Message]) -> Result<(), ProtocolError> {
+        for m in msgs {
+            self.framed.feed(m).await?;
+        }
+        SinkExt::<&Message>::flush(&mut self.framed).await
+    }
+
     /// Changes the largest frame accepted from now on.
     pub fn set_max_frame(&mut self, max_frame: usize) {
         self.framed.codec_mut().set_max_frame(max_frame);

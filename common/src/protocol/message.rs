@@ -103,6 +103,15 @@ pub enum Message {
         /// What, for the other side's log.
         reason: String,
     },
+    /// Master → worker: render these tiles, and send their results together (one write, one
+    /// wake-up of the master for the lot) when the last is done. Batches are how a master
+    /// keeps its per-tile cost low; it shrinks them as the work runs out.
+    AssignBatch {
+        /// The job they belong to.
+        job_id: u64,
+        /// The tiles, each with its attempt number.
+        tiles: Vec<(Tile, u32)>,
+    },
 }
 
 impl Message {
@@ -122,6 +131,7 @@ impl Message {
             Message::Cancel { .. } => "Cancel",
             Message::Shutdown => "Shutdown",
             Message::Error { .. } => "Error",
+            Message::AssignBatch { .. } => "AssignBatch",
         }
     }
 }

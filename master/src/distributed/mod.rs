@@ -111,8 +111,11 @@ pub struct DistOptions {
     pub min_workers: usize,
     /// How long to wait for `min_workers` (and, mid-job, for any worker when all have left).
     pub wait_workers: Duration,
-    /// In-flight tiles per worker thread.
+    /// Assignments (batches) in flight per worker thread.
     pub window_per_thread: usize,
+    /// The most tiles in one assignment; batches shrink to single tiles as work runs out
+    /// (1: every tile on its own, as before batching).
+    pub max_batch: usize,
     /// A tile not returned within this is given to another worker.
     pub tile_deadline: Duration,
     /// How often the master sends heartbeats.
@@ -149,6 +152,7 @@ impl Default for DistOptions {
             min_workers: 1,
             wait_workers: Duration::from_secs(60),
             window_per_thread: 2,
+            max_batch: 8,
             tile_deadline: Duration::from_secs(120),
             heartbeat: Duration::from_secs(1),
             heartbeat_timeout: Duration::from_secs(10),

@@ -106,6 +106,9 @@ pub struct SchedOptions {
     pub max_failures: u32,
     /// Hand out backup copies of in-flight tiles when the queue is empty.
     pub backups: bool,
+    /// The most tiles sent in one assignment ([`Scheduler::batch_size`]); 1 sends each tile
+    /// on its own.
+    pub max_batch: usize,
     /// The pixel format the job asked results to use.
     pub pixel_format: PixelFormat,
 }
@@ -531,7 +534,25 @@ impl Scheduler {
         }
     }
 
-    /// Hands out tiles to every ready worker with room in its window.
+    /// Tiles per assignment message now: guided, as the SMP `guided` schedule shrinks its
+    /// runs — a quarter of the queued tiles' share per ready render thread, between 1 and
+    /// `max_batch`. Large batches while much is queued cut the messages (and the wake-ups of
+    /// master and worker) per tile; single tiles at the tail keep the workers' finish even.
+    fn batch_size(&self) -> usize {
+        if self.opts.max_batch <= 1 {
+            return 1;
+        }
+        let threads: usize = self
+            .workers
+            .values()
+            .filter(|w| w.ready_at.is_some())
+            .map(|w| w.threads.max(1) as usize)
+            .sum();
+        (self.queue.len() / (4 * threads.max(1))).clamp(1, self.opts.max_batch)
+    }
+
+    /// Hands out tiles to every ready worker with room in its window: `window_per_thread`
+    /// batches per thread, a batch being [`Self::batch_size`] tiles sent in one message.
     pub fn fill(&mut self, now: Instant) {
         let ids: Vec<WorkerId> = self
             .workers
@@ -542,17 +563,32 @@ impl Scheduler {
         for id in ids {
             // Tiles this worker already holds (expired) are left for someone else.
             let mut skipped = Vec::new();
-            while let Some(w) = self.workers.get(&id) {
+            loop {
+                let batch_size = self.batch_size();
+                let Some(w) = self.workers.get(&id) else {
+                    break;
+                };
                 // Expired tiles still count: a stalled worker gets nothing new.
-                if w.inflight.len() >= w.window(self.opts.window_per_thread) {
+                let held = w.inflight.len();
+                let free = w
+                    .window(self.opts.window_per_thread)
+                    .saturating_mul(batch_size)
+                    .saturating_sub(held);
+                // Keep batches whole: a busy worker waits for room for a full one.
+                if free == 0 || (free < batch_size && held > 0) {
                     break;
                 }
-                if let Some(tile_id) = self.next_queued() {
-                    if self.workers[&id].inflight.contains_key(&tile_id) {
-                        skipped.push(tile_id);
-                    } else {
-                        self.assign(id, tile_id, now, false);
+                let want = batch_size.min(free);
+                let mut batch = Vec::with_capacity(want);
+                while batch.len() < want {
+                    match self.next_queued() {
+                        Some(t) if self.workers[&id].inflight.contains_key(&t) => skipped.push(t),
+                        Some(t) => batch.push(t),
+                        None => break,
                     }
+                }
+                if !batch.is_empty() {
+                    self.assign(id, &batch, now, false);
                     continue;
                 }
                 // Queue empty: an idle worker may take backups, up to one per thread.
@@ -564,7 +600,7 @@ impl Scheduler {
                 match self.backup_candidate(id) {
                     Some(tile_id) => {
                         self.faults.backups += 1;
-                        self.assign(id, tile_id, now, true);
+                        self.assign(id, &[tile_id], now, true);
                     }
                     None => break,
                 }
@@ -608,27 +644,40 @@ impl Scheduler {
         best.map(|(_, t)| t)
     }
 
-    fn assign(&mut self, id: WorkerId, tile_id: u32, now: Instant, backup: bool) {
-        let t = tile_id as usize;
-        self.attempts[t] += 1;
-        let attempt = self.attempts[t];
-        self.state[t] = TileState::InFlight;
+    /// Assigns `tiles` to worker `id` in one message (`Assign` for one, `AssignBatch` for
+    /// more).
+    fn assign(&mut self, id: WorkerId, tiles: &[u32], now: Instant, backup: bool) {
+        let mut sent = Vec::with_capacity(tiles.len());
+        for &tile_id in tiles {
+            let t = tile_id as usize;
+            self.attempts[t] += 1;
+            self.state[t] = TileState::InFlight;
+            sent.push((self.tiles[t], self.attempts[t]));
+        }
         let Some(w) = self.workers.get_mut(&id) else {
             return;
         };
-        w.inflight.insert(
-            tile_id,
-            Assignment {
+        for &(tile, attempt) in &sent {
+            w.inflight.insert(
+                tile.id,
+                Assignment {
+                    attempt,
+                    since: now,
+                    expired: false,
+                    backup,
+                },
+            );
+        }
+        let msg = match sent[..] {
+            [(tile, attempt)] => Message::Assign {
+                job_id: self.job_id,
+                tile,
                 attempt,
-                since: now,
-                expired: false,
-                backup,
             },
-        );
-        let msg = Message::Assign {
-            job_id: self.job_id,
-            tile: self.tiles[t],
-            attempt,
+            _ => Message::AssignBatch {
+                job_id: self.job_id,
+                tiles: sent,
+            },
         };
         if w.outbox.send(msg).is_err() {
             // Its connection task has ended; the Gone event is on its way.
@@ -708,6 +757,7 @@ mod tests {
                 tile_deadline: Duration::from_secs(5),
                 max_failures,
                 backups: true,
+                max_batch: 1,
                 pixel_format: PixelFormat::F32,
             },
         )
@@ -741,8 +791,10 @@ mod tests {
     fn assigned(rx: &mut UnboundedReceiver<Message>) -> Vec<(Tile, u32)> {
         let mut v = Vec::new();
         while let Ok(m) = rx.try_recv() {
-            if let Message::Assign { tile, attempt, .. } = m {
-                v.push((tile, attempt));
+            match m {
+                Message::Assign { tile, attempt, .. } => v.push((tile, attempt)),
+                Message::AssignBatch { tiles, .. } => v.extend(tiles),
+                _ => {}
             }
         }
         v

@@ -86,6 +86,7 @@ impl Master {
                 tile_deadline: opts.tile_deadline,
                 max_failures: opts.max_failures,
                 backups: opts.backups,
+                max_batch: opts.max_batch.max(1),
                 pixel_format: opts.pixel_format,
             },
         );
@@ -130,7 +131,15 @@ impl Master {
             tokio::select! {
                 _ = cancel.cancelled() => break Err(DistError::Interrupted),
                 ev = events.recv() => match ev {
-                    Some(ev) => sched.handle(ev, Instant::now()),
+                    Some(ev) => {
+                        // Take every event already waiting before handing out tiles again:
+                        // a batch's results arrive together and are answered together.
+                        let now = Instant::now();
+                        sched.handle(ev, now);
+                        while let Ok(ev) = events.try_recv() {
+                            sched.handle(ev, now);
+                        }
+                    }
                     None => break Err(DistError::AcceptFailed),
                 },
                 _ = tick.tick() => sched.expire(Instant::now()),
