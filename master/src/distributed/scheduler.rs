@@ -896,6 +896,66 @@ mod tests {
         assert_eq!(f.faults.rejected_results, 5);
     }
 
+    /// Issue 15: tiles go out in guided batches — 8 at a time while much is queued, shrinking
+    /// to single tiles at the tail — with two batches in flight per thread, and every tile is
+    /// still delivered exactly once.
+    #[tokio::test(start_paused = true)]
+    async fn batches_are_guided_and_every_tile_lands_once() {
+        let mut s = Scheduler::new(
+            JOB,
+            &RenderSettings::new(32, 32),
+            1,
+            tiles(32, 32, 4), // 64 tiles
+            SchedOptions {
+                window_per_thread: 2,
+                tile_deadline: Duration::from_secs(5),
+                max_failures: 3,
+                backups: false,
+                max_batch: 8,
+                pixel_format: PixelFormat::F32,
+            },
+        );
+        let mut rx = join(&mut s, 1, 1);
+        let mut sizes = Vec::new();
+        let mut held: Vec<(Tile, u32)> = Vec::new();
+        s.fill(Instant::now());
+        while !s.is_done() {
+            while let Ok(m) = rx.try_recv() {
+                match m {
+                    Message::Assign { tile, attempt, .. } => {
+                        sizes.push(1);
+                        held.push((tile, attempt));
+                    }
+                    Message::AssignBatch { tiles, .. } => {
+                        assert!(tiles.len() > 1);
+                        sizes.push(tiles.len());
+                        held.extend(tiles);
+                    }
+                    other => panic!("unexpected {other:?}"),
+                }
+            }
+            assert!(!held.is_empty(), "stalled with {:?} done", s.progress());
+            // The worker returns its oldest batch's worth (the first message's tiles).
+            let first = sizes[sizes.len() - 1].min(held.len());
+            for (t, a) in held.drain(..first) {
+                s.handle(result(1, &t, a, t.id as f32), Instant::now());
+            }
+            s.fill(Instant::now());
+        }
+        assert_eq!(&sizes[..2], &[8, 8], "{sizes:?}");
+        assert_eq!(*sizes.last().unwrap(), 1, "{sizes:?}");
+        assert!(
+            sizes.windows(2).all(|w| w[1] <= w[0]),
+            "sizes only shrink: {sizes:?}"
+        );
+        assert_eq!(sizes.iter().sum::<usize>(), 64);
+        let f = s.finish();
+        for t in tiles(32, 32, 4) {
+            assert_eq!(f.film.get(t.x, t.y), [t.id as f32; 3]);
+        }
+        assert_eq!(f.faults.duplicate_results + f.faults.rejected_results, 0);
+    }
+
     /// Issue 20 items 13 and 15: a result with a NaN or infinite pixel, or with ray counts no
     /// render could produce (a wrapped `u64::MAX`), is rejected and its tile requeued, so the
     /// film stays finite and the totals honest; an honest result for the tile then wins.
