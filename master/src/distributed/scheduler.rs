@@ -25,6 +25,9 @@ use tokio::sync::mpsc::UnboundedSender;
 use tokio::time::Instant;
 use tracing::{debug, info, warn};
 
+/// The most work, in seconds at the mean tile cost, that one batch of tiles may hold.
+pub const BATCH_SECONDS: f64 = 0.05;
+
 /// A worker's id, unique within one master run.
 pub type WorkerId = u64;
 
@@ -221,6 +224,9 @@ pub struct Scheduler {
     gone: Vec<WorkerReport>,
     /// A result's decoded pixels, reused from one result to the next.
     scratch: Vec<Rgb>,
+    /// Render seconds of the results accepted so far, and how many: the mean tile cost that
+    /// caps the batch size.
+    cost: (f64, u32),
     faults: FaultCounts,
 }
 
@@ -252,6 +258,7 @@ impl Scheduler {
             workers: BTreeMap::new(),
             gone: Vec::new(),
             scratch: Vec::new(),
+            cost: (0.0, 0),
             faults: FaultCounts::default(),
         }
     }
@@ -442,6 +449,10 @@ impl Scheduler {
             w.failures = 0;
         }
         self.state[t] = TileState::Done;
+        // A worker's clock is its own word: only a plausible figure enters the mean.
+        if seconds.is_finite() && (0.0..=86_400.0).contains(&seconds) {
+            self.cost = (self.cost.0 + seconds, self.cost.1.saturating_add(1));
+        }
         self.stats += stats;
         self.tile_seconds[t] = seconds;
         self.done += 1;
@@ -536,19 +547,28 @@ impl Scheduler {
 
     /// Tiles per assignment message now: guided, as the SMP `guided` schedule shrinks its
     /// runs — a quarter of the queued tiles' share per ready render thread, between 1 and
-    /// `max_batch`. Large batches while much is queued cut the messages (and the wake-ups of
-    /// master and worker) per tile; single tiles at the tail keep the workers' finish even.
+    /// `max_batch` — and no more than [`BATCH_SECONDS`] of work at the mean tile cost seen so
+    /// far (single tiles until a result has been seen). Large batches of cheap tiles cut the
+    /// messages (and the wake-ups of master and worker) per tile; costly tiles, which amortise
+    /// a message anyway, go alone so a batch never nears the tile deadline; single tiles at
+    /// the tail keep the workers' finish even.
     fn batch_size(&self) -> usize {
-        if self.opts.max_batch <= 1 {
+        if self.opts.max_batch <= 1 || self.cost.1 == 0 {
             return 1;
         }
+        let mean = self.cost.0 / self.cost.1 as f64;
+        let by_cost = if mean > 0.0 {
+            (BATCH_SECONDS / mean).clamp(1.0, self.opts.max_batch as f64) as usize
+        } else {
+            self.opts.max_batch
+        };
         let threads: usize = self
             .workers
             .values()
             .filter(|w| w.ready_at.is_some())
             .map(|w| w.threads.max(1) as usize)
             .sum();
-        (self.queue.len() / (4 * threads.max(1))).clamp(1, self.opts.max_batch)
+        (self.queue.len() / (4 * threads.max(1))).clamp(1, by_cost)
     }
 
     /// Hands out tiles to every ready worker with room in its window: `window_per_thread`
@@ -896,11 +916,9 @@ mod tests {
         assert_eq!(f.faults.rejected_results, 5);
     }
 
-    /// Issue 15: tiles go out in guided batches — 8 at a time while much is queued, shrinking
-    /// to single tiles at the tail — with two batches in flight per thread, and every tile is
-    /// still delivered exactly once.
-    #[tokio::test(start_paused = true)]
-    async fn batches_are_guided_and_every_tile_lands_once() {
+    /// Runs a one-worker job of 64 tiles whose results report `seconds` each, the worker
+    /// answering its oldest assignment message at a time; returns the tiles per message.
+    fn batch_sizes(seconds: f64) -> Vec<usize> {
         let mut s = Scheduler::new(
             JOB,
             &RenderSettings::new(32, 32),
@@ -917,43 +935,60 @@ mod tests {
         );
         let mut rx = join(&mut s, 1, 1);
         let mut sizes = Vec::new();
-        let mut held: Vec<(Tile, u32)> = Vec::new();
+        let mut messages: VecDeque<Vec<(Tile, u32)>> = VecDeque::new();
         s.fill(Instant::now());
         while !s.is_done() {
             while let Ok(m) = rx.try_recv() {
-                match m {
-                    Message::Assign { tile, attempt, .. } => {
-                        sizes.push(1);
-                        held.push((tile, attempt));
-                    }
+                let batch = match m {
+                    Message::Assign { tile, attempt, .. } => vec![(tile, attempt)],
                     Message::AssignBatch { tiles, .. } => {
                         assert!(tiles.len() > 1);
-                        sizes.push(tiles.len());
-                        held.extend(tiles);
+                        tiles
                     }
                     other => panic!("unexpected {other:?}"),
-                }
+                };
+                sizes.push(batch.len());
+                messages.push_back(batch);
             }
-            assert!(!held.is_empty(), "stalled with {:?} done", s.progress());
-            // The worker returns its oldest batch's worth (the first message's tiles).
-            let first = sizes[sizes.len() - 1].min(held.len());
-            for (t, a) in held.drain(..first) {
-                s.handle(result(1, &t, a, t.id as f32), Instant::now());
+            let Some(batch) = messages.pop_front() else {
+                panic!("stalled with {:?} done", s.progress());
+            };
+            for (t, a) in batch {
+                let mut ev = result(1, &t, a, t.id as f32);
+                if let Event::Result { seconds: sec, .. } = &mut ev {
+                    *sec = seconds;
+                }
+                s.handle(ev, Instant::now());
             }
             s.fill(Instant::now());
         }
-        assert_eq!(&sizes[..2], &[8, 8], "{sizes:?}");
-        assert_eq!(*sizes.last().unwrap(), 1, "{sizes:?}");
-        assert!(
-            sizes.windows(2).all(|w| w[1] <= w[0]),
-            "sizes only shrink: {sizes:?}"
-        );
-        assert_eq!(sizes.iter().sum::<usize>(), 64);
         let f = s.finish();
         for t in tiles(32, 32, 4) {
             assert_eq!(f.film.get(t.x, t.y), [t.id as f32; 3]);
         }
         assert_eq!(f.faults.duplicate_results + f.faults.rejected_results, 0);
+        assert_eq!(sizes.iter().sum::<usize>(), 64);
+        sizes
+    }
+
+    /// Issue 15: cheap tiles go out in guided batches — single tiles until a cost is known,
+    /// then up to 8, shrinking to single tiles at the tail — and every tile lands once; costly
+    /// tiles (a batch would hold more than `BATCH_SECONDS`) always go alone.
+    #[tokio::test(start_paused = true)]
+    async fn batches_are_guided_by_queue_and_cost_and_every_tile_lands_once() {
+        let sizes = batch_sizes(0.001);
+        assert_eq!(&sizes[..2], &[1, 1], "{sizes:?}");
+        let top = sizes.iter().position(|&n| n == 8).expect("reaches 8");
+        assert!(
+            sizes[top..].windows(2).all(|w| w[1] <= w[0]),
+            "then only shrinks: {sizes:?}"
+        );
+        assert_eq!(*sizes.last().unwrap(), 1, "{sizes:?}");
+        let costly = batch_sizes(BATCH_SECONDS);
+        assert!(costly.iter().all(|&n| n == 1), "{costly:?}");
+        let middling = batch_sizes(BATCH_SECONDS / 3.0);
+        assert!(middling.iter().all(|&n| n <= 3), "{middling:?}");
+        assert!(middling.contains(&3), "{middling:?}");
     }
 
     /// Issue 20 items 13 and 15: a result with a NaN or infinite pixel, or with ray counts no

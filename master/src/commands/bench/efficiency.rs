@@ -125,6 +125,8 @@ fn time_distributed(
             tile,
             min_workers: n,
             progress: false,
+            // As `parrt render --workers N -o out.png` runs: 8-bit pixels on the wire.
+            pixel_format: parrt::protocol::PixelFormat::Rgb8,
             ..DistOptions::default()
         };
         let r =
