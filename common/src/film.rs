@@ -139,7 +139,10 @@ pub fn check_writable(path: &Path) -> Result<(), FilmError> {
             let _ = std::fs::remove_file(&probe);
             Ok(())
         }
-        Err(e) => Err(bad(format!("cannot create a file in {}: {e}", parent.display()))),
+        Err(e) => Err(bad(format!(
+            "cannot create a file in {}: {e}",
+            parent.display()
+        ))),
     }
 }
 
@@ -223,10 +226,12 @@ impl Film {
     pub fn save(&self, path: &Path) -> Result<(), FilmError> {
         let format = ImageFormat::from_path(path)?;
         let tmp = temp_beside(path);
-        let written = self.write_as(&tmp, format).map_err(|source| FilmError::Write {
-            path: path.display().to_string(),
-            source,
-        });
+        let written = self
+            .write_as(&tmp, format)
+            .map_err(|source| FilmError::Write {
+                path: path.display().to_string(),
+                source,
+            });
         let renamed = written.and_then(|()| {
             std::fs::rename(&tmp, path).map_err(|error| FilmError::Rename {
                 path: path.display().to_string(),
@@ -304,7 +309,10 @@ mod tests {
         assert!(e.to_string().contains("No such file or directory"), "{e}");
         assert_eq!(
             check_output(d).unwrap_err().to_string(),
-            format!("unknown image format for {}: use .png, .ppm or .exr", d.display())
+            format!(
+                "unknown image format for {}: use .png, .ppm or .exr",
+                d.display()
+            )
         );
         let sub = d.join("sub.png");
         std::fs::create_dir(&sub).unwrap();

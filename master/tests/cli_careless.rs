@@ -62,8 +62,15 @@ fn refused(args: &[&str], message: &str) -> String {
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "parrt {args:?}: {err}");
     assert!(!err.contains("panicked"), "parrt {args:?} panicked: {err}");
-    assert!(!err.contains("listening"), "parrt {args:?} listened first: {err}");
-    assert_eq!(err.trim_end(), format!("parrt: {message}"), "parrt {args:?}");
+    assert!(
+        !err.contains("listening"),
+        "parrt {args:?} listened first: {err}"
+    );
+    assert_eq!(
+        err.trim_end(),
+        format!("parrt: {message}"),
+        "parrt {args:?}"
+    );
     err
 }
 
@@ -85,7 +92,10 @@ fn master(extra: &[&str]) -> Vec<String> {
 
 fn refused_master(extra: &[&str], message: &str) -> String {
     let args = master(extra);
-    refused(&args.iter().map(String::as_str).collect::<Vec<_>>(), message)
+    refused(
+        &args.iter().map(String::as_str).collect::<Vec<_>>(),
+        message,
+    )
 }
 
 fn path(p: &Path) -> &str {
@@ -266,7 +276,10 @@ fn bad_outputs_are_refused_before_rendering() {
     let ok = dir.path().join("ok.png");
     let mut v = render(path(&ok));
     v.extend(["--stats-json".into(), path(&sub).into()]);
-    run(v, &format!("cannot write {}: it is a directory", path(&sub)));
+    run(
+        v,
+        &format!("cannot write {}: it is a directory", path(&sub)),
+    );
     // A bench study's output directory under a file.
     let file = dir.path().join("file");
     std::fs::write(&file, b"x").unwrap();
@@ -287,7 +300,15 @@ fn a_written_image_leaves_no_temporary_file() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("small.png");
     let o = parrt(&[
-        "render", "--scene", "balls:1", "--width", "16", "--height", "8", "-o", path(&out),
+        "render",
+        "--scene",
+        "balls:1",
+        "--width",
+        "16",
+        "--height",
+        "8",
+        "-o",
+        path(&out),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let names: Vec<String> = std::fs::read_dir(dir.path())

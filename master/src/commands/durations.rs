@@ -44,7 +44,10 @@ mod tests {
             seconds_flag("--x", 2.5, Duration::ZERO, max).unwrap(),
             Duration::from_millis(2500)
         );
-        assert_eq!(seconds_flag("--x", 604800.0, Duration::ZERO, max).unwrap(), max);
+        assert_eq!(
+            seconds_flag("--x", 604800.0, Duration::ZERO, max).unwrap(),
+            max
+        );
         for bad in [f64::NAN, f64::INFINITY, -1.0, 1e30, 1e19, 604800.5] {
             let e = seconds_flag("--x", bad, Duration::ZERO, max).unwrap_err();
             assert!(e.to_string().contains("--x"), "{e}");

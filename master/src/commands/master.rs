@@ -1,9 +1,7 @@
 //! `parrt master`: loads a scene, listens for workers, hands them tiles, writes the image.
 //! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
-use super::durations::{
-    seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE,
-};
+use super::durations::{seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE};
 use super::output::{check_file_output, check_image_output};
 use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};

@@ -301,16 +301,27 @@ mod tests {
             ready: 0,
             failed,
         };
-        assert!(e(vec![]).to_string().starts_with("no worker arrived within 2s"));
+        assert!(e(vec![])
+            .to_string()
+            .starts_with("no worker arrived within 2s"));
         assert_eq!(
             e(vec!["w1: cannot take the job: bad material".into()]).to_string(),
             "1 worker connected but could not build the job within 2s (0 of the 1 needed \
              ready): w1: cannot take the job: bad material"
         );
-        let many: Vec<String> = (0..5).map(|i| format!("w{i}: {}", "x".repeat(400))).collect();
+        let many: Vec<String> = (0..5)
+            .map(|i| format!("w{i}: {}", "x".repeat(400)))
+            .collect();
         let m = e(many).to_string();
-        assert!(m.starts_with("5 workers connected but could not build the job"), "{m}");
+        assert!(
+            m.starts_with("5 workers connected but could not build the job"),
+            "{m}"
+        );
         assert!(m.ends_with("; and 2 more"), "{m}");
-        assert!(m.len() < 4 * 320 + 200, "reasons are truncated: {}", m.len());
+        assert!(
+            m.len() < 4 * 320 + 200,
+            "reasons are truncated: {}",
+            m.len()
+        );
     }
 }

@@ -33,7 +33,9 @@ pub fn resolution(ext: [f64; 3], count: usize, density: f64) -> [u32; 3] {
         crate::settings::DEFAULT_GRID_DENSITY
     };
     let wanted = density * count.max(1) as f64;
-    let cap = (CELLS_PER_WANTED * wanted).ceil().clamp(1.0, MAX_CELLS as f64);
+    let cap = (CELLS_PER_WANTED * wanted)
+        .ceil()
+        .clamp(1.0, MAX_CELLS as f64);
     let longest = ext[0].max(ext[1]).max(ext[2]);
     let along = wanted.cbrt();
     let mut res = ext.map(|e| (e / longest * along).round().clamp(1.0, MAX_CELLS as f64) as u32);
