@@ -403,6 +403,8 @@ fn render_through_workers(
     if n == 0 {
         return Err(input_error(anyhow::anyhow!("--workers must be at least 1")));
     }
+    // The workers would each refuse a scene they cannot build; refuse it here, once.
+    parrt::render::validate_job(desc, settings).map_err(input_error)?;
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
     let opts = DistOptions {
