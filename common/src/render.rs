@@ -10,7 +10,7 @@ use crate::description::SceneDescription;
 use crate::film::Rgb;
 use crate::real::Real;
 use crate::scene::{Scene, SceneError};
-use crate::settings::{Precision, RenderSettings};
+use crate::settings::{Precision, RenderSettings, MAX_GRID_DENSITY};
 use crate::shade::{Integrator, RayKind, ShadeOptions};
 use crate::stats::RayStats;
 use crate::tile::Tile;
@@ -91,11 +91,24 @@ pub fn validate_settings(s: &RenderSettings) -> Result<(), RenderError> {
             s.cutoff
         )));
     }
-    if !s.grid_density.is_finite() || s.grid_density <= 0.0 {
+    if !s.grid_density.is_finite() || s.grid_density <= 0.0 || s.grid_density > MAX_GRID_DENSITY {
         return Err(RenderError::BadSetting(format!(
-            "grid density {} must be a positive number",
+            "grid density {:?} is outside (0, {MAX_GRID_DENSITY}]",
             s.grid_density
         )));
+    }
+    Ok(())
+}
+
+/// Checks a job before it is handed out: the settings ([`validate_settings`]) and the scene, by
+/// building the render-ready scene exactly as [`Renderer::new`] would (bad material indices, values
+/// that are not finite, degenerate primitives) and dropping it. The accelerator is not built. A
+/// master calls this before it listens, so a job no worker could build is refused up front.
+pub fn validate_job(desc: &SceneDescription, s: &RenderSettings) -> Result<(), RenderError> {
+    validate_settings(s)?;
+    match s.precision {
+        Precision::F32 => drop(Scene::<f32>::build(desc)?),
+        Precision::F64 => drop(Scene::<f64>::build(desc)?),
     }
     Ok(())
 }

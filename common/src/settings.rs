@@ -39,6 +39,10 @@ pub const DEFAULT_MAX_DEPTH: u32 = 5;
 /// mean of grid/BVH trace time on the scenes without a huge floor; on balls and tree, whose
 /// floors squeeze everything into a few cells, only higher densities help (and not enough).
 pub const DEFAULT_GRID_DENSITY: f64 = 27.0;
+/// The largest uniform-grid density a render may ask for: cells per primitive before the cube
+/// root, so with the grid's absolute cap ([`crate::accel::grid::build::MAX_CELLS`]) it bounds
+/// the grid's memory for small and large scenes alike. Densities past ~100 never helped.
+pub const MAX_GRID_DENSITY: f64 = 1e4;
 
 /// All settings that decide pixel values.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -4,6 +4,7 @@
 //! - [`number`]: correctly rounded reals and whole-number counts.
 //! - [`checks`]: the geometric validity rules (camera, cone, polygon).
 //! - [`parser`]: the entity grammar; [`parse`], [`parse_file`] and their detailed forms.
+//! - [`read`]: a named file's bytes, bounded (regular files only, a size limit).
 //! - [`summary`]: what a parsed file contains, counted (for `parrt info`).
 //! - [`writer`]: [`to_nff`], which the parser reads back to the identical description.
 //!
@@ -22,11 +23,13 @@ pub mod lexer;
 pub mod limits;
 pub mod number;
 pub mod parser;
+pub mod read;
 pub mod summary;
 pub mod writer;
 
 pub use error::{NffError, NffErrorKind};
 pub use limits::Limits;
 pub use parser::{parse, parse_bytes, parse_file, parse_file_bytes, ParsedNff};
+pub use read::{read_bounded, ReadError};
 pub use summary::Summary;
 pub use writer::to_nff;

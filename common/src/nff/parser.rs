@@ -60,14 +60,15 @@ pub fn parse_file(path: &Path, limits: &Limits) -> Result<SceneDescription, NffE
 }
 
 /// Reads and parses an NFF file, keeping the counts [`parse_file`] drops. A file that cannot be
-/// read (missing, unreadable) is an [`NffErrorKind::Io`] error at line 0, column 0.
+/// read (missing, unreadable, not a regular file, over [`Limits::max_file_bytes`]) is an
+/// [`NffErrorKind::Io`] error at line 0, column 0.
 pub fn parse_file_bytes(path: &Path, limits: &Limits) -> Result<ParsedNff, NffError> {
     let name = path.display().to_string();
-    let src = std::fs::read(path).map_err(|e| NffError {
+    let src = super::read::read_bounded(path, limits.max_file_bytes).map_err(|e| NffError {
         file: name.clone(),
         line: 0,
         column: 0,
-        message: format!("cannot read the file: {e}"),
+        message: e.to_string(),
         kind: NffErrorKind::Io,
     })?;
     parse_bytes(&src, &name, limits)

@@ -44,8 +44,7 @@ pub struct InfoArgs {
 pub fn run(args: InfoArgs) -> anyhow::Result<ExitCode> {
     let name = args.scene.display().to_string();
     // A file named on the command line that cannot be read is bad input too (exit 2).
-    let bytes = std::fs::read(&args.scene)
-        .map_err(|e| input_error(anyhow::anyhow!("{name}: cannot read the file: {e}")))?;
+    let bytes = args.limits.read_file(&args.scene)?;
     let t0 = Instant::now();
     let parsed = nff::parse_bytes(&bytes, &name, &args.limits.limits()).map_err(|e| {
         if e.kind == NffErrorKind::Io {

@@ -1,6 +1,8 @@
 //! `parrt master`: loads a scene, listens for workers, hands them tiles, writes the image.
 //! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
+use super::durations::{seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE};
+use super::output::{check_file_output, check_image_output};
 use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::distributed::{render_distributed, DistError, DistOptions, DistResult, DEFAULT_LISTEN};
@@ -36,13 +38,14 @@ pub struct MasterArgs {
     /// Workers that must be ready before rendering starts.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub min_workers: usize,
-    /// Seconds to wait for workers before giving up (exit 1).
+    /// Seconds to wait for workers before giving up (exit 1); at most a week.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub wait_workers: f64,
-    /// Seconds before a tile not returned is given to another worker.
+    /// Seconds before a tile not returned is given to another worker (1 s to a week).
     #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
     pub tile_deadline: f64,
-    /// Seconds of silence after which a worker is considered gone.
+    /// Seconds of silence after which a worker is considered gone (2 s, two heartbeats, to a
+    /// week).
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
     pub heartbeat_timeout: f64,
     /// In-flight tiles per worker thread.
@@ -65,21 +68,10 @@ pub struct MasterArgs {
     pub limits: LimitArgs,
 }
 
-fn seconds(flag: &str, v: f64) -> anyhow::Result<Duration> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(Duration::from_secs_f64(v))
-    } else {
-        Err(input_error(anyhow::anyhow!(
-            "{flag} must be a number of seconds, not {v}"
-        )))
-    }
-}
-
 fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
     if let Some(p) = &args.scene_json {
-        let text = std::fs::read_to_string(p)
-            .with_context(|| format!("cannot read scene description {}", p.display()))?;
-        let desc = serde_json::from_str(&text)
+        let bytes = args.limits.read_file(p)?;
+        let desc = serde_json::from_slice(&bytes)
             .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", p.display())))?;
         return Ok((desc, p.display().to_string()));
     }
@@ -88,7 +80,25 @@ fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
     Ok((desc, spec.label()))
 }
 
-/// Runs `parrt master`.
+/// Checks that `--listen` is an address that can be resolved (bad input otherwise); whether it
+/// can be bound (a port in use) is found when binding, and is not the user's typo.
+fn check_listen(listen: &str) -> anyhow::Result<()> {
+    use std::net::ToSocketAddrs;
+    let mut addrs = listen.to_socket_addrs().map_err(|e| {
+        input_error(anyhow::anyhow!(
+            "--listen {listen}: not an address to listen on ({e}); use HOST:PORT, e.g. {DEFAULT_LISTEN}"
+        ))
+    })?;
+    if addrs.next().is_none() {
+        return Err(input_error(anyhow::anyhow!(
+            "--listen {listen}: resolves to no address"
+        )));
+    }
+    Ok(())
+}
+
+/// Runs `parrt master`. Everything the user gave is checked before listening: flags, outputs,
+/// the scene (built once as a worker would build it) and the image's size and tile count.
 pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     init_logging("info");
     let token = args.token.require("`parrt master`").map_err(|e| {
@@ -101,16 +111,44 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
     }
+    let wait_workers = seconds_flag(
+        "--wait-workers",
+        args.wait_workers,
+        Duration::ZERO,
+        MAX_FLAG_DURATION,
+    )?;
+    let tile_deadline = seconds_flag(
+        "--tile-deadline",
+        args.tile_deadline,
+        MIN_TILE_DEADLINE,
+        MAX_FLAG_DURATION,
+    )?;
+    let heartbeat_timeout = seconds_flag(
+        "--heartbeat-timeout",
+        args.heartbeat_timeout,
+        MIN_HEARTBEAT_TIMEOUT,
+        MAX_FLAG_DURATION,
+    )?;
+    check_image_output(&args.output)?;
+    if let Some(p) = &args.report_json {
+        check_file_output(p)?;
+    }
+    check_listen(&args.listen)?;
     let (desc, label) = load_scene(&args)?;
     let settings = args.render.settings(desc.view.width, desc.view.height)?;
+    args.limits
+        .check_image(settings.width, settings.height, args.tile)?;
+    parrt::render::validate_job(&desc, &settings)
+        .map_err(input_error)
+        .with_context(|| format!("no worker could render {label}"))?;
     let opts = DistOptions {
         tile: args.tile,
         listen: args.listen.clone(),
         token: Some(token),
         min_workers: args.min_workers.max(1),
-        wait_workers: seconds("--wait-workers", args.wait_workers)?,
-        tile_deadline: seconds("--tile-deadline", args.tile_deadline)?,
-        heartbeat_timeout: seconds("--heartbeat-timeout", args.heartbeat_timeout)?,
+        wait_workers,
+        tile_deadline,
+        heartbeat_timeout,
         window_per_thread: args.window.max(1),
         backups: !args.no_backups,
         pixel_format: crate::distributed::pixel_format_for(&args.output),

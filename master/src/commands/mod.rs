@@ -1,8 +1,10 @@
 //! One module per subcommand; each exposes an `Args` struct and `run(args)`.
 
 pub mod bench;
+pub mod durations;
 pub mod info;
 pub mod master;
+pub mod output;
 pub mod render;
 pub mod scene;
 pub mod scene_input;

@@ -2,6 +2,7 @@
 //! image on this machine's cores (or through local workers with `--workers`), with a progress
 //! bar on a terminal and the ray statistics of DESIGN §9 on request.
 
+use super::output::{check_file_output, check_image_output};
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
@@ -402,6 +403,8 @@ fn render_through_workers(
     if n == 0 {
         return Err(input_error(anyhow::anyhow!("--workers must be at least 1")));
     }
+    // The workers would each refuse a scene they cannot build; refuse it here, once.
+    parrt::render::validate_job(desc, settings).map_err(input_error)?;
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
     let opts = DistOptions {
@@ -465,7 +468,11 @@ fn render_through_workers(
 /// Runs `parrt render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
-    parrt::film::ImageFormat::from_path(&args.output).map_err(input_error)?;
+    // Every output is checked before the render, so a typo costs nothing.
+    check_image_output(&args.output)?;
+    for p in [&args.stats_json, &args.tile_costs].into_iter().flatten() {
+        check_file_output(p)?;
+    }
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
     }
@@ -474,15 +481,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     }
     let (desc, parse_s) = spec.load(&args.limits.limits())?;
     let settings = args.render.settings(desc.view.width, desc.view.height)?;
-    let pixels = settings.width as u64 * settings.height as u64;
-    if pixels > args.limits.max_pixels {
-        return Err(input_error(anyhow::anyhow!(
-            "{}x{} is {pixels} pixels, over the limit of {} (raise it with --max-pixels)",
-            settings.width,
-            settings.height,
-            args.limits.max_pixels
-        )));
-    }
+    args.limits
+        .check_image(settings.width, settings.height, args.tile)?;
     let out = match args.workers {
         Some(n) => render_through_workers(&args, &desc, &settings, n)?,
         None => render_here(&args, &spec, desc, &settings)?,

@@ -36,11 +36,15 @@ use tokio_util::sync::CancellationToken;
 /// The default address of `parrt master`: loopback only; any other must be asked for.
 pub const DEFAULT_LISTEN: &str = "127.0.0.1:7878";
 
+/// How often the master sends heartbeats (whole seconds; `--heartbeat-timeout` is at least two).
+pub const DEFAULT_HEARTBEAT: Duration = Duration::from_secs(1);
+
 /// Errors of a distributed render.
 #[derive(Debug, Error)]
 pub enum DistError {
-    /// The listen address could not be bound.
-    #[error("cannot listen on {addr}: {source}")]
+    /// The listen address could not be bound. (The cause is the source, printed after the
+    /// message by `{:#}`; not repeated here.)
+    #[error("cannot listen on {addr}")]
     Bind {
         /// The address asked for.
         addr: String,
@@ -48,10 +52,7 @@ pub enum DistError {
         source: std::io::Error,
     },
     /// Not enough workers arrived in time.
-    #[error(
-        "no worker arrived within {waited:?} ({ready} of the {wanted} needed connected and built \
-         the job); start workers with `parrt worker --connect ADDR` and the same token"
-    )]
+    #[error("{}", no_workers_message(*waited, *wanted, *ready, failed))]
     NoWorkers {
         /// How long we waited.
         waited: Duration,
@@ -59,6 +60,9 @@ pub enum DistError {
         wanted: usize,
         /// Workers that were ready.
         ready: usize,
+        /// Workers that connected and left before being ready, as `name: reason` (those that
+        /// could not build the job say why here).
+        failed: Vec<String>,
     },
     /// Every worker left mid-job and none came back in time.
     #[error("all workers left and none returned within {waited:?} ({done}/{total} tiles done)")]
@@ -90,6 +94,38 @@ pub enum DistError {
     /// The async runtime could not start.
     #[error("cannot start the async runtime: {0}")]
     Runtime(std::io::Error),
+}
+
+/// Reasons shown in [`DistError::NoWorkers`] at most.
+const SHOWN_FAILURES: usize = 3;
+/// Characters of each reason shown (a peer chooses its name).
+const SHOWN_REASON_CHARS: usize = 300;
+
+fn no_workers_message(waited: Duration, wanted: usize, ready: usize, failed: &[String]) -> String {
+    if failed.is_empty() {
+        return format!(
+            "no worker arrived within {waited:?} ({ready} of the {wanted} needed connected and \
+             built the job); start workers with `parrt worker --connect ADDR` and the same token"
+        );
+    }
+    let mut reasons = failed
+        .iter()
+        .take(SHOWN_FAILURES)
+        .map(|r| match r.char_indices().nth(SHOWN_REASON_CHARS) {
+            Some((cut, _)) => format!("{}…", &r[..cut]),
+            None => r.clone(),
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    if failed.len() > SHOWN_FAILURES {
+        reasons += &format!("; and {} more", failed.len() - SHOWN_FAILURES);
+    }
+    format!(
+        "{} worker{} connected but could not build the job within {waited:?} ({ready} of the \
+         {wanted} needed ready): {reasons}",
+        failed.len(),
+        if failed.len() == 1 { "" } else { "s" }
+    )
 }
 
 /// How to run a distributed render.
@@ -154,7 +190,7 @@ impl Default for DistOptions {
             window_per_thread: 2,
             max_batch: 8,
             tile_deadline: Duration::from_secs(120),
-            heartbeat: Duration::from_secs(1),
+            heartbeat: DEFAULT_HEARTBEAT,
             heartbeat_timeout: Duration::from_secs(10),
             handshake_timeout: Duration::from_secs(10),
             max_failures: 3,
@@ -287,4 +323,41 @@ pub fn render_distributed(
         signal.abort();
         result
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn no_workers_says_who_came_and_why_they_failed() {
+        let e = |failed: Vec<String>| DistError::NoWorkers {
+            waited: Duration::from_secs(2),
+            wanted: 1,
+            ready: 0,
+            failed,
+        };
+        assert!(e(vec![])
+            .to_string()
+            .starts_with("no worker arrived within 2s"));
+        assert_eq!(
+            e(vec!["w1: cannot take the job: bad material".into()]).to_string(),
+            "1 worker connected but could not build the job within 2s (0 of the 1 needed \
+             ready): w1: cannot take the job: bad material"
+        );
+        let many: Vec<String> = (0..5)
+            .map(|i| format!("w{i}: {}", "x".repeat(400)))
+            .collect();
+        let m = e(many).to_string();
+        assert!(
+            m.starts_with("5 workers connected but could not build the job"),
+            "{m}"
+        );
+        assert!(m.ends_with("; and 2 more"), "{m}");
+        assert!(
+            m.len() < 4 * 320 + 200,
+            "reasons are truncated: {}",
+            m.len()
+        );
+    }
 }

@@ -281,6 +281,14 @@ impl Scheduler {
             .count()
     }
 
+    /// Workers that left (or were dropped) so far, as `name: reason`.
+    pub fn departures(&self) -> Vec<String> {
+        self.gone
+            .iter()
+            .map(|r| format!("{}: {}", r.name, r.left.as_deref().unwrap_or("left")))
+            .collect()
+    }
+
     /// Workers connected (built or not).
     pub fn connected_workers(&self) -> usize {
         self.workers.len()
@@ -806,6 +814,35 @@ mod tests {
             now,
         );
         rx
+    }
+
+    #[test]
+    fn departures_name_workers_that_could_not_build_the_job() {
+        let mut s = sched(3);
+        let (tx, _rx) = unbounded_channel();
+        let now = Instant::now();
+        s.handle(
+            Event::Joined {
+                id: 4,
+                name: "w4".into(),
+                threads: 1,
+                outbox: tx,
+                counters: Arc::default(),
+            },
+            now,
+        );
+        s.handle(
+            Event::WorkerError {
+                id: 4,
+                reason: "primitive 0 uses material 9".into(),
+            },
+            now,
+        );
+        assert_eq!(s.ready_workers(), 0);
+        assert_eq!(
+            s.departures(),
+            ["w4: cannot take the job: primitive 0 uses material 9"]
+        );
     }
 
     fn assigned(rx: &mut UnboundedReceiver<Message>) -> Vec<(Tile, u32)> {

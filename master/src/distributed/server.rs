@@ -163,6 +163,7 @@ impl Master {
                             waited: opts.wait_workers,
                             wanted: min_workers,
                             ready,
+                            failed: sched.departures(),
                         }
                     } else {
                         DistError::AllWorkersLost {

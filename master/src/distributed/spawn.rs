@@ -15,7 +15,7 @@ pub enum SpawnError {
     #[error("cannot find this executable to start workers: {0}")]
     CurrentExe(std::io::Error),
     /// A worker process did not start.
-    #[error("cannot start worker {index} ({exe}): {source}")]
+    #[error("cannot start worker {index} ({exe})")]
     Start {
         /// Which worker.
         index: usize,

@@ -6,6 +6,7 @@ use super::Grid;
 use crate::accel::margin;
 use crate::geometry::aabb::{f32_down, f32_up};
 use crate::geometry::Aabb;
+use crate::settings::MAX_GRID_DENSITY;
 use crate::vec3::V3;
 
 /// Most cells a grid may have, whatever the density asks for (16 MiB of offsets).
@@ -23,25 +24,35 @@ pub const PLANE_SHIFT: f64 = 0.381_966;
 
 /// Cells per axis for `count` primitives in a box of extents `ext` (all > 0): about
 /// ∛(density·count) along the longest axis, the others in proportion, each at least 1, the
-/// product at most [`MAX_CELLS`].
+/// product at most [`MAX_CELLS`] and at most [`CELLS_PER_WANTED`]·`density`·`count` (the density
+/// held to [`MAX_GRID_DENSITY`]). The product is taken in `f64`, so no density can wrap it.
 pub fn resolution(ext: [f64; 3], count: usize, density: f64) -> [u32; 3] {
     let density = if density.is_finite() && density > 0.0 {
-        density
+        density.min(MAX_GRID_DENSITY)
     } else {
         crate::settings::DEFAULT_GRID_DENSITY
     };
+    let wanted = density * count.max(1) as f64;
+    let cap = (CELLS_PER_WANTED * wanted)
+        .ceil()
+        .clamp(1.0, MAX_CELLS as f64);
     let longest = ext[0].max(ext[1]).max(ext[2]);
-    let along = (density * count as f64).cbrt();
+    let along = wanted.cbrt();
     let mut res = ext.map(|e| (e / longest * along).round().clamp(1.0, MAX_CELLS as f64) as u32);
-    let total = |r: &[u32; 3]| r[0] as u64 * r[1] as u64 * r[2] as u64;
-    while total(&res) > MAX_CELLS {
-        let shrink = (MAX_CELLS as f64 / total(&res) as f64).cbrt();
+    let total = |r: &[u32; 3]| r[0] as f64 * r[1] as f64 * r[2] as f64;
+    while total(&res) > cap {
+        let shrink = (cap / total(&res)).cbrt();
         for r in &mut res {
             *r = ((*r as f64 * shrink).floor() as u32).max(1);
         }
     }
     res
 }
+
+/// How far rounding each axis may take the cell count past `density`·`count`: (a + ½)³ ≤ 3.375·a³
+/// for a ≥ 1 cells along the longest axis, so this cap never changes a grid that fits
+/// [`MAX_CELLS`]; it only stops a density from asking for more cells than it means.
+pub const CELLS_PER_WANTED: f64 = 4.0;
 
 /// A cell range along one axis, both ends inclusive.
 type Span = (u32, u32);
@@ -221,6 +232,23 @@ mod tests {
         assert_eq!(resolution([2.0, 1.0, 0.0001], 1000, 8.0), [20, 10, 1]);
         let r = resolution([1.0; 3], 1 << 30, 1000.0);
         assert!(r[0] as u64 * r[1] as u64 * r[2] as u64 <= MAX_CELLS);
+    }
+
+    #[test]
+    fn huge_densities_cannot_wrap_the_cell_count() {
+        // 2^22 cells per axis would be 2^66 in all: it wrapped to 0 in u64 and passed the cap.
+        for density in [1e30, f64::MAX, 1e4, 1e7] {
+            for (ext, count) in [([1.0; 3], 1), ([3.0, 2.0, 1.0], 1000), ([1.0; 3], 1 << 26)] {
+                let r = resolution(ext, count, density);
+                let cells = r[0] as u64 * r[1] as u64 * r[2] as u64;
+                assert!(cells <= MAX_CELLS, "{density} {count}: {r:?}");
+                let most = (CELLS_PER_WANTED * MAX_GRID_DENSITY * count as f64).ceil() as u64;
+                assert!(cells <= most, "{density} {count}: {r:?}");
+            }
+        }
+        let g = Grid::build(&[cube(1.0, 2.0)], 1e30);
+        assert!(g.cells() as u64 <= (CELLS_PER_WANTED * MAX_GRID_DENSITY) as u64);
+        assert_eq!(g.references, g.cells() as u64);
     }
 
     #[test]

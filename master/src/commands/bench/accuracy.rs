@@ -103,8 +103,7 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|s| scene_arg(s))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    crate::commands::output::prepare_out_dir(&args.out)?;
     let configs = grid(args.full);
     let mut studies = Vec::new();
     for spec in &specs {

@@ -158,8 +158,7 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let accels: Vec<AccelKind> = args.accel.iter().map(|a| a.kind()).collect();
     let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
     let spec = scene_arg(&args.scene)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    crate::commands::output::prepare_out_dir(&args.out)?;
     let mut md = String::new();
     let mut csv = String::new();
     let _ = writeln!(

@@ -71,6 +71,8 @@ pub fn run(args: BenchRenderArgs) -> anyhow::Result<ExitCode> {
         for _ in 0..args.repeat {
             let (desc, parse_s) = spec.load(&args.limits.limits())?;
             let settings = args.render.settings(desc.view.width, desc.view.height)?;
+            args.limits
+                .check_image(settings.width, settings.height, args.tile)?;
             size = (settings.width, settings.height);
             let r = Renderer::new(&desc, &settings).map_err(input_error)?;
             prims = r.build_info().primitives;

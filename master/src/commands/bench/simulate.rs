@@ -4,7 +4,6 @@
 
 use crate::exit::input_error;
 use crate::plot::{save_chart, Chart, Series};
-use anyhow::Context;
 use clap::Args;
 use parrt::efficiency::{aggregate_costs, read_tile_costs};
 use parrt::simulate::{simulate, SimParams};
@@ -104,9 +103,16 @@ fn limit_note(p: &SimParams, r: &parrt::simulate::SimResult, costs: &[f64], tile
 
 /// Runs `parrt bench simulate`.
 pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
-    let text = std::fs::read_to_string(&args.tile_costs)
-        .with_context(|| format!("cannot read {}", args.tile_costs.display()))
-        .map_err(input_error)?;
+    let bytes = crate::commands::scene_input::LimitArgs::read_path(
+        &args.tile_costs,
+        parrt::nff::limits::DEFAULT_MAX_FILE_BYTES,
+    )?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        input_error(anyhow::anyhow!(
+            "{}: not UTF-8 text",
+            args.tile_costs.display()
+        ))
+    })?;
     let fine = read_tile_costs(&text)
         .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", args.tile_costs.display())))?;
     let Some(first) = fine.first() else {
@@ -130,7 +136,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
             )));
         }
     }
-    std::fs::create_dir_all(&args.out)?;
+    crate::commands::output::prepare_out_dir(&args.out)?;
     let mut md = String::new();
     let work: f64 = fine.iter().map(|(_, c)| c).sum();
     let _ = writeln!(
