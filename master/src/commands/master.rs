@@ -48,9 +48,14 @@ pub struct MasterArgs {
     /// week).
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
     pub heartbeat_timeout: f64,
-    /// In-flight tiles per worker thread.
+    /// Assignments in flight per worker thread (each a batch of up to --max-batch tiles).
     #[arg(long, value_name = "N", default_value_t = 2)]
     pub window: usize,
+    /// Most tiles in one assignment. Batches are guided: large while much is queued and
+    /// tiles are cheap (at most 50 ms of work), single tiles at the tail; 1 sends every tile
+    /// on its own.
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    pub max_batch: usize,
     /// Never duplicate in-flight tiles onto idle workers.
     #[arg(long)]
     pub no_backups: bool,
@@ -150,6 +155,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         tile_deadline,
         heartbeat_timeout,
         window_per_thread: args.window.max(1),
+        max_batch: args.max_batch.max(1),
         backups: !args.no_backups,
         pixel_format: crate::distributed::pixel_format_for(&args.output),
         ..DistOptions::default()
