@@ -1,19 +1,27 @@
-//! One worker session: dial, handshake (Hello → Challenge → Auth → Welcome), then the message
-//! loop. The loop owns the connection; renderer builds run on a blocking thread and tiles on the
-//! rayon pool, both reporting back through channels. It ends on Shutdown, when the master goes
-//! away, or when told to stop (Ctrl-C): then it takes no more tiles and disconnects.
+//! One worker session: dial, handshake (Hello with our nonce → Challenge with the master's
+//! proof, checked before we answer → Auth → Welcome), then the message loop. A handshake cut
+//! short is retried within the dial budget; a refusal or a master that cannot prove the token
+//! ends the session at once. The loop owns the connection; the rayon pool and renderer builds
+//! are made on blocking threads and tiles run on the pool, all reporting back through channels,
+//! so heartbeats never wait. Every write is bounded by the master timeout. It ends on Shutdown,
+//! when the master goes away, or when told to stop (Ctrl-C): then it takes no more tiles and
+//! disconnects.
 
-use crate::dial::dial;
+use crate::dial::Dialer;
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;
-use crate::tiles::{JobHandle, TileRenderer};
+use crate::tiles::{JobHandle, TileRenderer, UNSENT_RESULTS};
+use parrt::protocol::limits::{self, MASTER_FRAME_AFTER_JOB, MAX_THREADS};
+use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
     Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
 use parrt::render::Renderer;
 use parrt::tile::Tile;
+use rand::RngCore;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::time::Duration;
 use tokio::net::TcpStream;
 use tokio::sync::mpsc;
 use tokio::time::{interval, sleep_until, timeout, Instant, MissedTickBehavior};
@@ -65,15 +73,27 @@ pub async fn run(
     opts: &WorkerOptions,
     stop: CancellationToken,
 ) -> Result<SessionSummary, WorkerError> {
-    let Some(stream) = dial(opts, &stop).await? else {
-        return Ok(SessionSummary {
-            end: SessionEnd::Stopped,
-            jobs: 0,
-            tiles_rendered: 0,
-        });
+    let stopped = SessionSummary {
+        end: SessionEnd::Stopped,
+        jobs: 0,
+        tiles_rendered: 0,
     };
-    let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
-    handshake(&mut conn, opts).await?;
+    let mut dialer = Dialer::new(opts);
+    let mut conn = loop {
+        let Some(stream) = dialer.connect(&stop).await? else {
+            return Ok(stopped);
+        };
+        let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
+        match handshake(&mut conn, opts).await {
+            Ok(()) => break conn,
+            Err(e) if e.is_cut_handshake() => {
+                if !dialer.retry_after(e, &stop).await? {
+                    return Ok(stopped);
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    };
     conn.set_max_frame(opts.max_frame);
     info!(master = %opts.connect, threads = opts.threads, "authenticated");
     let mut summary = SessionSummary {
@@ -101,6 +121,18 @@ fn is_disconnect(e: &std::io::Error) -> bool {
     )
 }
 
+/// Writes `msg`, giving up when the master takes nothing for `limit`.
+async fn write_within(
+    conn: &mut Connection<TcpStream>,
+    msg: &Message,
+    limit: Duration,
+) -> Result<(), WorkerError> {
+    match timeout(limit, conn.write(msg)).await {
+        Ok(r) => Ok(r?),
+        Err(_) => Err(WorkerError::MasterNotReading(limit)),
+    }
+}
+
 async fn read_in_handshake(
     conn: &mut Connection<TcpStream>,
     opts: &WorkerOptions,
@@ -115,15 +147,27 @@ async fn handshake(
     conn: &mut Connection<TcpStream>,
     opts: &WorkerOptions,
 ) -> Result<(), WorkerError> {
-    conn.write(&Message::Hello {
+    let mut ours = [0u8; NONCE_LEN];
+    rand::thread_rng().fill_bytes(&mut ours);
+    let hello = Message::Hello {
         version: PROTOCOL_VERSION,
         name: opts.name.clone(),
-        threads: opts.threads as u32,
-    })
-    .await?;
-    let nonce = match read_in_handshake(conn, opts).await? {
-        Message::Challenge { nonce } => nonce,
-        Message::Refused { reason } => return Err(WorkerError::Refused(reason)),
+        threads: threads(opts) as u32,
+        nonce: ours,
+    };
+    write_within(conn, &hello, opts.handshake_timeout).await?;
+    let theirs = match read_in_handshake(conn, opts).await? {
+        Message::Challenge { nonce, proof } => {
+            // Answer only a peer that proved it knows the token over our nonce: anyone else
+            // gets nothing it could relay or test guesses of the token against.
+            if !opts.token.verify_master_proof(&ours, &nonce, &proof) {
+                return Err(WorkerError::MasterUnproven(opts.connect.clone()));
+            }
+            nonce
+        }
+        Message::Refused { reason } => {
+            return Err(WorkerError::Refused(limits::capped_reason(reason)))
+        }
         other => {
             return Err(WorkerError::Unexpected {
                 got: other.kind(),
@@ -131,18 +175,23 @@ async fn handshake(
             })
         }
     };
-    conn.write(&Message::Auth {
-        mac: opts.token.sign(&nonce),
-    })
-    .await?;
+    let auth = Message::Auth {
+        mac: opts.token.worker_proof(&theirs, &ours),
+    };
+    write_within(conn, &auth, opts.handshake_timeout).await?;
     match read_in_handshake(conn, opts).await? {
         Message::Welcome => Ok(()),
-        Message::Refused { reason } => Err(WorkerError::Refused(reason)),
+        Message::Refused { reason } => Err(WorkerError::Refused(limits::capped_reason(reason))),
         other => Err(WorkerError::Unexpected {
             got: other.kind(),
             during: "waiting for Welcome",
         }),
     }
+}
+
+/// Render threads: the option, kept within 1 ..= [`MAX_THREADS`].
+fn threads(opts: &WorkerOptions) -> usize {
+    opts.threads.clamp(1, MAX_THREADS as usize)
 }
 
 /// The message loop of an authenticated session.
@@ -152,26 +201,32 @@ async fn serve(
     stop: CancellationToken,
     summary: &mut SessionSummary,
 ) -> Result<SessionEnd, WorkerError> {
-    let threads = opts.threads.max(1);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .thread_name(|i| format!("parrt-render-{i}"))
-        .build()
-        .map_err(|source| WorkerError::Pool { threads, source })?;
-    let (out_tx, mut out_rx) = mpsc::unbounded_channel::<Message>();
+    let threads = threads(opts);
+    // Starting thousands of threads takes seconds: never on the runtime's thread, so the loop
+    // keeps reading and beating meanwhile.
+    let mut pool_build = tokio::task::spawn_blocking(move || {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("parrt-render-{i}"))
+            .build()
+    });
+    let (out_tx, mut out_rx) = mpsc::channel::<Message>(UNSENT_RESULTS);
+    let mut out_tx = Some(out_tx);
     let (built_tx, mut built_rx) = mpsc::unbounded_channel::<Built>();
-    let renderer = TileRenderer::new(pool, out_tx, opts.tile_delay);
+    let mut renderer: Option<TileRenderer> = None;
     let mut job: Option<CurrentJob> = None;
     let mut beat = interval(opts.heartbeat);
     beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
-    // Any message from the master (heartbeats included) proves it is alive.
-    let mut last_heard = Instant::now();
+    let limit = opts.master_timeout;
     let finish = |job: &Option<CurrentJob>| {
         if let Some(j) = job {
             j.cancelled.store(true, Ordering::Relaxed);
         }
     };
     loop {
+        // Any bytes from the master (heartbeats included) prove it is alive; a frame must
+        // still arrive at the floor rate.
+        let alive_until = conn.alive_until(limit);
         tokio::select! {
             _ = stop.cancelled() => {
                 // Stop taking tiles; dropping the connection tells the master to requeue ours.
@@ -179,9 +234,29 @@ async fn serve(
                 info!("stopping: disconnecting from the master");
                 return Ok(SessionEnd::Stopped);
             }
-            _ = sleep_until(last_heard + opts.master_timeout) => {
+            built = &mut pool_build, if renderer.is_none() => {
+                let pool = match built {
+                    Ok(Ok(pool)) => pool,
+                    Ok(Err(source)) => return Err(WorkerError::Pool { threads, source }),
+                    Err(e) => return Err(WorkerError::PoolTask(e.to_string())),
+                };
+                let Some(tx) = out_tx.take() else { continue };
+                let r = TileRenderer::new(pool, tx, opts.tile_delay);
+                if let Some(j) = job.as_mut() {
+                    if let Some(h) = &j.handle {
+                        for (tile, attempt) in j.waiting.drain(..) {
+                            r.submit(h, tile, attempt);
+                        }
+                    }
+                }
+                renderer = Some(r);
+            }
+            _ = sleep_until(alive_until) => {
+                if Instant::now() < conn.alive_until(limit) {
+                    continue;
+                }
                 finish(&job);
-                return Err(WorkerError::MasterSilent(opts.master_timeout));
+                return Err(WorkerError::MasterSilent(limit));
             }
             read = conn.read() => {
                 let msg = match read {
@@ -196,9 +271,10 @@ async fn serve(
                     }
                     Ok(Some(m)) => m,
                 };
-                last_heard = Instant::now();
                 match msg {
                     Message::Job(spec) => {
+                        // Only the job is large; everything after it is small.
+                        conn.set_max_receive(MASTER_FRAME_AFTER_JOB.min(opts.max_frame));
                         finish(&job);
                         summary.jobs += 1;
                         job = Some(start_build(*spec, built_tx.clone()));
@@ -206,25 +282,25 @@ async fn serve(
                     Message::Assign { job_id, tile, attempt } => {
                         match job.as_mut().filter(|j| j.spec_id == job_id) {
                             None => {
-                                conn.write(&Message::Error {
+                                write_within(&mut conn, &Message::Error {
                                     reason: format!("tile {} assigned for unknown job {job_id}", tile.id),
-                                }).await?;
+                                }, limit).await?;
                             }
                             Some(j) if !tile_fits(&tile, j.width, j.height) => {
-                                conn.write(&Message::Error {
+                                write_within(&mut conn, &Message::Error {
                                     reason: format!("tile {} ({}x{} at {},{}) lies outside the {}x{} image",
                                         tile.id, tile.w, tile.h, tile.x, tile.y, j.width, j.height),
-                                }).await?;
+                                }, limit).await?;
                             }
                             Some(_) if tile.pixel_count().saturating_mul(12).saturating_add(1024) > opts.max_frame => {
-                                conn.write(&Message::Error {
+                                write_within(&mut conn, &Message::Error {
                                     reason: format!("tile {} of {}x{} pixels does not fit one {}-byte frame",
                                         tile.id, tile.w, tile.h, opts.max_frame),
-                                }).await?;
+                                }, limit).await?;
                             }
-                            Some(j) => match &j.handle {
-                                Some(h) => renderer.submit(h, tile, attempt),
-                                None => j.waiting.push((tile, attempt)),
+                            Some(j) => match (&j.handle, &renderer) {
+                                (Some(h), Some(r)) => r.submit(h, tile, attempt),
+                                _ => j.waiting.push((tile, attempt)),
                             },
                         }
                     }
@@ -240,7 +316,10 @@ async fn serve(
                         return Ok(SessionEnd::Shutdown);
                     }
                     Message::Heartbeat => {}
-                    Message::Error { reason } => warn!(%reason, "master reported an error"),
+                    Message::Error { reason } => {
+                        let reason = limits::capped_reason(reason);
+                        warn!(%reason, "master reported an error");
+                    }
                     other => {
                         finish(&job);
                         return Err(WorkerError::Unexpected { got: other.kind(), during: "serving" });
@@ -257,15 +336,18 @@ async fn serve(
                             renderer: Arc::new(r),
                             cancelled: j.cancelled.clone(),
                         };
-                        conn.write(&Message::Ready { job_id: b.job_id, build_s: b.seconds }).await?;
-                        for (tile, attempt) in j.waiting.drain(..) {
-                            renderer.submit(&handle, tile, attempt);
+                        write_within(&mut conn, &Message::Ready { job_id: b.job_id, build_s: b.seconds }, limit).await?;
+                        if let Some(r) = &renderer {
+                            for (tile, attempt) in j.waiting.drain(..) {
+                                r.submit(&handle, tile, attempt);
+                            }
                         }
                         j.handle = Some(handle);
                     }
                     Err(reason) => {
                         warn!(job = b.job_id, %reason, "cannot build the job");
-                        conn.write(&Message::Error { reason: format!("cannot build job {}: {reason}", b.job_id) }).await?;
+                        let reason = limits::capped_reason(format!("cannot build job {}: {reason}", b.job_id));
+                        write_within(&mut conn, &Message::Error { reason }, limit).await?;
                         job = None;
                     }
                 }
@@ -274,9 +356,12 @@ async fn serve(
                 if matches!(msg, Message::TileResult { .. }) {
                     summary.tiles_rendered += 1;
                 }
-                conn.write(&msg).await?;
+                if let Err(e) = write_within(&mut conn, &msg, limit).await {
+                    finish(&job);
+                    return Err(e);
+                }
             }
-            _ = beat.tick() => conn.write(&Message::Heartbeat).await?,
+            _ = beat.tick() => write_within(&mut conn, &Message::Heartbeat, limit).await?,
         }
     }
 }

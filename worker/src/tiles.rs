@@ -1,6 +1,7 @@
 //! The bridge between the async message loop and the rayon pool: a tile is handed to rayon with
-//! `ThreadPool::spawn`, rendered there, and its result comes back as a message on an unbounded
-//! channel (the master's window bounds how many are outstanding). Never renders on the runtime.
+//! `ThreadPool::spawn`, rendered there, and its result comes back as a message on a bounded
+//! channel of [`UNSENT_RESULTS`]: when the master stops taking results, render threads wait
+//! instead of piling up pixels. Never renders on the runtime.
 
 use parrt::protocol::Message;
 use parrt::render::Renderer;
@@ -10,7 +11,10 @@ use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use tokio::sync::mpsc::UnboundedSender;
+use tokio::sync::mpsc::Sender;
+
+/// The most rendered results waiting to be sent; a render thread with one more waits.
+pub const UNSENT_RESULTS: usize = 64;
 
 /// One job's renderer and its cancel flag, shared with the tiles in flight.
 #[derive(Clone)]
@@ -26,17 +30,13 @@ pub struct JobHandle {
 /// Renders tiles on a rayon pool and sends each result (or an error) to `out`.
 pub struct TileRenderer {
     pool: rayon::ThreadPool,
-    out: UnboundedSender<Message>,
+    out: Sender<Message>,
     delay: Option<Duration>,
 }
 
 impl TileRenderer {
     /// Wraps `pool`; results go to `out`; `delay` is the test hook slept before each tile.
-    pub fn new(
-        pool: rayon::ThreadPool,
-        out: UnboundedSender<Message>,
-        delay: Option<Duration>,
-    ) -> Self {
+    pub fn new(pool: rayon::ThreadPool, out: Sender<Message>, delay: Option<Duration>) -> Self {
         TileRenderer { pool, out, delay }
     }
 
@@ -72,8 +72,9 @@ impl TileRenderer {
                     reason: format!("rendering tile {} panicked", tile.id),
                 },
             };
-            // The loop may have ended (shutdown); then nobody wants the result.
-            let _ = out.send(msg);
+            // The loop may have ended (shutdown); then nobody wants the result. Waits while
+            // the queue is full (a rayon thread, not the runtime's).
+            let _ = out.blocking_send(msg);
         });
     }
 }

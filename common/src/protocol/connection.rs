@@ -50,6 +50,11 @@ impl<S: AsyncRead + AsyncWrite + Unpin> Connection<S> {
         self.framed.codec_mut().set_max_receive(max_frame);
     }
 
+    /// The frame being read, if one has begun: when its length prefix arrived, and its length.
+    pub fn pending_frame(&self) -> Option<(Instant, usize)> {
+        self.framed.codec().pending_frame()
+    }
+
     /// The instant after which a peer that must never be silent for `timeout` counts as gone:
     /// `timeout` after bytes last arrived, but no later than `timeout` plus the frame's
     /// allowance at [`super::limits::MIN_FRAME_RATE`] after a frame being read began. Bytes

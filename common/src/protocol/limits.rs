@@ -115,8 +115,7 @@ pub fn duration_from_secs(
     secs: f64,
     positive: bool,
 ) -> Result<Duration, DurationError> {
-    let ok =
-        secs.is_finite() && secs >= 0.0 && secs <= MAX_FLAG_SECONDS && !(positive && secs == 0.0);
+    let ok = (0.0..=MAX_FLAG_SECONDS).contains(&secs) && !(positive && secs == 0.0);
     if !ok {
         return Err(DurationError {
             flag: flag.to_string(),
