@@ -77,4 +77,10 @@ impl<S: AsyncRead + AsyncWrite + Unpin> Connection<S> {
     pub fn get_ref(&self) -> &S {
         self.framed.get_ref()
     }
+
+    /// The underlying stream, giving up the connection (bytes read but not yet decoded are
+    /// lost; for tests that go on in raw bytes).
+    pub fn into_inner(self) -> S {
+        self.framed.into_inner()
+    }
 }
