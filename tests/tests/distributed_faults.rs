@@ -164,11 +164,36 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     good.tile_delay = Some(Duration::from_millis(20));
     let good = start_worker(good);
 
-    // Wrong token: the worker library reports the master's reason.
+    // Wrong token: the worker finds the master's proof wrong and stops without answering.
     let mut wrong = worker_options(m.addr, 1, "wrong-token");
     wrong.token = parrt::protocol::Token::new("not the token").unwrap();
     let err = start_worker(wrong).await.unwrap().unwrap_err();
-    assert!(err.to_string().contains("wrong token"), "{err}");
+    assert!(err.to_string().contains("did not prove"), "{err}");
+
+    // A raw peer that answers with a wrong MAC is refused with the master's reason.
+    let s = TcpStream::connect(m.addr).await.unwrap();
+    let mut c = Connection::new(s, 1 << 20);
+    c.write(&Message::Hello {
+        version: PROTOCOL_VERSION,
+        name: "guesser".into(),
+        threads: 1,
+        nonce: [6; 32],
+    })
+    .await
+    .unwrap();
+    let Some(Message::Challenge { nonce, .. }) = c.read().await.unwrap() else {
+        panic!("no challenge")
+    };
+    let guess = parrt::protocol::Token::new("not the token").unwrap();
+    c.write(&Message::Auth {
+        mac: guess.worker_proof(&nonce, &[6; 32]),
+    })
+    .await
+    .unwrap();
+    match c.read().await.unwrap() {
+        Some(Message::Refused { reason }) => assert!(reason.contains("wrong token"), "{reason}"),
+        other => panic!("expected Refused, got {other:?}"),
+    }
 
     // Wrong protocol version, spoken in raw frames.
     let mut s = TcpStream::connect(m.addr).await.unwrap();
@@ -176,6 +201,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         version: PROTOCOL_VERSION + 98,
         name: "future".into(),
         threads: 1,
+        nonce: [1; 32],
     }))
     .await
     .unwrap();
@@ -208,18 +234,21 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     // An authenticated peer sending a result for a tile it was never given.
     let s = TcpStream::connect(m.addr).await.unwrap();
     let mut c = Connection::new(s, 1 << 28);
+    let ours = [2u8; 32];
     c.write(&Message::Hello {
         version: PROTOCOL_VERSION,
         name: "liar".into(),
         threads: 1,
+        nonce: ours,
     })
     .await
     .unwrap();
-    let Some(Message::Challenge { nonce }) = c.read().await.unwrap() else {
+    let Some(Message::Challenge { nonce, proof }) = c.read().await.unwrap() else {
         panic!("no challenge")
     };
+    assert!(token().verify_master_proof(&ours, &nonce, &proof));
     c.write(&Message::Auth {
-        mac: token().sign(&nonce),
+        mac: token().worker_proof(&nonce, &ours),
     })
     .await
     .unwrap();
@@ -260,7 +289,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     let r = finish(m).await;
     assert_same_bits(&r.film, &reference, "with bad peers around");
     assert_eq!(r.stats, ref_stats);
-    let refused = r.faults.refused.join(" | ");
+    let refused = r.faults.refused.reasons.join(" | ");
     for want in [
         "wrong token",
         "protocol version",
@@ -282,16 +311,16 @@ async fn worker_reports_a_job_it_cannot_build() {
     let worker = start_worker(worker_options(addr, 1, "w"));
     let (s, _) = listener.accept().await.unwrap();
     let mut c = Connection::new(s, 1 << 20);
-    assert!(matches!(
-        c.read().await.unwrap(),
-        Some(Message::Hello { .. })
-    ));
+    let Some(Message::Hello { nonce: theirs, .. }) = c.read().await.unwrap() else {
+        panic!("no hello")
+    };
     let nonce = [3u8; 32];
-    c.write(&Message::Challenge { nonce }).await.unwrap();
+    let proof = token().master_proof(&theirs, &nonce);
+    c.write(&Message::Challenge { nonce, proof }).await.unwrap();
     let Some(Message::Auth { mac }) = c.read().await.unwrap() else {
         panic!("no auth")
     };
-    assert!(token().verify(&nonce, &mac));
+    assert!(token().verify_worker_proof(&nonce, &theirs, &mac));
     c.write(&Message::Welcome).await.unwrap();
     let mut desc = test_scene(8, 8);
     desc.view.width = 0;

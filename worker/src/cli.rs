@@ -5,7 +5,9 @@ use crate::options::WorkerOptions;
 use crate::session::{self, SessionEnd};
 use anyhow::Context;
 use clap::Args;
+use parrt::protocol::limits::{duration_from_secs, MAX_THREADS};
 use parrt::protocol::Token;
+use std::net::ToSocketAddrs;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -21,6 +23,28 @@ pub const LOG_ENV: &str = "PARRT_LOG";
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct UsageError(pub String);
+
+/// A duration flag given in seconds, checked against [`parrt::protocol::limits`]: finite, not
+/// negative, at most [`parrt::protocol::limits::MAX_FLAG_SECONDS`], and not zero when
+/// `positive`. Out of range is a [`UsageError`] (exit 2) naming the flag. Shared with `parrt
+/// master`'s duration flags.
+pub fn seconds_flag(flag: &str, secs: f64, positive: bool) -> Result<Duration, UsageError> {
+    duration_from_secs(flag, secs, positive).map_err(|e| UsageError(e.to_string()))
+}
+
+/// Checks that `addr` is HOST:PORT and resolves, so a typo fails at once (exit 2) instead of
+/// being retried for the whole dial budget.
+pub fn check_connect_address(addr: &str) -> Result<(), UsageError> {
+    match addr.to_socket_addrs().map(|mut a| a.next()) {
+        Ok(Some(_)) => Ok(()),
+        Ok(None) => Err(UsageError(format!(
+            "--connect {addr}: the name has no address"
+        ))),
+        Err(e) => Err(UsageError(format!(
+            "--connect {addr}: not a HOST:PORT that resolves ({e})"
+        ))),
+    }
+}
 
 /// Where the shared token comes from: `--token`, `--token-file` or `$PARRT_TOKEN`, in that order.
 #[derive(Debug, Clone, Default, Args)]
@@ -69,7 +93,7 @@ pub struct WorkerArgs {
     /// The master's address, HOST:PORT.
     #[arg(long, value_name = "ADDR")]
     pub connect: String,
-    /// Render threads (default: all cores).
+    /// Render threads (default: all cores; at most 4096).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     /// Name reported to the master (default: host-pid).
@@ -87,20 +111,21 @@ impl WorkerArgs {
     /// The worker options these arguments describe.
     pub fn options(&self) -> anyhow::Result<WorkerOptions> {
         let token = self.token.require("a worker")?;
+        check_connect_address(&self.connect)?;
         let mut opts = WorkerOptions::new(self.connect.clone(), token);
         if let Some(t) = self.threads {
-            if t == 0 {
-                return Err(UsageError("--threads must be at least 1".into()).into());
+            if t == 0 || t > MAX_THREADS as usize {
+                return Err(UsageError(format!(
+                    "--threads must be from 1 to {MAX_THREADS}, got {t}"
+                ))
+                .into());
             }
             opts.threads = t;
         }
         if let Some(n) = &self.name {
             opts.name = n.clone();
         }
-        if !(self.dial_timeout.is_finite() && self.dial_timeout >= 0.0) {
-            return Err(UsageError("--dial-timeout must be a number of seconds".into()).into());
-        }
-        opts.dial_timeout = Duration::from_secs_f64(self.dial_timeout);
+        opts.dial_timeout = seconds_flag("--dial-timeout", self.dial_timeout, false)?;
         Ok(opts)
     }
 }
@@ -174,5 +199,37 @@ mod tests {
             token_file: Some(dir.path().join("nope")),
         };
         assert!(missing.resolve().unwrap_err().is::<UsageError>());
+    }
+
+    fn args(connect: &str, threads: Option<usize>, dial_timeout: f64) -> WorkerArgs {
+        WorkerArgs {
+            connect: connect.into(),
+            threads,
+            name: None,
+            dial_timeout,
+            token: TokenArgs {
+                token: Some("t".into()),
+                token_file: None,
+            },
+        }
+    }
+
+    #[test]
+    fn bad_flags_are_usage_errors_not_panics() {
+        for (a, want) in [
+            (args("127.0.0.1:7878", Some(100_000), 30.0), "--threads"),
+            (args("127.0.0.1:7878", Some(0), 30.0), "--threads"),
+            (args("127.0.0.1:7878", None, 1e30), "--dial-timeout"),
+            (args("127.0.0.1:7878", None, -1.0), "--dial-timeout"),
+            (args("nothing", None, 30.0), "--connect nothing"),
+            (args("127.0.0.1:notaport", None, 30.0), "--connect"),
+        ] {
+            let e = a.options().unwrap_err();
+            assert!(e.is::<UsageError>(), "{e}");
+            assert!(e.to_string().contains(want), "{e} lacks {want}");
+        }
+        let ok = args("127.0.0.1:7878", Some(4096), 0.5).options().unwrap();
+        assert_eq!(ok.threads, 4096);
+        assert_eq!(ok.dial_timeout, Duration::from_millis(500));
     }
 }

@@ -1,48 +1,107 @@
 //! Dialling the master: retry with exponential backoff (doubling, capped) until a connection is
 //! made, the time budget is spent, or we are told to stop. Workers may start before the master.
+//! A handshake cut short (the master's connection table full, the master restarting) is retried
+//! within the same budget; a refusal never is.
 
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;
+use std::time::Duration;
 use tokio::net::TcpStream;
 use tokio::time::{sleep, Instant};
 use tokio_util::sync::CancellationToken;
-use tracing::debug;
+use tracing::{debug, warn};
 
 /// Connects to `opts.connect`, retrying with backoff. `Ok(None)` when `stop` fired first.
 pub async fn dial(
     opts: &WorkerOptions,
     stop: &CancellationToken,
 ) -> Result<Option<TcpStream>, WorkerError> {
-    let start = Instant::now();
-    let mut delay = opts.initial_backoff;
-    let mut attempts = 0u32;
-    loop {
-        attempts += 1;
-        let err = tokio::select! {
-            _ = stop.cancelled() => return Ok(None),
-            r = TcpStream::connect(&opts.connect) => match r {
-                Ok(s) => {
-                    let _ = s.set_nodelay(true);
-                    return Ok(Some(s));
-                }
-                Err(e) => e,
-            },
-        };
-        let elapsed = start.elapsed();
-        if elapsed + delay > opts.dial_timeout {
-            return Err(WorkerError::Dial {
-                addr: opts.connect.clone(),
-                attempts,
-                elapsed,
-                last: err,
-            });
+    Dialer::new(opts).connect(stop).await
+}
+
+/// One dial budget shared by every attempt of a session: failed connections and handshakes
+/// cut short (a full connection table, a master restarting) both wait the next backoff delay
+/// and count against [`WorkerOptions::dial_timeout`].
+#[derive(Debug)]
+pub struct Dialer<'a> {
+    opts: &'a WorkerOptions,
+    start: Instant,
+    delay: Duration,
+    attempts: u32,
+}
+
+impl<'a> Dialer<'a> {
+    /// A fresh budget, starting now.
+    pub fn new(opts: &'a WorkerOptions) -> Self {
+        Dialer {
+            opts,
+            start: Instant::now(),
+            delay: opts.initial_backoff,
+            attempts: 0,
         }
-        debug!(addr = %opts.connect, attempt = attempts, error = %err, ?delay, "dial failed, retrying");
+    }
+
+    /// Attempts made so far.
+    pub fn attempts(&self) -> u32 {
+        self.attempts
+    }
+
+    /// Connects, retrying with backoff. `Ok(None)` when `stop` fired first.
+    pub async fn connect(
+        &mut self,
+        stop: &CancellationToken,
+    ) -> Result<Option<TcpStream>, WorkerError> {
+        loop {
+            self.attempts += 1;
+            let err = tokio::select! {
+                _ = stop.cancelled() => return Ok(None),
+                r = TcpStream::connect(&self.opts.connect) => match r {
+                    Ok(s) => {
+                        let _ = s.set_nodelay(true);
+                        return Ok(Some(s));
+                    }
+                    Err(e) => e,
+                },
+            };
+            let elapsed = self.start.elapsed();
+            if elapsed + self.delay > self.opts.dial_timeout {
+                return Err(WorkerError::Dial {
+                    addr: self.opts.connect.clone(),
+                    attempts: self.attempts,
+                    elapsed,
+                    last: err,
+                });
+            }
+            debug!(addr = %self.opts.connect, attempt = self.attempts, error = %err, delay = ?self.delay, "dial failed, retrying");
+            if !self.sleep(stop).await {
+                return Ok(None);
+            }
+        }
+    }
+
+    /// After a handshake cut short by `why`: waits the next backoff delay and returns
+    /// `Ok(true)` to try again, `Ok(false)` when `stop` fired, or `why` itself when the budget
+    /// is spent.
+    pub async fn retry_after(
+        &mut self,
+        why: WorkerError,
+        stop: &CancellationToken,
+    ) -> Result<bool, WorkerError> {
+        if self.start.elapsed() + self.delay > self.opts.dial_timeout {
+            return Err(why);
+        }
+        warn!(addr = %self.opts.connect, attempt = self.attempts, error = %why, delay = ?self.delay, "handshake cut short, retrying");
+        Ok(self.sleep(stop).await)
+    }
+
+    /// Sleeps the current delay and doubles it (capped); false when `stop` fired.
+    async fn sleep(&mut self, stop: &CancellationToken) -> bool {
         tokio::select! {
-            _ = stop.cancelled() => return Ok(None),
-            _ = sleep(delay) => {}
+            _ = stop.cancelled() => return false,
+            _ = sleep(self.delay) => {}
         }
-        delay = (delay * 2).min(opts.max_backoff);
+        self.delay = (self.delay * 2).min(self.opts.max_backoff);
+        true
     }
 }
 
@@ -50,7 +109,6 @@ pub async fn dial(
 mod tests {
     use super::*;
     use parrt::protocol::Token;
-    use std::time::Duration;
 
     /// A loopback port with nothing listening (bound, then released).
     fn dead_port() -> String {

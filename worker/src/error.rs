@@ -39,9 +39,22 @@ pub enum WorkerError {
     /// The master fell silent for too long.
     #[error("no message from master for {0:?}")]
     MasterSilent(Duration),
+    /// The peer we dialled did not prove it knows the token: it is not our master (a wrong
+    /// address, a squatted port) or its token differs. We sent it no MAC.
+    #[error(
+        "the peer at {0} did not prove it knows the token (not a parrt master, or a different \
+         token); nothing was sent to it"
+    )]
+    MasterUnproven(String),
+    /// The master took nothing we wrote for too long (stopped, or not reading).
+    #[error("the master took nothing we sent for {0:?}; giving up")]
+    MasterNotReading(Duration),
     /// The master closed the connection during the handshake.
     #[error("master closed the connection during the handshake")]
     ClosedInHandshake,
+    /// The task building the rayon pool failed (panicked).
+    #[error("cannot start the render threads: {0}")]
+    PoolTask(String),
     /// The rayon pool could not be built.
     #[error("cannot start {threads} render threads: {source}")]
     Pool {
@@ -50,4 +63,18 @@ pub enum WorkerError {
         /// The cause.
         source: rayon::ThreadPoolBuildError,
     },
+}
+
+impl WorkerError {
+    /// Whether this ends a handshake in a way worth retrying: cut or timed out (a full
+    /// connection table, a master restarting), never refused or unproven.
+    pub fn is_cut_handshake(&self) -> bool {
+        matches!(
+            self,
+            WorkerError::ClosedInHandshake
+                | WorkerError::MasterSilent(_)
+                | WorkerError::MasterNotReading(_)
+                | WorkerError::Protocol(ProtocolError::Io(_) | ProtocolError::Truncated(_))
+        )
+    }
 }

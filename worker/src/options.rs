@@ -14,7 +14,7 @@ pub const TILE_DELAY_ENV: &str = "PARRT_WORKER_TILE_DELAY_MS";
 pub struct WorkerOptions {
     /// The master's address, `host:port`.
     pub connect: String,
-    /// Render threads (the size of the rayon pool); at least 1.
+    /// Render threads (the size of the rayon pool); 1 to [`parrt::protocol::limits::MAX_THREADS`].
     pub threads: usize,
     /// The shared secret.
     pub token: Token,
@@ -43,7 +43,9 @@ impl WorkerOptions {
     pub fn new(connect: impl Into<String>, token: Token) -> Self {
         WorkerOptions {
             connect: connect.into(),
-            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            threads: std::thread::available_parallelism()
+                .map_or(1, |n| n.get())
+                .min(parrt::protocol::limits::MAX_THREADS as usize),
             token,
             name: default_name(),
             dial_timeout: Duration::from_secs(30),

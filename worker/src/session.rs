@@ -1,19 +1,27 @@
-//! One worker session: dial, handshake (Hello → Challenge → Auth → Welcome), then the message
-//! loop. The loop owns the connection; renderer builds run on a blocking thread and tiles on the
-//! rayon pool, both reporting back through channels. It ends on Shutdown, when the master goes
-//! away, or when told to stop (Ctrl-C): then it takes no more tiles and disconnects.
+//! One worker session: dial, handshake (Hello with our nonce → Challenge with the master's
+//! proof, checked before we answer → Auth → Welcome), then the message loop. A handshake cut
+//! short is retried within the dial budget; a refusal or a master that cannot prove the token
+//! ends the session at once. The loop owns the connection; the rayon pool and renderer builds
+//! are made on blocking threads and tiles run on the pool, all reporting back through channels,
+//! so heartbeats never wait. Every write is bounded by the master timeout. It ends on Shutdown,
+//! when the master goes away, or when told to stop (Ctrl-C): then it takes no more tiles and
+//! disconnects.
 
-use crate::dial::dial;
+use crate::dial::Dialer;
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;
-use crate::tiles::{JobHandle, TileRenderer};
+use crate::tiles::{JobHandle, TileRenderer, UNSENT_RESULTS};
+use parrt::protocol::limits::{self, MASTER_FRAME_AFTER_JOB, MAX_THREADS};
+use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
     Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
 use parrt::render::Renderer;
 use parrt::tile::Tile;
+use rand::RngCore;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::time::Duration;
 use tokio::net::TcpStream;
 use tokio::sync::mpsc;
 use tokio::time::{interval, sleep_until, timeout, Instant, MissedTickBehavior};
@@ -66,15 +74,27 @@ pub async fn run(
     opts: &WorkerOptions,
     stop: CancellationToken,
 ) -> Result<SessionSummary, WorkerError> {
-    let Some(stream) = dial(opts, &stop).await? else {
-        return Ok(SessionSummary {
-            end: SessionEnd::Stopped,
-            jobs: 0,
-            tiles_rendered: 0,
-        });
+    let stopped = SessionSummary {
+        end: SessionEnd::Stopped,
+        jobs: 0,
+        tiles_rendered: 0,
     };
-    let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
-    handshake(&mut conn, opts).await?;
+    let mut dialer = Dialer::new(opts);
+    let mut conn = loop {
+        let Some(stream) = dialer.connect(&stop).await? else {
+            return Ok(stopped);
+        };
+        let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
+        match handshake(&mut conn, opts).await {
+            Ok(()) => break conn,
+            Err(e) if e.is_cut_handshake() => {
+                if !dialer.retry_after(e, &stop).await? {
+                    return Ok(stopped);
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    };
     conn.set_max_frame(opts.max_frame);
     info!(master = %opts.connect, threads = opts.threads, "authenticated");
     let mut summary = SessionSummary {
@@ -102,6 +122,30 @@ fn is_disconnect(e: &std::io::Error) -> bool {
     )
 }
 
+/// Writes `msg`, giving up when the master takes nothing for `limit`.
+async fn write_within(
+    conn: &mut Connection<TcpStream>,
+    msg: &Message,
+    limit: Duration,
+) -> Result<(), WorkerError> {
+    match timeout(limit, conn.write(msg)).await {
+        Ok(r) => Ok(r?),
+        Err(_) => Err(WorkerError::MasterNotReading(limit)),
+    }
+}
+
+/// Writes several messages with one flush, bounded by `limit` like [`write_within`].
+async fn write_all_within(
+    conn: &mut Connection<TcpStream>,
+    msgs: &[Message],
+    limit: Duration,
+) -> Result<(), WorkerError> {
+    match timeout(limit, conn.write_all(msgs)).await {
+        Ok(r) => Ok(r?),
+        Err(_) => Err(WorkerError::MasterNotReading(limit)),
+    }
+}
+
 async fn read_in_handshake(
     conn: &mut Connection<TcpStream>,
     opts: &WorkerOptions,
@@ -116,15 +160,27 @@ async fn handshake(
     conn: &mut Connection<TcpStream>,
     opts: &WorkerOptions,
 ) -> Result<(), WorkerError> {
-    conn.write(&Message::Hello {
+    let mut ours = [0u8; NONCE_LEN];
+    rand::thread_rng().fill_bytes(&mut ours);
+    let hello = Message::Hello {
         version: PROTOCOL_VERSION,
         name: opts.name.clone(),
-        threads: opts.threads as u32,
-    })
-    .await?;
-    let nonce = match read_in_handshake(conn, opts).await? {
-        Message::Challenge { nonce } => nonce,
-        Message::Refused { reason } => return Err(WorkerError::Refused(reason)),
+        threads: threads(opts) as u32,
+        nonce: ours,
+    };
+    write_within(conn, &hello, opts.handshake_timeout).await?;
+    let theirs = match read_in_handshake(conn, opts).await? {
+        Message::Challenge { nonce, proof } => {
+            // Answer only a peer that proved it knows the token over our nonce: anyone else
+            // gets nothing it could relay or test guesses of the token against.
+            if !opts.token.verify_master_proof(&ours, &nonce, &proof) {
+                return Err(WorkerError::MasterUnproven(opts.connect.clone()));
+            }
+            nonce
+        }
+        Message::Refused { reason } => {
+            return Err(WorkerError::Refused(limits::capped_reason(reason)))
+        }
         other => {
             return Err(WorkerError::Unexpected {
                 got: other.kind(),
@@ -132,18 +188,23 @@ async fn handshake(
             })
         }
     };
-    conn.write(&Message::Auth {
-        mac: opts.token.sign(&nonce),
-    })
-    .await?;
+    let auth = Message::Auth {
+        mac: opts.token.worker_proof(&theirs, &ours),
+    };
+    write_within(conn, &auth, opts.handshake_timeout).await?;
     match read_in_handshake(conn, opts).await? {
         Message::Welcome => Ok(()),
-        Message::Refused { reason } => Err(WorkerError::Refused(reason)),
+        Message::Refused { reason } => Err(WorkerError::Refused(limits::capped_reason(reason))),
         other => Err(WorkerError::Unexpected {
             got: other.kind(),
             during: "waiting for Welcome",
         }),
     }
+}
+
+/// Render threads: the option, kept within 1 ..= [`MAX_THREADS`].
+fn threads(opts: &WorkerOptions) -> usize {
+    opts.threads.clamp(1, MAX_THREADS as usize)
 }
 
 /// The message loop of an authenticated session.
@@ -153,26 +214,32 @@ async fn serve(
     stop: CancellationToken,
     summary: &mut SessionSummary,
 ) -> Result<SessionEnd, WorkerError> {
-    let threads = opts.threads.max(1);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .thread_name(|i| format!("parrt-render-{i}"))
-        .build()
-        .map_err(|source| WorkerError::Pool { threads, source })?;
-    let (out_tx, mut out_rx) = mpsc::unbounded_channel::<Vec<Message>>();
+    let threads = threads(opts);
+    // Starting thousands of threads takes seconds: never on the runtime's thread, so the loop
+    // keeps reading and beating meanwhile.
+    let mut pool_build = tokio::task::spawn_blocking(move || {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("parrt-render-{i}"))
+            .build()
+    });
+    let (out_tx, mut out_rx) = mpsc::channel::<Vec<Message>>(UNSENT_RESULTS);
+    let mut out_tx = Some(out_tx);
     let (built_tx, mut built_rx) = mpsc::unbounded_channel::<Built>();
-    let renderer = TileRenderer::new(pool, out_tx, opts.tile_delay);
+    let mut renderer: Option<TileRenderer> = None;
     let mut job: Option<CurrentJob> = None;
     let mut beat = interval(opts.heartbeat);
     beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
-    // Any message from the master (heartbeats included) proves it is alive.
-    let mut last_heard = Instant::now();
+    let limit = opts.master_timeout;
     let finish = |job: &Option<CurrentJob>| {
         if let Some(j) = job {
             j.cancelled.store(true, Ordering::Relaxed);
         }
     };
     loop {
+        // Any bytes from the master (heartbeats included) prove it is alive; a frame must
+        // still arrive at the floor rate.
+        let alive_until = conn.alive_until(limit);
         tokio::select! {
             _ = stop.cancelled() => {
                 // Stop taking tiles; dropping the connection tells the master to requeue ours.
@@ -180,9 +247,29 @@ async fn serve(
                 info!("stopping: disconnecting from the master");
                 return Ok(SessionEnd::Stopped);
             }
-            _ = sleep_until(last_heard + opts.master_timeout) => {
+            built = &mut pool_build, if renderer.is_none() => {
+                let pool = match built {
+                    Ok(Ok(pool)) => pool,
+                    Ok(Err(source)) => return Err(WorkerError::Pool { threads, source }),
+                    Err(e) => return Err(WorkerError::PoolTask(e.to_string())),
+                };
+                let Some(tx) = out_tx.take() else { continue };
+                let r = TileRenderer::new(pool, tx, opts.tile_delay);
+                if let Some(j) = job.as_mut() {
+                    if let Some(h) = &j.handle {
+                        for batch in j.waiting.drain(..) {
+                            r.submit(h, batch);
+                        }
+                    }
+                }
+                renderer = Some(r);
+            }
+            _ = sleep_until(alive_until) => {
+                if Instant::now() < conn.alive_until(limit) {
+                    continue;
+                }
                 finish(&job);
-                return Err(WorkerError::MasterSilent(opts.master_timeout));
+                return Err(WorkerError::MasterSilent(limit));
             }
             read = conn.read() => {
                 let msg = match read {
@@ -197,18 +284,19 @@ async fn serve(
                     }
                     Ok(Some(m)) => m,
                 };
-                last_heard = Instant::now();
                 match msg {
                     Message::Job(spec) => {
+                        // Only the job is large; everything after it is small.
+                        conn.set_max_receive(MASTER_FRAME_AFTER_JOB.min(opts.max_frame));
                         finish(&job);
                         summary.jobs += 1;
                         job = Some(start_build(*spec, built_tx.clone()));
                     }
                     Message::Assign { job_id, tile, attempt } => {
-                        take_tiles(&mut conn, opts, &renderer, job.as_mut(), job_id, vec![(tile, attempt)]).await?;
+                        take_tiles(&mut conn, opts, renderer.as_ref(), job.as_mut(), job_id, vec![(tile, attempt)]).await?;
                     }
                     Message::AssignBatch { job_id, tiles } => {
-                        take_tiles(&mut conn, opts, &renderer, job.as_mut(), job_id, tiles).await?;
+                        take_tiles(&mut conn, opts, renderer.as_ref(), job.as_mut(), job_id, tiles).await?;
                     }
                     Message::Cancel { job_id } => {
                         if job.as_ref().is_some_and(|j| j.spec_id == job_id) {
@@ -222,7 +310,10 @@ async fn serve(
                         return Ok(SessionEnd::Shutdown);
                     }
                     Message::Heartbeat => {}
-                    Message::Error { reason } => warn!(%reason, "master reported an error"),
+                    Message::Error { reason } => {
+                        let reason = limits::capped_reason(reason);
+                        warn!(%reason, "master reported an error");
+                    }
                     other => {
                         finish(&job);
                         return Err(WorkerError::Unexpected { got: other.kind(), during: "serving" });
@@ -240,15 +331,18 @@ async fn serve(
                             cancelled: j.cancelled.clone(),
                             pixel_format: j.pixel_format,
                         };
-                        conn.write(&Message::Ready { job_id: b.job_id, build_s: b.seconds }).await?;
-                        for batch in j.waiting.drain(..) {
-                            renderer.submit(&handle, batch);
+                        write_within(&mut conn, &Message::Ready { job_id: b.job_id, build_s: b.seconds }, limit).await?;
+                        if let Some(r) = &renderer {
+                            for batch in j.waiting.drain(..) {
+                                r.submit(&handle, batch);
+                            }
                         }
                         j.handle = Some(handle);
                     }
                     Err(reason) => {
                         warn!(job = b.job_id, %reason, "cannot build the job");
-                        conn.write(&Message::Error { reason: format!("cannot build job {}: {reason}", b.job_id) }).await?;
+                        let reason = limits::capped_reason(format!("cannot build job {}: {reason}", b.job_id));
+                        write_within(&mut conn, &Message::Error { reason }, limit).await?;
                         job = None;
                     }
                 }
@@ -258,9 +352,12 @@ async fn serve(
                     .iter()
                     .filter(|m| matches!(m, Message::TileResult { .. }))
                     .count() as u64;
-                conn.write_all(&msgs).await?;
+                if let Err(e) = write_all_within(&mut conn, &msgs, limit).await {
+                    finish(&job);
+                    return Err(e);
+                }
             }
-            _ = beat.tick() => conn.write(&Message::Heartbeat).await?,
+            _ = beat.tick() => write_within(&mut conn, &Message::Heartbeat, limit).await?,
         }
     }
 }
@@ -270,17 +367,15 @@ async fn serve(
 async fn take_tiles(
     conn: &mut Connection<TcpStream>,
     opts: &WorkerOptions,
-    renderer: &TileRenderer,
+    renderer: Option<&TileRenderer>,
     job: Option<&mut CurrentJob>,
     job_id: u64,
     tiles: Vec<(Tile, u32)>,
 ) -> Result<(), WorkerError> {
     let Some(j) = job.filter(|j| j.spec_id == job_id) else {
         let ids: Vec<u32> = tiles.iter().map(|(t, _)| t.id).collect();
-        conn.write(&Message::Error {
-            reason: format!("tile(s) {ids:?} assigned for unknown job {job_id}"),
-        })
-        .await?;
+        let reason = format!("tile(s) {ids:?} assigned for unknown job {job_id}");
+        write_within(conn, &Message::Error { reason }, opts.master_timeout).await?;
         return Ok(());
     };
     let mut batch = Vec::with_capacity(tiles.len());
@@ -304,14 +399,16 @@ async fn take_tiles(
             None
         };
         match problem {
-            Some(reason) => conn.write(&Message::Error { reason }).await?,
+            Some(reason) => {
+                write_within(conn, &Message::Error { reason }, opts.master_timeout).await?
+            }
             None => batch.push((tile, attempt)),
         }
     }
     if !batch.is_empty() {
-        match &j.handle {
-            Some(h) => renderer.submit(h, batch),
-            None => j.waiting.push(batch),
+        match (&j.handle, renderer) {
+            (Some(h), Some(r)) => r.submit(h, batch),
+            _ => j.waiting.push(batch),
         }
     }
     Ok(())

@@ -1,7 +1,8 @@
 //! The bridge between the async message loop and the rayon pool: each tile of a batch is handed
 //! to rayon with `ThreadPool::spawn`, rendered there, and the batch's results come back together
-//! as messages on an unbounded channel (the master's window bounds how many are outstanding), so
-//! the loop wakes and writes once per batch. Never renders on the runtime.
+//! on a bounded channel of [`UNSENT_RESULTS`] batches, so the loop wakes and writes once per
+//! batch; when the master stops taking results, render threads wait instead of piling up
+//! pixels. Never renders on the runtime.
 
 use parrt::protocol::{Message, PixelFormat, TilePixels};
 use parrt::render::Renderer;
@@ -11,7 +12,10 @@ use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use tokio::sync::mpsc::UnboundedSender;
+use tokio::sync::mpsc::Sender;
+
+/// The most rendered results waiting to be sent; a render thread with one more waits.
+pub const UNSENT_RESULTS: usize = 64;
 
 /// One job's renderer and its cancel flag, shared with the tiles in flight.
 #[derive(Clone)]
@@ -30,7 +34,7 @@ pub struct JobHandle {
 /// together, when the batch's last tile is done.
 pub struct TileRenderer {
     pool: rayon::ThreadPool,
-    out: UnboundedSender<Vec<Message>>,
+    out: Sender<Vec<Message>>,
     delay: Option<Duration>,
 }
 
@@ -38,7 +42,7 @@ pub struct TileRenderer {
 struct Batch {
     done: Mutex<Vec<Message>>,
     left: AtomicUsize,
-    out: UnboundedSender<Vec<Message>>,
+    out: Sender<Vec<Message>>,
 }
 
 impl Batch {
@@ -47,8 +51,9 @@ impl Batch {
         let mut done = self.done.lock().unwrap_or_else(|p| p.into_inner());
         done.extend(msg);
         if self.left.fetch_sub(1, Ordering::AcqRel) == 1 && !done.is_empty() {
-            // The loop may have ended (shutdown); then nobody wants the results.
-            let _ = self.out.send(std::mem::take(&mut *done));
+            // The loop may have ended (shutdown); then nobody wants the results. Waits while
+            // the queue is full (on a rayon thread, not the runtime's).
+            let _ = self.out.blocking_send(std::mem::take(&mut *done));
         }
     }
 }
@@ -57,7 +62,7 @@ impl TileRenderer {
     /// Wraps `pool`; results go to `out`; `delay` is the test hook slept before each tile.
     pub fn new(
         pool: rayon::ThreadPool,
-        out: UnboundedSender<Vec<Message>>,
+        out: Sender<Vec<Message>>,
         delay: Option<Duration>,
     ) -> Self {
         TileRenderer { pool, out, delay }

@@ -1,13 +1,27 @@
-//! Authentication: HMAC-SHA256 of the master's nonce keyed with the shared token. The token is
-//! never sent; a MAC is checked in constant time. This proves a worker knows the token; it does
-//! not encrypt anything (see docs/distributed.md).
+//! Mutual authentication with the shared token: each side sends a fresh nonce, and each proves
+//! it knows the token with an HMAC-SHA256 over both nonces, keyed with the token. The master
+//! proves first ([`Token::master_proof`] = HMAC(token, "parrt master proof" ‖ worker nonce ‖
+//! master nonce)); the worker answers only after checking it ([`Token::worker_proof`] =
+//! HMAC(token, "parrt worker proof" ‖ master nonce ‖ worker nonce)). The labels separate the
+//! two roles, so one MAC can never stand for the other, and both nonces bind each MAC to this
+//! one conversation. The token is never sent; MACs are checked in constant time. Nothing is
+//! encrypted (see docs/distributed.md for what this does not stop).
 
+use super::message::NONCE_LEN;
 use hmac::{Hmac, Mac};
 use sha2::Sha256;
 use std::fmt;
 use thiserror::Error;
 
 type HmacSha256 = Hmac<Sha256>;
+
+/// Bytes of a MAC (HMAC-SHA256).
+pub const MAC_LEN: usize = 32;
+
+/// Domain-separation label of the master's proof.
+const MASTER_LABEL: &[u8] = b"parrt master proof\0";
+/// Domain-separation label of the worker's proof (same length as the master's).
+const WORKER_LABEL: &[u8] = b"parrt worker proof\0";
 
 /// Errors making a token.
 #[derive(Debug, Error, PartialEq, Eq)]
@@ -42,23 +56,62 @@ impl Token {
         &self.0
     }
 
-    fn mac(&self) -> HmacSha256 {
+    fn mac(&self, label: &[u8], first: &[u8], second: &[u8]) -> HmacSha256 {
         // HMAC accepts keys of any length; this cannot fail.
-        <HmacSha256 as Mac>::new_from_slice(&self.0).expect("HMAC takes any key length")
+        let mut m =
+            <HmacSha256 as Mac>::new_from_slice(&self.0).expect("HMAC takes any key length");
+        m.update(label);
+        m.update(first);
+        m.update(second);
+        m
     }
 
-    /// The MAC a worker sends for `nonce`.
-    pub fn sign(&self, nonce: &[u8]) -> Vec<u8> {
-        let mut m = self.mac();
-        m.update(nonce);
-        m.finalize().into_bytes().to_vec()
+    /// The master's proof for a conversation: sent in the Challenge, checked by the worker.
+    pub fn master_proof(
+        &self,
+        worker_nonce: &[u8; NONCE_LEN],
+        master_nonce: &[u8; NONCE_LEN],
+    ) -> [u8; MAC_LEN] {
+        self.mac(MASTER_LABEL, worker_nonce, master_nonce)
+            .finalize()
+            .into_bytes()
+            .into()
     }
 
-    /// Whether `mac` is the right MAC of `nonce` (constant-time comparison).
-    pub fn verify(&self, nonce: &[u8], mac: &[u8]) -> bool {
-        let mut m = self.mac();
-        m.update(nonce);
-        m.verify_slice(mac).is_ok()
+    /// Whether `mac` is the master's proof for these nonces (constant-time comparison).
+    pub fn verify_master_proof(
+        &self,
+        worker_nonce: &[u8; NONCE_LEN],
+        master_nonce: &[u8; NONCE_LEN],
+        mac: &[u8],
+    ) -> bool {
+        self.mac(MASTER_LABEL, worker_nonce, master_nonce)
+            .verify_slice(mac)
+            .is_ok()
+    }
+
+    /// The worker's proof for a conversation: sent in Auth, checked by the master.
+    pub fn worker_proof(
+        &self,
+        master_nonce: &[u8; NONCE_LEN],
+        worker_nonce: &[u8; NONCE_LEN],
+    ) -> Vec<u8> {
+        self.mac(WORKER_LABEL, master_nonce, worker_nonce)
+            .finalize()
+            .into_bytes()
+            .to_vec()
+    }
+
+    /// Whether `mac` is the worker's proof for these nonces (constant-time comparison).
+    pub fn verify_worker_proof(
+        &self,
+        master_nonce: &[u8; NONCE_LEN],
+        worker_nonce: &[u8; NONCE_LEN],
+        mac: &[u8],
+    ) -> bool {
+        self.mac(WORKER_LABEL, master_nonce, worker_nonce)
+            .verify_slice(mac)
+            .is_ok()
     }
 }
 
@@ -67,16 +120,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn sign_verifies_and_wrong_token_or_nonce_fails() {
+    fn proofs_verify_and_wrong_token_nonce_or_role_fails() {
         let t = Token::new("secret\n").unwrap();
-        let nonce = [7u8; 32];
-        let mac = t.sign(&nonce);
-        assert_eq!(mac.len(), 32);
-        assert!(t.verify(&nonce, &mac));
-        assert!(!Token::new("Secret").unwrap().verify(&nonce, &mac));
-        assert!(!t.verify(&[8u8; 32], &mac));
-        assert!(!t.verify(&nonce, &mac[..31]));
-        assert!(!t.verify(&nonce, &[]));
+        let (w, m) = ([7u8; NONCE_LEN], [9u8; NONCE_LEN]);
+        let mp = t.master_proof(&w, &m);
+        let wp = t.worker_proof(&m, &w);
+        assert_eq!(wp.len(), MAC_LEN);
+        assert!(t.verify_master_proof(&w, &m, &mp));
+        assert!(t.verify_worker_proof(&m, &w, &wp));
+        // One role's MAC never stands for the other's, even with the nonces swapped.
+        assert!(!t.verify_worker_proof(&m, &w, &mp));
+        assert!(!t.verify_worker_proof(&w, &m, &mp));
+        assert!(!t.verify_master_proof(&w, &m, &wp));
+        assert!(!t.verify_master_proof(&m, &w, &wp));
+        assert!(!Token::new("Secret")
+            .unwrap()
+            .verify_worker_proof(&m, &w, &wp));
+        assert!(!t.verify_worker_proof(&[8u8; NONCE_LEN], &w, &wp));
+        assert!(!t.verify_worker_proof(&m, &[8u8; NONCE_LEN], &wp));
+        assert!(!t.verify_worker_proof(&m, &w, &wp[..31]));
+        assert!(!t.verify_worker_proof(&m, &w, &[]));
     }
 
     #[test]

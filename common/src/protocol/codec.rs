@@ -1,13 +1,17 @@
 //! The pure codec: bytes in, messages out, and back. Frames are length-delimited (4-byte
-//! big-endian length, tokio-util's `LengthDelimitedCodec`) with a maximum size; payloads are
-//! postcard. Never touches a socket, so it is tested on byte buffers alone.
+//! big-endian length, tokio-util's `LengthDelimitedCodec`) with a maximum size for each
+//! direction; payloads are postcard. It also notes when bytes last arrived and when the frame
+//! being read began (and how long it is), so a connection can tell a slow peer from a dead one.
+//! Never touches a socket, so it is tested on byte buffers alone.
 
 use super::message::Message;
-use bytes::{Bytes, BytesMut};
+use super::PROTOCOL_VERSION;
+use bytes::{BufMut, BytesMut};
 use std::io;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use thiserror::Error;
+use tokio::time::Instant;
 use tokio_util::codec::{Decoder, Encoder, LengthDelimitedCodec, LengthDelimitedCodecError};
 
 /// Bytes of the length prefix in front of every frame.
@@ -37,6 +41,10 @@ pub enum ProtocolError {
     /// A message could not be encoded.
     #[error("cannot encode message: {0}")]
     Encode(postcard::Error),
+    /// A Hello of another protocol version whose fields differ from ours: only its version
+    /// could be read (so it can still be refused with a reason).
+    #[error("a Hello of protocol version {0}")]
+    OtherVersion(u32),
 }
 
 /// Frame and byte counts of one connection, shared so they can be read while it runs.
@@ -68,29 +76,57 @@ pub fn encode_payload(msg: &Message) -> Result<Vec<u8>, ProtocolError> {
     postcard::to_stdvec(msg).map_err(ProtocolError::Encode)
 }
 
-/// Decodes one frame's payload; the whole payload must be one message.
+/// Decodes one frame's payload; the whole payload must be one message. A payload that is not a
+/// message but starts like a Hello (variant 0) of another version is
+/// [`ProtocolError::OtherVersion`].
 pub fn decode_payload(payload: &[u8]) -> Result<Message, ProtocolError> {
     let (msg, rest) =
-        postcard::take_from_bytes::<Message>(payload).map_err(ProtocolError::Decode)?;
+        postcard::take_from_bytes::<Message>(payload).map_err(|e| {
+            match hello_version(payload) {
+                Some(v) if v != PROTOCOL_VERSION => ProtocolError::OtherVersion(v),
+                _ => ProtocolError::Decode(e),
+            }
+        })?;
     if !rest.is_empty() {
         return Err(ProtocolError::TrailingBytes(rest.len()));
     }
     Ok(msg)
 }
 
-/// The message codec: `LengthDelimitedCodec` framing with a maximum frame length, postcard
-/// payloads, and byte counters.
+/// The version of a payload that starts as a Hello does (variant 0, then the version as a
+/// postcard varint), whatever follows.
+fn hello_version(payload: &[u8]) -> Option<u32> {
+    #[derive(serde::Deserialize)]
+    enum Head {
+        Hello { version: u32 },
+    }
+    match postcard::take_from_bytes::<Head>(payload) {
+        Ok((Head::Hello { version }, _)) => Some(version),
+        Err(_) => None,
+    }
+}
+
+/// The message codec: `LengthDelimitedCodec` framing with a maximum frame length (one for
+/// frames read, one for frames written), postcard payloads, byte counters, and the instants
+/// that tell a slow peer from a dead one.
 #[derive(Debug)]
 pub struct MessageCodec {
     frames: LengthDelimitedCodec,
     max: usize,
+    max_send: usize,
     counters: Arc<WireCounters>,
     /// The framing codec has consumed a length prefix whose payload has not arrived yet.
     mid_frame: bool,
+    /// Bytes buffered after the last `decode` call (more at the next call means bytes arrived).
+    seen: usize,
+    /// When bytes last arrived (or the codec was made).
+    last_bytes: Instant,
+    /// The frame being read: when its length prefix arrived, and its length.
+    pending: Option<(Instant, usize)>,
 }
 
 impl MessageCodec {
-    /// A codec accepting frames of at most `max_frame` payload bytes.
+    /// A codec reading and writing frames of at most `max_frame` payload bytes.
     pub fn new(max_frame: usize) -> Self {
         MessageCodec {
             frames: LengthDelimitedCodec::builder()
@@ -98,20 +134,41 @@ impl MessageCodec {
                 .length_field_length(LENGTH_PREFIX)
                 .new_codec(),
             max: max_frame,
+            max_send: max_frame,
             counters: Arc::new(WireCounters::default()),
             mid_frame: false,
+            seen: 0,
+            last_bytes: Instant::now(),
+            pending: None,
         }
     }
 
-    /// Changes the maximum frame length (e.g. raised once a peer has authenticated).
+    /// Changes the maximum frame length of both directions (e.g. raised once a peer has
+    /// authenticated).
     pub fn set_max_frame(&mut self, max_frame: usize) {
+        self.set_max_receive(max_frame);
+        self.max_send = max_frame;
+    }
+
+    /// Changes the maximum length of frames read only.
+    pub fn set_max_receive(&mut self, max_frame: usize) {
         self.frames.set_max_frame_length(max_frame);
         self.max = max_frame;
     }
 
-    /// The maximum frame length in force.
+    /// The maximum length of frames read.
     pub fn max_frame(&self) -> usize {
         self.max
+    }
+
+    /// When bytes last arrived (the codec's creation if none have).
+    pub fn last_bytes(&self) -> Instant {
+        self.last_bytes
+    }
+
+    /// The frame being read, if one has begun: when its length prefix arrived, and its length.
+    pub fn pending_frame(&self) -> Option<(Instant, usize)> {
+        self.pending
     }
 
     /// The byte counters of this codec.
@@ -136,9 +193,38 @@ impl Decoder for MessageCodec {
 
     fn decode(&mut self, src: &mut BytesMut) -> Result<Option<Message>, ProtocolError> {
         let before = src.len();
+        if before > self.seen {
+            self.last_bytes = Instant::now();
+        }
+        let announced = (!self.mid_frame && before >= LENGTH_PREFIX)
+            .then(|| u32::from_be_bytes([src[0], src[1], src[2], src[3]]) as usize);
+        let result = self.decode_frame(src, before, announced);
+        self.seen = src.len();
+        result
+    }
+
+    fn decode_eof(&mut self, src: &mut BytesMut) -> Result<Option<Message>, ProtocolError> {
+        match self.decode(src)? {
+            Some(m) => Ok(Some(m)),
+            None if src.is_empty() && !self.mid_frame => Ok(None),
+            None => Err(ProtocolError::Truncated(
+                src.len() + if self.mid_frame { LENGTH_PREFIX } else { 0 },
+            )),
+        }
+    }
+}
+
+impl MessageCodec {
+    fn decode_frame(
+        &mut self,
+        src: &mut BytesMut,
+        before: usize,
+        announced: Option<usize>,
+    ) -> Result<Option<Message>, ProtocolError> {
         match self.frames.decode(src) {
             Ok(Some(frame)) => {
                 self.mid_frame = false;
+                self.pending = None;
                 self.counters
                     .bytes_received
                     .fetch_add((frame.len() + LENGTH_PREFIX) as u64, Ordering::Relaxed);
@@ -150,20 +236,13 @@ impl Decoder for MessageCodec {
             Ok(None) => {
                 if src.len() < before {
                     self.mid_frame = true;
+                    if let Some(len) = announced {
+                        self.pending = Some((Instant::now(), len));
+                    }
                 }
                 Ok(None)
             }
             Err(e) => Err(self.map_frame_err(e)),
-        }
-    }
-
-    fn decode_eof(&mut self, src: &mut BytesMut) -> Result<Option<Message>, ProtocolError> {
-        match self.decode(src)? {
-            Some(m) => Ok(Some(m)),
-            None if src.is_empty() && !self.mid_frame => Ok(None),
-            None => Err(ProtocolError::Truncated(
-                src.len() + if self.mid_frame { LENGTH_PREFIX } else { 0 },
-            )),
         }
     }
 }
@@ -182,9 +261,12 @@ impl Encoder<&Message> for MessageCodec {
     fn encode(&mut self, msg: &Message, dst: &mut BytesMut) -> Result<(), ProtocolError> {
         let payload = encode_payload(msg)?;
         let len = payload.len();
-        self.frames
-            .encode(Bytes::from(payload), dst)
-            .map_err(|e| self.map_frame_err(e))?;
+        if len > self.max_send || u32::try_from(len).is_err() {
+            return Err(ProtocolError::FrameTooLarge { max: self.max_send });
+        }
+        dst.reserve(LENGTH_PREFIX + len);
+        dst.put_u32(len as u32);
+        dst.extend_from_slice(&payload);
         self.counters
             .bytes_sent
             .fetch_add((len + LENGTH_PREFIX) as u64, Ordering::Relaxed);
@@ -253,8 +335,12 @@ mod tests {
                 version: 1,
                 name: "host-1".into(),
                 threads: 4,
+                nonce: [5; 32],
             },
-            Message::Challenge { nonce: [9; 32] },
+            Message::Challenge {
+                nonce: [9; 32],
+                proof: [4; 32],
+            },
             Message::Auth { mac: vec![1; 32] },
             Message::Welcome,
             Message::Refused {
@@ -347,9 +433,73 @@ mod tests {
             version: 7,
             name: String::new(),
             threads: 1,
+            nonce: [0; 32],
         })
         .unwrap();
         assert_eq!(&p[..2], &[0, 7]);
+    }
+
+    #[test]
+    fn a_hello_of_another_shape_is_reported_with_its_version() {
+        // Version 1's Hello had no nonce: it does not decode as ours, but its version reads.
+        let mut v1 = vec![0u8, 1, 2, b'w', b'1', 4];
+        assert!(matches!(
+            decode_payload(&v1),
+            Err(ProtocolError::OtherVersion(1))
+        ));
+        // Our own version with a missing field is just malformed.
+        v1[1] = PROTOCOL_VERSION as u8;
+        assert!(matches!(decode_payload(&v1), Err(ProtocolError::Decode(_))));
+    }
+
+    #[test]
+    fn send_and_receive_limits_differ_when_asked() {
+        let mut codec = MessageCodec::new(1 << 20);
+        codec.set_max_receive(64);
+        let big = Message::Error {
+            reason: "z".repeat(500),
+        };
+        let mut buf = BytesMut::new();
+        codec.encode(&big, &mut buf).unwrap();
+        assert!(matches!(
+            codec.decode(&mut buf),
+            Err(ProtocolError::FrameTooLarge { max: 64 })
+        ));
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn arriving_bytes_and_the_pending_frame_are_noted() {
+        let mut codec = MessageCodec::new(1 << 20);
+        let t0 = Instant::now();
+        let mut all = BytesMut::new();
+        codec
+            .encode(
+                Message::Error {
+                    reason: "q".repeat(1000),
+                },
+                &mut all,
+            )
+            .unwrap();
+        let total = all.len();
+        let mut buf = BytesMut::from(&all[..10]);
+        tokio::time::advance(std::time::Duration::from_secs(3)).await;
+        assert!(codec.decode(&mut buf).unwrap().is_none());
+        let (began, len) = codec.pending_frame().expect("a frame has begun");
+        assert_eq!(len, total - LENGTH_PREFIX);
+        assert_eq!(began, t0 + std::time::Duration::from_secs(3));
+        assert_eq!(codec.last_bytes(), began);
+        // No new bytes: nothing moves.
+        tokio::time::advance(std::time::Duration::from_secs(2)).await;
+        assert!(codec.decode(&mut buf).unwrap().is_none());
+        assert_eq!(codec.last_bytes(), began);
+        // More bytes: progress, same frame.
+        buf.extend_from_slice(&all[10..20]);
+        assert!(codec.decode(&mut buf).unwrap().is_none());
+        assert_eq!(codec.last_bytes(), t0 + std::time::Duration::from_secs(5));
+        assert_eq!(codec.pending_frame().unwrap().0, began);
+        buf.extend_from_slice(&all[20..]);
+        assert!(codec.decode(&mut buf).unwrap().is_some());
+        assert!(codec.pending_frame().is_none());
     }
 
     #[test]
@@ -414,7 +564,7 @@ mod tests {
                     pixels: crate::protocol::TilePixels::encode(&pixels, crate::protocol::PixelFormat::F32),
                     stats: RayStats { eye_rays: job_id, ..RayStats::default() }, seconds,
                 },
-                Message::Hello { version: attempt, name, threads: tile_id },
+                Message::Hello { version: attempt, name, threads: tile_id, nonce: [7; 32] },
             ];
             let mut codec = MessageCodec::new(1 << 20);
             let mut buf = BytesMut::new();

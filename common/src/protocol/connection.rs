@@ -1,13 +1,18 @@
 //! `Connection`: the only protocol type that touches I/O. It owns the stream and its read and
 //! write buffers (through tokio-util's `Framed`). A peer closing between frames is a clean end
-//! (`Ok(None)`); closing in the middle of a frame is an error.
+//! (`Ok(None)`); closing in the middle of a frame is an error. [`Connection::alive_until`] says
+//! until when a peer counts as alive: bytes arriving are life, but a frame must still arrive at
+//! a floor rate.
 
 use super::codec::{MessageCodec, ProtocolError, WireCounters};
+use super::limits::frame_allowance;
 use super::message::Message;
 use futures::{SinkExt, StreamExt};
 use std::sync::Arc;
+use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::net::TcpStream;
+use tokio::time::Instant;
 use tokio_util::codec::Framed;
 
 /// A framed message stream over a socket (or any byte stream, for tests).
@@ -43,9 +48,32 @@ impl<S: AsyncRead + AsyncWrite + Unpin> Connection<S> {
         SinkExt::<&Message>::flush(&mut self.framed).await
     }
 
-    /// Changes the largest frame accepted from now on.
+    /// Changes the largest frame accepted and sent from now on.
     pub fn set_max_frame(&mut self, max_frame: usize) {
         self.framed.codec_mut().set_max_frame(max_frame);
+    }
+
+    /// Changes the largest frame accepted from now on (frames sent keep their limit).
+    pub fn set_max_receive(&mut self, max_frame: usize) {
+        self.framed.codec_mut().set_max_receive(max_frame);
+    }
+
+    /// The frame being read, if one has begun: when its length prefix arrived, and its length.
+    pub fn pending_frame(&self) -> Option<(Instant, usize)> {
+        self.framed.codec().pending_frame()
+    }
+
+    /// The instant after which a peer that must never be silent for `timeout` counts as gone:
+    /// `timeout` after bytes last arrived, but no later than `timeout` plus the frame's
+    /// allowance at [`super::limits::MIN_FRAME_RATE`] after a frame being read began. Bytes
+    /// are seen only while [`Connection::read`] is being polled.
+    pub fn alive_until(&self, timeout: Duration) -> Instant {
+        let codec = self.framed.codec();
+        let idle = codec.last_bytes() + timeout;
+        match codec.pending_frame() {
+            Some((began, len)) => idle.min(began + timeout + frame_allowance(len)),
+            None => idle,
+        }
     }
 
     /// Byte and frame counts of this connection.
@@ -56,5 +84,11 @@ impl<S: AsyncRead + AsyncWrite + Unpin> Connection<S> {
     /// The underlying stream.
     pub fn get_ref(&self) -> &S {
         self.framed.get_ref()
+    }
+
+    /// The underlying stream, giving up the connection (bytes read but not yet decoded are
+    /// lost; for tests that go on in raw bytes).
+    pub fn into_inner(self) -> S {
+        self.framed.into_inner()
     }
 }

@@ -8,7 +8,7 @@ use crate::stats::RayStats;
 use crate::tile::Tile;
 use serde::{Deserialize, Serialize};
 
-/// Length of the master's challenge nonce in bytes.
+/// Length of each side's nonce in bytes.
 pub const NONCE_LEN: usize = 32;
 
 /// One render job: everything a worker needs to render any of its tiles. The scene travels in
@@ -36,15 +36,21 @@ pub enum Message {
         version: u32,
         /// A human-readable name (host and pid) for logs.
         name: String,
-        /// Render threads the worker will use.
+        /// Render threads the worker will use (at most [`super::limits::MAX_THREADS`]).
         threads: u32,
+        /// The worker's random bytes, fresh per connection: the master's proof must cover them.
+        nonce: [u8; NONCE_LEN],
     },
-    /// Master → worker: prove you know the token by signing this.
+    /// Master → worker: the master's proof that it knows the token, and its own nonce for the
+    /// worker to prove the same.
     Challenge {
         /// Random bytes, fresh per connection.
         nonce: [u8; NONCE_LEN],
+        /// [`super::Token::master_proof`] of the worker's nonce and this one.
+        proof: [u8; super::auth::MAC_LEN],
     },
-    /// Worker → master: HMAC-SHA256 of the nonce keyed with the shared token.
+    /// Worker → master, sent only once the master's proof checked out:
+    /// [`super::Token::worker_proof`] of the master's nonce and the worker's.
     Auth {
         /// The MAC bytes.
         mac: Vec<u8>,

@@ -1,18 +1,28 @@
 //! The master/worker wire protocol (DESIGN §8): what the messages are ([`message`]), how they are
-//! framed and encoded ([`codec`]), how a tile's pixels travel ([`pixels`]), how a worker proves it knows the shared token ([`auth`]), and
-//! the one type that touches a socket ([`connection`]).
+//! framed and encoded ([`codec`]), how a tile's pixels travel ([`pixels`]), how master and
+//! worker prove to each other that they know the shared token ([`auth`]), the one type that
+//! touches a socket ([`connection`]), and the named limits on everything a peer controls
+//! ([`limits`]).
 //!
 //! ## Wire format
 //! Every message is one frame: a 4-byte big-endian length, then the message encoded with
 //! [postcard](https://docs.rs/postcard). A frame longer than the connection's limit is an error
-//! before any of it is buffered; the master keeps the limit tiny until a peer has authenticated.
+//! before any of it is buffered. The limit follows the conversation: tiny until a peer has
+//! authenticated ([`limits::HANDSHAKE_MAX_FRAME`]); then on the master what the job's largest
+//! tile needs ([`limits::worker_frame_limit`]); on the worker large only until the Job has
+//! arrived ([`limits::MASTER_FRAME_AFTER_JOB`]). A frame may arrive slowly, but not forever:
+//! bytes arriving count as life, and a frame of `n` bytes must be whole within the peer timeout
+//! plus `n / 64 KiB/s` ([`limits::MIN_FRAME_RATE`]).
 //!
 //! ## Conversation
 //! ```text
 //! worker                         master
-//!   Hello{version,name,threads} →
-//!                               ← Challenge{nonce}        (or Refused: wrong version)
-//!   Auth{mac = HMAC(token,nonce)} →
+//!   Hello{version,name,threads,nonce_w} →
+//!                               ← Challenge{nonce_m, proof}  (or Refused: version, threads)
+//!       proof = HMAC(token, "parrt master proof" ‖ nonce_w ‖ nonce_m)
+//!   (the worker checks the proof; if wrong it hangs up without answering)
+//!   Auth{mac}                   →
+//!       mac = HMAC(token, "parrt worker proof" ‖ nonce_m ‖ nonce_w)
 //!                               ← Welcome                 (or Refused: wrong token)
 //!                               ← Job{job_id, scene, settings, tile_size}
 //!   Ready{job_id, build_s}      →                         (or Error{reason}: cannot build)
@@ -22,26 +32,32 @@
 //!                               ← Cancel{job_id} / Shutdown
 //! ```
 //! [`message::Message::Hello`] is variant 0 and its `version` field comes first, so a peer of any
-//! version can read the version of another and refuse it with a reason.
+//! version can read the version of another and refuse it with a reason (a Hello of another
+//! version that does not decode as ours is reported as [`ProtocolError::OtherVersion`]).
+//!
+//! ## What the handshake proves, and what it does not
+//! Each side proves it knows the token, over nonces both chose, so neither ever MACs a value a
+//! peer picked alone: a peer without the token that a worker dials (a wrong address, a squatted
+//! port) gets no MAC to replay or to test guesses of the token against, and the worker stops
+//! with a clear error. Nothing is encrypted, so it does not stop a man in the middle that relays
+//! both directions of a real conversation on an unencrypted link (it can read the scene and the
+//! pixels); across untrusted networks, tunnel the port over ssh (docs/distributed.md).
 
 pub mod auth;
 pub mod codec;
 pub mod connection;
+pub mod limits;
 pub mod message;
 pub mod pixels;
 
 pub use auth::{AuthError, Token};
 pub use codec::{MessageCodec, ProtocolError, WireCounters};
 pub use connection::Connection;
+pub use limits::{DEFAULT_MAX_FRAME, HANDSHAKE_MAX_FRAME};
 pub use message::{JobSpec, Message};
 pub use pixels::{PixelError, PixelFormat, TilePixels};
 
-/// The protocol version spoken by this build; bumped on any incompatible change.
+/// The protocol version spoken by this build; bumped on any incompatible change (2: mutual
+/// authentication, a nonce in Hello and the master's proof in Challenge; pixels as the output
+/// needs them; batches of tiles).
 pub const PROTOCOL_VERSION: u32 = 2;
-
-/// The default largest frame accepted from an authenticated peer: 256 MiB (a large scene).
-pub const DEFAULT_MAX_FRAME: usize = 256 * 1024 * 1024;
-
-/// The largest frame accepted before a peer has authenticated: Hello and Auth are tiny, so an
-/// unauthenticated peer can never make us reserve much memory.
-pub const HANDSHAKE_MAX_FRAME: usize = 64 * 1024;

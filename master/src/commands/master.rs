@@ -53,7 +53,7 @@ pub struct MasterArgs {
     pub window: usize,
     /// Most tiles in one assignment. Batches are guided: large while much is queued and
     /// tiles are cheap (at most 50 ms of work), single tiles at the tail; 1 sends every tile
-    /// on its own.
+    /// on its own; at most 256.
     #[arg(long, value_name = "N", default_value_t = 8)]
     pub max_batch: usize,
     /// Never duplicate in-flight tiles onto idle workers.
@@ -235,7 +235,8 @@ pub fn report_json(r: &DistResult) -> serde_json::Value {
         "master_cpu_per_tile_us": r.master_cpu_per_tile_us(),
         "master_cpu_per_mb_ms": r.master_cpu_per_mb_ms(),
         "eye_rays": r.stats.eye_rays,
-        "refused": r.faults.refused,
+        "refused": r.faults.refused.count,
+        "refused_reasons": r.faults.refused.reasons,
         "rejected_results": r.faults.rejected_results,
         "duplicate_results": r.faults.duplicate_results,
         "requeued": r.faults.requeued,

@@ -1,9 +1,14 @@
-//! One connection task per peer: the handshake (version check, challenge, HMAC check), then the
-//! relay between the socket and the scheduler. It owns the [`Connection`]; the scheduler talks
+//! One connection task per peer: the handshake (version and thread checks, the master's proof,
+//! the worker's MAC check), then the relay between the socket and the scheduler. It owns the [`Connection`]; the scheduler talks
 //! to it through an outbox channel and hears from it through [`Event`]s. A peer that fails the
-//! handshake, breaks the protocol, falls silent or sends garbage ends only its own task.
+//! handshake, breaks the protocol, falls silent or sends garbage ends only its own task. A peer's
+//! name is only ever logged or kept through [`limits::shown`] (escaped, cut), its reasons
+//! through [`limits::capped_reason`]; every write is bounded by the heartbeat timeout.
 
 use super::scheduler::{Event, WorkerId};
+use super::server::HandshakeSlot;
+use parrt::protocol::limits::{self, MAX_THREADS};
+use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
     Connection, Message, ProtocolError, Token, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
@@ -23,8 +28,12 @@ pub struct ConnContext {
     pub job: Message,
     /// The shared secret.
     pub token: Token,
-    /// Largest frame accepted once authenticated.
+    /// Largest frame sent (the job) once authenticated.
     pub max_frame: usize,
+    /// Largest frame accepted once authenticated ([`limits::worker_frame_limit`] of the tile).
+    pub max_receive: usize,
+    /// Time allowed for writing the job: the heartbeat timeout plus its size at the floor rate.
+    pub job_write_timeout: Duration,
     /// Time allowed for the whole handshake.
     pub handshake_timeout: Duration,
     /// How often to send heartbeats.
@@ -41,13 +50,15 @@ enum Handshake {
     Refused(String),
 }
 
-/// Serves one peer from accept to close. `stop` ends it (telling the worker Shutdown).
+/// Serves one peer from accept to close. `stop` ends it (telling the worker Shutdown). `slot`
+/// is the peer's place in the handshake budget, given back as soon as the handshake ends.
 pub async fn serve(
     stream: TcpStream,
     id: WorkerId,
     ctx: Arc<ConnContext>,
     events: UnboundedSender<Event>,
     stop: CancellationToken,
+    slot: HandshakeSlot,
 ) {
     let peer = stream
         .peer_addr()
@@ -61,6 +72,7 @@ pub async fn serve(
             Err(_) => Handshake::Refused(format!("handshake not finished within {:?}", ctx.handshake_timeout)),
         },
     };
+    drop(slot);
     let (name, threads) = match hs {
         Handshake::Accepted(n, t) => (n, t),
         Handshake::Refused(reason) => {
@@ -69,6 +81,7 @@ pub async fn serve(
         }
     };
     conn.set_max_frame(ctx.max_frame);
+    conn.set_max_receive(ctx.max_receive);
     let (outbox, mut inbox) = mpsc::unbounded_channel();
     let _ = events.send(Event::Joined {
         id,
@@ -82,84 +95,88 @@ pub async fn serve(
     let _ = events.send(Event::Gone { id, reason });
 }
 
+/// Sends Refused (best effort, briefly) and returns the refusal.
+async fn refuse(conn: &mut Connection, reason: String) -> Handshake {
+    let reason = limits::capped_reason(reason);
+    let _ = conn
+        .write(&Message::Refused {
+            reason: reason.clone(),
+        })
+        .await;
+    Handshake::Refused(reason)
+}
+
 async fn handshake(conn: &mut Connection, ctx: &ConnContext) -> Handshake {
-    let refuse = |r: String| Handshake::Refused(r);
-    let (name, threads) = match conn.read().await {
+    let (name, threads, worker_nonce) = match conn.read().await {
         Ok(Some(Message::Hello {
             version,
             name,
             threads,
+            nonce,
         })) => {
+            let name = limits::shown(&name);
             if version != PROTOCOL_VERSION {
                 let reason = format!(
-                    "protocol version {version} from {name:?}; this master speaks {PROTOCOL_VERSION}"
+                    "protocol version {version} from {name}; this master speaks {PROTOCOL_VERSION}"
                 );
-                let _ = conn
-                    .write(&Message::Refused {
-                        reason: reason.clone(),
-                    })
-                    .await;
-                return refuse(reason);
+                return refuse(conn, reason).await;
             }
-            (name, threads)
+            if threads == 0 || threads > MAX_THREADS {
+                let reason = format!(
+                    "{name} offers {threads} threads; from 1 to {MAX_THREADS} are accepted"
+                );
+                return refuse(conn, reason).await;
+            }
+            (name, threads, nonce)
+        }
+        Err(ProtocolError::OtherVersion(version)) => {
+            let reason =
+                format!("protocol version {version}; this master speaks {PROTOCOL_VERSION}");
+            return refuse(conn, reason).await;
         }
         Ok(Some(other)) => {
             let reason = format!("expected Hello, got {}", other.kind());
-            let _ = conn
-                .write(&Message::Refused {
-                    reason: reason.clone(),
-                })
-                .await;
-            return refuse(reason);
+            return refuse(conn, reason).await;
         }
-        Ok(None) => return refuse("closed before Hello".into()),
-        Err(e) => return refuse(bad_bytes(e)),
+        Ok(None) => return Handshake::Refused("closed before Hello".into()),
+        Err(e) => return Handshake::Refused(bad_bytes(e)),
     };
-    let mut nonce = [0u8; parrt::protocol::message::NONCE_LEN];
+    let mut nonce = [0u8; NONCE_LEN];
     rand::thread_rng().fill_bytes(&mut nonce);
-    if let Err(e) = conn.write(&Message::Challenge { nonce }).await {
-        return refuse(format!("cannot send challenge: {e}"));
+    let proof = ctx.token.master_proof(&worker_nonce, &nonce);
+    if let Err(e) = conn.write(&Message::Challenge { nonce, proof }).await {
+        return Handshake::Refused(format!("cannot send challenge: {e}"));
     }
     match conn.read().await {
-        Ok(Some(Message::Auth { mac })) if ctx.token.verify(&nonce, &mac) => {}
+        Ok(Some(Message::Auth { mac }))
+            if ctx.token.verify_worker_proof(&nonce, &worker_nonce, &mac) => {}
         Ok(Some(Message::Auth { .. })) => {
-            let reason = format!("wrong token from {name:?}");
-            let _ = conn
-                .write(&Message::Refused {
-                    reason: reason.clone(),
-                })
-                .await;
-            return refuse(reason);
+            return refuse(conn, format!("wrong token from {name}")).await;
         }
         Ok(Some(other)) => {
-            let reason = format!("expected Auth from {name:?}, got {}", other.kind());
-            let _ = conn
-                .write(&Message::Refused {
-                    reason: reason.clone(),
-                })
-                .await;
-            return refuse(reason);
+            let reason = format!("expected Auth from {name}, got {}", other.kind());
+            return refuse(conn, reason).await;
         }
-        Ok(None) => return refuse(format!("{name:?} closed before Auth")),
-        Err(e) => return refuse(bad_bytes(e)),
-    }
-    if threads == 0 {
-        let reason = format!("{name:?} offers 0 threads");
-        let _ = conn
-            .write(&Message::Refused {
-                reason: reason.clone(),
-            })
-            .await;
-        return refuse(reason);
+        Ok(None) => return Handshake::Refused(format!("{name} closed before Auth")),
+        Err(e) => return Handshake::Refused(bad_bytes(e)),
     }
     if let Err(e) = conn.write(&Message::Welcome).await {
-        return refuse(format!("cannot send Welcome: {e}"));
+        return Handshake::Refused(format!("cannot send Welcome: {e}"));
     }
     Handshake::Accepted(name, threads)
 }
 
 fn bad_bytes(e: ProtocolError) -> String {
     format!("bad bytes in handshake: {e}")
+}
+
+/// Writes `msg`, giving up (with the reason) when the worker does not take it within `limit`.
+async fn write_within(conn: &mut Connection, msg: &Message, limit: Duration) -> Result<(), String> {
+    match timeout(limit, conn.write(msg)).await {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(format!("write failed: {e}")),
+        Err(_) => Err(format!("the worker took nothing for {limit:?}")),
+    }
 }
 
 /// After Shutdown: reads and discards until the worker closes (at most [`DRAIN_TIMEOUT`]), so
@@ -184,25 +201,29 @@ async fn relay(
     stop: &CancellationToken,
 ) -> String {
     let job_sent = Instant::now();
-    if let Err(e) = conn.write(&ctx.job).await {
-        return format!("cannot send the job: {e}");
+    match timeout(ctx.job_write_timeout, conn.write(&ctx.job)).await {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return format!("cannot send the job: {e}"),
+        Err(_) => return format!("the job not taken within {:?}", ctx.job_write_timeout),
     }
+    let limit = ctx.heartbeat_timeout;
     let mut beat = interval(ctx.heartbeat);
     beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
-    // Any message from the worker counts as a heartbeat.
-    let mut last_heard = Instant::now();
     loop {
+        // Any bytes from the worker count as life (a big result may take a while), but each
+        // frame must still arrive at the floor rate.
+        let alive_until = conn.alive_until(limit);
         tokio::select! {
             _ = stop.cancelled() => {
-                let _ = conn.write(&Message::Shutdown).await;
+                let _ = timeout(limit, conn.write(&Message::Shutdown)).await;
                 drain(conn).await;
                 return "master finished".into();
             }
             out = inbox.recv() => match out {
                 Some(msg) => {
                     let last = matches!(msg, Message::Shutdown);
-                    if let Err(e) = conn.write(&msg).await {
-                        return format!("write failed: {e}");
+                    if let Err(e) = write_within(conn, &msg, limit).await {
+                        return e;
                     }
                     if last {
                         drain(conn).await;
@@ -211,18 +232,27 @@ async fn relay(
                 }
                 None => {
                     // The scheduler dropped this worker.
-                    let _ = conn.write(&Message::Shutdown).await;
+                    let _ = timeout(limit, conn.write(&Message::Shutdown)).await;
                     drain(conn).await;
                     return "dropped by the scheduler".into();
                 }
             },
             _ = beat.tick() => {
-                if let Err(e) = conn.write(&Message::Heartbeat).await {
-                    return format!("write failed: {e}");
+                if let Err(e) = write_within(conn, &Message::Heartbeat, limit).await {
+                    return e;
                 }
             }
-            _ = sleep_until(last_heard + ctx.heartbeat_timeout) => {
-                return format!("no heartbeat for {:?}", ctx.heartbeat_timeout);
+            _ = sleep_until(alive_until) => {
+                let now = Instant::now();
+                if now < conn.alive_until(limit) {
+                    continue;
+                }
+                return match conn.pending_frame() {
+                    Some((_, len)) => format!(
+                        "a {len}-byte frame arriving slower than {} bytes/s", limits::MIN_FRAME_RATE
+                    ),
+                    None => format!("no heartbeat for {limit:?}"),
+                };
             }
             read = conn.read() => {
                 let msg = match read {
@@ -230,7 +260,6 @@ async fn relay(
                     Ok(None) => return "disconnected".into(),
                     Ok(Some(m)) => m,
                 };
-                last_heard = Instant::now();
                 let ev = match msg {
                     Message::Heartbeat => continue,
                     Message::Ready { job_id, build_s } => Event::Ready {
@@ -242,11 +271,11 @@ async fn relay(
                     Message::TileResult { job_id, tile_id, attempt, pixels, stats, seconds } => {
                         Event::Result { id, job_id, tile_id, attempt, pixels, stats, seconds }
                     }
-                    Message::Error { reason } => Event::WorkerError { id, reason },
+                    Message::Error { reason } => Event::WorkerError { id, reason: limits::capped_reason(reason) },
                     other => {
                         let reason = format!("protocol violation: unexpected {}", other.kind());
                         info!(worker = id, %reason, "closing connection");
-                        let _ = conn.write(&Message::Error { reason: reason.clone() }).await;
+                        let _ = timeout(limit, conn.write(&Message::Error { reason: reason.clone() })).await;
                         return reason;
                     }
                 };

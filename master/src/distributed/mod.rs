@@ -8,12 +8,14 @@
 //!   no I/O, tested alone.
 //! - [`spawn`]: local worker processes for `parrt render --workers N`.
 //! - [`progress`]: the progress line.
+//! - [`refusals`]: the bounded record of refused handshakes.
 //!
 //! [`render_distributed`] is the one-call entry point (used by `parrt render --workers` and
 //! `parrt master`); [`server::Master`] is the async API underneath.
 
 pub mod connection;
 pub mod progress;
+pub mod refusals;
 pub mod scheduler;
 pub mod server;
 pub mod spawn;

@@ -182,8 +182,8 @@ pub struct WorkerReport {
 /// Counts of things that went wrong and were handled.
 #[derive(Clone, Debug, Default)]
 pub struct FaultCounts {
-    /// Handshakes refused, with the reasons.
-    pub refused: Vec<String>,
+    /// Handshakes refused: a count and a bounded sample of reasons.
+    pub refused: super::refusals::Refusals,
     /// Results rejected (wrong job, unassigned tile, bad pixel count, a NaN or infinite pixel,
     /// impossible ray statistics).
     pub rejected_results: u64,
@@ -311,10 +311,7 @@ impl Scheduler {
     /// Applies one event.
     pub fn handle(&mut self, ev: Event, now: Instant) {
         match ev {
-            Event::Refused { peer, reason } => {
-                warn!(%peer, %reason, "refused a peer");
-                self.faults.refused.push(reason);
-            }
+            Event::Refused { peer, reason } => self.faults.refused.record(&peer, reason, now),
             Event::Joined {
                 id,
                 name,

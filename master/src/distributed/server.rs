@@ -1,5 +1,8 @@
 //! The master's server: binds the listener, accepts peers (each served by a task from
-//! [`super::connection`], at most `max_connections` at once), and runs the scheduler loop until
+//! [`super::connection`], at most `max_connections` at once, of which at most
+//! [`MAX_HANDSHAKING`] still handshaking and [`MAX_HANDSHAKING_PER_PEER`] of those from one
+//! address, so peers that stall their handshake never hold an authenticated worker's slot),
+//! and runs the scheduler loop until
 //! the image is complete, then tells every worker to shut down and waits for the tasks to end
 //! (a `CancellationToken` broadcast and a `TaskTracker`, as in mini-redis's shutdown).
 
@@ -8,18 +11,22 @@ use super::progress::Progress;
 use super::scheduler::{Event, SchedOptions, Scheduler, WorkerId};
 use super::{DistError, DistOptions, DistResult};
 use parrt::description::SceneDescription;
-use parrt::protocol::{JobSpec, Message, Token};
+use parrt::protocol::limits::{
+    frame_allowance, worker_frame_limit, MAX_HANDSHAKING, MAX_HANDSHAKING_PER_PEER,
+};
+use parrt::protocol::{codec, JobSpec, Message, Token};
 use parrt::settings::RenderSettings;
 use parrt::tile::tiles;
-use std::net::SocketAddr;
-use std::sync::Arc;
+use std::collections::HashMap;
+use std::net::{IpAddr, SocketAddr};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::net::TcpListener;
-use tokio::sync::{mpsc, Semaphore};
+use tokio::sync::{mpsc, OwnedSemaphorePermit, Semaphore};
 use tokio::time::{interval, timeout, Instant, MissedTickBehavior};
 use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
-use tracing::{info, warn};
+use tracing::{debug, info, warn};
 
 /// A bound master, ready to render one job.
 pub struct Master {
@@ -86,7 +93,7 @@ impl Master {
                 tile_deadline: opts.tile_deadline,
                 max_failures: opts.max_failures,
                 backups: opts.backups,
-                max_batch: opts.max_batch.max(1),
+                max_batch: opts.max_batch.clamp(1, parrt::protocol::limits::MAX_BATCH),
                 pixel_format: opts.pixel_format,
             },
         );
@@ -97,10 +104,14 @@ impl Master {
             tile_size: opts.tile,
             pixel_format: opts.pixel_format,
         }));
+        // Encoded once to size the time allowed for sending it.
+        let job_bytes = codec::encode_payload(&job).map_or(0, |p| p.len());
         let ctx = Arc::new(ConnContext {
             job,
             token: self.token,
             max_frame: opts.max_frame,
+            max_receive: worker_frame_limit(opts.tile).min(opts.max_frame),
+            job_write_timeout: opts.heartbeat_timeout + frame_allowance(job_bytes),
             handshake_timeout: opts.handshake_timeout,
             heartbeat: opts.heartbeat,
             heartbeat_timeout: opts.heartbeat_timeout,
@@ -227,6 +238,67 @@ impl Master {
     }
 }
 
+/// A peer's place in the handshake budget (overall and per address); given back on drop.
+#[derive(Debug)]
+pub struct HandshakeSlot {
+    _permit: OwnedSemaphorePermit,
+    ip: IpAddr,
+    per_peer: Arc<Mutex<HashMap<IpAddr, usize>>>,
+}
+
+impl Drop for HandshakeSlot {
+    fn drop(&mut self) {
+        let mut map = self.per_peer.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(n) = map.get_mut(&self.ip) {
+            *n -= 1;
+            if *n == 0 {
+                map.remove(&self.ip);
+            }
+        }
+    }
+}
+
+/// The connection budgets: every connection holds a slot of `total`; one still handshaking
+/// also holds a [`HandshakeSlot`].
+struct Admission {
+    total: Arc<Semaphore>,
+    handshaking: Arc<Semaphore>,
+    per_peer: Arc<Mutex<HashMap<IpAddr, usize>>>,
+}
+
+impl Admission {
+    fn new(max_connections: usize) -> Self {
+        let max = max_connections.max(1);
+        Admission {
+            total: Arc::new(Semaphore::new(max)),
+            handshaking: Arc::new(Semaphore::new(MAX_HANDSHAKING.min(max.div_ceil(2)))),
+            per_peer: Arc::default(),
+        }
+    }
+
+    /// Slots for a new peer from `ip`, or why there is none.
+    fn admit(&self, ip: IpAddr) -> Result<(OwnedSemaphorePermit, HandshakeSlot), &'static str> {
+        let mut map = self.per_peer.lock().unwrap_or_else(|e| e.into_inner());
+        let n = map.entry(ip).or_insert(0);
+        if *n >= MAX_HANDSHAKING_PER_PEER {
+            return Err("too many handshakes from this address");
+        }
+        let Ok(permit) = self.handshaking.clone().try_acquire_owned() else {
+            return Err("too many handshakes at once");
+        };
+        let Ok(total) = self.total.clone().try_acquire_owned() else {
+            return Err("too many connections");
+        };
+        *n += 1;
+        let slot = HandshakeSlot {
+            _permit: permit,
+            ip,
+            per_peer: self.per_peer.clone(),
+        };
+        Ok((total, slot))
+    }
+}
+
 async fn accept_loop(
     listener: TcpListener,
     ctx: Arc<ConnContext>,
@@ -235,8 +307,11 @@ async fn accept_loop(
     tracker: TaskTracker,
     max_connections: usize,
 ) {
-    let limit = Arc::new(Semaphore::new(max_connections.max(1)));
+    let admission = Admission::new(max_connections);
     let mut next_id: WorkerId = 1;
+    // Turned-away peers are logged at WARN at most once a second.
+    let mut last_warn: Option<Instant> = None;
+    let mut turned_away = 0u64;
     loop {
         let accepted = tokio::select! {
             _ = stop.cancelled() => return,
@@ -251,15 +326,25 @@ async fn accept_loop(
                 continue;
             }
         };
-        let Ok(permit) = limit.clone().try_acquire_owned() else {
-            warn!(%peer, max_connections, "too many connections; closing this one");
-            continue;
+        let (permit, slot) = match admission.admit(peer.ip()) {
+            Ok(a) => a,
+            Err(why) => {
+                turned_away += 1;
+                let now = Instant::now();
+                if last_warn.is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1)) {
+                    warn!(%peer, max_connections, turned_away, "{why}; closing this one");
+                    last_warn = Some(now);
+                } else {
+                    debug!(%peer, "{why}; closing this one");
+                }
+                continue;
+            }
         };
         let id = next_id;
         next_id += 1;
         let (ctx, events, stop) = (ctx.clone(), events.clone(), stop.clone());
         tracker.spawn(async move {
-            connection::serve(stream, id, ctx, events, stop).await;
+            connection::serve(stream, id, ctx, events, stop, slot).await;
             drop(permit);
         });
     }
