@@ -178,26 +178,33 @@ impl JobKey {
         })
     }
 
-    /// What differs from `other`, for the user (the scene is checked separately).
-    fn differences(&self, other: &JobKey) -> Vec<String> {
+    /// What differs in `file`'s key from this run's, for the user (the scene is checked
+    /// separately).
+    fn differences(&self, file: &JobKey) -> Vec<String> {
         let mut d = Vec::new();
-        if (self.width, self.height) != (other.width, other.height) {
+        if (self.width, self.height) != (file.width, file.height) {
             d.push(format!(
-                "image {}x{}, not {}x{}",
-                other.width, other.height, self.width, self.height
+                "the file has image {}x{}, this run {}x{}",
+                file.width, file.height, self.width, self.height
             ));
         }
-        if self.tile != other.tile {
-            d.push(format!("tile {}, not {}", other.tile, self.tile));
-        }
-        if self.format != other.format {
+        if self.tile != file.tile {
             d.push(format!(
-                "{:?} pixels, not {:?} (the output's kind decides: .exr keeps f32, .png and .ppm 8-bit)",
-                other.format, self.format
+                "the file has tile {}, this run {}",
+                file.tile, self.tile
             ));
         }
-        if self.settings != other.settings && d.is_empty() {
-            d.push("render flags such as --spp, --max-depth, --accel or --precision".into());
+        if self.format != file.format {
+            d.push(format!(
+                "the file has {:?} pixels, this run {:?}: the output's kind decides (.exr keeps \
+                 f32, .png and .ppm 8-bit)",
+                file.format, self.format
+            ));
+        }
+        if self.settings != file.settings && d.is_empty() {
+            d.push(
+                "render flags such as --spp, --max-depth, --cutoff, --accel or --precision".into(),
+            );
         }
         d
     }
@@ -695,7 +702,10 @@ mod tests {
         assert!(e.to_string().contains("pass --resume"), "{e}");
         let (k4, tiles4) = key(4);
         let e = open(&p, &k4, &tiles4, true).unwrap_err();
-        assert!(e.to_string().contains("tile 8, not 4"), "{e}");
+        assert!(
+            e.to_string().contains("the file has tile 8, this run 4"),
+            "{e}"
+        );
         let mut other = k.clone();
         other.scene[0] ^= 1;
         let e = open(&p, &other, &tiles, true).unwrap_err();
