@@ -435,6 +435,14 @@ fn render_through_workers(
             }
         })
         .context("distributed render failed")?;
+    if let Some(c) = &args.checkpoint {
+        eprintln!(
+            "parrt: checkpoint {}: {} tiles restored, {} bad records dropped",
+            c.display(),
+            r.restored_tiles,
+            r.checkpoint_bad_records
+        );
+    }
     let build_s = r.per_worker.iter().map(|w| w.build_s).fold(0.0, f64::max);
     let mut describe = vec![format!(
         "image             {}x{}, {n} local workers × {threads} threads, tile {}, {:?}",

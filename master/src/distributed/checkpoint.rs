@@ -120,14 +120,15 @@ impl JobKey {
         tile: u32,
         format: PixelFormat,
     ) -> Result<JobKey, CheckpointError> {
-        let hash = |bytes: Result<Vec<u8>, postcard::Error>| -> Result<[u8; 32], CheckpointError> {
-            let bytes = bytes.map_err(|e| CheckpointError::Encode(e.to_string()))?;
-            Ok(Sha256::digest(bytes).into())
+        // Streamed into the hash: a large scene is not encoded into memory once more.
+        let hash = |w: Result<HashWriter, postcard::Error>| -> Result<[u8; 32], CheckpointError> {
+            let w = w.map_err(|e| CheckpointError::Encode(e.to_string()))?;
+            Ok(w.0.finalize().into())
         };
         let n = parrt::tile::tiles(settings.width, settings.height, tile.max(1)).len();
         Ok(JobKey {
-            scene: hash(postcard::to_stdvec(desc))?,
-            settings: hash(postcard::to_stdvec(settings))?,
+            scene: hash(postcard::to_io(desc, HashWriter(Sha256::new())))?,
+            settings: hash(postcard::to_io(settings, HashWriter(Sha256::new())))?,
             tile,
             width: settings.width,
             height: settings.height,
@@ -207,6 +208,19 @@ impl JobKey {
             );
         }
         d
+    }
+}
+
+/// Feeds what is written into a SHA-256.
+struct HashWriter(Sha256);
+
+impl Write for HashWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.update(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
     }
 }
 
