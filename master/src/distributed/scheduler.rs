@@ -985,7 +985,7 @@ mod tests {
         let mut bad = accepted(&all[5], 0.5);
         bad.pixels.bytes.pop();
         let mut nan = accepted(&all[6], 0.5);
-        nan.pixels = TilePixels::encode(&vec![[f32::NAN; 3]; 16], PixelFormat::F32);
+        nan.pixels = TilePixels::encode(&[[f32::NAN; 3]; 16], PixelFormat::F32);
         let done = vec![accepted(&all[0], 0.25), accepted(&all[3], 0.75), bad, nan];
         assert_eq!(
             s.restore(done),
