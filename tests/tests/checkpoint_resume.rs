@@ -8,8 +8,10 @@
 use parrt::protocol::PixelFormat;
 use parrt::tile::tiles;
 use parrt_master::distributed::checkpoint::{scan_records, Scan, HEADER_LEN};
+use parrt_tests::{spawn_worker_process, ChildGuard, TEST_TOKEN};
 use parrt_worker::options::TILE_DELAY_ENV;
 use rand::Rng;
+use std::io::BufRead;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -165,8 +167,9 @@ fn kill_at(out: &Path, ckpt: &Path, resume: bool, target: u64) -> u64 {
         .unwrap()
         .read_to_string(&mut err)
         .unwrap();
+    // A worker still dialling when the master died sent nothing and says nothing.
     let sent = worker_tiles(&err);
-    assert_eq!(sent.len(), 2, "both workers report: {err}");
+    assert!(!sent.is_empty(), "the workers report: {err}");
     sent.iter().sum()
 }
 
@@ -269,7 +272,7 @@ fn a_checkpoint_of_another_scene_or_settings_or_without_resume_is_refused_unchan
         .arg(&ckpt)
         .arg("-o")
         .arg(&out)
-        .env("PARRT_TOKEN", parrt_tests::TEST_TOKEN)
+        .env("PARRT_TOKEN", TEST_TOKEN)
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
@@ -346,4 +349,102 @@ fn a_torn_last_record_and_a_flipped_middle_byte_are_dropped_and_rendered_again()
     assert_eq!(s.bad_records, 1, "the bad record stays, never trusted");
     assert_eq!(s.tiles.len(), N_TILES);
     assert_eq!(s.tiles.last().unwrap().tile_id, flipped_tile, "re-rendered");
+}
+
+/// Starts `parrt master` with `--checkpoint` and two delayed worker processes; returns the
+/// master (its stderr after the listening line) and the workers.
+fn master_with_workers(
+    out: &Path,
+    ckpt: &Path,
+    resume: bool,
+    report: Option<&Path>,
+) -> (
+    ChildGuard,
+    std::io::BufReader<std::process::ChildStderr>,
+    Vec<ChildGuard>,
+) {
+    let mut cmd = Command::new(EXE);
+    cmd.args(["master", "--listen", "127.0.0.1:0", "--min-workers", "2"])
+        .args(&base_args(out)[1..])
+        .arg("--checkpoint")
+        .arg(ckpt)
+        .env("PARRT_TOKEN", TEST_TOKEN)
+        .env("PARRT_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    if resume {
+        cmd.arg("--resume");
+    }
+    if let Some(r) = report {
+        cmd.arg("--report-json").arg(r);
+    }
+    let mut master = cmd.spawn().expect("start parrt master");
+    let mut stderr = std::io::BufReader::new(master.stderr.take().unwrap());
+    let master = ChildGuard(master);
+    let mut line = String::new();
+    let addr = loop {
+        line.clear();
+        assert!(
+            stderr.read_line(&mut line).unwrap() > 0,
+            "master ended early"
+        );
+        if let Some(rest) = line.split("listening on ").nth(1) {
+            break rest.split(';').next().unwrap().trim().parse().unwrap();
+        }
+    };
+    let workers = (0..2)
+        .map(|_| spawn_worker_process(EXE.as_ref(), addr, 1, Some(DELAY_MS), TEST_TOKEN))
+        .collect();
+    (master, stderr, workers)
+}
+
+#[test]
+fn a_killed_parrt_master_resumes_with_its_workers_to_the_same_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    let (smp, smp_stats) = reference(dir.path(), "ref.exr");
+    let ckpt = dir.path().join("master.ckpt");
+    let out = dir.path().join("master.exr");
+    let target = rand::thread_rng().gen_range(5..=40);
+    let (mut master, _err, _workers) = master_with_workers(&out, &ckpt, false, None);
+    let t0 = Instant::now();
+    while std::fs::metadata(&ckpt).map_or(0, |m| m.len()) < HEADER_LEN as u64 + target * RECORD_F32
+    {
+        assert!(master.0.try_wait().unwrap().is_none(), "ended early");
+        assert!(t0.elapsed() < Duration::from_secs(15), "no progress");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    master.signal("KILL");
+    master.0.wait().unwrap();
+    let before = scan(&ckpt, PixelFormat::F32).tiles.len() as u64;
+    assert!(before >= target && before < N_TILES as u64, "{before}");
+
+    let report = dir.path().join("report.json");
+    let (mut master, mut err, _workers) = master_with_workers(&out, &ckpt, true, Some(&report));
+    let status = master.0.wait().unwrap();
+    let mut rest = String::new();
+    err.read_to_string(&mut rest).unwrap();
+    assert!(status.success(), "{rest}");
+    assert!(
+        rest.contains(&format!("checkpoint: {before} tiles restored")),
+        "{rest}"
+    );
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        smp,
+        "resumed master EXR = SMP EXR"
+    );
+    let r = json(&report);
+    assert_eq!(r["restored_tiles"], before);
+    assert_eq!(r["eye_rays"], smp_stats["eye_rays"]);
+    let rendered: u64 = r["workers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["tiles"].as_u64().unwrap())
+        .sum();
+    assert_eq!(rendered, N_TILES as u64 - before, "only the missing tiles");
+    assert!(
+        rest.contains(&format!("{} rays", smp_stats["total_rays"])),
+        "{rest}"
+    );
 }

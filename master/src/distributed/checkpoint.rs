@@ -426,7 +426,7 @@ fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> Check
 /// Opens the checkpoint at `path` for the job `key` of `tiles`. Without `resume` the file must
 /// not exist; with it, an existing file must be of the same job (else it is refused and left
 /// as it is), its good records are returned and anything after the last good one is cut off;
-/// a missing file is created either way.
+/// a missing (or empty) file is started either way.
 pub fn open(
     path: &Path,
     key: &JobKey,
@@ -466,6 +466,20 @@ pub fn open(
         .open(path)
         .map_err(io("open", path))?;
     let file_len = file.metadata().map_err(io("read", path))?.len();
+    if file_len == 0 {
+        // A master killed between creating the file and writing its header: nothing to lose.
+        file.write_all(&key.header())
+            .and_then(|()| file.sync_all())
+            .map_err(io("write", path))?;
+        return Ok(Opened {
+            checkpoint: Checkpoint::new(file, path),
+            scan: Scan {
+                good_len: HEADER_LEN as u64,
+                ..Scan::default()
+            },
+            created: true,
+        });
+    }
     let mut head = [0u8; HEADER_LEN];
     let mut reader = std::io::BufReader::new(&mut file);
     if !read_full(&mut reader, &mut head).map_err(io("read", path))? {
@@ -739,6 +753,11 @@ mod tests {
         let o = open(&p, &k, &tiles, true).unwrap();
         assert_eq!(o.scan.tiles.len(), 2);
         assert_eq!(o.scan.cut_bytes, 0);
+        std::fs::write(&p, b"").unwrap();
+        let o = open(&p, &k, &tiles, true).unwrap();
+        assert!(o.created, "an empty file is a header never written");
+        drop(o);
+        assert_eq!(std::fs::read(&p).unwrap().len(), HEADER_LEN);
         std::fs::write(&p, b"not a checkpoint").unwrap();
         let e = open(&p, &k, &tiles, true).unwrap_err();
         assert!(matches!(e, CheckpointError::NotACheckpoint(_)), "{e}");
