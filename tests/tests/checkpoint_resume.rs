@@ -265,6 +265,11 @@ fn a_checkpoint_of_another_scene_or_settings_or_without_resume_is_refused_unchan
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("the file has F32 pixels, this run Rgb8"));
     assert_eq!(std::fs::read(&ckpt).unwrap(), before);
+    // The checkpoint cannot be the image too.
+    let o = run(&dist_args(&out, &out, false), false);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("is also an output of this run"));
+    assert!(!out.exists());
     // parrt master refuses it too, before listening.
     let o = Command::new(EXE)
         .args(["master", "--listen", "127.0.0.1:0", "--scene", "balls:2"])

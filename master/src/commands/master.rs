@@ -2,7 +2,7 @@
 //! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
 use super::durations::{seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE};
-use super::output::{check_file_output, check_image_output};
+use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
 use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::distributed::{render_distributed, DistError, DistOptions, DistResult, DEFAULT_LISTEN};
@@ -147,6 +147,11 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     check_image_output(&args.output)?;
     for p in [&args.report_json, &args.checkpoint].into_iter().flatten() {
         check_file_output(p)?;
+    }
+    if let Some(c) = &args.checkpoint {
+        let mut others = vec![args.output.as_path()];
+        others.extend(args.report_json.as_deref());
+        check_checkpoint_apart(c, &others)?;
     }
     check_listen(&args.listen)?;
     let (desc, label) = load_scene(&args)?;

@@ -2,7 +2,7 @@
 //! image on this machine's cores (or through local workers with `--workers`), with a progress
 //! bar on a terminal and the ray statistics of DESIGN §9 on request.
 
-use super::output::{check_file_output, check_image_output};
+use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
@@ -504,6 +504,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         .flatten()
     {
         check_file_output(p)?;
+    }
+    if let Some(c) = &args.checkpoint {
+        let mut others = vec![args.output.as_path()];
+        others.extend(args.stats_json.as_deref());
+        others.extend(args.tile_costs.as_deref());
+        check_checkpoint_apart(c, &others)?;
     }
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
