@@ -2,7 +2,7 @@
 //! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
 use super::durations::{seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE};
-use super::output::{check_file_output, check_image_output};
+use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
 use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::distributed::{render_distributed, DistError, DistOptions, DistResult, DEFAULT_LISTEN};
@@ -59,6 +59,16 @@ pub struct MasterArgs {
     /// Never duplicate in-flight tiles onto idle workers.
     #[arg(long)]
     pub no_backups: bool,
+    /// Record each accepted tile in FILE: append-only, every record checksummed, synced to disk
+    /// at least every second. If the master dies, run the same command with --resume to render
+    /// only the tiles not in FILE. An existing FILE is refused without --resume.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<PathBuf>,
+    /// Continue the render recorded in --checkpoint FILE: its good records are kept (a torn or
+    /// corrupt record is dropped and its tile rendered again), the rest is rendered. A FILE of
+    /// another scene or other settings is refused (exit 2) and left unchanged.
+    #[arg(long, requires = "checkpoint")]
+    pub resume: bool,
     /// Write timings, traffic and per-worker figures as JSON.
     #[arg(long, value_name = "FILE")]
     pub report_json: Option<PathBuf>,
@@ -135,8 +145,13 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         MAX_FLAG_DURATION,
     )?;
     check_image_output(&args.output)?;
-    if let Some(p) = &args.report_json {
+    for p in [&args.report_json, &args.checkpoint].into_iter().flatten() {
         check_file_output(p)?;
+    }
+    if let Some(c) = &args.checkpoint {
+        let mut others = vec![args.output.as_path()];
+        others.extend(args.report_json.as_deref());
+        check_checkpoint_apart(c, &others)?;
     }
     check_listen(&args.listen)?;
     let (desc, label) = load_scene(&args)?;
@@ -158,6 +173,8 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         max_batch: args.max_batch.max(1),
         backups: !args.no_backups,
         pixel_format: crate::distributed::pixel_format_for(&args.output),
+        checkpoint: args.checkpoint.clone(),
+        resume: args.resume,
         ..DistOptions::default()
     };
     let result = render_distributed(&desc, &settings, &opts, &|addr| {
@@ -166,9 +183,12 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
             settings.width, settings.height, opts.tile
         );
     })
-    .map_err(|e| match e {
-        DistError::TileTooLarge { .. } => input_error(e),
-        e => anyhow::Error::new(e),
+    .map_err(|e: DistError| {
+        if e.is_bad_input() {
+            input_error(e)
+        } else {
+            anyhow::Error::new(e)
+        }
     })
     .context("distributed render failed")?;
     result
@@ -195,6 +215,12 @@ fn print_summary(r: &DistResult, out: &std::path::Path) {
         (r.bytes_sent + r.bytes_received) as f64 / r.tiles.max(1) as f64,
         r.scene_transfer_s,
     );
+    if r.restored_tiles > 0 || r.checkpoint_bad_records > 0 {
+        eprintln!(
+            "  checkpoint: {} tiles restored, {} bad records dropped",
+            r.restored_tiles, r.checkpoint_bad_records
+        );
+    }
     for w in &r.per_worker {
         eprintln!(
             "  {:<20} {:>2} threads {:>6} tiles {:>8.3} s render{}",
@@ -226,6 +252,8 @@ fn print_summary(r: &DistResult, out: &std::path::Path) {
 pub fn report_json(r: &DistResult) -> serde_json::Value {
     serde_json::json!({
         "tiles": r.tiles,
+        "restored_tiles": r.restored_tiles,
+        "checkpoint_bad_records": r.checkpoint_bad_records,
         "trace_s": r.trace_s,
         "bytes_sent": r.bytes_sent,
         "bytes_received": r.bytes_received,

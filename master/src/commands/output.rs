@@ -17,6 +17,18 @@ pub fn check_file_output(path: &Path) -> anyhow::Result<()> {
     parrt::film::check_writable(path).map_err(input_error)
 }
 
+/// Refuses a `--checkpoint` file that is also another output of the run (it would be
+/// overwritten by it, or overwrite it).
+pub fn check_checkpoint_apart(checkpoint: &Path, others: &[&Path]) -> anyhow::Result<()> {
+    if others.contains(&checkpoint) {
+        return Err(input_error(anyhow::anyhow!(
+            "--checkpoint {} is also an output of this run; give it a file of its own",
+            checkpoint.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Creates an output directory (and its parents) and checks that files can be written in it.
 pub fn prepare_out_dir(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir)

@@ -2,7 +2,7 @@
 //! image on this machine's cores (or through local workers with `--workers`), with a progress
 //! bar on a terminal and the ray statistics of DESIGN §9 on request.
 
-use super::output::{check_file_output, check_image_output};
+use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
@@ -178,6 +178,15 @@ pub struct RenderArgs {
     /// Render through N local worker processes (master/worker over TCP on 127.0.0.1).
     #[arg(long, value_name = "N")]
     pub workers: Option<usize>,
+    /// With --workers: record each accepted tile in FILE (append-only, checksummed, synced
+    /// every second) so that a killed render can be continued with --resume. An existing FILE
+    /// is refused without --resume.
+    #[arg(long, value_name = "FILE", requires = "workers")]
+    pub checkpoint: Option<PathBuf>,
+    /// Continue the render recorded in --checkpoint FILE, rendering only the tiles not in it.
+    /// A FILE of another scene or other settings is refused (exit 2) and left unchanged.
+    #[arg(long, requires = "checkpoint")]
+    pub resume: bool,
     /// Render settings.
     #[command(flatten)]
     pub render: RenderFlags,
@@ -413,10 +422,27 @@ fn render_through_workers(
         tile: args.tile,
         min_workers: n,
         pixel_format: crate::distributed::pixel_format_for(&args.output),
+        checkpoint: args.checkpoint.clone(),
+        resume: args.resume,
         ..DistOptions::default()
     };
-    let r =
-        render_distributed(desc, settings, &opts, &|_| {}).context("distributed render failed")?;
+    let r = render_distributed(desc, settings, &opts, &|_| {})
+        .map_err(|e| {
+            if e.is_bad_input() {
+                input_error(e)
+            } else {
+                anyhow::Error::new(e)
+            }
+        })
+        .context("distributed render failed")?;
+    if let Some(c) = &args.checkpoint {
+        eprintln!(
+            "parrt: checkpoint {}: {} tiles restored, {} bad records dropped",
+            c.display(),
+            r.restored_tiles,
+            r.checkpoint_bad_records
+        );
+    }
     let build_s = r.per_worker.iter().map(|w| w.build_s).fold(0.0, f64::max);
     let mut describe = vec![format!(
         "image             {}x{}, {n} local workers × {threads} threads, tile {}, {:?}",
@@ -455,6 +481,9 @@ fn render_through_workers(
         extra: json!({
             "workers": n,
             "threads_per_worker": threads,
+            "tiles_per_worker": r.per_worker.iter().map(|w| w.tiles).collect::<Vec<_>>(),
+            "restored_tiles": r.restored_tiles,
+            "checkpoint_bad_records": r.checkpoint_bad_records,
             "bytes_sent": r.bytes_sent,
             "bytes_received": r.bytes_received,
             "scene_transfer_s": r.scene_transfer_s,
@@ -470,8 +499,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
     // Every output is checked before the render, so a typo costs nothing.
     check_image_output(&args.output)?;
-    for p in [&args.stats_json, &args.tile_costs].into_iter().flatten() {
+    for p in [&args.stats_json, &args.tile_costs, &args.checkpoint]
+        .into_iter()
+        .flatten()
+    {
         check_file_output(p)?;
+    }
+    if let Some(c) = &args.checkpoint {
+        let mut others = vec![args.output.as_path()];
+        others.extend(args.stats_json.as_deref());
+        others.extend(args.tile_costs.as_deref());
+        check_checkpoint_apart(c, &others)?;
     }
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));

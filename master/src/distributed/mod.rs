@@ -7,12 +7,14 @@
 //! - [`scheduler`]: the job's state and rules (windows, deadlines, first result wins, backups);
 //!   no I/O, tested alone.
 //! - [`spawn`]: local worker processes for `parrt render --workers N`.
+//! - [`checkpoint`]: the file of accepted tiles a killed master resumes from.
 //! - [`progress`]: the progress line.
 //! - [`refusals`]: the bounded record of refused handshakes.
 //!
 //! [`render_distributed`] is the one-call entry point (used by `parrt render --workers` and
 //! `parrt master`); [`server::Master`] is the async API underneath.
 
+pub mod checkpoint;
 pub mod connection;
 pub mod progress;
 pub mod refusals;
@@ -93,9 +95,24 @@ pub enum DistError {
         /// The frame limit.
         max_frame: usize,
     },
+    /// The checkpoint could not be used (another job's, exists without `--resume`, I/O).
+    #[error(transparent)]
+    Checkpoint(#[from] checkpoint::CheckpointError),
     /// The async runtime could not start.
     #[error("cannot start the async runtime: {0}")]
     Runtime(std::io::Error),
+}
+
+impl DistError {
+    /// Whether the user's input caused it (exit 2): a tile too large for a frame, a checkpoint
+    /// of another job or one that exists without `--resume`.
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            DistError::TileTooLarge { .. } => true,
+            DistError::Checkpoint(e) => e.is_bad_input(),
+            _ => false,
+        }
+    }
 }
 
 /// Reasons shown in [`DistError::NoWorkers`] at most.
@@ -176,6 +193,10 @@ pub struct DistOptions {
     /// written (a quarter of the bytes; the written image is the same), `F32` for the exact
     /// film (the default).
     pub pixel_format: PixelFormat,
+    /// Record each accepted tile in this file ([`checkpoint`]).
+    pub checkpoint: Option<std::path::PathBuf>,
+    /// Continue the render recorded in `checkpoint` (else an existing file is refused).
+    pub resume: bool,
 }
 
 impl Default for DistOptions {
@@ -201,6 +222,8 @@ impl Default for DistOptions {
             max_connections: 1024,
             progress: true,
             pixel_format: PixelFormat::F32,
+            checkpoint: None,
+            resume: false,
         }
     }
 }
@@ -231,6 +254,10 @@ pub struct DistResult {
     pub faults: FaultCounts,
     /// Tiles in the image.
     pub tiles: usize,
+    /// Tiles taken from the checkpoint rather than rendered.
+    pub restored_tiles: usize,
+    /// Checkpoint records not trusted on resume (bad checksum, not a tile of this job).
+    pub checkpoint_bad_records: usize,
 }
 
 impl DistResult {
@@ -297,8 +324,30 @@ pub fn render_distributed(
         .enable_all()
         .build()
         .map_err(DistError::Runtime)?;
+    // The checkpoint is opened (and a wrong one refused) before anything listens.
+    let opened = match &opts.checkpoint {
+        Some(path) => {
+            let key = checkpoint::JobKey::new(desc, settings, opts.tile, opts.pixel_format)?;
+            let list = parrt::tile::tiles(settings.width, settings.height, opts.tile.max(1));
+            let o = checkpoint::open(path, &key, &list, opts.resume)?;
+            if !o.created {
+                tracing::info!(
+                    checkpoint = %path.display(),
+                    tiles = o.scan.tiles.len(),
+                    bad_records = o.scan.bad_records,
+                    cut_bytes = o.scan.cut_bytes,
+                    "resuming"
+                );
+            }
+            Some(o)
+        }
+        None => None,
+    };
     rt.block_on(async {
-        let master = Master::bind(opts, token.clone()).await?;
+        let mut master = Master::bind(opts, token.clone()).await?;
+        if let Some(o) = opened {
+            master.set_checkpoint(o);
+        }
         let addr = master.local_addr();
         on_listen(addr);
         let _children = if opts.workers_to_spawn > 0 {

@@ -116,6 +116,19 @@ pub struct SchedOptions {
     pub pixel_format: PixelFormat,
 }
 
+/// A tile the scheduler accepted, as it came: what a checkpoint records and gives back.
+#[derive(Clone, Debug)]
+pub struct AcceptedTile {
+    /// The tile's id.
+    pub tile_id: u32,
+    /// Its pixels in the job's format.
+    pub pixels: TilePixels,
+    /// Its ray statistics.
+    pub stats: RayStats,
+    /// Its render seconds.
+    pub seconds: f64,
+}
+
 /// One assignment of a tile to a worker.
 #[derive(Clone, Copy, Debug)]
 struct Assignment {
@@ -228,6 +241,8 @@ pub struct Scheduler {
     /// caps the batch size.
     cost: (f64, u32),
     faults: FaultCounts,
+    /// Tiles accepted since [`Scheduler::take_accepted`] last ran, when a sink wants them.
+    accepted: Option<Vec<AcceptedTile>>,
 }
 
 impl Scheduler {
@@ -260,7 +275,59 @@ impl Scheduler {
             scratch: Vec::new(),
             cost: (0.0, 0),
             faults: FaultCounts::default(),
+            accepted: None,
         }
+    }
+
+    /// Starts keeping each newly accepted tile for [`Self::take_accepted`] (a checkpoint's
+    /// sink); without it nothing is kept.
+    pub fn keep_accepted(&mut self) {
+        self.accepted.get_or_insert_with(Vec::new);
+    }
+
+    /// The tiles accepted since the last call (none unless [`Self::keep_accepted`] was called).
+    pub fn take_accepted(&mut self) -> Vec<AcceptedTile> {
+        self.accepted
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
+    /// Marks tiles done before any worker came (from a checkpoint): each is checked as a
+    /// result is, written into the film and counted in the statistics and tile seconds; a
+    /// tile that fails the checks, or is already done, stays to be rendered. Returns how many
+    /// were taken.
+    pub fn restore(&mut self, done: Vec<AcceptedTile>) -> usize {
+        let mut taken = 0;
+        let mut decoded = std::mem::take(&mut self.scratch);
+        for t in done {
+            let Some(&tile) = self.tiles.get(t.tile_id as usize) else {
+                continue;
+            };
+            let ok = t
+                .pixels
+                .decode_into(self.opts.pixel_format, tile.pixel_count(), &mut decoded)
+                .is_ok()
+                && t.stats
+                    .check_tile(&tile, &self.settings, self.lights)
+                    .is_ok();
+            let i = tile.id as usize;
+            if ok
+                && self.state[i] == TileState::Queued
+                && self.film.write_tile(&tile, &decoded).is_ok()
+            {
+                self.state[i] = TileState::Done;
+                self.stats += t.stats;
+                self.tile_seconds[i] = t.seconds;
+                self.done += 1;
+                taken += 1;
+            }
+        }
+        self.scratch = decoded;
+        let state = &self.state;
+        self.queue
+            .retain(|&t| state[t as usize] == TileState::Queued);
+        taken
     }
 
     /// Whether every tile is in the film.
@@ -430,23 +497,42 @@ impl Scheduler {
                 self.requeue(tile_id);
                 self.fail(id, reason);
             }
-            None => self.accept(id, t, &decoded, stats, seconds),
+            None => {
+                if self.accept(id, t, &decoded, stats, seconds) {
+                    if let Some(sink) = &mut self.accepted {
+                        sink.push(AcceptedTile {
+                            tile_id,
+                            pixels: pixels.clone(),
+                            stats,
+                            seconds,
+                        });
+                    }
+                }
+            }
         }
         self.scratch = decoded;
     }
 
-    /// Writes a checked result into the film unless the tile is already done.
-    fn accept(&mut self, id: WorkerId, t: usize, pixels: &[Rgb], stats: RayStats, seconds: f64) {
+    /// Writes a checked result into the film unless the tile is already done; says whether it
+    /// did.
+    fn accept(
+        &mut self,
+        id: WorkerId,
+        t: usize,
+        pixels: &[Rgb],
+        stats: RayStats,
+        seconds: f64,
+    ) -> bool {
         let tile = self.tiles[t];
         if self.state[t] == TileState::Done {
             self.faults.duplicate_results += 1;
             debug!(worker = id, tile_id = t, "duplicate result ignored");
-            return;
+            return false;
         }
         if let Err(e) = self.film.write_tile(&tile, pixels) {
             // Cannot happen: the tile is ours and the count was checked.
             warn!(error = %e, "tile does not fit the film");
-            return;
+            return false;
         }
         if let Some(w) = self.workers.get_mut(&id) {
             w.tiles += 1;
@@ -461,6 +547,7 @@ impl Scheduler {
         self.stats += stats;
         self.tile_seconds[t] = seconds;
         self.done += 1;
+        true
     }
 
     /// Counts a failure against `id`; drops it when it has failed too often.
@@ -867,6 +954,65 @@ mod tests {
             },
             seconds: 0.1,
         }
+    }
+
+    fn accepted(tile: &Tile, value: f32) -> AcceptedTile {
+        let Event::Result {
+            pixels,
+            stats,
+            seconds,
+            ..
+        } = result(1, tile, 1, value)
+        else {
+            unreachable!()
+        };
+        AcceptedTile {
+            tile_id: tile.id,
+            pixels,
+            stats,
+            seconds,
+        }
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn restored_tiles_are_not_handed_out_and_new_ones_reach_the_sink() {
+        let all = tiles(16, 8, 4);
+        let mut s = sched(3);
+        s.keep_accepted();
+        let mut bad = accepted(&all[5], 0.5);
+        bad.pixels.bytes.pop();
+        let mut nan = accepted(&all[6], 0.5);
+        nan.pixels = TilePixels::encode(&[[f32::NAN; 3]; 16], PixelFormat::F32);
+        let done = vec![accepted(&all[0], 0.25), accepted(&all[3], 0.75), bad, nan];
+        assert_eq!(
+            s.restore(done),
+            2,
+            "the short and the NaN records are refused"
+        );
+        assert_eq!(s.progress(), (2, 8));
+        assert_eq!(s.stats.eye_rays, 32);
+        let mut rx = join(&mut s, 1, 4);
+        s.fill(Instant::now());
+        let sent = assigned(&mut rx);
+        let ids: Vec<u32> = sent.iter().map(|(t, _)| t.id).collect();
+        assert_eq!(ids, [1, 2, 4, 5, 6, 7]);
+        assert!(s.take_accepted().is_empty());
+        for (t, a) in &sent[..2] {
+            s.handle(result(1, t, *a, 1.0), Instant::now());
+        }
+        let got: Vec<u32> = s.take_accepted().iter().map(|t| t.tile_id).collect();
+        assert_eq!(got, [1, 2]);
+        assert!(
+            s.take_accepted().is_empty(),
+            "each tile is handed over once"
+        );
+        for (t, a) in &sent[2..] {
+            s.handle(result(1, t, *a, 1.0), Instant::now());
+        }
+        assert!(s.is_done());
+        let f = s.finish();
+        assert_eq!(f.stats.eye_rays, 128);
+        assert_eq!(f.film.pixels[0], [0.25; 3]);
     }
 
     #[tokio::test(start_paused = true)]

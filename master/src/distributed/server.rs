@@ -6,6 +6,7 @@
 //! the image is complete, then tells every worker to shut down and waits for the tasks to end
 //! (a `CancellationToken` broadcast and a `TaskTracker`, as in mini-redis's shutdown).
 
+use super::checkpoint::{Checkpoint, Opened};
 use super::connection::{self, ConnContext};
 use super::progress::Progress;
 use super::scheduler::{Event, SchedOptions, Scheduler, WorkerId};
@@ -34,6 +35,7 @@ pub struct Master {
     addr: SocketAddr,
     token: Token,
     opts: DistOptions,
+    checkpoint: Option<Opened>,
 }
 
 impl Master {
@@ -54,7 +56,13 @@ impl Master {
             addr,
             token,
             opts: opts.clone(),
+            checkpoint: None,
         })
+    }
+
+    /// Records accepted tiles in `c` and starts from the tiles it already holds.
+    pub fn set_checkpoint(&mut self, c: Opened) {
+        self.checkpoint = Some(c);
     }
 
     /// The address actually bound (the port chosen when asked for `:0`).
@@ -97,6 +105,15 @@ impl Master {
                 pixel_format: opts.pixel_format,
             },
         );
+        let (mut checkpoint, restored_tiles, checkpoint_bad_records): (Option<Checkpoint>, _, _) =
+            match self.checkpoint {
+                Some(o) => {
+                    sched.keep_accepted();
+                    let restored = sched.restore(o.scan.tiles);
+                    (Some(o.checkpoint), restored, o.scan.bad_records)
+                }
+                None => (None, 0, 0),
+            };
         let job = Message::Job(Box::new(JobSpec {
             job_id,
             scene: desc.clone(),
@@ -155,6 +172,11 @@ impl Master {
                 },
                 _ = tick.tick() => sched.expire(Instant::now()),
             }
+            if let Some(c) = &mut checkpoint {
+                if let Err(e) = c.append(&sched.take_accepted()) {
+                    break Err(e.into());
+                }
+            }
             let now = Instant::now();
             let ready = sched.ready_workers();
             let needed = if started.is_some() { 1 } else { min_workers };
@@ -194,6 +216,11 @@ impl Master {
             0.0
         };
         progress.finish();
+        if let Some(c) = &mut checkpoint {
+            if let Err(e) = c.sync() {
+                warn!(error = %e, "cannot sync the checkpoint");
+            }
+        }
 
         // Shutdown: the scheduler closes every outbox after a Shutdown; the stop signal ends
         // the accept loop and any handshake still running; then wait for the tasks.
@@ -234,6 +261,8 @@ impl Master {
             scene_transfer_s,
             faults: finished.faults,
             tiles: n_tiles,
+            restored_tiles,
+            checkpoint_bad_records,
         })
     }
 }
