@@ -404,16 +404,32 @@ fn render_here(
 /// Renders through `n` local worker processes started from this executable.
 fn render_through_workers(
     args: &RenderArgs,
-    desc: &parrt::description::SceneDescription,
-    settings: &RenderSettings,
+    spec: &SceneSpec,
     n: usize,
-) -> anyhow::Result<Outcome> {
-    use crate::distributed::{render_distributed, DistOptions};
+) -> anyhow::Result<(Outcome, f64, RenderSettings)> {
+    use crate::distributed::{render_distributed_prepared, DistError, DistOptions};
+    /// A failure of the distributed render or of preparing its job.
+    enum Failed {
+        Dist(DistError),
+        Job(anyhow::Error),
+    }
+    impl From<DistError> for Failed {
+        fn from(e: DistError) -> Self {
+            Failed::Dist(e)
+        }
+    }
     if n == 0 {
         return Err(input_error(anyhow::anyhow!("--workers must be at least 1")));
     }
-    // The workers would each refuse a scene they cannot build; refuse it here, once.
-    parrt::render::validate_job(desc, settings).map_err(input_error)?;
+    // Loading and checking the scene runs while the worker processes start.
+    let parse_s = std::cell::Cell::new(0.0);
+    let prepare = || {
+        let (desc, settings, secs) = load_job(args, spec).map_err(Failed::Job)?;
+        parse_s.set(secs);
+        // The workers would each refuse a scene they cannot build; refuse it here, once.
+        parrt::render::validate_job(&desc, &settings).map_err(|e| Failed::Job(input_error(e)))?;
+        Ok((desc, settings))
+    };
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
     let opts = DistOptions {
@@ -426,15 +442,18 @@ fn render_through_workers(
         resume: args.resume,
         ..DistOptions::default()
     };
-    let r = render_distributed(desc, settings, &opts, &|_| {})
-        .map_err(|e| {
-            if e.is_bad_input() {
+    let (r, _, settings) = match render_distributed_prepared(&opts, &|_| {}, prepare) {
+        Ok(done) => done,
+        Err(Failed::Job(e)) => return Err(e),
+        Err(Failed::Dist(e)) => {
+            let e = if e.is_bad_input() {
                 input_error(e)
             } else {
                 anyhow::Error::new(e)
-            }
-        })
-        .context("distributed render failed")?;
+            };
+            return Err(e.context("distributed render failed"));
+        }
+    };
     if let Some(c) = &args.checkpoint {
         eprintln!(
             "parrt: checkpoint {}: {} tiles restored, {} bad records dropped",
@@ -471,7 +490,7 @@ fn render_through_workers(
         "master CPU        {:.4}s ({per_tile_us:.1} µs per tile, {per_mb_ms:.2} ms per MB received)",
         r.master_cpu_s
     ));
-    Ok(Outcome {
+    let outcome = Outcome {
         film: r.film,
         stats: r.stats,
         tile_seconds: r.tile_seconds,
@@ -491,7 +510,21 @@ fn render_through_workers(
             "master_cpu_per_tile_us": per_tile_us,
             "master_cpu_per_mb_ms": per_mb_ms,
         }),
-    })
+    };
+    Ok((outcome, parse_s.get(), settings))
+}
+
+/// Loads the scene and the settings the flags make of it, checking the image's size: the
+/// description, the settings and the seconds spent parsing or generating.
+fn load_job(
+    args: &RenderArgs,
+    spec: &SceneSpec,
+) -> anyhow::Result<(parrt::description::SceneDescription, RenderSettings, f64)> {
+    let (desc, parse_s) = spec.load(&args.limits.limits())?;
+    let settings = args.render.settings(desc.view.width, desc.view.height)?;
+    args.limits
+        .check_image(settings.width, settings.height, args.tile)?;
+    Ok((desc, settings, parse_s))
 }
 
 /// Runs `parrt render`.
@@ -517,13 +550,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if args.threads == Some(0) {
         return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
     }
-    let (desc, parse_s) = spec.load(&args.limits.limits())?;
-    let settings = args.render.settings(desc.view.width, desc.view.height)?;
-    args.limits
-        .check_image(settings.width, settings.height, args.tile)?;
-    let out = match args.workers {
-        Some(n) => render_through_workers(&args, &desc, &settings, n)?,
-        None => render_here(&args, &spec, desc, &settings)?,
+    let (out, parse_s, settings) = match args.workers {
+        Some(n) => render_through_workers(&args, &spec, n)?,
+        None => {
+            let (desc, settings, parse_s) = load_job(&args, &spec)?;
+            (
+                render_here(&args, &spec, desc, &settings)?,
+                parse_s,
+                settings,
+            )
+        }
     };
     out.film
         .save(&args.output)

@@ -319,26 +319,35 @@ pub fn render_distributed(
     opts: &DistOptions,
     on_listen: &dyn Fn(SocketAddr),
 ) -> Result<DistResult, DistError> {
+    render_distributed_prepared(opts, on_listen, || Ok((desc.clone(), settings.clone())))
+        .map(|(r, _, _)| r)
+}
+
+/// Like [`render_distributed`], but the job comes from `prepare` (parse the scene, check it),
+/// which runs while the local workers start up: process start, connection and handshake
+/// overlap the parse and the scene check instead of following them. With a checkpoint the job
+/// is prepared first (the checkpoint must be checked against it before anything listens).
+/// Returns the result with the job's description and settings.
+pub fn render_distributed_prepared<E: From<DistError>>(
+    opts: &DistOptions,
+    on_listen: &dyn Fn(SocketAddr),
+    prepare: impl FnOnce() -> Result<(SceneDescription, RenderSettings), E>,
+) -> Result<(DistResult, SceneDescription, RenderSettings), E> {
     let token = opts.token.clone().unwrap_or_else(generate_token);
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .map_err(DistError::Runtime)?;
+    let mut prepare = Some(prepare);
+    // Called once on either path below; a second call would be a bug here, not bad input.
+    let mut prepare_once = || (prepare.take().expect("the job is prepared once"))();
+    let mut job = None;
     // The checkpoint is opened (and a wrong one refused) before anything listens.
     let opened = match &opts.checkpoint {
         Some(path) => {
-            let key = checkpoint::JobKey::new(desc, settings, opts.tile, opts.pixel_format)?;
-            let list = parrt::tile::tiles(settings.width, settings.height, opts.tile.max(1));
-            let o = checkpoint::open(path, &key, &list, opts.resume)?;
-            if !o.created {
-                tracing::info!(
-                    checkpoint = %path.display(),
-                    tiles = o.scan.tiles.len(),
-                    bad_records = o.scan.bad_records,
-                    cut_bytes = o.scan.cut_bytes,
-                    "resuming"
-                );
-            }
+            let (desc, settings) = prepare_once()?;
+            let o = open_checkpoint(path, &desc, &settings, opts)?;
+            job = Some((desc, settings));
             Some(o)
         }
         None => None,
@@ -356,12 +365,20 @@ pub fn render_distributed(
                 opts.threads_per_worker,
                 dial_address(addr),
             );
-            Some(match &opts.worker_exe {
-                Some(exe) => spawn::spawn_workers_from(exe, n, t, at, &token)?,
-                None => spawn_local_workers(n, t, at, &token)?,
-            })
+            Some(
+                match &opts.worker_exe {
+                    Some(exe) => spawn::spawn_workers_from(exe, n, t, at, &token),
+                    None => spawn_local_workers(n, t, at, &token),
+                }
+                .map_err(DistError::from)?,
+            )
         } else {
             None
+        };
+        // Workers dial and wait in the listen backlog while the job is prepared.
+        let (desc, settings) = match job {
+            Some(j) => j,
+            None => prepare_once()?,
         };
         let cancel = CancellationToken::new();
         let on_signal = cancel.clone();
@@ -370,10 +387,32 @@ pub fn render_distributed(
                 on_signal.cancel();
             }
         });
-        let result = master.render(desc, settings, cancel).await;
+        let result = master.render(&desc, &settings, cancel).await;
         signal.abort();
-        result
+        Ok((result?, desc, settings))
     })
+}
+
+/// Opens (or creates) the checkpoint of this job, refusing one of another job.
+fn open_checkpoint(
+    path: &std::path::Path,
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    opts: &DistOptions,
+) -> Result<checkpoint::Opened, DistError> {
+    let key = checkpoint::JobKey::new(desc, settings, opts.tile, opts.pixel_format)?;
+    let list = parrt::tile::tiles(settings.width, settings.height, opts.tile.max(1));
+    let o = checkpoint::open(path, &key, &list, opts.resume)?;
+    if !o.created {
+        tracing::info!(
+            checkpoint = %path.display(),
+            tiles = o.scan.tiles.len(),
+            bad_records = o.scan.bad_records,
+            cut_bytes = o.scan.cut_bytes,
+            "resuming"
+        );
+    }
+    Ok(o)
 }
 
 #[cfg(test)]
