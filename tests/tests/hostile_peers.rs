@@ -653,3 +653,38 @@ async fn oversized_frames_after_welcome_are_refused_at_once() {
     let err = ended.unwrap().unwrap_err();
     assert!(err.to_string().contains("larger than the limit"), "{err}");
 }
+
+/// Render threads of this process that exist now (rayon names them `parrt-render-N`).
+fn render_threads() -> usize {
+    std::fs::read_dir("/proc/self/task")
+        .unwrap()
+        .flatten()
+        .filter(|t| {
+            std::fs::read_to_string(t.path().join("comm"))
+                .is_ok_and(|c| c.starts_with("parrt-render"))
+        })
+        .count()
+}
+
+/// Item 10: a worker with thousands of threads builds its pool off the runtime's thread: its
+/// first heartbeat goes out while the pool is still being built (before, the loop started only
+/// once every thread existed).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn heartbeats_do_not_wait_for_a_big_pool() {
+    const THREADS: usize = 2048;
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let mut w = worker_options(listener.local_addr().unwrap(), THREADS, "wide");
+    w.heartbeat = Duration::from_millis(20);
+    let worker = start_worker(w);
+    let mut c = welcome_one(&listener).await;
+    let first = timeout(Duration::from_secs(60), c.read()).await.unwrap();
+    let threads_then = render_threads();
+    assert_eq!(first.unwrap(), Some(Message::Heartbeat));
+    assert!(
+        threads_then < THREADS,
+        "the first heartbeat waited for all {threads_then} threads"
+    );
+    c.write(&Message::Shutdown).await.unwrap();
+    let s = worker.await.unwrap().unwrap();
+    assert_eq!(s.end, parrt_worker::session::SessionEnd::Shutdown);
+}
