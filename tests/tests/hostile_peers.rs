@@ -171,7 +171,8 @@ fn refusal_flood_keeps_master_memory_and_log_bounded() {
         let _ = err.read_to_end(&mut rest);
         rest
     });
-    let name = vec![1u8; 65_500];
+    // As large as fits the 64 KiB handshake frame with the rest of a Hello.
+    let name = vec![1u8; 65_400];
     let name_str = String::from_utf8(name.clone()).unwrap();
     let frames: Vec<Vec<u8>> = vec![
         // Version 1's Hello (no nonce): refused for its version.
@@ -194,9 +195,19 @@ fn refusal_flood_keeps_master_memory_and_log_bounded() {
             let frames = frames.clone();
             tasks.push(tokio::spawn(async move {
                 for i in 0..125 {
-                    let mut s = TcpStream::connect(addr).await.unwrap();
-                    let _ = s.write_all(&frames[(lane + i) % frames.len()]).await;
-                    assert!(closed_within_5s(&mut s).await, "refused peer closed");
+                    let s = TcpStream::connect(addr).await.unwrap();
+                    let mut c = Connection::new(s, 1 << 20);
+                    let f = &frames[(lane + i) % frames.len()];
+                    c.get_mut().write_all(f).await.unwrap();
+                    // Refused with a reason (not merely turned away), then closed.
+                    let got = timeout(Duration::from_secs(5), c.read()).await;
+                    match got {
+                        Ok(Ok(Some(Message::Refused { reason }))) => {
+                            assert!(reason.len() < 400, "a {}-byte reason", reason.len())
+                        }
+                        other => panic!("expected Refused, got {other:?}"),
+                    }
+                    assert!(closed_within_5s(c.get_mut()).await, "refused peer closed");
                 }
             }));
         }
@@ -275,17 +286,23 @@ async fn a_cut_handshake_is_retried_but_a_refusal_is_not() {
     let mut w = worker_options(addr, 1, "w");
     w.dial_timeout = Duration::from_secs(10);
     let worker = start_worker(w);
-    for _ in 0..2 {
-        // Accepted and closed at once, as a full table does.
-        drop(listener.accept().await.unwrap());
-    }
-    let mut c = welcome_one(&listener).await;
-    c.write(&Message::Shutdown).await.unwrap();
+    let serve = async {
+        for _ in 0..2 {
+            // Accepted and closed at once, as a full table does.
+            drop(listener.accept().await.unwrap());
+        }
+        let mut c = welcome_one(&listener).await;
+        c.write(&Message::Shutdown).await.unwrap();
+        c
+    };
+    // Without retries the worker never comes back: give up rather than hang.
+    let c = timeout(Duration::from_secs(10), serve).await;
     let s = worker
         .await
         .unwrap()
         .expect("retried after the cut handshakes");
     assert_eq!(s.end, parrt_worker::session::SessionEnd::Shutdown);
+    drop(c);
 
     let worker = start_worker(worker_options(addr, 1, "w"));
     let (s, _) = listener.accept().await.unwrap();
@@ -641,4 +658,39 @@ async fn oversized_frames_after_welcome_are_refused_at_once() {
         .expect("the worker waited for a 10 MiB frame after the job");
     let err = ended.unwrap().unwrap_err();
     assert!(err.to_string().contains("larger than the limit"), "{err}");
+}
+
+/// Render threads of this process that exist now (rayon names them `parrt-render-N`).
+fn render_threads() -> usize {
+    std::fs::read_dir("/proc/self/task")
+        .unwrap()
+        .flatten()
+        .filter(|t| {
+            std::fs::read_to_string(t.path().join("comm"))
+                .is_ok_and(|c| c.starts_with("parrt-render"))
+        })
+        .count()
+}
+
+/// Item 10: a worker with thousands of threads builds its pool off the runtime's thread: its
+/// first heartbeat goes out while the pool is still being built (before, the loop started only
+/// once every thread existed).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn heartbeats_do_not_wait_for_a_big_pool() {
+    const THREADS: usize = 2048;
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let mut w = worker_options(listener.local_addr().unwrap(), THREADS, "wide");
+    w.heartbeat = Duration::from_millis(20);
+    let worker = start_worker(w);
+    let mut c = welcome_one(&listener).await;
+    let first = timeout(Duration::from_secs(60), c.read()).await.unwrap();
+    let threads_then = render_threads();
+    assert_eq!(first.unwrap(), Some(Message::Heartbeat));
+    assert!(
+        threads_then < THREADS,
+        "the first heartbeat waited for all {threads_then} threads"
+    );
+    c.write(&Message::Shutdown).await.unwrap();
+    let s = worker.await.unwrap().unwrap();
+    assert_eq!(s.end, parrt_worker::session::SessionEnd::Shutdown);
 }

@@ -72,7 +72,10 @@ impl<'a> Dialer<'a> {
                     last: err,
                 });
             }
-            debug!(addr = %self.opts.connect, attempt = self.attempts, error = %err, delay = ?self.delay, "dial failed, retrying");
+            debug!(
+                addr = %self.opts.connect, attempt = self.attempts, error = %err,
+                delay = ?self.delay, "dial failed, retrying"
+            );
             if !self.sleep(stop).await {
                 return Ok(None);
             }
@@ -90,7 +93,10 @@ impl<'a> Dialer<'a> {
         if self.start.elapsed() + self.delay > self.opts.dial_timeout {
             return Err(why);
         }
-        warn!(addr = %self.opts.connect, attempt = self.attempts, error = %why, delay = ?self.delay, "handshake cut short, retrying");
+        warn!(
+            addr = %self.opts.connect, attempt = self.attempts, error = %why,
+            delay = ?self.delay, "handshake cut short, retrying"
+        );
         Ok(self.sleep(stop).await)
     }
 

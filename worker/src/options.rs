@@ -32,7 +32,8 @@ pub struct WorkerOptions {
     pub heartbeat: Duration,
     /// Give up when the master sends nothing (not even a heartbeat) for this long.
     pub master_timeout: Duration,
-    /// Largest frame accepted from the master.
+    /// Largest frame accepted from the master until the Job has arrived (then
+    /// [`parrt::protocol::limits::MASTER_FRAME_AFTER_JOB`]), and largest frame sent.
     pub max_frame: usize,
     /// Sleep before each tile (testing aid, see [`TILE_DELAY_ENV`]).
     pub tile_delay: Option<Duration>,

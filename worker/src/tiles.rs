@@ -115,3 +115,79 @@ fn render_one(job: &JobHandle, tile: Tile, attempt: u32) -> Message {
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
+    use parrt::settings::RenderSettings;
+    use parrt::vec3::Vec3d;
+
+    fn renderer() -> Renderer {
+        let desc = SceneDescription {
+            background: Vec3d::new(0.1, 0.2, 0.3),
+            view: View {
+                from: Vec3d::new(0.0, 0.0, 5.0),
+                at: Vec3d::zero(),
+                up: Vec3d::new(0.0, 1.0, 0.0),
+                angle: 40.0,
+                hither: 0.01,
+                width: 8,
+                height: 8,
+            },
+            lights: vec![Light {
+                position: Vec3d::new(1.0, 2.0, 3.0),
+                color: None,
+            }],
+            materials: vec![Material::default_white()],
+            primitives: vec![Primitive {
+                shape: Shape::Sphere {
+                    center: Vec3d::zero(),
+                    radius: 1.0,
+                },
+                material: 0,
+            }],
+        };
+        Renderer::new(&desc, &RenderSettings::new(8, 8)).unwrap()
+    }
+
+    /// Item 11 of issue 20: when nobody takes results (the master stopped reading), render
+    /// threads wait once UNSENT_RESULTS are queued instead of piling up pixels.
+    #[test]
+    fn unsent_results_are_bounded() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let (tx, mut rx) = tokio::sync::mpsc::channel(UNSENT_RESULTS);
+        let tiles = TileRenderer::new(pool, tx, None);
+        let job = JobHandle {
+            job_id: 1,
+            renderer: Arc::new(renderer()),
+            cancelled: Arc::new(AtomicBool::new(false)),
+        };
+        let tile = Tile {
+            id: 0,
+            x: 0,
+            y: 0,
+            w: 8,
+            h: 8,
+        };
+        for attempt in 0..3 * UNSENT_RESULTS as u32 {
+            tiles.submit(&job, tile, attempt);
+        }
+        let t0 = Instant::now();
+        while rx.len() < UNSENT_RESULTS && t0.elapsed() < Duration::from_secs(20) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        std::thread::sleep(Duration::from_millis(200));
+        assert_eq!(rx.len(), UNSENT_RESULTS, "results queued beyond the bound");
+        // Taking results lets the rest through.
+        let mut got = 0;
+        while got < 3 * UNSENT_RESULTS {
+            if rx.blocking_recv().is_some() {
+                got += 1;
+            }
+        }
+    }
+}

@@ -86,6 +86,11 @@ impl<S: AsyncRead + AsyncWrite + Unpin> Connection<S> {
         self.framed.get_ref()
     }
 
+    /// The underlying stream, mutably (for tests that write raw bytes).
+    pub fn get_mut(&mut self) -> &mut S {
+        self.framed.get_mut()
+    }
+
     /// The underlying stream, giving up the connection (bytes read but not yet decoded are
     /// lost; for tests that go on in raw bytes).
     pub fn into_inner(self) -> S {

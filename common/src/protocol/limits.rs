@@ -52,7 +52,8 @@ pub const MAX_HANDSHAKING: usize = 64;
 pub const MAX_HANDSHAKING_PER_PEER: usize = 16;
 
 /// The slowest a frame may arrive: a frame of `n` bytes must be complete within the peer
-/// timeout plus `n / MIN_FRAME_RATE` seconds from its length prefix, however steadily bytes trickle.
+/// timeout plus `n / MIN_FRAME_RATE` seconds from its length prefix, however steadily bytes
+/// trickle.
 pub const MIN_FRAME_RATE: u64 = 64 * 1024;
 
 /// Time allowed for a frame of `len` bytes beyond the peer timeout (see [`MIN_FRAME_RATE`]).

@@ -1,6 +1,7 @@
 //! One connection task per peer: the handshake (version and thread checks, the master's proof,
-//! the worker's MAC check), then the relay between the socket and the scheduler. It owns the [`Connection`]; the scheduler talks
-//! to it through an outbox channel and hears from it through [`Event`]s. A peer that fails the
+//! the worker's MAC check), then the relay between the socket and the scheduler. It owns the
+//! [`Connection`]; the scheduler talks to it through an outbox channel and hears from it
+//! through [`Event`]s. A peer that fails the
 //! handshake, breaks the protocol, falls silent or sends garbage ends only its own task. A peer's
 //! name is only ever logged or kept through [`limits::shown`] (escaped, cut), its reasons
 //! through [`limits::capped_reason`]; every write is bounded by the heartbeat timeout.
