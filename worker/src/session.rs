@@ -128,10 +128,7 @@ async fn write_within(
     msg: &Message,
     limit: Duration,
 ) -> Result<(), WorkerError> {
-    match timeout(limit, conn.write(msg)).await {
-        Ok(r) => Ok(r?),
-        Err(_) => Err(WorkerError::MasterNotReading(limit)),
-    }
+    write_all_within(conn, std::slice::from_ref(msg), limit).await
 }
 
 /// Writes several messages with one flush, bounded by `limit` like [`write_within`].

@@ -152,7 +152,7 @@ mod tests {
     }
 
     /// Item 11 of issue 20: when nobody takes results (the master stopped reading), render
-    /// threads wait once UNSENT_RESULTS are queued instead of piling up pixels.
+    /// threads wait once UNSENT_RESULTS batches are queued instead of piling up pixels.
     #[test]
     fn unsent_results_are_bounded() {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -165,6 +165,7 @@ mod tests {
             job_id: 1,
             renderer: Arc::new(renderer()),
             cancelled: Arc::new(AtomicBool::new(false)),
+            pixel_format: PixelFormat::Rgb8,
         };
         let tile = Tile {
             id: 0,
@@ -174,7 +175,7 @@ mod tests {
             h: 8,
         };
         for attempt in 0..3 * UNSENT_RESULTS as u32 {
-            tiles.submit(&job, tile, attempt);
+            tiles.submit(&job, vec![(tile, attempt)]);
         }
         let t0 = Instant::now();
         while rx.len() < UNSENT_RESULTS && t0.elapsed() < Duration::from_secs(20) {

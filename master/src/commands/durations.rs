@@ -1,8 +1,8 @@
 //! Duration flags (`--wait-workers`, `--tile-deadline`, `--heartbeat-timeout`, ...): one parser
 //! that turns a number of seconds from the command line into a [`Duration`] within a sane range
 //! per flag, or a bad-input error (exit 2) naming the flag — never a panic or an `Instant`
-//! overflow. The worker's `--dial-timeout` wants the same rule; the lead may move this next to
-//! `parrt_worker::cli` so both crates call one function.
+//! overflow. The ceiling is the protocol's ([`parrt::protocol::limits::MAX_FLAG_SECONDS`]), the
+//! one the worker's `--dial-timeout` is held to; this adds a floor per flag.
 
 use crate::distributed::DEFAULT_HEARTBEAT;
 use crate::exit::input_error;
@@ -10,7 +10,8 @@ use std::time::Duration;
 
 /// The longest any duration flag may be: one week. Far beyond any sensible wait, and small
 /// enough that `Instant::now() + d` can never overflow.
-pub const MAX_FLAG_DURATION: Duration = Duration::from_secs(7 * 24 * 3600);
+pub const MAX_FLAG_DURATION: Duration =
+    Duration::from_secs(parrt::protocol::limits::MAX_FLAG_SECONDS as u64);
 
 /// The shortest `--heartbeat-timeout`: two heartbeats ([`DEFAULT_HEARTBEAT`]), so one late
 /// heartbeat drops no worker.

@@ -183,7 +183,9 @@ pub struct DistOptions {
     pub max_failures: u32,
     /// Duplicate in-flight tiles onto idle workers when the queue is empty.
     pub backups: bool,
-    /// Largest frame accepted from an authenticated worker.
+    /// Largest frame sent to a worker (the Job with its scene is the large one); what the master
+    /// accepts from a worker is the smaller of this and what a result of the job's tile size
+    /// needs ([`parrt::protocol::limits::worker_frame_limit`]).
     pub max_frame: usize,
     /// Most simultaneous connections (handshaking or working).
     pub max_connections: usize,
