@@ -19,6 +19,9 @@ pub struct SimParams {
     pub latency_s: f64,
     /// Bandwidth of each worker's link, bytes per second (infinity: no limit).
     pub bandwidth_bps: f64,
+    /// Bandwidth of the master's link, shared by every worker's results, bytes per second
+    /// (infinity: no limit). Results cross the worker's link, then queue for this one.
+    pub master_link_bps: f64,
     /// Master CPU time per result (decode, copy into the film, assign the next tile), seconds.
     pub master_per_tile_s: f64,
     /// Bytes of the job message (scene and settings) sent to each worker.
@@ -40,6 +43,7 @@ impl SimParams {
             window: threads,
             latency_s: 0.0,
             bandwidth_bps: f64::INFINITY,
+            master_link_bps: f64::INFINITY,
             master_per_tile_s: 0.0,
             scene_bytes: 0.0,
             build_s: 0.0,
@@ -114,6 +118,7 @@ struct Sim<'a> {
     queue: Vec<VecDeque<usize>>,
     idle: Vec<usize>,
     link_free: Vec<f64>,
+    master_link_free: f64,
     bytes: f64,
     first_idle: f64,
     tail_idle: f64,
@@ -165,6 +170,7 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         queue: vec![VecDeque::new(); workers],
         idle: vec![threads; workers],
         link_free: vec![0.0; workers],
+        master_link_free: 0.0,
         bytes: 0.0,
         first_idle: f64::INFINITY,
         tail_idle: 0.0,
@@ -208,6 +214,12 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
                 sim.bytes += bytes;
                 let sent = sim.link_free[worker].max(now) + sim.transfer(bytes);
                 sim.link_free[worker] = sent;
+                let sent = if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
+                    sim.master_link_free.max(sent) + bytes / p.master_link_bps
+                } else {
+                    sent
+                };
+                sim.master_link_free = sent;
                 sim.push(sent + p.latency_s, Kind::Result { worker });
                 sim.idle[worker] += 1;
                 sim.start(worker, now);
@@ -307,5 +319,18 @@ mod tests {
         let r = simulate(&vec![0.001; 1000], &vec![1; 1000], &p);
         assert!(r.makespan >= 1000.0 * 0.01);
         assert!(r.master_utilisation > 0.99);
+    }
+
+    #[test]
+    fn the_shared_master_link_bounds_throughput() {
+        // 100 results of 1000 bytes through a 1 MB/s master link take at least 0.1 s, however
+        // many workers send them and however fast their own links are.
+        let mut p = SimParams::ideal(50, 1);
+        p.result_bytes_per_pixel = 1000.0;
+        let free = simulate(&vec![0.001; 100], &vec![1; 100], &p).makespan;
+        p.master_link_bps = 1e6;
+        let shared = simulate(&vec![0.001; 100], &vec![1; 100], &p).makespan;
+        assert!(free < 0.01, "{free}");
+        assert!(shared >= 0.1, "{shared}");
     }
 }

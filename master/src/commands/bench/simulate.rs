@@ -184,6 +184,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
                 window: args.window.unwrap_or(2 * args.threads),
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: args.bandwidth_mbps * 1e6 / 8.0,
+                master_link_bps: f64::INFINITY,
                 master_per_tile_s: args.master_us / 1e6,
                 scene_bytes: args.scene_bytes,
                 build_s: args.build_s,
