@@ -307,7 +307,10 @@ mod tests {
         assert!(t0.elapsed() >= Duration::from_secs_f64(2.0 * costs[5]));
         let mut expect = Film::new(10, 7);
         expect.write_tile(&list[5], &px).unwrap();
-        assert_eq!(expect.get(list[5].x, list[5].y), f.get(list[5].x, list[5].y));
+        assert_eq!(
+            expect.get(list[5].x, list[5].y),
+            f.get(list[5].x, list[5].y)
+        );
         let wrong = Tile { w: 3, ..list[5] };
         assert!(matches!(
             r.play(&wrong, &mut px),
