@@ -5,6 +5,7 @@
 //! efficiency, the schedule simulator's prediction and the hardware's limit, and checks every
 //! assembled image bit for bit against the recorded one.
 
+pub mod cpu;
 pub mod emulate;
 pub mod link;
 
@@ -85,6 +86,9 @@ pub struct ClusterArgs {
     /// Record again even if the replay file exists.
     #[arg(long)]
     pub record: bool,
+    /// One-thread renders recorded; each tile's cost is its least.
+    #[arg(long, value_name = "K", default_value_t = 3)]
+    pub record_repeat: usize,
     /// Output directory for the table, CSV and plot.
     #[arg(long, value_name = "DIR", default_value = "bench-out/cluster")]
     pub out: PathBuf,
@@ -114,7 +118,7 @@ pub struct Row {
     pub predicted: f64,
     /// The efficiency the hardware allows: compute / max(compute, link, start-up).
     pub limit: f64,
-    /// Which term of the limit binds: "compute", "master link" or "start-up".
+    /// Which term of the limit binds: "compute", "master link", "start-up" or "emulation CPU".
     pub binding: String,
     /// Assembled image equal, bit for bit, to the recorded one.
     pub identical: bool,
@@ -128,6 +132,15 @@ pub struct Row {
     pub trace_s: f64,
     /// Master CPU per tile during tracing, microseconds (measured, fed to the simulator).
     pub master_us_per_tile: f64,
+    /// How much longer the workers took over their tiles than the replayed costs (sleeps
+    /// overrun when many processes share few cores): Σ tile seconds / (t₁·scale) − 1.
+    pub worker_overrun: f64,
+    /// The simulator fed the tile times as the workers measured them (overrun included).
+    pub predicted_as_run: f64,
+    /// Share of this machine's cores the emulation (master, relay, workers) used while tracing.
+    pub emulation_cpu: f64,
+    /// Share of this machine's cores busy while tracing (every process, other users' too).
+    pub machine_busy: f64,
     /// Bytes received by the master.
     pub bytes_received: u64,
 }
@@ -144,20 +157,34 @@ fn replay_path(args: &ClusterArgs, label: &str) -> PathBuf {
     ))
 }
 
-/// Records a one-thread render of the scene into `path`.
-fn record(renderer: &Renderer, tile: u32, path: &Path) -> anyhow::Result<()> {
-    eprintln!("recording a one-thread render into {} ...", path.display());
-    let r = render_smp(
-        renderer,
-        &SmpOptions {
-            threads: 1,
-            tile,
-            executor: Executor::Queue,
-        },
-        &|_, _| {},
+/// Records a one-thread render of the scene into `path`: the image, and each tile's cost as
+/// the least of `repeat` renders. On a shared machine a tile is sometimes preempted mid-way;
+/// scaled up (×100 to emulate 100 samples), one such hiccup would become a tile seconds long
+/// that no real render has, so the minimum, not the first or the mean, is the tile's cost.
+fn record(renderer: &Renderer, tile: u32, repeat: usize, path: &Path) -> anyhow::Result<()> {
+    eprintln!(
+        "recording a one-thread render ({repeat} times) into {} ...",
+        path.display()
     );
-    replay::write(path, tile, &r.tile_seconds, &r.film)?;
-    eprintln!("recorded: t₁ = {:.3} s", r.trace_s);
+    let opts = SmpOptions {
+        threads: 1,
+        tile,
+        executor: Executor::Queue,
+    };
+    let first = render_smp(renderer, &opts, &|_, _| {});
+    let mut costs = first.tile_seconds.clone();
+    for _ in 1..repeat {
+        let again = render_smp(renderer, &opts, &|_, _| {});
+        for (c, a) in costs.iter_mut().zip(&again.tile_seconds) {
+            *c = c.min(*a);
+        }
+    }
+    replay::write(path, tile, &costs, &first.film)?;
+    eprintln!(
+        "recorded: t₁ = {:.3} s (first run {:.3} s)",
+        costs.iter().sum::<f64>(),
+        first.trace_s
+    );
     Ok(())
 }
 
@@ -191,9 +218,14 @@ fn check(args: &ClusterArgs) -> anyhow::Result<()> {
     if args.threads.is_empty() || args.threads.iter().any(|&t| t == 0 || t > MAX_THREADS) {
         return Err(bad(format!("--threads must be in 1..={MAX_THREADS}")));
     }
-    if args.size == 0 || args.tile == 0 || args.window == 0 || args.spp == 0 {
+    if args.size == 0
+        || args.tile == 0
+        || args.window == 0
+        || args.spp == 0
+        || args.record_repeat == 0
+    {
         return Err(bad(
-            "--size, --tile, --window and --spp must be at least 1".into()
+            "--size, --tile, --window, --spp and --record-repeat must be at least 1".into(),
         ));
     }
     let positive = |v: f64| v.is_finite() && v > 0.0;
@@ -220,12 +252,23 @@ fn check(args: &ClusterArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The hardware's lower bound on the tracing time and the term that sets it.
-fn limit(work: f64, cores: usize, bytes: f64, master_bps: f64, latency: f64) -> (f64, String) {
+/// The hardware's lower bound on the tracing time and the term that sets it: the emulated
+/// cluster's compute, master link and start-up, and this machine's CPU, which had to run the
+/// emulation itself (`emulation_cpu_s` spread over all its cores).
+fn limit(
+    work: f64,
+    cores: usize,
+    bytes: f64,
+    master_bps: f64,
+    latency: f64,
+    emulation_cpu_s: f64,
+) -> (f64, String) {
+    let machine_cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
     let terms = [
         (work / cores as f64, "compute"),
         (bytes / master_bps, "master link"),
         (2.0 * latency, "start-up"),
+        (emulation_cpu_s / machine_cores, "emulation CPU"),
     ];
     let (t, name) = terms.iter().fold(
         (0.0, "compute"),
@@ -249,7 +292,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| replay_path(&args, &spec.label()));
     if args.record || !path.exists() {
         let renderer = Renderer::new(&desc, &settings).map_err(input_error)?;
-        record(&renderer, args.tile, &path)?;
+        record(&renderer, args.tile, args.record_repeat, &path)?;
     }
     let rec = Replay::open(&path, 1.0).map_err(|e| input_error(anyhow::Error::new(e)))?;
     if (rec.width, rec.height, rec.tile) != (args.size, args.size, args.tile) {
@@ -330,13 +373,18 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 message_bytes: 0.0,
             };
             let sim = simulate(&costs, &px, &p);
+            let as_run = simulate(&m.tile_seconds, &px, &p);
+            let ran: f64 = m.tile_seconds.iter().sum();
             let (bound, binding) = limit(
                 work,
                 cores,
                 m.bytes_received as f64,
                 master_bps,
                 args.latency_ms / 1e3,
+                m.own_cpu_s,
             );
+            let machine_cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let busy = |cpu: f64| cpu / (machine_cores as f64 * m.trace_s.max(1e-12));
             let row = Row {
                 workers,
                 threads,
@@ -351,11 +399,23 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 duplicates: m.duplicates,
                 trace_s: m.trace_s,
                 master_us_per_tile: master_per_tile * 1e6,
+                worker_overrun: ran / work - 1.0,
+                emulation_cpu: busy(m.own_cpu_s),
+                machine_busy: busy(m.machine_busy_s),
+                predicted_as_run: as_run.efficiency * ran / work,
                 bytes_received: m.bytes_received,
             };
             eprintln!(
-                "  e = {:.3}, predicted {:.3}, limit {:.3} ({}), identical {}",
-                row.efficiency, row.predicted, row.limit, row.binding, row.identical
+                "  e = {:.3}, predicted {:.3} ({:.3} from the tile times as run, workers overran {:.1}%), limit {:.3} ({}), emulation CPU {:.0}%, machine busy {:.0}%, identical {}",
+                row.efficiency,
+                row.predicted,
+                row.predicted_as_run,
+                100.0 * row.worker_overrun,
+                row.limit,
+                row.binding,
+                100.0 * row.emulation_cpu,
+                100.0 * row.machine_busy,
+                row.identical
             );
             rows.push(row);
         }
@@ -369,7 +429,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
         args.tile,
         machine()
     );
-    let md = report(&args, &title, &path, t1, scale, &rows);
+    let md = report(&args, &title, &path, &rec.costs, scale, &rows);
     std::fs::write(args.out.join("cluster.md"), &md)?;
     std::fs::write(args.out.join("cluster.csv"), csv(&rows))?;
     plot(&args, &title, &rows)?;
@@ -390,22 +450,28 @@ fn report(
     args: &ClusterArgs,
     title: &str,
     replay: &Path,
-    t1: f64,
+    costs: &[f64],
     scale: f64,
     rows: &[Row],
 ) -> String {
+    let t1: f64 = costs.iter().sum();
+    let largest = costs.iter().cloned().fold(0.0, f64::max);
     let mut md = String::new();
     let _ = writeln!(
         md,
         "# {title}\n\nCommand: `parrt {}`. Replay {} (t₁ = {t1:.3} s recorded at one thread, × {scale:.3} \
-         = {:.1} s of work). Link: {} ms one way, master {} Mbit/s shared, workers {} Mbit/s each; \
+         = {:.1} s of work; {} tiles, the largest {:.1}× the mean). Link: {} ms one way, master {} Mbit/s shared, workers {} Mbit/s each; \
          window {} per thread. e = t₁·scale/(N·T·t_N), t_N from the first tile handed out (every \
          worker ready) to the last result in. Predicted: `parrt::simulate` with the measured master \
          CPU per tile and bytes per pixel. Limit: compute/cores ÷ max(compute/cores, bytes/master \
-         link, 2 × latency).\n",
+         link, 2 × latency, this machine's CPU used by the emulation / its cores). Emulation CPU: \
+         share of this machine's cores the master, relay and workers used while tracing; machine busy: \
+         every process's (others' too). Near 100%, the run measures this machine, not the cluster.\n",
         std::env::args().skip(1).collect::<Vec<_>>().join(" "),
         replay.display(),
         t1 * scale,
+        costs.len(),
+        largest * costs.len() as f64 / t1.max(1e-12),
         args.latency_ms,
         args.bandwidth_mbps,
         args.worker_bandwidth_mbps.unwrap_or(args.bandwidth_mbps),
@@ -413,13 +479,13 @@ fn report(
     );
     md.push_str(
         "| workers | threads | cores | t_N s | efficiency | predicted | Δ points | limit | binds | \
-         master µs/tile | MB in | identical | once | dup |\n\
-         |---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---|---|---:|\n",
+         master µs/tile | emulation CPU | machine busy | MB in | identical | once | dup |\n\
+         |---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---|---|---:|\n",
     );
     for r in rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:+.1} | {:.3} | {} | {:.0} | {:.1} | {} | {} | {} |",
+            "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:+.1} | {:.3} | {} | {:.0} | {:.0}% | {:.0}% | {:.1} | {} | {} | {} |",
             r.workers,
             r.threads,
             r.workers * r.threads,
@@ -430,6 +496,8 @@ fn report(
             r.limit,
             r.binding,
             r.master_us_per_tile,
+            100.0 * r.emulation_cpu,
+            100.0 * r.machine_busy,
             r.bytes_received as f64 / 1e6,
             if r.identical { "yes" } else { "**no**" },
             if r.delivered_once { "yes" } else { "**no**" },
@@ -442,12 +510,12 @@ fn report(
 
 fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "workers,threads,tile,trace_s,efficiency,predicted,limit,binding,master_us_per_tile,bytes_received,identical,delivered_once,duplicates\n",
+        "workers,threads,tile,trace_s,efficiency,predicted,limit,binding,master_us_per_tile,emulation_cpu,machine_busy,bytes_received,identical,delivered_once,duplicates\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{:.6},{:.6},{:.6},{:.6},{},{:.2},{},{},{},{}",
+            "{},{},{},{:.6},{:.6},{:.6},{:.6},{},{:.2},{:.3},{:.3},{},{},{},{}",
             r.workers,
             r.threads,
             r.tile,
@@ -457,6 +525,8 @@ fn csv(rows: &[Row]) -> String {
             r.limit,
             r.binding,
             r.master_us_per_tile,
+            r.emulation_cpu,
+            r.machine_busy,
             r.bytes_received,
             r.identical,
             r.delivered_once,

@@ -3,6 +3,7 @@
 //! render through it. Bounded in time (the run is cancelled, and the workers told to shut down,
 //! when it overruns) and the worker processes are killed and reaped on every path.
 
+use super::cpu::{CpuSampler, MASTER_THREAD};
 use super::link::{LinkParams, Relay};
 use crate::distributed::{generate_token, DistOptions, Master};
 use anyhow::Context;
@@ -11,13 +12,8 @@ use parrt::film::Film;
 use parrt::settings::RenderSettings;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tokio_util::sync::CancellationToken;
-
-/// Name of the master's runtime threads, whose CPU time is measured.
-pub const MASTER_THREAD: &str = "parrt-master";
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -61,10 +57,17 @@ pub struct Measured {
     pub rejected: u64,
     /// CPU seconds of the master's threads during the tracing phase.
     pub master_cpu_s: f64,
+    /// CPU seconds of the whole emulation (this process and the workers) during tracing.
+    pub own_cpu_s: f64,
+    /// CPU seconds the whole machine (every process, other users' too) was busy during tracing.
+    pub machine_busy_s: f64,
     /// Bytes the master received from workers.
     pub bytes_received: u64,
     /// Bytes the master sent to workers.
     pub bytes_sent: u64,
+    /// Seconds each tile took on the worker that delivered it (its replayed cost plus any
+    /// oversleep), by tile id.
+    pub tile_seconds: Vec<f64>,
 }
 
 /// Worker processes, killed and reaped on drop.
@@ -77,82 +80,6 @@ impl Drop for Children {
         }
         for c in &mut self.0 {
             let _ = c.wait();
-        }
-    }
-}
-
-/// Nanoseconds on CPU of this process's threads named [`MASTER_THREAD`] (Linux schedstat;
-/// 0 elsewhere).
-pub fn master_cpu_ns() -> u64 {
-    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
-        return 0;
-    };
-    let mut sum = 0;
-    for e in dir.flatten() {
-        let p = e.path();
-        let named = std::fs::read_to_string(p.join("comm"))
-            .is_ok_and(|c| c.trim_end().starts_with(MASTER_THREAD));
-        if !named {
-            continue;
-        }
-        if let Ok(s) = std::fs::read_to_string(p.join("schedstat")) {
-            sum += s
-                .split_whitespace()
-                .next()
-                .and_then(|v| v.parse::<u64>().ok())
-                .unwrap_or(0);
-        }
-    }
-    sum
-}
-
-/// Samples [`master_cpu_ns`] every few milliseconds until dropped, so the CPU of an interval
-/// known only afterwards (the tracing phase) can be read off.
-struct CpuSampler {
-    samples: Arc<Mutex<Vec<(Instant, u64)>>>,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl CpuSampler {
-    fn start() -> CpuSampler {
-        let samples = Arc::new(Mutex::new(Vec::new()));
-        let stop = Arc::new(AtomicBool::new(false));
-        let (s2, stop2) = (samples.clone(), stop.clone());
-        let thread = std::thread::Builder::new()
-            .name("cpu-sampler".into())
-            .spawn(move || {
-                while !stop2.load(Ordering::Relaxed) {
-                    let v = (Instant::now(), master_cpu_ns());
-                    s2.lock().unwrap_or_else(|e| e.into_inner()).push(v);
-                    std::thread::sleep(Duration::from_millis(5));
-                }
-            })
-            .ok();
-        CpuSampler {
-            samples,
-            stop,
-            thread,
-        }
-    }
-
-    /// CPU seconds between the samples nearest `from` and `to`.
-    fn between(&self, from: Instant, to: Instant) -> f64 {
-        let s = self.samples.lock().unwrap_or_else(|e| e.into_inner());
-        let at = |t: Instant| {
-            s.iter()
-                .min_by_key(|(i, _)| if *i > t { *i - t } else { t - *i })
-                .map_or(0, |x| x.1)
-        };
-        at(to).saturating_sub(at(from)) as f64 / 1e9
-    }
-}
-
-impl Drop for CpuSampler {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
         }
     }
 }
@@ -217,7 +144,7 @@ pub fn run(
             .with_context(|| format!("cannot start worker {}", run.worker_exe.display()))?;
         children.0.push(child);
     }
-    let sampler = CpuSampler::start();
+    let sampler = CpuSampler::start(children.0.iter().map(|c| c.id()).collect());
     let cancel = CancellationToken::new();
     let result = rt.block_on(async {
         let stop = cancel.clone();
@@ -242,7 +169,7 @@ pub fn run(
     let started = ended
         .checked_sub(Duration::from_secs_f64(r.trace_s))
         .unwrap_or(ended);
-    let master_cpu_s = sampler.between(started, ended);
+    let cpu = sampler.between(started, ended);
     drop(sampler);
     drop(relay);
     drop(children);
@@ -252,9 +179,12 @@ pub fn run(
         delivered: r.per_worker.iter().map(|w| w.tiles).sum(),
         duplicates: r.faults.duplicate_results,
         rejected: r.faults.rejected_results,
-        master_cpu_s,
+        master_cpu_s: cpu.master_s,
+        own_cpu_s: cpu.own_s,
+        machine_busy_s: cpu.machine_s,
         bytes_received: r.bytes_received,
         bytes_sent: r.bytes_sent,
+        tile_seconds: r.tile_seconds,
         film: r.film,
     })
 }
