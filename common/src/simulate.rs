@@ -24,6 +24,12 @@ pub struct SimParams {
     pub master_link_bps: f64,
     /// Master CPU time per result (decode, copy into the film, assign the next tile), seconds.
     pub master_per_tile_s: f64,
+    /// CPU each result needs on a host that every node shares (an emulated cluster on one
+    /// machine: the workers' and the relay's share of sending a result), seconds; 0 for a real
+    /// cluster, where each node has its own CPU.
+    pub host_per_tile_s: f64,
+    /// Cores of that shared host; a result waits for a free one.
+    pub host_cores: usize,
     /// Bytes of the job message (scene and settings) sent to each worker.
     pub scene_bytes: f64,
     /// Seconds each worker spends building its accelerator after receiving the scene.
@@ -45,6 +51,8 @@ impl SimParams {
             bandwidth_bps: f64::INFINITY,
             master_link_bps: f64::INFINITY,
             master_per_tile_s: 0.0,
+            host_per_tile_s: 0.0,
+            host_cores: 1,
             scene_bytes: 0.0,
             build_s: 0.0,
             result_bytes_per_pixel: 12.0,
@@ -119,6 +127,7 @@ struct Sim<'a> {
     idle: Vec<usize>,
     link_free: Vec<f64>,
     master_link_free: f64,
+    host_free: Vec<f64>,
     bytes: f64,
     first_idle: f64,
     tail_idle: f64,
@@ -171,6 +180,7 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         idle: vec![threads; workers],
         link_free: vec![0.0; workers],
         master_link_free: 0.0,
+        host_free: vec![0.0; p.host_cores.max(1)],
         bytes: 0.0,
         first_idle: f64::INFINITY,
         tail_idle: 0.0,
@@ -220,6 +230,21 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
                     sent
                 };
                 sim.master_link_free = sent;
+                let sent = if p.host_per_tile_s > 0.0 {
+                    // The earliest free core of the shared host handles this result.
+                    let (core, free) = sim
+                        .host_free
+                        .iter()
+                        .copied()
+                        .enumerate()
+                        .min_by(|a, b| a.1.total_cmp(&b.1))
+                        .unwrap_or((0, 0.0));
+                    let done = free.max(sent) + p.host_per_tile_s;
+                    sim.host_free[core] = done;
+                    done
+                } else {
+                    sent
+                };
                 sim.push(sent + p.latency_s, Kind::Result { worker });
                 sim.idle[worker] += 1;
                 sim.start(worker, now);
@@ -332,5 +357,16 @@ mod tests {
         let shared = simulate(&vec![0.001; 100], &vec![1; 100], &p).makespan;
         assert!(free < 0.01, "{free}");
         assert!(shared >= 0.1, "{shared}");
+    }
+
+    #[test]
+    fn a_shared_host_bounds_throughput_by_its_cores() {
+        // 400 results each needing 10 ms of a 2-core host: at least 2 s, however many workers.
+        let mut p = SimParams::ideal(100, 1);
+        p.host_per_tile_s = 0.01;
+        p.host_cores = 2;
+        let r = simulate(&vec![0.001; 400], &vec![1; 400], &p);
+        assert!(r.makespan >= 2.0, "{}", r.makespan);
+        assert!(r.makespan < 2.1, "{}", r.makespan);
     }
 }

@@ -114,8 +114,13 @@ pub struct Row {
     pub tile: u32,
     /// Measured efficiency t₁·scale / (N·T·t_N).
     pub efficiency: f64,
-    /// The simulator's efficiency for the same parameters.
+    /// The simulator's efficiency for this emulated run: the same links, window and tile
+    /// costs, the master's measured CPU per tile, and the rest of the emulation's measured CPU
+    /// per tile on this machine's cores.
     pub predicted: f64,
+    /// The simulator's efficiency for a real cluster with these links: every node its own CPU
+    /// (no shared host), the master's measured CPU per tile.
+    pub predicted_cluster: f64,
     /// The efficiency the hardware allows: compute / max(compute, link, start-up).
     pub limit: f64,
     /// Which term of the limit binds: "compute", "master link", "start-up" or "emulation CPU".
@@ -357,6 +362,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
             )
             .with_context(|| format!("{workers} workers × {threads} threads"))?;
             let cores = workers * threads;
+            let machine_cores = std::thread::available_parallelism().map_or(1, |n| n.get());
             let master_per_tile = m.master_cpu_s / m.tiles.max(1) as f64;
             let p = SimParams {
                 workers,
@@ -366,6 +372,9 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 bandwidth_bps: worker_bps,
                 master_link_bps: master_bps,
                 master_per_tile_s: master_per_tile,
+                // Everything else the emulation spent per result, on this machine's cores.
+                host_per_tile_s: (m.own_cpu_s - m.master_cpu_s).max(0.0) / m.tiles.max(1) as f64,
+                host_cores: machine_cores,
                 // Every worker is ready before the first tile: the trace has no start-up.
                 scene_bytes: 0.0,
                 build_s: 0.0,
@@ -374,6 +383,14 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
             };
             let sim = simulate(&costs, &px, &p);
             let as_run = simulate(&m.tile_seconds, &px, &p);
+            let cluster = simulate(
+                &costs,
+                &px,
+                &SimParams {
+                    host_per_tile_s: 0.0,
+                    ..p.clone()
+                },
+            );
             let ran: f64 = m.tile_seconds.iter().sum();
             let (bound, binding) = limit(
                 work,
@@ -383,7 +400,6 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 args.latency_ms / 1e3,
                 m.own_cpu_s,
             );
-            let machine_cores = std::thread::available_parallelism().map_or(1, |n| n.get());
             let busy = |cpu: f64| cpu / (machine_cores as f64 * m.trace_s.max(1e-12));
             let row = Row {
                 workers,
@@ -391,6 +407,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 tile: args.tile,
                 efficiency: work / (cores as f64 * m.trace_s.max(1e-12)),
                 predicted: sim.efficiency,
+                predicted_cluster: cluster.efficiency,
                 limit: (work / cores as f64) / bound.max(1e-12),
                 binding,
                 identical: m.film == reference,
@@ -402,7 +419,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 worker_overrun: ran / work - 1.0,
                 emulation_cpu: busy(m.own_cpu_s),
                 machine_busy: busy(m.machine_busy_s),
-                predicted_as_run: as_run.efficiency * ran / work,
+                predicted_as_run: as_run.efficiency * work / ran.max(1e-12),
                 bytes_received: m.bytes_received,
             };
             eprintln!(
@@ -463,7 +480,9 @@ fn report(
          = {:.1} s of work; {} tiles, the largest {:.1}× the mean). Link: {} ms one way, master {} Mbit/s shared, workers {} Mbit/s each; \
          window {} per thread. e = t₁·scale/(N·T·t_N), t_N from the first tile handed out (every \
          worker ready) to the last result in. Predicted: `parrt::simulate` with the measured master \
-         CPU per tile and bytes per pixel. Limit: compute/cores ÷ max(compute/cores, bytes/master \
+         CPU per tile and bytes per pixel, and the rest of the emulation's measured CPU per tile \
+         queued on this machine's cores; cluster predicted: the same without that shared host (every \
+         node its own CPU, as in a real cluster). Limit: compute/cores ÷ max(compute/cores, bytes/master \
          link, 2 × latency, this machine's CPU used by the emulation / its cores). Emulation CPU: \
          share of this machine's cores the master, relay and workers used while tracing; machine busy: \
          every process's (others' too). Near 100%, the run measures this machine, not the cluster.\n",
@@ -478,14 +497,14 @@ fn report(
         args.window
     );
     md.push_str(
-        "| workers | threads | cores | t_N s | efficiency | predicted | Δ points | limit | binds | \
+        "| workers | threads | cores | t_N s | efficiency | predicted | Δ points | cluster predicted | limit | binds | \
          master µs/tile | emulation CPU | machine busy | MB in | identical | once | dup |\n\
-         |---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---|---|---:|\n",
+         |---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---|---|---:|\n",
     );
     for r in rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:+.1} | {:.3} | {} | {:.0} | {:.0}% | {:.0}% | {:.1} | {} | {} | {} |",
+            "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:+.1} | {:.3} | {:.3} | {} | {:.0} | {:.0}% | {:.0}% | {:.1} | {} | {} | {} |",
             r.workers,
             r.threads,
             r.workers * r.threads,
@@ -493,6 +512,7 @@ fn report(
             r.efficiency,
             r.predicted,
             100.0 * (r.predicted - r.efficiency),
+            r.predicted_cluster,
             r.limit,
             r.binding,
             r.master_us_per_tile,
@@ -510,18 +530,19 @@ fn report(
 
 fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "workers,threads,tile,trace_s,efficiency,predicted,limit,binding,master_us_per_tile,emulation_cpu,machine_busy,bytes_received,identical,delivered_once,duplicates\n",
+        "workers,threads,tile,trace_s,efficiency,predicted,predicted_cluster,limit,binding,master_us_per_tile,emulation_cpu,machine_busy,bytes_received,identical,delivered_once,duplicates\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{:.6},{:.6},{:.6},{:.6},{},{:.2},{:.3},{:.3},{},{},{},{}",
+            "{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{:.2},{:.3},{:.3},{},{},{},{}",
             r.workers,
             r.threads,
             r.tile,
             r.trace_s,
             r.efficiency,
             r.predicted,
+            r.predicted_cluster,
             r.limit,
             r.binding,
             r.master_us_per_tile,
@@ -551,8 +572,13 @@ fn plot(args: &ClusterArgs, title: &str, rows: &[Row]) -> anyhow::Result<()> {
             line: true,
         });
         series.push(Series {
-            label: format!("simulated, {t} thread(s)/worker"),
+            label: format!("simulated emulation, {t} thread(s)/worker"),
             points: pick(&|r| r.predicted),
+            line: true,
+        });
+        series.push(Series {
+            label: format!("simulated real cluster, {t} thread(s)/worker"),
+            points: pick(&|r| r.predicted_cluster),
             line: true,
         });
         series.push(Series {

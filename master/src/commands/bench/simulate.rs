@@ -185,6 +185,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: args.bandwidth_mbps * 1e6 / 8.0,
                 master_link_bps: f64::INFINITY,
+                host_per_tile_s: 0.0,
+                host_cores: 1,
                 master_per_tile_s: args.master_us / 1e6,
                 scene_bytes: args.scene_bytes,
                 build_s: args.build_s,
