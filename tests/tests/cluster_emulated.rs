@@ -57,10 +57,16 @@ fn four_replaying_workers_of_two_threads_assemble_the_smp_image_once_per_tile() 
     .unwrap();
     assert_same_bits(&m.film, &reference, "emulated 4 × 2");
     assert_eq!(m.tiles, 63);
-    assert_eq!(m.delivered, m.tiles as u64, "every tile delivered exactly once");
+    assert_eq!(
+        m.delivered, m.tiles as u64,
+        "every tile delivered exactly once"
+    );
     assert_eq!(m.rejected, 0);
     assert!(m.trace_s > 0.0);
-    assert!(m.bytes_received as usize >= 72 * 56 * 3, "pixels crossed the relay");
+    assert!(
+        m.bytes_received as usize >= 72 * 56 * 3,
+        "pixels crossed the relay"
+    );
 }
 
 #[test]
@@ -68,8 +74,17 @@ fn bench_cluster_command_writes_json_rows() {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("rows.json");
     let out = Command::new(EXE)
-        .args(["bench", "cluster", "balls:1", "--size", "48", "--tile", "16"])
-        .args(["--workers", "1,2", "--threads", "2", "--work-seconds", "0.2"])
+        .args([
+            "bench", "cluster", "balls:1", "--size", "48", "--tile", "16",
+        ])
+        .args([
+            "--workers",
+            "1,2",
+            "--threads",
+            "2",
+            "--work-seconds",
+            "0.2",
+        ])
         .args(["--latency-ms", "0.1", "--run-timeout", "60"])
         .arg("--out")
         .arg(dir.path())
