@@ -12,6 +12,8 @@ use parrt::film::Film;
 use parrt::settings::RenderSettings;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio_util::sync::CancellationToken;
 
@@ -146,11 +148,17 @@ pub fn run(
     }
     let sampler = CpuSampler::start(children.0.iter().map(|c| c.id()).collect());
     let cancel = CancellationToken::new();
+    let timed_out = Arc::new(AtomicBool::new(false));
     let result = rt.block_on(async {
-        let stop = cancel.clone();
+        // Overrunning the time limit, or Ctrl-C, cancels the render: the workers are told
+        // to shut down, and dropping `children` kills whatever is left.
+        let (stop, late) = (cancel.clone(), timed_out.clone());
         let limit = run.timeout;
         let timer = tokio::spawn(async move {
-            tokio::time::sleep(limit).await;
+            tokio::select! {
+                _ = tokio::time::sleep(limit) => late.store(true, Ordering::Relaxed),
+                r = tokio::signal::ctrl_c() => if r.is_err() { return },
+            }
             stop.cancel();
         });
         let r = master.render(desc, settings, cancel.clone()).await;
@@ -158,9 +166,8 @@ pub fn run(
         r
     });
     let ended = Instant::now();
-    let timed_out = cancel.is_cancelled();
     let r = result.map_err(|e| {
-        if timed_out {
+        if timed_out.load(Ordering::Relaxed) {
             anyhow::anyhow!("the run did not finish within {:?}", run.timeout)
         } else {
             anyhow::Error::new(e)
