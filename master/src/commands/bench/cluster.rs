@@ -146,6 +146,9 @@ pub struct Row {
     pub emulation_cpu: f64,
     /// Share of this machine's cores busy while tracing (every process, other users' too).
     pub machine_busy: f64,
+    /// Of the emulation's CPU while tracing: the master's runtime threads, the rest of this
+    /// process (the relay, chiefly), and the worker processes; each a share of the total.
+    pub cpu_split: [f64; 3],
     /// Bytes received by the master.
     pub bytes_received: u64,
 }
@@ -419,11 +422,17 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 worker_overrun: ran / work - 1.0,
                 emulation_cpu: busy(m.own_cpu_s),
                 machine_busy: busy(m.machine_busy_s),
+                cpu_split: {
+                    let total = m.own_cpu_s.max(1e-12);
+                    let relay = (m.bench_process_cpu_s - m.master_cpu_s).max(0.0);
+                    let workers = (m.own_cpu_s - m.bench_process_cpu_s).max(0.0);
+                    [m.master_cpu_s / total, relay / total, workers / total]
+                },
                 predicted_as_run: as_run.efficiency * work / ran.max(1e-12),
                 bytes_received: m.bytes_received,
             };
             eprintln!(
-                "  e = {:.3}, predicted {:.3} ({:.3} from the tile times as run, workers overran {:.1}%), limit {:.3} ({}), emulation CPU {:.0}%, machine busy {:.0}%, identical {}",
+                "  e = {:.3}, predicted {:.3} ({:.3} from the tile times as run, workers overran {:.1}%), limit {:.3} ({}), emulation CPU {:.0}% (master {:.0}%, relay {:.0}%, workers {:.0}% of it), machine busy {:.0}%, identical {}",
                 row.efficiency,
                 row.predicted,
                 row.predicted_as_run,
@@ -431,6 +440,9 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 row.limit,
                 row.binding,
                 100.0 * row.emulation_cpu,
+                100.0 * row.cpu_split[0],
+                100.0 * row.cpu_split[1],
+                100.0 * row.cpu_split[2],
                 100.0 * row.machine_busy,
                 row.identical
             );

@@ -20,6 +20,8 @@ pub struct CpuSample {
     pub master_s: f64,
     /// This process and the given child processes.
     pub own_s: f64,
+    /// This process alone (the master and the relay).
+    pub this_process_s: f64,
     /// Every process on the machine.
     pub machine_s: f64,
 }
@@ -91,7 +93,8 @@ fn machine_ticks() -> u64 {
 }
 
 fn sample(children: &[u32], tick: f64) -> CpuSample {
-    let own: u64 = stat_ticks("/proc/self/stat")
+    let this = stat_ticks("/proc/self/stat");
+    let own: u64 = this
         + children
             .iter()
             .map(|p| stat_ticks(&format!("/proc/{p}/stat")))
@@ -99,6 +102,7 @@ fn sample(children: &[u32], tick: f64) -> CpuSample {
     CpuSample {
         master_s: master_cpu_ns() as f64 / 1e9,
         own_s: own as f64 / tick,
+        this_process_s: this as f64 / tick,
         machine_s: machine_ticks() as f64 / tick,
     }
 }
@@ -147,6 +151,7 @@ impl CpuSampler {
         CpuSample {
             master_s: (b.master_s - a.master_s).max(0.0),
             own_s: (b.own_s - a.own_s).max(0.0),
+            this_process_s: (b.this_process_s - a.this_process_s).max(0.0),
             machine_s: (b.machine_s - a.machine_s).max(0.0),
         }
     }

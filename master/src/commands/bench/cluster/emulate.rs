@@ -61,6 +61,8 @@ pub struct Measured {
     pub master_cpu_s: f64,
     /// CPU seconds of the whole emulation (this process and the workers) during tracing.
     pub own_cpu_s: f64,
+    /// CPU seconds of this process (master and relay) during tracing.
+    pub bench_process_cpu_s: f64,
     /// CPU seconds the whole machine (every process, other users' too) was busy during tracing.
     pub machine_busy_s: f64,
     /// Bytes the master received from workers.
@@ -188,6 +190,7 @@ pub fn run(
         rejected: r.faults.rejected_results,
         master_cpu_s: cpu.master_s,
         own_cpu_s: cpu.own_s,
+        bench_process_cpu_s: cpu.this_process_s,
         machine_busy_s: cpu.machine_s,
         bytes_received: r.bytes_received,
         bytes_sent: r.bytes_sent,
