@@ -19,8 +19,17 @@ pub struct SimParams {
     pub latency_s: f64,
     /// Bandwidth of each worker's link, bytes per second (infinity: no limit).
     pub bandwidth_bps: f64,
+    /// Bandwidth of the master's link, shared by every worker's results, bytes per second
+    /// (infinity: no limit). Results cross the worker's link, then queue for this one.
+    pub master_link_bps: f64,
     /// Master CPU time per result (decode, copy into the film, assign the next tile), seconds.
     pub master_per_tile_s: f64,
+    /// CPU each result needs on a host that every node shares (an emulated cluster on one
+    /// machine: the workers' and the relay's share of sending a result), seconds; 0 for a real
+    /// cluster, where each node has its own CPU.
+    pub host_per_tile_s: f64,
+    /// Cores of that shared host; a result waits for a free one.
+    pub host_cores: usize,
     /// Bytes of the job message (scene and settings) sent to each worker.
     pub scene_bytes: f64,
     /// Seconds each worker spends building its accelerator after receiving the scene.
@@ -40,7 +49,10 @@ impl SimParams {
             window: threads,
             latency_s: 0.0,
             bandwidth_bps: f64::INFINITY,
+            master_link_bps: f64::INFINITY,
             master_per_tile_s: 0.0,
+            host_per_tile_s: 0.0,
+            host_cores: 1,
             scene_bytes: 0.0,
             build_s: 0.0,
             result_bytes_per_pixel: 12.0,
@@ -114,6 +126,8 @@ struct Sim<'a> {
     queue: Vec<VecDeque<usize>>,
     idle: Vec<usize>,
     link_free: Vec<f64>,
+    master_link_free: f64,
+    host_free: Vec<f64>,
     bytes: f64,
     first_idle: f64,
     tail_idle: f64,
@@ -165,6 +179,8 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         queue: vec![VecDeque::new(); workers],
         idle: vec![threads; workers],
         link_free: vec![0.0; workers],
+        master_link_free: 0.0,
+        host_free: vec![0.0; p.host_cores.max(1)],
         bytes: 0.0,
         first_idle: f64::INFINITY,
         tail_idle: 0.0,
@@ -208,6 +224,27 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
                 sim.bytes += bytes;
                 let sent = sim.link_free[worker].max(now) + sim.transfer(bytes);
                 sim.link_free[worker] = sent;
+                let sent = if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
+                    sim.master_link_free.max(sent) + bytes / p.master_link_bps
+                } else {
+                    sent
+                };
+                sim.master_link_free = sent;
+                let sent = if p.host_per_tile_s > 0.0 {
+                    // The earliest free core of the shared host handles this result.
+                    let (core, free) = sim
+                        .host_free
+                        .iter()
+                        .copied()
+                        .enumerate()
+                        .min_by(|a, b| a.1.total_cmp(&b.1))
+                        .unwrap_or((0, 0.0));
+                    let done = free.max(sent) + p.host_per_tile_s;
+                    sim.host_free[core] = done;
+                    done
+                } else {
+                    sent
+                };
                 sim.push(sent + p.latency_s, Kind::Result { worker });
                 sim.idle[worker] += 1;
                 sim.start(worker, now);
@@ -307,5 +344,29 @@ mod tests {
         let r = simulate(&vec![0.001; 1000], &vec![1; 1000], &p);
         assert!(r.makespan >= 1000.0 * 0.01);
         assert!(r.master_utilisation > 0.99);
+    }
+
+    #[test]
+    fn the_shared_master_link_bounds_throughput() {
+        // 100 results of 1000 bytes through a 1 MB/s master link take at least 0.1 s, however
+        // many workers send them and however fast their own links are.
+        let mut p = SimParams::ideal(50, 1);
+        p.result_bytes_per_pixel = 1000.0;
+        let free = simulate(&vec![0.001; 100], &vec![1; 100], &p).makespan;
+        p.master_link_bps = 1e6;
+        let shared = simulate(&vec![0.001; 100], &vec![1; 100], &p).makespan;
+        assert!(free < 0.01, "{free}");
+        assert!(shared >= 0.1, "{shared}");
+    }
+
+    #[test]
+    fn a_shared_host_bounds_throughput_by_its_cores() {
+        // 400 results each needing 10 ms of a 2-core host: at least 2 s, however many workers.
+        let mut p = SimParams::ideal(100, 1);
+        p.host_per_tile_s = 0.01;
+        p.host_cores = 2;
+        let r = simulate(&vec![0.001; 400], &vec![1; 400], &p);
+        assert!(r.makespan >= 2.0, "{}", r.makespan);
+        assert!(r.makespan < 2.1, "{}", r.makespan);
     }
 }

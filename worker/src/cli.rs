@@ -105,6 +105,13 @@ pub struct WorkerArgs {
     /// Token flags.
     #[command(flatten)]
     pub token: TokenArgs,
+    /// Bench aid (`parrt bench cluster`): replay the recorded render in FILE instead of tracing:
+    /// each tile sleeps its recorded one-thread cost, then returns the recorded pixels.
+    #[arg(long, value_name = "FILE")]
+    pub replay: Option<PathBuf>,
+    /// With --replay: multiply every recorded tile cost by F.
+    #[arg(long, value_name = "F", default_value_t = 1.0, requires = "replay")]
+    pub cost_scale: f64,
 }
 
 impl WorkerArgs {
@@ -146,6 +153,11 @@ pub fn init_logging(default: &str) {
 pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
     init_logging("info");
     let opts = args.options()?;
+    if let Some(path) = &args.replay {
+        let replay = crate::replay::Replay::open(path, args.cost_scale)
+            .map_err(|e| UsageError(e.to_string()))?;
+        crate::replay::install(replay);
+    }
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -207,6 +219,8 @@ mod tests {
             threads,
             name: None,
             dial_timeout,
+            replay: None,
+            cost_scale: 1.0,
             token: TokenArgs {
                 token: Some("t".into()),
                 token_file: None,

@@ -11,6 +11,7 @@
 //! - [`dial`]: connecting with bounded exponential backoff.
 //! - [`session`]: handshake and the message loop with one master.
 //! - [`tiles`]: the bridge from the async loop to the rayon pool.
+//! - [`replay`]: replaying a recorded render instead of tracing (a bench aid).
 //! - [`cli`]: `parrt worker` / `parrt-worker` arguments and entry point (both binaries call it).
 //! - [`error`]: what can go wrong.
 //!
@@ -30,6 +31,7 @@ pub mod cli;
 pub mod dial;
 pub mod error;
 pub mod options;
+pub mod replay;
 pub mod session;
 pub mod tiles;
 

@@ -98,11 +98,20 @@ fn render_one(job: &JobHandle, tile: Tile, attempt: u32) -> Message {
     let rendered = std::panic::catch_unwind(AssertUnwindSafe(|| {
         let mut pixels = Vec::with_capacity(tile.pixel_count());
         let mut stats = RayStats::default();
-        job.renderer.render_tile(&tile, &mut pixels, &mut stats);
-        (pixels, stats)
+        // A replaying worker (bench aid, `--replay`) returns recorded pixels instead; its
+        // statistics are only the eye rays the tile casts (the master checks those).
+        match crate::replay::installed() {
+            Some(r) => {
+                r.play(&tile, &mut pixels).map_err(|e| e.to_string())?;
+                stats.eye_rays = RayStats::expected_eye_rays(&tile, job.renderer.settings());
+            }
+            None => job.renderer.render_tile(&tile, &mut pixels, &mut stats),
+        }
+        Ok::<_, String>((pixels, stats))
     }));
     match rendered {
-        Ok((pixels, stats)) => Message::TileResult {
+        Ok(Err(reason)) => Message::Error { reason },
+        Ok(Ok((pixels, stats))) => Message::TileResult {
             job_id: job.job_id,
             tile_id: tile.id,
             attempt,

@@ -3,6 +3,7 @@
 
 pub mod accuracy;
 pub mod cast;
+pub mod cluster;
 pub mod efficiency;
 pub mod render;
 pub mod simulate;
@@ -29,6 +30,8 @@ pub enum BenchCommand {
     Simulate(simulate::SimulateArgs),
     /// Ray-casting throughput (eye + shadow rays, no shading), as Embree's nffcast measures it.
     Cast(cast::CastArgs),
+    /// An emulated cluster: N real workers replaying a recorded render over an emulated LAN.
+    Cluster(cluster::ClusterArgs),
     /// Speed against error: a reference render against a grid of configurations.
     Accuracy(accuracy::AccuracyArgs),
 }
@@ -39,6 +42,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchCommand::Render(a) => render::run(a),
         BenchCommand::Accuracy(a) => accuracy::run(a),
         BenchCommand::Cast(a) => cast::run(a),
+        BenchCommand::Cluster(a) => cluster::run(a),
         BenchCommand::Efficiency(a) => efficiency::run(a),
         BenchCommand::Simulate(a) => simulate::run(a),
     }

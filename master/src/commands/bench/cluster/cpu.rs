@@ -1,0 +1,188 @@
+//! CPU accounting of an emulated-cluster run (Linux `/proc`; zeros elsewhere): the master's
+//! runtime threads (the real master work, fed to the simulator), the whole emulation (this
+//! process with its relay, plus the worker processes), and the whole machine. On a machine with
+//! few cores the emulation of many nodes can itself run out of CPU; these say when it did.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Name of the master's runtime threads, whose CPU time is measured.
+pub const MASTER_THREAD: &str = "parrt-master";
+
+/// How often the sampler reads `/proc`.
+const PERIOD: Duration = Duration::from_millis(20);
+
+/// CPU seconds spent so far (or in an interval).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CpuSample {
+    /// The master's runtime threads.
+    pub master_s: f64,
+    /// This process and the given child processes.
+    pub own_s: f64,
+    /// This process alone (the master and the relay).
+    pub this_process_s: f64,
+    /// Every process on the machine.
+    pub machine_s: f64,
+}
+
+fn ticks_per_second() -> f64 {
+    // SAFETY: sysconf has no preconditions.
+    let t = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+    if t > 0 {
+        t as f64
+    } else {
+        100.0
+    }
+}
+
+/// utime + stime of a `/proc/.../stat` file, in ticks.
+fn stat_ticks(path: &str) -> u64 {
+    let Ok(s) = std::fs::read_to_string(path) else {
+        return 0;
+    };
+    // Fields after the command name (which may hold spaces) in parentheses.
+    let Some(rest) = s.rfind(')').map(|i| &s[i + 1..]) else {
+        return 0;
+    };
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // rest starts at field 3 (state); utime and stime are fields 14 and 15.
+    let num = |i: usize| f.get(i).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+    num(11) + num(12)
+}
+
+/// Nanoseconds on CPU of this process's threads named [`MASTER_THREAD`] (from schedstat).
+pub fn master_cpu_ns() -> u64 {
+    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
+        return 0;
+    };
+    let mut sum = 0;
+    for e in dir.flatten() {
+        let p = e.path();
+        let named = std::fs::read_to_string(p.join("comm"))
+            .is_ok_and(|c| c.trim_end().starts_with(MASTER_THREAD));
+        if !named {
+            continue;
+        }
+        if let Ok(s) = std::fs::read_to_string(p.join("schedstat")) {
+            sum += s
+                .split_whitespace()
+                .next()
+                .and_then(|v| v.parse::<u64>().ok())
+                .unwrap_or(0);
+        }
+    }
+    sum
+}
+
+/// Busy ticks of the whole machine (all CPUs) from `/proc/stat`.
+fn machine_ticks() -> u64 {
+    let Ok(s) = std::fs::read_to_string("/proc/stat") else {
+        return 0;
+    };
+    let Some(line) = s.lines().next().filter(|l| l.starts_with("cpu ")) else {
+        return 0;
+    };
+    let v: Vec<u64> = line
+        .split_whitespace()
+        .skip(1)
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    // user nice system idle iowait irq softirq steal: busy is all but idle and iowait.
+    v.iter().take(8).sum::<u64>() - v.get(3).copied().unwrap_or(0) - v.get(4).copied().unwrap_or(0)
+}
+
+fn sample(children: &[u32], tick: f64) -> CpuSample {
+    let this = stat_ticks("/proc/self/stat");
+    let own: u64 = this
+        + children
+            .iter()
+            .map(|p| stat_ticks(&format!("/proc/{p}/stat")))
+            .sum::<u64>();
+    CpuSample {
+        master_s: master_cpu_ns() as f64 / 1e9,
+        own_s: own as f64 / tick,
+        this_process_s: this as f64 / tick,
+        machine_s: machine_ticks() as f64 / tick,
+    }
+}
+
+/// Samples CPU every [`PERIOD`] until dropped, so the CPU of an interval known only afterwards
+/// (the tracing phase) can be read off.
+pub struct CpuSampler {
+    samples: Arc<Mutex<Vec<(Instant, CpuSample)>>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl CpuSampler {
+    /// Starts sampling this process and `children` (process ids).
+    pub fn start(children: Vec<u32>) -> CpuSampler {
+        let samples = Arc::new(Mutex::new(Vec::new()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (s2, stop2) = (samples.clone(), stop.clone());
+        let tick = ticks_per_second();
+        let thread = std::thread::Builder::new()
+            .name("cpu-sampler".into())
+            .spawn(move || {
+                while !stop2.load(Ordering::Relaxed) {
+                    let v = (Instant::now(), sample(&children, tick));
+                    s2.lock().unwrap_or_else(|e| e.into_inner()).push(v);
+                    std::thread::sleep(PERIOD);
+                }
+            })
+            .ok();
+        CpuSampler {
+            samples,
+            stop,
+            thread,
+        }
+    }
+
+    /// CPU spent between the samples nearest `from` and `to`.
+    pub fn between(&self, from: Instant, to: Instant) -> CpuSample {
+        let s = self.samples.lock().unwrap_or_else(|e| e.into_inner());
+        let at = |t: Instant| {
+            s.iter()
+                .min_by_key(|(i, _)| if *i > t { *i - t } else { t - *i })
+                .map_or(CpuSample::default(), |x| x.1)
+        };
+        let (a, b) = (at(from), at(to));
+        CpuSample {
+            master_s: (b.master_s - a.master_s).max(0.0),
+            own_s: (b.own_s - a.own_s).max(0.0),
+            this_process_s: (b.this_process_s - a.this_process_s).max(0.0),
+            machine_s: (b.machine_s - a.machine_s).max(0.0),
+        }
+    }
+}
+
+impl Drop for CpuSampler {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn own_cpu_grows_while_this_process_works() {
+        let s = CpuSampler::start(Vec::new());
+        let t0 = Instant::now();
+        let mut x = 0u64;
+        while t0.elapsed() < Duration::from_millis(200) {
+            x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
+        }
+        std::hint::black_box(x);
+        std::thread::sleep(PERIOD * 2);
+        let d = s.between(t0, Instant::now());
+        if cfg!(target_os = "linux") {
+            assert!(d.own_s > 0.0 && d.machine_s > 0.0, "{d:?}");
+        }
+    }
+}
