@@ -66,7 +66,7 @@ pub fn rank_from(env: &dyn Fn(&str) -> Option<String>) -> Result<Rank, LauncherE
         };
         let rank = number(rank_var, &r)?;
         let size = number(size_var, &s)?;
-        if size < 2 || size > MAX_RANKS {
+        if !(2..=MAX_RANKS).contains(&size) {
             return Err(LauncherError::Bad {
                 var: size_var.into(),
                 value: s,
