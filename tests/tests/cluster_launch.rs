@@ -136,6 +136,34 @@ fn three_open_mpi_ranks_meet_in_the_working_directory() {
     assert!(rendezvous_files(dir.path()).is_empty());
 }
 
+#[test]
+fn a_resume_with_every_tile_restored_still_releases_the_worker_ranks() {
+    let dir = tempfile::tempdir().unwrap();
+    let env = |job: &'static str| {
+        move |r: usize| {
+            vec![
+                ("SLURM_JOB_ID", job.to_string()),
+                ("SLURM_PROCID", r.to_string()),
+                ("SLURM_NTASKS", "3".into()),
+                ("SLURM_CPUS_PER_TASK", "1".into()),
+            ]
+        }
+    };
+    let t0 = Instant::now();
+    let ckpt = ["--checkpoint", "run.ckpt", "--rendezvous-timeout", "10"];
+    run_ranks(dir.path(), &env("5"), &ckpt);
+    std::fs::remove_file(dir.path().join("out.exr")).unwrap();
+    // The checkpoint holds every tile: rank 0 renders nothing, but must still meet both workers
+    // and tell them to stop, or they would wait for it until the timeout and fail.
+    run_ranks(dir.path(), &env("6"), &[&ckpt[..], &["--resume"]].concat());
+    assert!(t0.elapsed() < Duration::from_secs(10), "{:?}", t0.elapsed());
+    assert_eq!(
+        std::fs::read(dir.path().join("out.exr")).unwrap(),
+        smp_image(dir.path())
+    );
+    assert!(rendezvous_files(dir.path()).is_empty());
+}
+
 fn slurm(rank: usize, job: &str) -> Vec<(&'static str, String)> {
     vec![
         ("SLURM_JOB_ID", job.into()),

@@ -41,6 +41,11 @@ pub struct ClusterArgs {
     /// Seconds the other ranks wait for rank 0's rendezvous file (and to dial it).
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub rendezvous_timeout: f64,
+    /// The job's id, the same for every rank (default: from the launcher: Slurm's job and step,
+    /// Open MPI's job id, else a hash of the launcher's variables, which under MPICH's Hydra
+    /// is the same for every job of one size: give e.g. `--job-id $(date +%s%N)` there).
+    #[arg(long, value_name = "ID")]
+    pub job_id: Option<String>,
     /// Address rank 0 listens on (default: every interface, a free port).
     #[arg(long, value_name = "ADDR", default_value = "0.0.0.0:0")]
     pub listen: String,
@@ -79,7 +84,13 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     let env = |k: &str| std::env::var(k).ok();
     let rank = launcher::rank_from(&env).map_err(input_error)?;
     let vars: Vec<(String, String)> = std::env::vars().collect();
-    let job = launcher::job_id(&vars);
+    let job = match &args.job_id {
+        Some(j) if j.trim().is_empty() => {
+            return Err(input_error(anyhow::anyhow!("--job-id must not be empty")))
+        }
+        Some(j) => j.clone(),
+        None => launcher::job_id(&vars),
+    };
     let timeout = seconds_flag(
         "--rendezvous-timeout",
         args.rendezvous_timeout,
@@ -159,6 +170,7 @@ fn run_master(
         pixel_format: crate::distributed::pixel_format_for(&args.output),
         checkpoint: args.checkpoint.clone(),
         resume: args.resume,
+        await_all_workers: true,
         ..DistOptions::default()
     };
     let mut published = None;

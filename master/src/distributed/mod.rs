@@ -205,6 +205,10 @@ pub struct DistOptions {
     pub checkpoint: Option<std::path::PathBuf>,
     /// Continue the render recorded in `checkpoint` (else an existing file is refused).
     pub resume: bool,
+    /// Wait for `min_workers` even when a resumed checkpoint left nothing to render, so that
+    /// each is told to shut down (`parrt cluster`: its worker ranks would otherwise wait for a
+    /// master that has gone).
+    pub await_all_workers: bool,
 }
 
 impl Default for DistOptions {
@@ -232,6 +236,7 @@ impl Default for DistOptions {
             pixel_format: PixelFormat::F32,
             checkpoint: None,
             resume: false,
+            await_all_workers: false,
         }
     }
 }
