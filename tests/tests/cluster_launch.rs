@@ -199,6 +199,14 @@ fn no_launcher_in_the_environment_is_a_usage_error() {
     assert!(!dir.path().join("out.png").exists());
 }
 
+#[test]
+fn a_missing_rendezvous_directory_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, err) = run_one(dir.path(), &slurm(0, "3"), &["--rendezvous", "no/such/dir"]);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("not a directory"), "{err}");
+}
+
 fn leftover(dir: &Path, job_in_name: &str, job_inside: &str, pid: u32, age: u64) -> PathBuf {
     let path = dir.join(format!("parrt-rendezvous-slurm-{job_in_name}.json"));
     let now = std::time::SystemTime::now()

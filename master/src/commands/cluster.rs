@@ -148,6 +148,12 @@ fn run_master(
         check_checkpoint_apart(c, &[args.output.as_path()])?;
     }
     check_listen(&args.listen)?;
+    if !args.rendezvous.is_dir() {
+        return Err(input_error(anyhow::anyhow!(
+            "--rendezvous {}: not a directory (give one every rank sees)",
+            args.rendezvous.display()
+        )));
+    }
     // A leftover file is refused before the scene is even read.
     rendezvous::check_free(&args.rendezvous, job, timeout)
         .map_err(|e| input_error(anyhow::Error::new(e)))?;
