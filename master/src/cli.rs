@@ -27,6 +27,9 @@ pub enum Command {
     Master(commands::master::MasterArgs),
     /// Connect to a master and render the tiles it assigns.
     Worker(commands::worker::WorkerArgs),
+    /// One rank of a job started by srun, mpirun or mpiexec: rank 0 is the master, the others
+    /// workers; they meet through a rendezvous file.
+    Cluster(commands::cluster::ClusterArgs),
     /// Benchmarks and studies that print numbers (efficiency, accuracy, ...).
     Bench(commands::bench::BenchArgs),
 }
@@ -43,7 +46,10 @@ pub fn main() -> ExitCode {
         }
     };
     // Library warnings (e.g. the NFF reader's) go to stderr; master and worker log more.
-    if !matches!(cli.command, Command::Master(_) | Command::Worker(_)) {
+    if !matches!(
+        cli.command,
+        Command::Master(_) | Command::Worker(_) | Command::Cluster(_)
+    ) {
         parrt_worker::cli::init_logging("warn");
     }
     let result = match cli.command {
@@ -52,6 +58,7 @@ pub fn main() -> ExitCode {
         Command::Scene(a) => commands::scene::run(a),
         Command::Master(a) => commands::master::run(a),
         Command::Worker(a) => commands::worker::run(a),
+        Command::Cluster(a) => commands::cluster::run(a),
         Command::Bench(a) => commands::bench::run(a),
     };
     match result {

@@ -3,7 +3,7 @@
 //! ## Layout
 //! - [`cli`]: argument definitions and dispatch; `main.rs` only calls [`cli::main`].
 //! - [`commands`]: one module per subcommand (`render`, `info`, `scene`, `master`, `worker`,
-//!   `bench`).
+//!   `cluster`, `bench`).
 //! - [`distributed`]: the master side of distributed rendering (server, scheduler, workers).
 //! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
 //! - [`plot`]: charts (SVG and PNG) for the studies.

@@ -97,7 +97,7 @@ fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
 
 /// Checks that `--listen` is an address that can be resolved (bad input otherwise); whether it
 /// can be bound (a port in use) is found when binding, and is not the user's typo.
-fn check_listen(listen: &str) -> anyhow::Result<()> {
+pub fn check_listen(listen: &str) -> anyhow::Result<()> {
     use std::net::ToSocketAddrs;
     let mut addrs = listen.to_socket_addrs().map_err(|e| {
         input_error(anyhow::anyhow!(
@@ -203,7 +203,8 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn print_summary(r: &DistResult, out: &std::path::Path) {
+/// Prints what a distributed render did (also `parrt cluster`'s rank 0).
+pub fn print_summary(r: &DistResult, out: &std::path::Path) {
     eprintln!(
         "parrt master: wrote {} ({} tiles in {:.3} s; {} rays; {} bytes out, {} in, {:.0} bytes/tile; scene transfer {:.4} s)",
         out.display(),

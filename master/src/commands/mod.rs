@@ -1,6 +1,7 @@
 //! One module per subcommand; each exposes an `Args` struct and `run(args)`.
 
 pub mod bench;
+pub mod cluster;
 pub mod durations;
 pub mod info;
 pub mod master;

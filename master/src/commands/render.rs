@@ -442,7 +442,7 @@ fn render_through_workers(
         resume: args.resume,
         ..DistOptions::default()
     };
-    let (r, _, settings) = match render_distributed_prepared(&opts, &|_| {}, prepare) {
+    let (r, _, settings) = match render_distributed_prepared(&opts, &mut |_| Ok(()), prepare) {
         Ok(done) => done,
         Err(Failed::Job(e)) => return Err(e),
         Err(Failed::Dist(e)) => {

@@ -10,14 +10,18 @@
 //! - [`checkpoint`]: the file of accepted tiles a killed master resumes from.
 //! - [`progress`]: the progress line.
 //! - [`refusals`]: the bounded record of refused handshakes.
+//! - [`launcher`]: rank, size and job id from `srun`/`mpirun`/`mpiexec`'s environment.
+//! - [`rendezvous`]: the file through which the ranks of `parrt cluster` meet.
 //!
 //! [`render_distributed`] is the one-call entry point (used by `parrt render --workers` and
 //! `parrt master`); [`server::Master`] is the async API underneath.
 
 pub mod checkpoint;
 pub mod connection;
+pub mod launcher;
 pub mod progress;
 pub mod refusals;
+pub mod rendezvous;
 pub mod scheduler;
 pub mod server;
 pub mod spawn;
@@ -98,6 +102,9 @@ pub enum DistError {
     /// The checkpoint could not be used (another job's, exists without `--resume`, I/O).
     #[error(transparent)]
     Checkpoint(#[from] checkpoint::CheckpointError),
+    /// The ranks of `parrt cluster` could not meet (a leftover or foreign rendezvous file, I/O).
+    #[error(transparent)]
+    Rendezvous(#[from] rendezvous::RendezvousError),
     /// The async runtime could not start.
     #[error("cannot start the async runtime: {0}")]
     Runtime(std::io::Error),
@@ -110,6 +117,7 @@ impl DistError {
         match self {
             DistError::TileTooLarge { .. } => true,
             DistError::Checkpoint(e) => e.is_bad_input(),
+            DistError::Rendezvous(e) => e.is_bad_input(),
             _ => false,
         }
     }
@@ -199,6 +207,10 @@ pub struct DistOptions {
     pub checkpoint: Option<std::path::PathBuf>,
     /// Continue the render recorded in `checkpoint` (else an existing file is refused).
     pub resume: bool,
+    /// Wait for `min_workers` even when a resumed checkpoint left nothing to render, so that
+    /// each is told to shut down (`parrt cluster`: its worker ranks would otherwise wait for a
+    /// master that has gone).
+    pub await_all_workers: bool,
 }
 
 impl Default for DistOptions {
@@ -226,6 +238,7 @@ impl Default for DistOptions {
             pixel_format: PixelFormat::F32,
             checkpoint: None,
             resume: false,
+            await_all_workers: false,
         }
     }
 }
@@ -321,18 +334,33 @@ pub fn render_distributed(
     opts: &DistOptions,
     on_listen: &dyn Fn(SocketAddr),
 ) -> Result<DistResult, DistError> {
+    render_distributed_announced(desc, settings, opts, &mut |addr| {
+        on_listen(addr);
+        Ok(())
+    })
+}
+
+/// [`render_distributed`] whose `on_listen` may fail (then nothing is rendered and its error is
+/// returned) and may keep state until the render ends: `parrt cluster` publishes its
+/// rendezvous file there and removes it when the closure is dropped.
+pub fn render_distributed_announced(
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    opts: &DistOptions,
+    on_listen: &mut dyn FnMut(SocketAddr) -> Result<(), DistError>,
+) -> Result<DistResult, DistError> {
     render_distributed_prepared(opts, on_listen, || Ok((desc.clone(), settings.clone())))
         .map(|(r, _, _)| r)
 }
 
-/// Like [`render_distributed`], but the job comes from `prepare` (parse the scene, check it),
-/// which runs while the local workers start up: process start, connection and handshake
-/// overlap the parse and the scene check instead of following them. With a checkpoint the job
-/// is prepared first (the checkpoint must be checked against it before anything listens).
-/// Returns the result with the job's description and settings.
+/// Like [`render_distributed_announced`], but the job comes from `prepare` (parse the scene,
+/// check it), which runs while the local workers start up: process start, connection and
+/// handshake overlap the parse and the scene check instead of following them. With a
+/// checkpoint the job is prepared first (the checkpoint must be checked against it before
+/// anything listens). Returns the result with the job's description and settings.
 pub fn render_distributed_prepared<E: From<DistError>>(
     opts: &DistOptions,
-    on_listen: &dyn Fn(SocketAddr),
+    on_listen: &mut dyn FnMut(SocketAddr) -> Result<(), DistError>,
     prepare: impl FnOnce() -> Result<(SceneDescription, RenderSettings), E>,
 ) -> Result<(DistResult, SceneDescription, RenderSettings), E> {
     let token = opts.token.clone().unwrap_or_else(generate_token);
@@ -360,7 +388,7 @@ pub fn render_distributed_prepared<E: From<DistError>>(
             master.set_checkpoint(o);
         }
         let addr = master.local_addr();
-        on_listen(addr);
+        on_listen(addr)?;
         let _children = if opts.workers_to_spawn > 0 {
             let (n, t, at) = (
                 opts.workers_to_spawn,

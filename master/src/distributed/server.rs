@@ -153,7 +153,7 @@ impl Master {
         let mut waiting_since = Some(Instant::now());
         let min_workers = opts.min_workers.max(1);
         let outcome: Result<(), DistError> = loop {
-            if sched.is_done() {
+            if sched.is_done() && (started.is_some() || !opts.await_all_workers) {
                 break Ok(());
             }
             tokio::select! {

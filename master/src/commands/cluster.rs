@@ -1,0 +1,259 @@
+//! `parrt cluster`: one command for every rank of a job started by `srun -n N`, `mpirun -np N`
+//! or `mpiexec -n N`. Rank 0 becomes the master and publishes its address and a fresh token in
+//! a rendezvous file; the other ranks read it and render as workers. Arguments and dispatch
+//! only: the environment is read by [`crate::distributed::launcher`], the file protocol is
+//! [`crate::distributed::rendezvous`], the render is [`crate::distributed`]'s.
+
+use super::durations::{seconds_flag, MAX_FLAG_DURATION};
+use super::master::{check_listen, print_summary};
+use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use super::render::RenderFlags;
+use super::scene_input::{LimitArgs, SceneSpec};
+use crate::distributed::launcher::{self, Rank};
+use crate::distributed::rendezvous::{self, Rendezvous};
+use crate::distributed::{render_distributed_announced, DistError, DistOptions};
+use crate::exit::input_error;
+use anyhow::Context;
+use clap::Args;
+use parrt::protocol::Token;
+use parrt_worker::cli::{init_logging, TokenArgs, WorkerArgs};
+use rand::Rng;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// Arguments of `parrt cluster` (the same for every rank).
+#[derive(Debug, Args)]
+pub struct ClusterArgs {
+    /// The NFF scene to render (read by rank 0 only; workers receive it over TCP).
+    pub file: Option<PathBuf>,
+    /// A generated scene, NAME or NAME:SIZE.
+    #[arg(long, value_name = "NAME[:SIZE]")]
+    pub scene: Option<String>,
+    /// Output image (.png, .ppm or .exr), written by rank 0.
+    #[arg(short, long, value_name = "OUT", default_value = "parrt.png")]
+    pub output: PathBuf,
+    /// A directory every rank sees (a shared file system) where rank 0 publishes its address
+    /// and the job's token.
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    pub rendezvous: PathBuf,
+    /// Seconds the other ranks wait for rank 0's rendezvous file (and to dial it).
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    pub rendezvous_timeout: f64,
+    /// The job's id, the same for every rank (default: from the launcher: Slurm's job and step,
+    /// Open MPI's job id, else a hash of the launcher's variables, which under MPICH's Hydra
+    /// is the same for every job of one size: give e.g. `--job-id $(date +%s%N)` there).
+    #[arg(long, value_name = "ID")]
+    pub job_id: Option<String>,
+    /// Address rank 0 listens on (default: every interface, a free port).
+    #[arg(long, value_name = "ADDR", default_value = "0.0.0.0:0")]
+    pub listen: String,
+    /// The host name the other ranks dial (default: rank 0's host name when listening on every
+    /// interface, else the --listen address).
+    #[arg(long, value_name = "HOST")]
+    pub advertise: Option<String>,
+    /// Render threads of each worker rank (default: SLURM_CPUS_PER_TASK, else the cores this
+    /// process is bound to).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Tile edge in pixels.
+    #[arg(long, value_name = "S", default_value_t = 32)]
+    pub tile: u32,
+    /// Seconds rank 0 waits for every other rank to be ready (and, mid-job, for any worker when
+    /// all have left) before giving up; at most a week.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    pub wait_workers: f64,
+    /// Record each accepted tile in FILE on rank 0 (see `parrt master --checkpoint`).
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<PathBuf>,
+    /// Continue the render recorded in --checkpoint FILE.
+    #[arg(long, requires = "checkpoint")]
+    pub resume: bool,
+    /// Render settings (the same flags as `parrt render`, so the same bits).
+    #[command(flatten)]
+    pub render: RenderFlags,
+    /// Parser limits.
+    #[command(flatten)]
+    pub limits: LimitArgs,
+}
+
+/// Runs one rank of `parrt cluster`.
+pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
+    init_logging("info");
+    let env = |k: &str| std::env::var(k).ok();
+    let rank = launcher::rank_from(&env).map_err(input_error)?;
+    let vars: Vec<(String, String)> = std::env::vars().collect();
+    let job = match &args.job_id {
+        Some(j) if j.trim().is_empty() => {
+            return Err(input_error(anyhow::anyhow!("--job-id must not be empty")))
+        }
+        Some(j) => j.clone(),
+        None => launcher::job_id(&vars),
+    };
+    let timeout = seconds_flag(
+        "--rendezvous-timeout",
+        args.rendezvous_timeout,
+        Duration::ZERO,
+        MAX_FLAG_DURATION,
+    )?;
+    if rank.rank == 0 {
+        run_master(&args, &rank, &job, timeout)
+    } else {
+        run_worker(&args, &rank, &job, timeout)
+    }
+}
+
+fn fresh_token() -> anyhow::Result<(String, Token)> {
+    let mut rng = rand::thread_rng();
+    let text: String = (0..32)
+        .map(|_| char::from_digit(rng.gen_range(0..16), 16).unwrap_or('0'))
+        .collect();
+    let token = Token::new(&text).context("cannot make a token")?;
+    Ok((text, token))
+}
+
+/// The address the other ranks dial for a master bound at `bound`.
+fn advertised(args: &ClusterArgs, bound: SocketAddr) -> String {
+    let host = match &args.advertise {
+        Some(h) => h.clone(),
+        None if bound.ip().is_unspecified() => rendezvous::host_name(),
+        None => return bound.to_string(),
+    };
+    if host.contains(':') {
+        format!("[{host}]:{}", bound.port())
+    } else {
+        format!("{host}:{}", bound.port())
+    }
+}
+
+fn run_master(
+    args: &ClusterArgs,
+    rank: &Rank,
+    job: &str,
+    timeout: Duration,
+) -> anyhow::Result<ExitCode> {
+    if args.tile == 0 {
+        return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
+    }
+    let wait_workers = seconds_flag(
+        "--wait-workers",
+        args.wait_workers,
+        Duration::ZERO,
+        MAX_FLAG_DURATION,
+    )?;
+    check_image_output(&args.output)?;
+    if let Some(c) = &args.checkpoint {
+        check_file_output(c)?;
+        check_checkpoint_apart(c, &[args.output.as_path()])?;
+    }
+    check_listen(&args.listen)?;
+    if !args.rendezvous.is_dir() {
+        return Err(input_error(anyhow::anyhow!(
+            "--rendezvous {}: not a directory (give one every rank sees)",
+            args.rendezvous.display()
+        )));
+    }
+    // A leftover file is refused before the scene is even read.
+    rendezvous::check_free(&args.rendezvous, job, timeout)
+        .map_err(|e| input_error(anyhow::Error::new(e)))?;
+    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
+    let (desc, _) = spec.load(&args.limits.limits())?;
+    let label = spec.label();
+    let settings = args.render.settings(desc.view.width, desc.view.height)?;
+    args.limits
+        .check_image(settings.width, settings.height, args.tile)?;
+    parrt::render::validate_job(&desc, &settings)
+        .map_err(input_error)
+        .with_context(|| format!("no worker could render {label}"))?;
+    let (token_text, token) = fresh_token()?;
+    let opts = DistOptions {
+        tile: args.tile,
+        listen: args.listen.clone(),
+        token: Some(token),
+        min_workers: rank.size - 1,
+        wait_workers,
+        pixel_format: crate::distributed::pixel_format_for(&args.output),
+        checkpoint: args.checkpoint.clone(),
+        resume: args.resume,
+        await_all_workers: true,
+        ..DistOptions::default()
+    };
+    let mut published = None;
+    let result = render_distributed_announced(&desc, &settings, &opts, &mut |bound| {
+        let r = Rendezvous {
+            version: rendezvous::VERSION,
+            job: job.to_string(),
+            size: rank.size,
+            address: advertised(args, bound),
+            token: token_text.clone(),
+            pid: std::process::id(),
+            host: rendezvous::host_name(),
+            created: rendezvous::now_unix(),
+        };
+        let p = rendezvous::publish(&args.rendezvous, &r, timeout)?;
+        eprintln!(
+            "parrt cluster: rank 0 of {} ({}, job {job}) is the master on {bound}, published as {} in {}; {label} at {}x{}",
+            rank.size,
+            rank.launcher,
+            r.address,
+            p.path().display(),
+            settings.width,
+            settings.height
+        );
+        published = Some(p);
+        Ok(())
+    });
+    // The rendezvous file goes as soon as the render ends, whatever its outcome.
+    drop(published);
+    let result = result
+        .map_err(|e: DistError| {
+            if e.is_bad_input() {
+                input_error(e)
+            } else {
+                anyhow::Error::new(e)
+            }
+        })
+        .context("distributed render failed")?;
+    result
+        .film
+        .save(&args.output)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    print_summary(&result, &args.output);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn run_worker(
+    args: &ClusterArgs,
+    rank: &Rank,
+    job: &str,
+    timeout: Duration,
+) -> anyhow::Result<ExitCode> {
+    let env = |k: &str| std::env::var(k).ok();
+    let threads = args
+        .threads
+        .unwrap_or_else(|| launcher::default_threads(&env));
+    let r = rendezvous::wait(&args.rendezvous, job, rank.size, timeout)
+        .map_err(|e| input_error(anyhow::Error::new(e)))
+        .with_context(|| format!("rank {} of {} ({})", rank.rank, rank.size, rank.launcher))?;
+    tracing::info!(
+        rank = rank.rank,
+        size = rank.size,
+        master = %r.address,
+        threads,
+        "joining the job"
+    );
+    let worker = WorkerArgs {
+        connect: r.address,
+        threads: Some(threads),
+        name: Some(format!("rank{}@{}", rank.rank, rendezvous::host_name())),
+        dial_timeout: timeout.as_secs_f64(),
+        replay: None,
+        cost_scale: 1.0,
+        token: TokenArgs {
+            token: Some(r.token),
+            token_file: None,
+        },
+    };
+    super::worker::run(worker)
+}
