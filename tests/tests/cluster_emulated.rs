@@ -42,6 +42,8 @@ fn four_replaying_workers_of_two_threads_assemble_the_smp_image_once_per_tile() 
             threads: 2,
             tile,
             window_per_thread: 2,
+            max_batch: 8,
+            pixel_format: parrt::protocol::PixelFormat::F32,
             link: LinkParams {
                 latency: Duration::from_micros(500),
                 worker_bps: 100e6 / 8.0,

@@ -73,9 +73,16 @@ pub struct ClusterArgs {
     /// Bandwidth of each worker's link, Mbit/s (default: --bandwidth-mbps).
     #[arg(long, value_name = "MBIT")]
     pub worker_bandwidth_mbps: Option<f64>,
-    /// Tiles in flight per worker thread.
+    /// Assignments (batches of tiles) in flight per worker thread.
     #[arg(long, value_name = "K", default_value_t = 2)]
     pub window: usize,
+    /// Most tiles in one assignment (1: every tile alone, as before batching).
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    pub max_batch: usize,
+    /// Send exact f32 pixels (12 bytes each, what an EXR output needs) instead of the 8-bit
+    /// pixels of a PNG output (3 bytes); the identity check then compares f32 bits, not bytes.
+    #[arg(long)]
+    pub exact_pixels: bool,
     /// Seconds one run may take, start-up included; it is cancelled after that.
     #[arg(long, value_name = "S", default_value_t = 600.0)]
     pub run_timeout: f64,
@@ -355,6 +362,12 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                     threads,
                     tile: args.tile,
                     window_per_thread: args.window,
+                    max_batch: args.max_batch,
+                    pixel_format: if args.exact_pixels {
+                        parrt::protocol::PixelFormat::F32
+                    } else {
+                        parrt::protocol::PixelFormat::Rgb8
+                    },
                     link,
                     replay: path.clone(),
                     cost_scale: scale,
@@ -413,7 +426,11 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 predicted_cluster: cluster.efficiency,
                 limit: (work / cores as f64) / bound.max(1e-12),
                 binding,
-                identical: m.film == reference,
+                identical: if args.exact_pixels {
+                    m.film == reference
+                } else {
+                    m.film.to_rgb8() == reference.to_rgb8()
+                },
                 delivered_once: m.delivered == m.tiles as u64,
                 tiles: m.tiles,
                 duplicates: m.duplicates,

@@ -28,6 +28,10 @@ pub struct EmulatedRun {
     pub tile: u32,
     /// Tiles in flight per worker thread.
     pub window_per_thread: usize,
+    /// Most tiles in one assignment.
+    pub max_batch: usize,
+    /// How pixels travel.
+    pub pixel_format: parrt::protocol::PixelFormat,
     /// The network.
     pub link: LinkParams,
     /// The recorded render the workers replay.
@@ -104,6 +108,8 @@ pub fn run(
         min_workers: run.workers,
         wait_workers: run.timeout,
         window_per_thread: run.window_per_thread,
+        max_batch: run.max_batch,
+        pixel_format: run.pixel_format,
         // Many processes share few cores here: no tile is late, no worker silent, before the
         // run's own timeout says so.
         tile_deadline: run.timeout,
