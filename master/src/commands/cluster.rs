@@ -11,7 +11,7 @@ use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::distributed::launcher::{self, Rank};
 use crate::distributed::rendezvous::{self, Rendezvous};
-use crate::distributed::{render_distributed_announced, DistError, DistOptions};
+use crate::distributed::{render_distributed_announced, DistOptions};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
@@ -207,13 +207,7 @@ fn run_master(
     // The rendezvous file goes as soon as the render ends, whatever its outcome.
     drop(published);
     let result = result
-        .map_err(|e: DistError| {
-            if e.is_bad_input() {
-                input_error(e)
-            } else {
-                anyhow::Error::new(e)
-            }
-        })
+        .map_err(crate::exit::dist_error)
         .context("distributed render failed")?;
     result
         .film

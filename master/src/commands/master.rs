@@ -5,7 +5,7 @@ use super::durations::{seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, M
 use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
 use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
-use crate::distributed::{render_distributed, DistError, DistOptions, DistResult, DEFAULT_LISTEN};
+use crate::distributed::{render_distributed, DistOptions, DistResult, DEFAULT_LISTEN};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
@@ -183,13 +183,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
             settings.width, settings.height, opts.tile
         );
     })
-    .map_err(|e: DistError| {
-        if e.is_bad_input() {
-            input_error(e)
-        } else {
-            anyhow::Error::new(e)
-        }
-    })
+    .map_err(crate::exit::dist_error)
     .context("distributed render failed")?;
     result
         .film

@@ -446,12 +446,7 @@ fn render_through_workers(
         Ok(done) => done,
         Err(Failed::Job(e)) => return Err(e),
         Err(Failed::Dist(e)) => {
-            let e = if e.is_bad_input() {
-                input_error(e)
-            } else {
-                anyhow::Error::new(e)
-            };
-            return Err(e.context("distributed render failed"));
+            return Err(crate::exit::dist_error(e).context("distributed render failed"))
         }
     };
     if let Some(c) = &args.checkpoint {
