@@ -11,6 +11,9 @@ use tokio::time::{sleep, Instant};
 use tokio_util::sync::CancellationToken;
 use tracing::{debug, warn};
 
+/// Handshakes cut short that a worker retries quietly (logged at DEBUG) before it warns.
+pub const QUIET_RETRIES: u32 = 3;
+
 /// Connects to `opts.connect`, retrying with backoff. `Ok(None)` when `stop` fired first.
 pub async fn dial(
     opts: &WorkerOptions,
@@ -93,10 +96,19 @@ impl<'a> Dialer<'a> {
         if self.start.elapsed() + self.delay > self.opts.dial_timeout {
             return Err(why);
         }
-        warn!(
-            addr = %self.opts.connect, attempt = self.attempts, error = %why,
-            delay = ?self.delay, "handshake cut short, retrying"
-        );
+        // The first few are routine when many workers arrive at once (the master's handshake
+        // budget turns the latest away for a moment); only a run of them is worth a warning.
+        if self.attempts <= QUIET_RETRIES {
+            debug!(
+                addr = %self.opts.connect, attempt = self.attempts, error = %why,
+                delay = ?self.delay, "handshake cut short, retrying"
+            );
+        } else {
+            warn!(
+                addr = %self.opts.connect, attempt = self.attempts, error = %why,
+                delay = ?self.delay, "handshake cut short, retrying"
+            );
+        }
         Ok(self.sleep(stop).await)
     }
 

@@ -360,8 +360,10 @@ async fn accept_loop(
             Err(why) => {
                 turned_away += 1;
                 let now = Instant::now();
+                // INFO, not WARN: many honest workers arriving at once (`render --workers 40`)
+                // meet these budgets too, and simply retry.
                 if last_warn.is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1)) {
-                    warn!(%peer, max_connections, turned_away, "{why}; closing this one");
+                    info!(%peer, max_connections, turned_away, "{why}; closing this one");
                     last_warn = Some(now);
                 } else {
                     debug!(%peer, "{why}; closing this one");
