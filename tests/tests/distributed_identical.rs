@@ -280,7 +280,9 @@ fn many_local_workers_render_quietly() {
     let (smp, dist) = (dir.path().join("smp.png"), dir.path().join("dist.png"));
     let run = |out: &std::path::Path, extra: &[&str]| {
         let o = Command::new(EXE)
-            .args(["render", "--scene", "mount:1", "--width", "48", "--height", "32"])
+            .args([
+                "render", "--scene", "mount:1", "--width", "48", "--height", "32",
+            ])
             .args(["--tile", "8", "-o"])
             .arg(out)
             .args(extra)
