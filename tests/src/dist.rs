@@ -258,3 +258,29 @@ pub fn spawn_worker_process(
     };
     ChildGuard(cmd.spawn().expect("spawn worker process"))
 }
+
+/// `msg` as one frame on the wire (length prefix and postcard payload), for raw-byte peers.
+pub fn frame(msg: &parrt::protocol::Message) -> bytes::BytesMut {
+    use tokio_util::codec::Encoder;
+    let mut buf = bytes::BytesMut::new();
+    parrt::protocol::MessageCodec::new(1 << 28)
+        .encode(msg, &mut buf)
+        .expect("a test message encodes");
+    buf
+}
+
+/// Reads and discards until the peer closes; true when it closed within 5 s.
+pub async fn closed_within_5s(s: &mut tokio::net::TcpStream) -> bool {
+    use tokio::io::AsyncReadExt;
+    let mut buf = [0u8; 4096];
+    tokio::time::timeout(Duration::from_secs(5), async {
+        loop {
+            match s.read(&mut buf).await {
+                Ok(0) | Err(_) => return,
+                Ok(_) => {}
+            }
+        }
+    })
+    .await
+    .is_ok()
+}
