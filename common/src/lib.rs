@@ -11,6 +11,8 @@
 //! - [`tile`], [`smp`], [`film`]: tile tasks, shared-memory executors, the image.
 //! - [`settings`], [`stats`]: what decides pixels, and what was counted.
 //! - [`protocol`]: the master/worker wire protocol (messages, codec, auth, connection).
+//! - [`window`], [`simulate`]: how much work a worker holds at once, and a model of the
+//!   master/worker schedule.
 #![deny(missing_docs)]
 // `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -35,3 +37,4 @@ pub mod smp;
 pub mod stats;
 pub mod tile;
 pub mod vec3;
+pub mod window;

@@ -41,7 +41,7 @@ fn four_replaying_workers_of_two_threads_assemble_the_smp_image_once_per_tile() 
             workers: 4,
             threads: 2,
             tile,
-            window_per_thread: 2,
+            window: parrt::window::Window::Auto,
             max_batch: 8,
             pixel_format: parrt::protocol::PixelFormat::F32,
             link: LinkParams {

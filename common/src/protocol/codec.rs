@@ -260,13 +260,54 @@ impl Encoder<&Message> for MessageCodec {
 
     fn encode(&mut self, msg: &Message, dst: &mut BytesMut) -> Result<(), ProtocolError> {
         let payload = encode_payload(msg)?;
+        self.put_frame(&payload, dst)
+    }
+}
+
+/// A message encoded once, to be sent to many peers (the job, with its scene) without encoding
+/// it again for each.
+#[derive(Clone, Debug)]
+pub struct Encoded {
+    payload: bytes::Bytes,
+}
+
+impl Encoded {
+    /// Encodes `msg`.
+    pub fn new(msg: &Message) -> Result<Self, ProtocolError> {
+        Ok(Encoded {
+            payload: encode_payload(msg)?.into(),
+        })
+    }
+
+    /// Bytes of the payload (without the length prefix).
+    pub fn len(&self) -> usize {
+        self.payload.len()
+    }
+
+    /// Whether the payload is empty (never, for a message).
+    pub fn is_empty(&self) -> bool {
+        self.payload.is_empty()
+    }
+}
+
+impl Encoder<&Encoded> for MessageCodec {
+    type Error = ProtocolError;
+
+    fn encode(&mut self, msg: &Encoded, dst: &mut BytesMut) -> Result<(), ProtocolError> {
+        self.put_frame(&msg.payload, dst)
+    }
+}
+
+impl MessageCodec {
+    /// Writes one frame: the length prefix and `payload`, within the sending limit.
+    fn put_frame(&mut self, payload: &[u8], dst: &mut BytesMut) -> Result<(), ProtocolError> {
         let len = payload.len();
         if len > self.max_send || u32::try_from(len).is_err() {
             return Err(ProtocolError::FrameTooLarge { max: self.max_send });
         }
         dst.reserve(LENGTH_PREFIX + len);
         dst.put_u32(len as u32);
-        dst.extend_from_slice(&payload);
+        dst.extend_from_slice(payload);
         self.counters
             .bytes_sent
             .fetch_add((len + LENGTH_PREFIX) as u64, Ordering::Relaxed);

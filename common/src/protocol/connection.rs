@@ -4,7 +4,7 @@
 //! until when a peer counts as alive: bytes arriving are life, but a frame must still arrive at
 //! a floor rate.
 
-use super::codec::{MessageCodec, ProtocolError, WireCounters};
+use super::codec::{Encoded, MessageCodec, ProtocolError, WireCounters};
 use super::limits::frame_allowance;
 use super::message::Message;
 use futures::{SinkExt, StreamExt};
@@ -37,6 +37,11 @@ impl<S: AsyncRead + AsyncWrite + Unpin> Connection<S> {
 
     /// Writes one message and flushes it.
     pub async fn write(&mut self, msg: &Message) -> Result<(), ProtocolError> {
+        self.framed.send(msg).await
+    }
+
+    /// Writes a message encoded once for many peers, and flushes it.
+    pub async fn write_encoded(&mut self, msg: &Encoded) -> Result<(), ProtocolError> {
         self.framed.send(msg).await
     }
 

@@ -51,7 +51,7 @@ pub mod message;
 pub mod pixels;
 
 pub use auth::{AuthError, Token};
-pub use codec::{MessageCodec, ProtocolError, WireCounters};
+pub use codec::{Encoded, MessageCodec, ProtocolError, WireCounters};
 pub use connection::Connection;
 pub use limits::{DEFAULT_MAX_FRAME, HANDSHAKE_MAX_FRAME};
 pub use message::{JobSpec, Message};

@@ -48,9 +48,11 @@ pub struct MasterArgs {
     /// week).
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
     pub heartbeat_timeout: f64,
-    /// Assignments in flight per worker thread (each a batch of up to --max-batch tiles).
-    #[arg(long, value_name = "N", default_value_t = 2)]
-    pub window: usize,
+    /// Assignments (each a batch of up to --max-batch tiles) a worker holds at once: `auto`
+    /// gives one per thread plus what the worker's measured round trip needs (two per thread
+    /// until it is measured); a number N gives N per thread.
+    #[arg(long, value_name = "auto|N", default_value = "auto")]
+    pub window: parrt::window::Window,
     /// Most tiles in one assignment. Batches are guided: large while much is queued and
     /// tiles are cheap (at most 50 ms of work), single tiles at the tail; 1 sends every tile
     /// on its own; at most 256.
@@ -169,7 +171,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         wait_workers,
         tile_deadline,
         heartbeat_timeout,
-        window_per_thread: args.window.max(1),
+        window: args.window,
         max_batch: args.max_batch.max(1),
         backups: !args.no_backups,
         pixel_format: crate::distributed::pixel_format_for(&args.output),

@@ -407,7 +407,7 @@ fn render_through_workers(
     spec: &SceneSpec,
     n: usize,
 ) -> anyhow::Result<(Outcome, f64, RenderSettings)> {
-    use crate::distributed::{render_distributed_prepared, DistError, DistOptions};
+    use crate::distributed::{render_distributed_prepared, DistError, DistOptions, JobCheck};
     /// A failure of the distributed render or of preparing its job.
     enum Failed {
         Dist(DistError),
@@ -421,15 +421,18 @@ fn render_through_workers(
     if n == 0 {
         return Err(input_error(anyhow::anyhow!("--workers must be at least 1")));
     }
-    // Loading and checking the scene runs while the worker processes start.
+    // Loading the scene runs while the worker processes start; checking it, while they build it.
     let parse_s = std::cell::Cell::new(0.0);
     let prepare = || {
         let (desc, settings, secs) = load_job(args, spec).map_err(Failed::Job)?;
         parse_s.set(secs);
-        // The workers would each refuse a scene they cannot build; refuse it here, once.
-        parrt::render::validate_job(&desc, &settings).map_err(|e| Failed::Job(input_error(e)))?;
         Ok((desc, settings))
     };
+    // The workers would each refuse a scene they cannot build; the check refuses it once, as
+    // bad input.
+    let check: JobCheck<Failed> = Box::new(|desc, settings| {
+        parrt::render::validate_job(desc, settings).map_err(|e| Failed::Job(input_error(e)))
+    });
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
     let opts = DistOptions {
@@ -442,13 +445,14 @@ fn render_through_workers(
         resume: args.resume,
         ..DistOptions::default()
     };
-    let (r, _, settings) = match render_distributed_prepared(&opts, &mut |_| Ok(()), prepare) {
-        Ok(done) => done,
-        Err(Failed::Job(e)) => return Err(e),
-        Err(Failed::Dist(e)) => {
-            return Err(crate::exit::dist_error(e).context("distributed render failed"))
-        }
-    };
+    let (r, _, settings) =
+        match render_distributed_prepared(&opts, &mut |_| Ok(()), prepare, Some(check)) {
+            Ok(done) => done,
+            Err(Failed::Job(e)) => return Err(e),
+            Err(Failed::Dist(e)) => {
+                return Err(crate::exit::dist_error(e).context("distributed render failed"))
+            }
+        };
     if let Some(c) = &args.checkpoint {
         eprintln!(
             "parrt: checkpoint {}: {} tiles restored, {} bad records dropped",

@@ -11,7 +11,7 @@ use super::server::HandshakeSlot;
 use parrt::protocol::limits::{self, MAX_THREADS};
 use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
-    Connection, Message, ProtocolError, Token, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
+    Connection, Encoded, Message, ProtocolError, Token, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
 use rand::RngCore;
 use std::sync::Arc;
@@ -25,8 +25,8 @@ use tracing::{debug, info};
 /// What every connection task shares.
 #[derive(Debug)]
 pub struct ConnContext {
-    /// The job message, encoded once per worker as it is sent.
-    pub job: Message,
+    /// The job message, encoded once for every worker.
+    pub job: Encoded,
     /// The shared secret.
     pub token: Token,
     /// Largest frame sent (the job) once authenticated.
@@ -202,7 +202,7 @@ async fn relay(
     stop: &CancellationToken,
 ) -> String {
     let job_sent = Instant::now();
-    match timeout(ctx.job_write_timeout, conn.write(&ctx.job)).await {
+    match timeout(ctx.job_write_timeout, conn.write_encoded(&ctx.job)).await {
         Ok(Ok(())) => {}
         Ok(Err(e)) => return format!("cannot send the job: {e}"),
         Err(_) => return format!("the job not taken within {:?}", ctx.job_write_timeout),

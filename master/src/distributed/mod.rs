@@ -35,8 +35,10 @@ use parrt::film::Film;
 use parrt::protocol::{PixelFormat, Token, DEFAULT_MAX_FRAME};
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
+pub use parrt::window::Window;
 use rand::Rng;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::sync::Arc;
 use std::time::Duration;
 use thiserror::Error;
 use tokio_util::sync::CancellationToken;
@@ -108,6 +110,19 @@ pub enum DistError {
     /// The async runtime could not start.
     #[error("cannot start the async runtime: {0}")]
     Runtime(std::io::Error),
+    /// The job message could not be encoded.
+    #[error("cannot encode the job: {0}")]
+    EncodeJob(parrt::protocol::ProtocolError),
+    /// The job (its scene) is larger than a frame may be.
+    #[error(
+        "the job (scene and settings) is {bytes} bytes, more than the {max_frame}-byte frame limit"
+    )]
+    JobTooLarge {
+        /// Bytes of the encoded job.
+        bytes: usize,
+        /// The frame limit.
+        max_frame: usize,
+    },
 }
 
 impl DistError {
@@ -115,7 +130,7 @@ impl DistError {
     /// of another job or one that exists without `--resume`.
     pub fn is_bad_input(&self) -> bool {
         match self {
-            DistError::TileTooLarge { .. } => true,
+            DistError::TileTooLarge { .. } | DistError::JobTooLarge { .. } => true,
             DistError::Checkpoint(e) => e.is_bad_input(),
             DistError::Rendezvous(e) => e.is_bad_input(),
             _ => false,
@@ -174,8 +189,9 @@ pub struct DistOptions {
     pub min_workers: usize,
     /// How long to wait for `min_workers` (and, mid-job, for any worker when all have left).
     pub wait_workers: Duration,
-    /// Assignments (batches) in flight per worker thread.
-    pub window_per_thread: usize,
+    /// Assignments (batches) in flight per worker: its threads plus what its measured round
+    /// trip needs ([`Window::Auto`]), or a fixed number per thread.
+    pub window: Window,
     /// The most tiles in one assignment; batches shrink to single tiles as work runs out
     /// (1: every tile on its own, as before batching).
     pub max_batch: usize,
@@ -224,7 +240,7 @@ impl Default for DistOptions {
             token: None,
             min_workers: 1,
             wait_workers: Duration::from_secs(60),
-            window_per_thread: 2,
+            window: Window::Auto,
             max_batch: 8,
             tile_deadline: Duration::from_secs(120),
             heartbeat: DEFAULT_HEARTBEAT,
@@ -349,19 +365,31 @@ pub fn render_distributed_announced(
     opts: &DistOptions,
     on_listen: &mut dyn FnMut(SocketAddr) -> Result<(), DistError>,
 ) -> Result<DistResult, DistError> {
-    render_distributed_prepared(opts, on_listen, || Ok((desc.clone(), settings.clone())))
-        .map(|(r, _, _)| r)
+    render_distributed_prepared(
+        opts,
+        on_listen,
+        || Ok((desc.clone(), settings.clone())),
+        None,
+    )
+    .map(|(r, _, _)| r)
 }
+
+/// A check of the job run beside the render ([`render_distributed_prepared`]).
+pub type JobCheck<E> = Box<dyn FnOnce(&SceneDescription, &RenderSettings) -> Result<(), E> + Send>;
 
 /// Like [`render_distributed_announced`], but the job comes from `prepare` (parse the scene,
 /// check it), which runs while the local workers start up: process start, connection and
 /// handshake overlap the parse and the scene check instead of following them. With a
 /// checkpoint the job is prepared first (the checkpoint must be checked against it before
-/// anything listens). Returns the result with the job's description and settings.
-pub fn render_distributed_prepared<E: From<DistError>>(
+/// anything listens). `check`, if given, checks the job on a thread of its own while the
+/// workers receive and build it (each would refuse a job it cannot build anyway, so the check
+/// need not delay them); if it fails the render is cancelled and its error returned. Returns
+/// the result with the job's description and settings.
+pub fn render_distributed_prepared<E: From<DistError> + Send + 'static>(
     opts: &DistOptions,
     on_listen: &mut dyn FnMut(SocketAddr) -> Result<(), DistError>,
     prepare: impl FnOnce() -> Result<(SceneDescription, RenderSettings), E>,
+    check: Option<JobCheck<E>>,
 ) -> Result<(DistResult, SceneDescription, RenderSettings), E> {
     let token = opts.token.clone().unwrap_or_else(generate_token);
     let rt = tokio::runtime::Builder::new_current_thread()
@@ -417,8 +445,31 @@ pub fn render_distributed_prepared<E: From<DistError>>(
                 on_signal.cancel();
             }
         });
+        let desc = Arc::new(desc);
+        let checking = check.map(|check| {
+            let (d, s, stop) = (Arc::clone(&desc), settings.clone(), cancel.clone());
+            let run = move || {
+                let r = check(&d, &s);
+                if r.is_err() {
+                    stop.cancel();
+                }
+                r
+            };
+            std::thread::Builder::new()
+                .name("parrt-check".into())
+                .spawn(run)
+                .map_err(DistError::Runtime)
+        });
         let result = master.render(&desc, &settings, cancel).await;
         signal.abort();
+        if let Some(thread) = checking {
+            // The check's verdict comes first: a job it refuses is what stopped the render.
+            match thread?.join() {
+                Ok(r) => r?,
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+        let desc = Arc::try_unwrap(desc).unwrap_or_else(|d| (*d).clone());
         Ok((result?, desc, settings))
     })
 }

@@ -18,6 +18,7 @@ use parrt::protocol::{Message, PixelFormat, TilePixels, WireCounters};
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
+use parrt::window::Window;
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
@@ -101,8 +102,9 @@ pub enum Event {
 /// Scheduling knobs.
 #[derive(Clone, Copy, Debug)]
 pub struct SchedOptions {
-    /// In-flight tiles per worker thread.
-    pub window_per_thread: usize,
+    /// Assignments in flight per worker ([`Window::Auto`]: its threads plus what its measured
+    /// round trip needs).
+    pub window: Window,
     /// A tile not returned this long after assignment is given to someone else.
     pub tile_deadline: Duration,
     /// Failures (deadline rounds, bad results, errors) after which a worker is dropped.
@@ -138,6 +140,8 @@ struct Assignment {
     expired: bool,
     /// A backup copy of a tile in flight elsewhere.
     backup: bool,
+    /// Sent alone (not in a batch): its turnaround measures the worker's round trip.
+    single: bool,
 }
 
 /// What the scheduler knows about a worker.
@@ -154,6 +158,9 @@ struct Slot {
     render_s: f64,
     build_s: f64,
     job_to_ready_s: f64,
+    /// The least time seen from assigning a single tile to its result, beyond the tile's
+    /// render seconds: the round trip the window must cover.
+    round_trip: Option<f64>,
 }
 
 impl Slot {
@@ -163,9 +170,6 @@ impl Slot {
             .values()
             .filter(|a| !a.expired && a.backup == backup)
             .count()
-    }
-    fn window(&self, per_thread: usize) -> usize {
-        (self.threads.max(1) as usize).saturating_mul(per_thread.max(1))
     }
 }
 
@@ -402,6 +406,7 @@ impl Scheduler {
                         render_s: 0.0,
                         build_s: 0.0,
                         job_to_ready_s: 0.0,
+                        round_trip: None,
                     },
                 );
             }
@@ -428,7 +433,7 @@ impl Scheduler {
                 pixels,
                 stats,
                 seconds,
-            } => self.result(id, job_id, tile_id, attempt, &pixels, stats, seconds),
+            } => self.result(id, job_id, tile_id, attempt, &pixels, stats, seconds, now),
             Event::WorkerError { id, reason } => {
                 let ready = self.workers.get(&id).is_some_and(|w| w.ready_at.is_some());
                 warn!(worker = id, %reason, "worker reported an error");
@@ -457,6 +462,7 @@ impl Scheduler {
         pixels: &TilePixels,
         stats: RayStats,
         seconds: f64,
+        now: Instant,
     ) {
         let Some(w) = self.workers.get_mut(&id) else {
             return; // Already removed: nothing it says counts any more.
@@ -466,19 +472,20 @@ impl Scheduler {
             self.fail(id, format!("result for job {job_id}, not {}", self.job_id));
             return;
         }
-        let held = w
-            .inflight
-            .get(&tile_id)
-            .is_some_and(|a| a.attempt == attempt);
-        if !held {
+        let Some(&a) = w.inflight.get(&tile_id).filter(|a| a.attempt == attempt) else {
             self.faults.rejected_results += 1;
             self.fail(
                 id,
                 format!("result for tile {tile_id} attempt {attempt}, which it does not hold"),
             );
             return;
-        }
+        };
         w.inflight.remove(&tile_id);
+        if a.single && !a.backup && seconds.is_finite() {
+            let turnaround = now.saturating_duration_since(a.since).as_secs_f64();
+            let rt = (turnaround - seconds).max(0.0);
+            w.round_trip = Some(w.round_trip.map_or(rt, |old| old.min(rt)));
+        }
         // Held tiles come from our own list, so the id indexes it.
         let t = tile_id as usize;
         let tile = self.tiles[t];
@@ -663,8 +670,8 @@ impl Scheduler {
         (self.queue.len() / (4 * threads.max(1))).clamp(1, by_cost)
     }
 
-    /// Hands out tiles to every ready worker with room in its window: `window_per_thread`
-    /// batches per thread, a batch being [`Self::batch_size`] tiles sent in one message.
+    /// Hands out tiles to every ready worker with room in its window ([`Window::assignments`]
+    /// batches), a batch being [`Self::batch_size`] tiles sent in one message.
     pub fn fill(&mut self, now: Instant) {
         let ids: Vec<WorkerId> = self
             .workers
@@ -682,8 +689,15 @@ impl Scheduler {
                 };
                 // Expired tiles still count: a stalled worker gets nothing new.
                 let held = w.inflight.len();
-                let free = w
-                    .window(self.opts.window_per_thread)
+                let mean = if self.cost.1 > 0 {
+                    self.cost.0 / self.cost.1 as f64
+                } else {
+                    0.0
+                };
+                let free = self
+                    .opts
+                    .window
+                    .assignments(w.threads as usize, w.round_trip, batch_size as f64 * mean)
                     .saturating_mul(batch_size)
                     .saturating_sub(held);
                 // Keep batches whole: a busy worker waits for room for a full one.
@@ -777,6 +791,7 @@ impl Scheduler {
                     since: now,
                     expired: false,
                     backup,
+                    single: sent.len() == 1,
                 },
             );
         }
@@ -865,7 +880,7 @@ mod tests {
             1,
             tiles(16, 8, 4), // 8 tiles of 4x4
             SchedOptions {
-                window_per_thread: 2,
+                window: Window::PerThread(2),
                 tile_deadline: Duration::from_secs(5),
                 max_failures,
                 backups: true,
@@ -1029,6 +1044,42 @@ mod tests {
     }
 
     #[tokio::test(start_paused = true)]
+    async fn an_auto_window_shrinks_to_what_the_round_trip_needs() {
+        let mut s = Scheduler::new(
+            JOB,
+            &RenderSettings::new(64, 64),
+            1,
+            tiles(64, 64, 4), // 256 tiles
+            SchedOptions {
+                window: Window::Auto,
+                tile_deadline: Duration::from_secs(5),
+                max_failures: 3,
+                backups: true,
+                max_batch: 1,
+                pixel_format: PixelFormat::F32,
+            },
+        );
+        let t0 = Instant::now();
+        let mut rx = join(&mut s, 1, 4);
+        s.fill(t0);
+        // No round trip measured yet: two per thread.
+        let a = assigned(&mut rx);
+        assert_eq!(a.len(), 8);
+        // The first result (0.1 s of render) comes back 2 ms later than its render: four
+        // threads finishing 0.1 s tiles free one every 25 ms, so one queued tile covers it.
+        let t1 = t0 + Duration::from_millis(102);
+        s.handle(result(1, &a[0].0, a[0].1, 1.0), t1);
+        s.fill(t1);
+        assert_eq!(assigned(&mut rx).len(), 0, "7 held, window now 4 + 1");
+        for (tile, attempt) in &a[1..4] {
+            s.handle(result(1, tile, *attempt, 1.0), t1);
+        }
+        s.fill(t1);
+        assert_eq!(assigned(&mut rx).len(), 1, "4 held: refilled to 5");
+        // A fixed window of two per thread would have refilled to 8.
+    }
+
+    #[tokio::test(start_paused = true)]
     async fn first_result_wins_and_duplicates_are_ignored() {
         let mut s = sched(3);
         let mut rx1 = join(&mut s, 1, 4); // takes all 8 tiles
@@ -1105,7 +1156,7 @@ mod tests {
             1,
             tiles(32, 32, 4), // 64 tiles
             SchedOptions {
-                window_per_thread: 2,
+                window: Window::PerThread(2),
                 tile_deadline: Duration::from_secs(5),
                 max_failures: 3,
                 backups: false,

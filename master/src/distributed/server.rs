@@ -15,7 +15,7 @@ use parrt::description::SceneDescription;
 use parrt::protocol::limits::{
     frame_allowance, worker_frame_limit, MAX_HANDSHAKING, MAX_HANDSHAKING_PER_PEER,
 };
-use parrt::protocol::{codec, JobSpec, Message, Token};
+use parrt::protocol::{Encoded, JobSpec, Message, Token};
 use parrt::settings::RenderSettings;
 use parrt::tile::tiles;
 use std::collections::HashMap;
@@ -97,7 +97,7 @@ impl Master {
             desc.lights.len(),
             list,
             SchedOptions {
-                window_per_thread: opts.window_per_thread,
+                window: opts.window,
                 tile_deadline: opts.tile_deadline,
                 max_failures: opts.max_failures,
                 backups: opts.backups,
@@ -121,8 +121,15 @@ impl Master {
             tile_size: opts.tile,
             pixel_format: opts.pixel_format,
         }));
-        // Encoded once to size the time allowed for sending it.
-        let job_bytes = codec::encode_payload(&job).map_or(0, |p| p.len());
+        // Encoded once, for every worker (and to size the time allowed for sending it).
+        let job = Encoded::new(&job).map_err(DistError::EncodeJob)?;
+        let job_bytes = job.len();
+        if job_bytes > opts.max_frame {
+            return Err(DistError::JobTooLarge {
+                bytes: job_bytes,
+                max_frame: opts.max_frame,
+            });
+        }
         let ctx = Arc::new(ConnContext {
             job,
             token: self.token,

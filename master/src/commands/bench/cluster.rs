@@ -73,9 +73,10 @@ pub struct ClusterArgs {
     /// Bandwidth of each worker's link, Mbit/s (default: --bandwidth-mbps).
     #[arg(long, value_name = "MBIT")]
     pub worker_bandwidth_mbps: Option<f64>,
-    /// Assignments (batches of tiles) in flight per worker thread.
-    #[arg(long, value_name = "K", default_value_t = 2)]
-    pub window: usize,
+    /// Assignments (batches of tiles) a worker holds: `auto` (its threads plus what its
+    /// measured round trip needs, as `parrt master` does) or K per thread.
+    #[arg(long, value_name = "auto|K", default_value = "auto")]
+    pub window: parrt::window::Window,
     /// Most tiles in one assignment (1: every tile alone, as before batching).
     #[arg(long, value_name = "N", default_value_t = 8)]
     pub max_batch: usize,
@@ -233,14 +234,9 @@ fn check(args: &ClusterArgs) -> anyhow::Result<()> {
     if args.threads.is_empty() || args.threads.iter().any(|&t| t == 0 || t > MAX_THREADS) {
         return Err(bad(format!("--threads must be in 1..={MAX_THREADS}")));
     }
-    if args.size == 0
-        || args.tile == 0
-        || args.window == 0
-        || args.spp == 0
-        || args.record_repeat == 0
-    {
+    if args.size == 0 || args.tile == 0 || args.spp == 0 || args.record_repeat == 0 {
         return Err(bad(
-            "--size, --tile, --window, --spp and --record-repeat must be at least 1".into(),
+            "--size, --tile, --spp and --record-repeat must be at least 1".into(),
         ));
     }
     let positive = |v: f64| v.is_finite() && v > 0.0;
@@ -361,7 +357,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                     workers,
                     threads,
                     tile: args.tile,
-                    window_per_thread: args.window,
+                    window: args.window,
                     max_batch: args.max_batch,
                     pixel_format: if args.exact_pixels {
                         parrt::protocol::PixelFormat::F32
@@ -383,7 +379,16 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
             let p = SimParams {
                 workers,
                 threads,
-                window: args.window * threads,
+                // The master's rule, fed the round trip this link and master give a result.
+                window: args.window.assignments(
+                    threads,
+                    Some(
+                        2.0 * args.latency_ms / 1e3
+                            + master_per_tile
+                            + (m.own_cpu_s - m.master_cpu_s).max(0.0) / m.tiles.max(1) as f64,
+                    ),
+                    work / costs.len().max(1) as f64,
+                ),
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: worker_bps,
                 master_link_bps: master_bps,
@@ -507,7 +512,7 @@ fn report(
         md,
         "# {title}\n\nCommand: `parrt {}`. Replay {} (t₁ = {t1:.3} s recorded at one thread, × {scale:.3} \
          = {:.1} s of work; {} tiles, the largest {:.1}× the mean). Link: {} ms one way, master {} Mbit/s shared, workers {} Mbit/s each; \
-         window {} per thread. e = t₁·scale/(N·T·t_N), t_N from the first tile handed out (every \
+         window {} (auto: one per thread plus the round trip's prefetch). e = t₁·scale/(N·T·t_N), t_N from the first tile handed out (every \
          worker ready) to the last result in. Predicted: `parrt::simulate` with the measured master \
          CPU per tile and bytes per pixel, and the rest of the emulation's measured CPU per tile \
          queued on this machine's cores; cluster predicted: the same without that shared host (every \

@@ -27,7 +27,7 @@ pub struct EmulatedRun {
     /// Tile edge (must be the recording's).
     pub tile: u32,
     /// Tiles in flight per worker thread.
-    pub window_per_thread: usize,
+    pub window: parrt::window::Window,
     /// Most tiles in one assignment.
     pub max_batch: usize,
     /// How pixels travel.
@@ -107,7 +107,7 @@ pub fn run(
         token: Some(token.clone()),
         min_workers: run.workers,
         wait_workers: run.timeout,
-        window_per_thread: run.window_per_thread,
+        window: run.window,
         max_batch: run.max_batch,
         pixel_format: run.pixel_format,
         // Many processes share few cores here: no tile is late, no worker silent, before the
