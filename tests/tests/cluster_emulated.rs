@@ -41,7 +41,7 @@ fn four_replaying_workers_of_two_threads_assemble_the_smp_image_once_per_tile() 
             workers: 4,
             threads: 2,
             tile,
-            window: parrt::window::Window::Auto,
+            window: parrt::window::Window::default(),
             max_batch: 8,
             pixel_format: parrt::protocol::PixelFormat::F32,
             link: LinkParams {
@@ -88,6 +88,8 @@ fn bench_cluster_command_writes_json_rows() {
             "0.2",
         ])
         .args(["--latency-ms", "0.1", "--run-timeout", "60"])
+        // The round-trip-sized window, end to end: still every tile once, the same image.
+        .args(["--window", "auto"])
         .arg("--out")
         .arg(dir.path())
         .arg("--json")
@@ -125,6 +127,8 @@ fn bad_cluster_flags_are_usage_errors() {
         &["--threads", "0"],
         &["--cost-scale", "-1"],
         &["--latency-ms", "nan"],
+        &["--window", "0"],
+        &["--window", "many"],
     ] {
         let out = Command::new(EXE)
             .args(["bench", "cluster", "balls:1", "--size", "16"])

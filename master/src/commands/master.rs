@@ -48,10 +48,10 @@ pub struct MasterArgs {
     /// week).
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
     pub heartbeat_timeout: f64,
-    /// Assignments (each a batch of up to --max-batch tiles) a worker holds at once: `auto`
-    /// gives one per thread plus what the worker's measured round trip needs (two per thread
-    /// until it is measured); a number N gives N per thread.
-    #[arg(long, value_name = "auto|N", default_value = "auto")]
+    /// Assignments (each a batch of up to --max-batch tiles) a worker holds at once: N per
+    /// thread, or `auto`: one per thread plus what the worker's measured round trip needs (two
+    /// per thread until it is measured).
+    #[arg(long, value_name = "N|auto", default_value = "2")]
     pub window: parrt::window::Window,
     /// Most tiles in one assignment. Batches are guided: large while much is queued and
     /// tiles are cheap (at most 50 ms of work), single tiles at the tail; 1 sends every tile

@@ -189,8 +189,8 @@ pub struct DistOptions {
     pub min_workers: usize,
     /// How long to wait for `min_workers` (and, mid-job, for any worker when all have left).
     pub wait_workers: Duration,
-    /// Assignments (batches) in flight per worker: its threads plus what its measured round
-    /// trip needs ([`Window::Auto`]), or a fixed number per thread.
+    /// Assignments (batches) in flight per worker: a fixed number per thread (two by default),
+    /// or its threads plus what its measured round trip needs ([`Window::Auto`]).
     pub window: Window,
     /// The most tiles in one assignment; batches shrink to single tiles as work runs out
     /// (1: every tile on its own, as before batching).
@@ -240,7 +240,7 @@ impl Default for DistOptions {
             token: None,
             min_workers: 1,
             wait_workers: Duration::from_secs(60),
-            window: Window::Auto,
+            window: Window::default(),
             max_batch: 8,
             tile_deadline: Duration::from_secs(120),
             heartbeat: DEFAULT_HEARTBEAT,

@@ -73,9 +73,9 @@ pub struct ClusterArgs {
     /// Bandwidth of each worker's link, Mbit/s (default: --bandwidth-mbps).
     #[arg(long, value_name = "MBIT")]
     pub worker_bandwidth_mbps: Option<f64>,
-    /// Assignments (batches of tiles) a worker holds: `auto` (its threads plus what its
-    /// measured round trip needs, as `parrt master` does) or K per thread.
-    #[arg(long, value_name = "auto|K", default_value = "auto")]
+    /// Assignments (batches of tiles) a worker holds: K per thread, or `auto` (its threads
+    /// plus what its measured round trip needs), as `parrt master --window` takes.
+    #[arg(long, value_name = "K|auto", default_value = "2")]
     pub window: parrt::window::Window,
     /// Most tiles in one assignment (1: every tile alone, as before batching).
     #[arg(long, value_name = "N", default_value_t = 8)]
@@ -512,7 +512,7 @@ fn report(
         md,
         "# {title}\n\nCommand: `parrt {}`. Replay {} (t₁ = {t1:.3} s recorded at one thread, × {scale:.3} \
          = {:.1} s of work; {} tiles, the largest {:.1}× the mean). Link: {} ms one way, master {} Mbit/s shared, workers {} Mbit/s each; \
-         window {} (auto: one per thread plus the round trip's prefetch). e = t₁·scale/(N·T·t_N), t_N from the first tile handed out (every \
+         window {} (assignments per thread, or auto: one per thread plus the round trip's prefetch). e = t₁·scale/(N·T·t_N), t_N from the first tile handed out (every \
          worker ready) to the last result in. Predicted: `parrt::simulate` with the measured master \
          CPU per tile and bytes per pixel, and the rest of the emulation's measured CPU per tile \
          queued on this machine's cores; cluster predicted: the same without that shared host (every \

@@ -10,8 +10,12 @@ use std::time::{Duration, Instant};
 /// Name of the master's runtime threads, whose CPU time is measured.
 pub const MASTER_THREAD: &str = "parrt-master";
 
-/// How often the sampler reads `/proc`.
-const PERIOD: Duration = Duration::from_millis(20);
+/// How often the sampler reads `/proc`: often enough to place a trace phase of a second or
+/// more, seldom enough that its own reads (one stat file per worker process) stay a small
+/// part of the emulation's CPU.
+const PERIOD: Duration = Duration::from_millis(50);
+/// How often the sampler looks for the master's threads again.
+const RELIST: Duration = Duration::from_secs(1);
 
 /// CPU seconds spent so far (or in an interval).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -51,28 +55,28 @@ fn stat_ticks(path: &str) -> u64 {
     num(11) + num(12)
 }
 
-/// Nanoseconds on CPU of this process's threads named [`MASTER_THREAD`] (from schedstat).
-pub fn master_cpu_ns() -> u64 {
+/// The `/proc/self/task` directories of the threads named [`MASTER_THREAD`]. Listing every
+/// thread's name is the costly part of a sample (the relay has a thread per connection), so
+/// the sampler does it once a second, not every sample.
+fn master_threads() -> Vec<std::path::PathBuf> {
     let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
-        return 0;
+        return Vec::new();
     };
-    let mut sum = 0;
-    for e in dir.flatten() {
-        let p = e.path();
-        let named = std::fs::read_to_string(p.join("comm"))
-            .is_ok_and(|c| c.trim_end().starts_with(MASTER_THREAD));
-        if !named {
-            continue;
-        }
-        if let Ok(s) = std::fs::read_to_string(p.join("schedstat")) {
-            sum += s
-                .split_whitespace()
-                .next()
-                .and_then(|v| v.parse::<u64>().ok())
-                .unwrap_or(0);
-        }
-    }
-    sum
+    dir.flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            std::fs::read_to_string(p.join("comm"))
+                .is_ok_and(|c| c.trim_end().starts_with(MASTER_THREAD))
+        })
+        .collect()
+}
+
+/// Nanoseconds on CPU of one thread (its task directory's schedstat); 0 once it has gone.
+fn thread_cpu_ns(task: &std::path::Path) -> u64 {
+    std::fs::read_to_string(task.join("schedstat"))
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .unwrap_or(0)
 }
 
 /// Busy ticks of the whole machine (all CPUs) from `/proc/stat`.
@@ -92,7 +96,7 @@ fn machine_ticks() -> u64 {
     v.iter().take(8).sum::<u64>() - v.get(3).copied().unwrap_or(0) - v.get(4).copied().unwrap_or(0)
 }
 
-fn sample(children: &[u32], tick: f64) -> CpuSample {
+fn sample(children: &[u32], master: &[std::path::PathBuf], tick: f64) -> CpuSample {
     let this = stat_ticks("/proc/self/stat");
     let own: u64 = this
         + children
@@ -100,7 +104,7 @@ fn sample(children: &[u32], tick: f64) -> CpuSample {
             .map(|p| stat_ticks(&format!("/proc/{p}/stat")))
             .sum::<u64>();
     CpuSample {
-        master_s: master_cpu_ns() as f64 / 1e9,
+        master_s: master.iter().map(|t| thread_cpu_ns(t)).sum::<u64>() as f64 / 1e9,
         own_s: own as f64 / tick,
         this_process_s: this as f64 / tick,
         machine_s: machine_ticks() as f64 / tick,
@@ -125,8 +129,14 @@ impl CpuSampler {
         let thread = std::thread::Builder::new()
             .name("cpu-sampler".into())
             .spawn(move || {
+                let mut master = Vec::new();
+                let mut listed: Option<Instant> = None;
                 while !stop2.load(Ordering::Relaxed) {
-                    let v = (Instant::now(), sample(&children, tick));
+                    if listed.is_none_or(|t| t.elapsed() >= RELIST) {
+                        master = master_threads();
+                        listed = Some(Instant::now());
+                    }
+                    let v = (Instant::now(), sample(&children, &master, tick));
                     s2.lock().unwrap_or_else(|e| e.into_inner()).push(v);
                     std::thread::sleep(PERIOD);
                 }
