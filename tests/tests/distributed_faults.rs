@@ -371,3 +371,53 @@ async fn interrupted_worker_disconnects_and_its_tiles_are_requeued() {
     assert_eq!(st.code(), Some(1), "an interrupted worker exits 1");
     assert!(r.faults.requeued >= 1, "{:?}", r.faults);
 }
+
+/// What `render --workers` gets wrong with a job: the job's own error, or the distributed one.
+#[derive(Debug)]
+enum LocalFailure {
+    Job(String),
+    Dist(parrt_master::distributed::DistError),
+}
+
+impl From<parrt_master::distributed::DistError> for LocalFailure {
+    fn from(e: parrt_master::distributed::DistError) -> Self {
+        LocalFailure::Dist(e)
+    }
+}
+
+// `render --workers` no longer checks the scene before the workers get it (the check cost a
+// scene build on the start-up path of every render): spawned workers that cannot build the job
+// end the render at once, and the check then names the job's fault as bad input.
+#[test]
+fn spawned_workers_that_cannot_build_the_job_end_with_the_jobs_own_error() {
+    let mut desc = test_scene(32, 32);
+    desc.primitives[0].material = 9;
+    let settings = settings_for(&desc);
+    let opts = parrt_master::distributed::DistOptions {
+        workers_to_spawn: 2,
+        threads_per_worker: 1,
+        worker_exe: Some(EXE.into()),
+        token: None,
+        min_workers: 2,
+        ..test_options(16)
+    };
+    let t0 = std::time::Instant::now();
+    let r = parrt_master::distributed::render_distributed_prepared(
+        &opts,
+        &mut |_| Ok(()),
+        || Ok::<_, LocalFailure>((desc, settings)),
+        Some(Box::new(|d, s| {
+            parrt::render::validate_job(d, s).map_err(|e| LocalFailure::Job(e.to_string()))
+        })),
+    );
+    match r {
+        Err(LocalFailure::Job(msg)) => assert!(msg.contains("uses material 9"), "{msg}"),
+        Err(LocalFailure::Dist(e)) => panic!("expected the job's error, got: {e}"),
+        Ok(_) => panic!("a job no worker can build rendered"),
+    }
+    assert!(
+        t0.elapsed() < Duration::from_secs(10),
+        "took {:?}: the master waited for workers that had all refused the job",
+        t0.elapsed()
+    );
+}

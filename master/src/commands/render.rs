@@ -421,15 +421,15 @@ fn render_through_workers(
     if n == 0 {
         return Err(input_error(anyhow::anyhow!("--workers must be at least 1")));
     }
-    // Loading the scene runs while the worker processes start; checking it, while they build it.
+    // Loading the scene runs while the worker processes start.
     let parse_s = std::cell::Cell::new(0.0);
     let prepare = || {
         let (desc, settings, secs) = load_job(args, spec).map_err(Failed::Job)?;
         parse_s.set(secs);
         Ok((desc, settings))
     };
-    // The workers would each refuse a scene they cannot build; the check refuses it once, as
-    // bad input.
+    // The workers each refuse a scene they cannot build; if they all did, the check says why,
+    // once, as bad input. A render that succeeds needs no check (every worker built the job).
     let check: JobCheck<Failed> = Box::new(|desc, settings| {
         parrt::render::validate_job(desc, settings).map_err(|e| Failed::Job(input_error(e)))
     });

@@ -38,7 +38,6 @@ use parrt::stats::RayStats;
 pub use parrt::window::Window;
 use rand::Rng;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
-use std::sync::Arc;
 use std::time::Duration;
 use thiserror::Error;
 use tokio_util::sync::CancellationToken;
@@ -375,17 +374,17 @@ pub fn render_distributed_announced(
 }
 
 /// A check of the job run beside the render ([`render_distributed_prepared`]).
-pub type JobCheck<E> = Box<dyn FnOnce(&SceneDescription, &RenderSettings) -> Result<(), E> + Send>;
+pub type JobCheck<E> = Box<dyn FnOnce(&SceneDescription, &RenderSettings) -> Result<(), E>>;
 
 /// Like [`render_distributed_announced`], but the job comes from `prepare` (parse the scene,
 /// check it), which runs while the local workers start up: process start, connection and
 /// handshake overlap the parse and the scene check instead of following them. With a
 /// checkpoint the job is prepared first (the checkpoint must be checked against it before
-/// anything listens). `check`, if given, checks the job on a thread of its own while the
-/// workers receive and build it (each would refuse a job it cannot build anyway, so the check
-/// need not delay them); if it fails the render is cancelled and its error returned. Returns
-/// the result with the job's description and settings.
-pub fn render_distributed_prepared<E: From<DistError> + Send + 'static>(
+/// anything listens). `check`, if given, checks the job only if the render fails: each worker
+/// builds the job itself and refuses one it cannot build, so a render that succeeds needs no
+/// check, and one that fails because of the job gets the check's error (bad input) instead of
+/// the workers' departures. Returns the result with the job's description and settings.
+pub fn render_distributed_prepared<E: From<DistError>>(
     opts: &DistOptions,
     on_listen: &mut dyn FnMut(SocketAddr) -> Result<(), DistError>,
     prepare: impl FnOnce() -> Result<(SceneDescription, RenderSettings), E>,
@@ -445,31 +444,14 @@ pub fn render_distributed_prepared<E: From<DistError> + Send + 'static>(
                 on_signal.cancel();
             }
         });
-        let desc = Arc::new(desc);
-        let checking = check.map(|check| {
-            let (d, s, stop) = (Arc::clone(&desc), settings.clone(), cancel.clone());
-            let run = move || {
-                let r = check(&d, &s);
-                if r.is_err() {
-                    stop.cancel();
-                }
-                r
-            };
-            std::thread::Builder::new()
-                .name("parrt-check".into())
-                .spawn(run)
-                .map_err(DistError::Runtime)
-        });
         let result = master.render(&desc, &settings, cancel).await;
         signal.abort();
-        if let Some(thread) = checking {
-            // The check's verdict comes first: a job it refuses is what stopped the render.
-            match thread?.join() {
-                Ok(r) => r?,
-                Err(panic) => std::panic::resume_unwind(panic),
+        if result.is_err() {
+            if let Some(check) = check {
+                // A job the workers could not build is the input's fault: say so, once.
+                check(&desc, &settings)?;
             }
         }
-        let desc = Arc::try_unwrap(desc).unwrap_or_else(|d| (*d).clone());
         Ok((result?, desc, settings))
     })
 }

@@ -360,6 +360,11 @@ impl Scheduler {
             .collect()
     }
 
+    /// How many workers have left (failed, dropped or disconnected).
+    pub fn departures_count(&self) -> usize {
+        self.gone.len()
+    }
+
     /// Workers connected (built or not).
     pub fn connected_workers(&self) -> usize {
         self.workers.len()

@@ -197,17 +197,22 @@ impl Master {
                 sched.fill(now);
             } else {
                 let since = *waiting_since.get_or_insert(now);
-                if now.duration_since(since) > opts.wait_workers {
+                // With a token of its own making only the workers it started can join: once
+                // they have all left, waiting longer waits for no one.
+                let nobody_else = opts.token.is_none()
+                    && opts.workers_to_spawn > 0
+                    && sched.departures_count() >= opts.workers_to_spawn;
+                if nobody_else || now.duration_since(since) > opts.wait_workers {
                     break Err(if started.is_none() {
                         DistError::NoWorkers {
-                            waited: opts.wait_workers,
+                            waited: now.duration_since(since),
                             wanted: min_workers,
                             ready,
                             failed: sched.departures(),
                         }
                     } else {
                         DistError::AllWorkersLost {
-                            waited: opts.wait_workers,
+                            waited: now.duration_since(since),
                             done: sched.progress().0,
                             total: n_tiles,
                         }
