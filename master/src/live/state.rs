@@ -142,10 +142,9 @@ struct Inner {
 /// The shared state of one render's live view.
 pub struct LiveState {
     inner: Mutex<Inner>,
-    /// The image's width (for placing tiles in the frame).
-    width: usize,
-    /// The image so far, 8-bit RGB row by row (what the written PNG holds).
-    frame: Mutex<Vec<u8>>,
+    /// The image so far: its width and its 8-bit RGB pixels row by row (what a written PNG
+    /// holds).
+    frame: Mutex<(usize, Vec<u8>)>,
     version: AtomicU64,
     tiles: broadcast::Sender<Arc<str>>,
 }
@@ -167,12 +166,22 @@ pub struct JobInfo {
 impl LiveState {
     /// The state of a render of `job`, before anything happened.
     pub fn new(job: JobInfo) -> Arc<Self> {
-        let tiles_total = parrt::tile::tiles(job.width, job.height, job.tile_size.max(1)).len();
-        let pixels = (job.width as usize)
-            .saturating_mul(job.height as usize)
-            .saturating_mul(3);
-        Arc::new(LiveState {
-            width: job.width as usize,
+        let s = Arc::new(LiveState::empty());
+        s.set_job(job);
+        s
+    }
+
+    /// A state whose job is not known yet ([`Self::set_job`] tells it).
+    pub fn empty() -> Self {
+        let job = JobInfo {
+            scene: String::new(),
+            mode: "smp",
+            width: 0,
+            height: 0,
+            tile_size: 1,
+        };
+        let tiles_total = 0;
+        LiveState {
             inner: Mutex::new(Inner {
                 status: Status {
                     scene: job.scene,
@@ -200,10 +209,29 @@ impl LiveState {
                 holder: HashMap::new(),
                 faults: VecDeque::new(),
             }),
-            frame: Mutex::new(vec![0; pixels]),
+            frame: Mutex::new((0, Vec::new())),
             version: AtomicU64::new(0),
             tiles: broadcast::channel(TILE_BACKLOG).0,
-        })
+        }
+    }
+
+    /// Sets the job (before its first tile): its size, tiles and label.
+    pub fn set_job(&self, job: JobInfo) {
+        let tiles_total = parrt::tile::tiles(job.width, job.height, job.tile_size.max(1)).len();
+        let pixels = (job.width as usize)
+            .saturating_mul(job.height as usize)
+            .saturating_mul(3);
+        *self.frame.lock().unwrap_or_else(|e| e.into_inner()) =
+            (job.width as usize, vec![0; pixels]);
+        self.with(|i| {
+            let s = &mut i.status;
+            s.scene = job.scene;
+            s.mode = job.mode;
+            s.width = job.width;
+            s.height = job.height;
+            s.tile_size = job.tile_size;
+            s.tiles_total = tiles_total;
+        });
     }
 
     fn with<R>(&self, f: impl FnOnce(&mut Inner) -> R) -> R {
@@ -259,7 +287,11 @@ impl LiveState {
 
     /// The image so far (8-bit RGB).
     pub fn frame(&self) -> Vec<u8> {
-        self.frame.lock().unwrap_or_else(|e| e.into_inner()).clone()
+        self.frame
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .1
+            .clone()
     }
 
     /// Tiles as they land, as `x,y,w,h,BASE64-RGB` text. A receiver that lags gets
@@ -319,7 +351,6 @@ impl LiveState {
 
     /// A tile landed in the image, rendered by `id`.
     pub fn tile_done(&self, id: u64, tile: &Tile, pixels: &[Rgb], rays: u64) {
-        let width = self.width;
         let mut rgb = Vec::with_capacity(pixels.len() * 3);
         rgb.extend(
             pixels
@@ -327,7 +358,8 @@ impl LiveState {
                 .flat_map(|p| [to_u8(p[0]), to_u8(p[1]), to_u8(p[2])]),
         );
         {
-            let mut frame = self.frame.lock().unwrap_or_else(|e| e.into_inner());
+            let mut guard = self.frame.lock().unwrap_or_else(|e| e.into_inner());
+            let (width, frame) = (guard.0, &mut guard.1);
             let row = tile.w as usize * 3;
             for y in 0..tile.h as usize {
                 let at = ((tile.y as usize + y) * width + tile.x as usize) * 3;

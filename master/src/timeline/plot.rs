@@ -135,11 +135,13 @@ where
         .build_cartesian_2d(x0..x1 * 1.01, 0f64..lanes as f64)
         .map_err(err)?;
     let rows = &lay.rows;
+    // Lane `l` is drawn from `top(l + 1)` to `top(l + 1) + 1`: the first row at the top.
+    let top = |l: usize| (lanes - l.min(lanes)) as f64;
     // Label a row at its middle lane; only rows (not every lane) get a label.
     let row_label = |y: &f64| -> String {
         let y = *y;
         rows.iter()
-            .find(|(_, first, n)| (*first as f64 + *n as f64 / 2.0 - y).abs() < 0.25)
+            .find(|(_, first, n)| (top(*first + *n) + *n as f64 / 2.0 - y).abs() < 0.25)
             .map(|(name, _, n)| {
                 if t.mode == "smp" {
                     name.clone()
@@ -177,7 +179,7 @@ where
     // Row separators.
     ctx.draw_series(rows.iter().skip(1).map(|(_, first, _)| {
         PathElement::new(
-            vec![(x0, *first as f64), (x1 * 1.01, *first as f64)],
+            vec![(x0, top(*first)), (x1 * 1.01, top(*first))],
             BLACK.mix(0.3),
         )
     }))
@@ -192,7 +194,7 @@ where
         let bars = t.tiles.iter().enumerate().filter(|(_, r)| r.attempt == a);
         let anno = ctx
             .draw_series(bars.clone().map(|(i, r)| {
-                let lane = lay.lane_of[i] as f64;
+                let lane = top(lay.lane_of[i] + 1);
                 Rectangle::new(
                     [
                         (r.start_s, lane + 0.12),
@@ -208,7 +210,7 @@ where
         }
         // A thin outline so that back-to-back tiles stay apart.
         ctx.draw_series(bars.map(|(i, r)| {
-            let lane = lay.lane_of[i] as f64;
+            let lane = top(lay.lane_of[i] + 1);
             Rectangle::new(
                 [
                     (r.start_s, lane + 0.12),
@@ -223,9 +225,7 @@ where
     let row_span = |w: &Option<String>| -> (f64, f64) {
         w.as_ref()
             .and_then(|w| rows.iter().find(|r| &r.0 == w))
-            .map_or((0.0, lanes as f64), |(_, f, n)| {
-                (*f as f64, (*f + *n) as f64)
-            })
+            .map_or((0.0, lanes as f64), |(_, f, n)| (top(*f + *n), top(*f)))
     };
     let faults: Vec<_> = t.events.iter().filter(|e| e.kind.is_fault()).collect();
     let anno = ctx
