@@ -124,6 +124,8 @@ where
     if x1 <= x0 {
         x1 = x0 + 1.0;
     }
+    // Room on the right for the legend, clear of the bars.
+    let x_end = x1 + (x1 - x0) * 0.28;
     let mut b = ChartBuilder::on(&root);
     b.margin(12)
         .x_label_area_size(if text { 40 } else { 0 })
@@ -132,7 +134,7 @@ where
         b.caption(title, ("sans-serif", 16));
     }
     let mut ctx = b
-        .build_cartesian_2d(x0..x1 * 1.01, 0f64..lanes as f64)
+        .build_cartesian_2d(x0..x_end, 0f64..lanes as f64)
         .map_err(err)?;
     let rows = &lay.rows;
     // Lane `l` is drawn from `top(l + 1)` to `top(l + 1) + 1`: the first row at the top.
@@ -179,7 +181,7 @@ where
     // Row separators.
     ctx.draw_series(rows.iter().skip(1).map(|(_, first, _)| {
         PathElement::new(
-            vec![(x0, top(*first)), (x1 * 1.01, top(*first))],
+            vec![(x0, top(*first)), (x_end, top(*first))],
             BLACK.mix(0.3),
         )
     }))
