@@ -243,8 +243,11 @@ impl Timeline {
 
     /// Reads a timeline written by [`Self::write`] (bad content is bad input).
     pub fn read(path: &Path) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
+        let bytes =
+            std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| crate::exit::input_error(anyhow::anyhow!("not UTF-8 text")))
+            .with_context(|| format!("{} is not a parrt timeline", path.display()))?;
         let parsed = if is_csv(path) {
             Self::from_csv(&text)
         } else {

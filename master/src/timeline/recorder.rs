@@ -224,3 +224,156 @@ impl Observer for Recorder {
         });
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::distributed::observer::Observers;
+    use crate::distributed::scheduler::{Event, SchedOptions, Scheduler};
+    use parrt::protocol::{Message, PixelFormat, TilePixels};
+    use parrt::settings::RenderSettings;
+    use parrt::tile::tiles;
+    use std::sync::Arc;
+    use std::time::Duration;
+    use tokio::sync::mpsc::{unbounded_channel, UnboundedReceiver};
+
+    const JOB: u64 = 5;
+
+    fn join(s: &mut Scheduler, id: WorkerId, now: Instant) -> UnboundedReceiver<Message> {
+        let (tx, rx) = unbounded_channel();
+        s.handle(
+            Event::Joined {
+                id,
+                name: "same-name".into(),
+                threads: 1,
+                outbox: tx,
+                counters: Arc::default(),
+            },
+            now,
+        );
+        s.handle(
+            Event::Ready {
+                id,
+                job_id: JOB,
+                build_s: 0.0,
+                job_to_ready_s: 0.0,
+            },
+            now,
+        );
+        rx
+    }
+
+    fn assigned(rx: &mut UnboundedReceiver<Message>) -> Vec<(Tile, u32)> {
+        let mut v = Vec::new();
+        while let Ok(m) = rx.try_recv() {
+            match m {
+                Message::Assign { tile, attempt, .. } => v.push((tile, attempt)),
+                Message::AssignBatch { tiles, .. } => v.extend(tiles),
+                _ => {}
+            }
+        }
+        v
+    }
+
+    fn result(id: WorkerId, tile: &Tile, attempt: u32) -> Event {
+        Event::Result {
+            id,
+            job_id: JOB,
+            tile_id: tile.id,
+            attempt,
+            pixels: TilePixels::encode(&vec![[0.5; 3]; tile.pixel_count()], PixelFormat::F32),
+            stats: RayStats {
+                eye_rays: tile.pixel_count() as u64,
+                ..RayStats::default()
+            },
+            seconds: 0.25,
+        }
+    }
+
+    /// A worker lost mid-render: its tiles come back as `requeued` copies rendered by the
+    /// other, the loss and the requeues are events, and a late copy is a duplicate.
+    #[tokio::test(start_paused = true)]
+    async fn faults_and_attempts_are_recorded() {
+        let list = tiles(8, 4, 4); // 2 tiles
+        let mut s = Scheduler::new(
+            JOB,
+            &RenderSettings::new(8, 4),
+            1,
+            list,
+            SchedOptions {
+                window_per_thread: 1,
+                tile_deadline: Duration::from_secs(60),
+                max_failures: 3,
+                backups: true,
+                max_batch: 1,
+                pixel_format: PixelFormat::F32,
+            },
+        );
+        let rec = Arc::new(Recorder::new());
+        s.set_observers(Observers(vec![rec.clone()]));
+        let t0 = Instant::now();
+        let mut a = join(&mut s, 1, t0);
+        let mut b = join(&mut s, 2, t0);
+        rec.started(t0);
+        s.fill(t0);
+        let (ta, tb) = (assigned(&mut a), assigned(&mut b));
+        assert_eq!((ta.len(), tb.len()), (1, 1));
+        tokio::time::advance(Duration::from_secs(1)).await;
+        let now = Instant::now();
+        s.handle(result(2, &tb[0].0, tb[0].1), now);
+        s.handle(
+            Event::Gone {
+                id: 1,
+                reason: "connection reset".into(),
+            },
+            now,
+        );
+        s.fill(now);
+        let again = assigned(&mut b);
+        assert_eq!(again, vec![(ta[0].0, 2)]);
+        tokio::time::advance(Duration::from_secs(1)).await;
+        s.handle(result(2, &again[0].0, 2), Instant::now());
+        assert!(s.is_done());
+
+        let label = "test".to_string();
+        let job = Job {
+            scene: &label,
+            width: 8,
+            height: 4,
+            tile_size: 4,
+        };
+        let t = rec.timeline(&job, 2.0);
+        assert_eq!(t.mode, "distributed");
+        // Two workers of one name get distinct labels.
+        assert_eq!(t.rows.len(), 2);
+        assert_ne!(t.rows[0].worker, t.rows[1].worker);
+        assert_eq!(t.tiles.len(), 2);
+        let first = &t.tiles[0];
+        assert_eq!(first.attempt, Attempt::First);
+        assert_eq!(first.worker, t.rows[1].worker);
+        assert!((first.end_s - 1.0).abs() < 1e-6, "{first:?}");
+        assert!(
+            (first.start_s - 0.75).abs() < 1e-6,
+            "start = end - seconds: {first:?}"
+        );
+        assert_eq!(first.assigned_s, Some(0.0));
+        let second = &t.tiles[1];
+        assert_eq!(second.attempt, Attempt::Requeued);
+        assert_eq!(second.tile, ta[0].0.id);
+        assert!((second.end_s - 2.0).abs() < 1e-6);
+        assert_eq!(second.assigned_s, Some(1.0));
+        let kinds: Vec<EventKind> = t.events.iter().map(|e| e.kind).collect();
+        assert!(kinds.contains(&EventKind::WorkerLost), "{kinds:?}");
+        let lost = t
+            .events
+            .iter()
+            .find(|e| e.kind == EventKind::WorkerLost)
+            .expect("lost");
+        assert_eq!(lost.worker.as_deref(), Some(t.rows[0].worker.as_str()));
+        assert_eq!(lost.detail, "connection reset");
+        assert!(t
+            .events
+            .iter()
+            .any(|e| e.kind == EventKind::TileRequeued && e.tile == Some(ta[0].0.id)));
+    }
+}
