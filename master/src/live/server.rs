@@ -1,6 +1,6 @@
 //! The live view's HTTP server: axum on a thread and current-thread runtime of its own (so
 //! no page, however slow, shares a thread with the render), serving
-//! - `GET /`: the page (`page.html`);
+//! - `GET /`: the page (`page.html`, with the status of the moment in it);
 //! - `GET /status`: [`super::state::Status`] as JSON;
 //! - `GET /events`: server-sent events: `reload` first (fetch `/frame`), then `tile`
 //!   (`x,y,w,h,BASE64-RGB`) as tiles land, `status` (the JSON) at most every 250 ms when it
@@ -179,8 +179,13 @@ async fn guard(State(app): State<App>, req: Request, next: Next) -> Response {
     }
 }
 
-async fn page() -> Html<&'static str> {
-    Html(PAGE)
+/// The page with the status of the moment in it (so it shows something before any request
+/// of its own returns). `<` is escaped so that no scene name can end the script.
+async fn page(State(app): State<App>) -> Html<String> {
+    let json = serde_json::to_string(&app.state.status())
+        .unwrap_or_else(|_| "null".into())
+        .replace('<', "\\u003c");
+    Html(PAGE.replace("__STATUS__", &json))
 }
 
 async fn status(State(app): State<App>) -> Response {
