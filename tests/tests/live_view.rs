@@ -46,6 +46,12 @@ fn start(dir: &std::path::Path, extra: &[&str]) -> Render {
         .spawn()
         .expect("parrt starts");
     let stderr = child.stderr.take().expect("stderr");
+    // Owned (killed on drop) before anything below can fail.
+    let mut r = Render {
+        child,
+        url: String::new(),
+        dial: String::new(),
+    };
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
@@ -66,11 +72,9 @@ fn start(dir: &std::path::Path, extra: &[&str]) -> Render {
                 .and_then(|hp| hp.rsplit(':').next())
                 .expect("a port")
                 .to_string();
-            return Render {
-                child,
-                url: url.to_string(),
-                dial: format!("127.0.0.1:{port}"),
-            };
+            r.url = url.to_string();
+            r.dial = format!("127.0.0.1:{port}");
+            return r;
         }
     }
 }

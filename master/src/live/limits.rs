@@ -9,6 +9,9 @@ pub const MAX_STREAMS: usize = 32;
 /// the whole image instead.
 pub const TILE_BACKLOG: usize = 1024;
 
+/// How often an open page's stream wakes to send the tiles landed since (in one event).
+pub const PUSH_EVERY: Duration = Duration::from_millis(100);
+
 /// How often an open page is sent the status (when it changed).
 pub const STATUS_EVERY: Duration = Duration::from_millis(250);
 

@@ -2,16 +2,17 @@
 //! no page, however slow, shares a thread with the render), serving
 //! - `GET /`: the page (`page.html`, with the status of the moment in it);
 //! - `GET /status`: [`super::state::Status`] as JSON;
-//! - `GET /events`: server-sent events: `reload` first (fetch `/frame`), then `tile`
-//!   (`x,y,w,h,BASE64-RGB`) as tiles land, `status` (the JSON) at most every 250 ms when it
-//!   changed, and `reload` again when the page fell behind and tiles were dropped for it;
+//! - `GET /events`: server-sent events: `reload` first (load the image again), then `tiles`
+//!   (a line `x,y,w,h,BASE64-RGB` per tile landed since the last, every 100 ms), `status` (the
+//!   JSON) at most every 250 ms when it changed (`done` at the end), and `reload` again when
+//!   the page fell behind and tiles were dropped for it;
 //! - `GET /frame`: the image so far, 8-bit RGB row by row (`application/octet-stream`);
 //! - `GET /image.png`: the image so far as a PNG.
 //!
 //! Every route is behind [`super::auth`].
 
 use super::auth::{allowed, needs_token};
-use super::limits::{MAX_STREAMS, STATUS_EVERY};
+use super::limits::{MAX_STREAMS, PUSH_EVERY, STATUS_EVERY};
 use super::state::{LiveState, Phase};
 use anyhow::Context;
 use axum::extract::{Request, State};
@@ -232,46 +233,58 @@ async fn png(State(app): State<App>) -> Response {
     }
 }
 
-/// One page's event stream.
+/// One page's event stream. It wakes every [`PUSH_EVERY`] and sends what landed meanwhile as one
+/// `tiles` event (a line per tile), and the status when it changed and was last sent at least
+/// [`STATUS_EVERY`] ago: a few writes a second per page however fast tiles land.
 struct Stream {
     state: Arc<LiveState>,
     tiles: broadcast::Receiver<Arc<str>>,
     tick: tokio::time::Interval,
     sent_version: Option<u64>,
-    reload: bool,
-    over: bool,
+    status_at: Option<tokio::time::Instant>,
+    queue: std::collections::VecDeque<Event>,
     _permit: OwnedSemaphorePermit,
 }
 
 impl Stream {
     async fn next(&mut self) -> Option<Event> {
-        if self.over {
-            return None;
-        }
-        if std::mem::take(&mut self.reload) {
-            return Some(Event::default().event("reload").data("frame"));
-        }
         loop {
-            tokio::select! {
-                biased;
-                t = self.tiles.recv() => match t {
-                    Ok(msg) => return Some(Event::default().event("tile").data(&*msg)),
-                    Err(broadcast::error::RecvError::Lagged(_)) => {
-                        return Some(Event::default().event("reload").data("lagged"))
+            if let Some(e) = self.queue.pop_front() {
+                return Some(e);
+            }
+            self.tick.tick().await;
+            let mut lines = String::new();
+            let mut lagged = false;
+            loop {
+                match self.tiles.try_recv() {
+                    Ok(msg) => {
+                        if !lines.is_empty() {
+                            lines.push('\n');
+                        }
+                        lines.push_str(&msg);
                     }
-                    // The state is gone: one last status, then the end.
-                    Err(broadcast::error::RecvError::Closed) => {
-                        self.over = true;
-                        return Some(self.status_event());
-                    }
-                },
-                _ = self.tick.tick() => {
-                    let v = self.state.version();
-                    if self.sent_version != Some(v) {
-                        self.sent_version = Some(v);
-                        return Some(self.status_event());
-                    }
+                    Err(broadcast::error::TryRecvError::Lagged(_)) => lagged = true,
+                    Err(_) => break,
                 }
+            }
+            if lagged {
+                // Tiles were dropped for this page: it reloads the whole image.
+                self.queue
+                    .push_back(Event::default().event("reload").data("lagged"));
+            } else if !lines.is_empty() {
+                self.queue
+                    .push_back(Event::default().event("tiles").data(lines));
+            }
+            let now = tokio::time::Instant::now();
+            let v = self.state.version();
+            let due = self
+                .status_at
+                .is_none_or(|t| now.duration_since(t) >= STATUS_EVERY);
+            if self.sent_version != Some(v) && due {
+                self.sent_version = Some(v);
+                self.status_at = Some(now);
+                let e = self.status_event();
+                self.queue.push_back(e);
             }
         }
     }
@@ -297,7 +310,7 @@ async fn events(State(app): State<App>) -> Response {
         )
             .into_response();
     };
-    let mut tick = tokio::time::interval(STATUS_EVERY);
+    let mut tick = tokio::time::interval(PUSH_EVERY);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     // Subscribed before the page is told to fetch the frame: no tile falls between the two.
     let stream = Stream {
@@ -305,8 +318,8 @@ async fn events(State(app): State<App>) -> Response {
         state: app.state.clone(),
         tick,
         sent_version: None,
-        reload: true,
-        over: false,
+        status_at: None,
+        queue: [Event::default().event("reload").data("frame")].into(),
         _permit: permit,
     };
     let body = futures::stream::unfold(stream, |mut s| async move {
