@@ -73,6 +73,32 @@ pub struct SmpResult {
     pub tile_seconds: Vec<f64>,
     /// Wall time of the tracing phase.
     pub trace_s: f64,
+    /// When and on which thread each tile was rendered, by tile id (one slot per tile, filled
+    /// as the tile lands: the timeline of `parrt render --timeline`).
+    pub tile_spans: Vec<TileSpan>,
+}
+
+/// When and where one tile of an SMP render was rendered.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TileSpan {
+    /// The render thread's index (0-based; rayon's pool index with the `rayon` executor).
+    pub thread: u32,
+    /// Seconds from the start of the trace phase to the tile's start.
+    pub start_s: f64,
+    /// Seconds from the start of the trace phase to the tile's end (pixels written).
+    pub end_s: f64,
+}
+
+/// One finished tile, as [`render_smp_with`] reports it.
+pub struct TileDone<'a> {
+    /// The tile.
+    pub tile: &'a Tile,
+    /// Its ray statistics.
+    pub stats: &'a RayStats,
+    /// Its pixels, row by row (the film's values).
+    pub pixels: &'a [Rgb],
+    /// When and on which thread it was rendered.
+    pub span: TileSpan,
 }
 
 /// Interleaves the bits of `x` and `y` (x in the even bits).
@@ -109,44 +135,70 @@ pub fn render_smp(
     opts: &SmpOptions,
     progress: &(dyn Fn(&Tile, &RayStats) + Sync),
 ) -> SmpResult {
+    render_smp_with(renderer, opts, &|done| progress(done.tile, done.stats))
+}
+
+/// [`render_smp`] telling `progress` more of each finished tile: its pixels and when and on
+/// which thread it was rendered (what the live view and the timeline need). Called on the
+/// render thread, after the tile is in the film: it must be quick and never wait.
+pub fn render_smp_with(
+    renderer: &Renderer,
+    opts: &SmpOptions,
+    progress: &(dyn Fn(TileDone<'_>) + Sync),
+) -> SmpResult {
     let s = renderer.settings();
     let list = tiles(s.width, s.height, opts.tile);
     let threads = opts.threads.max(1);
     let film = Mutex::new(Film::new(s.width, s.height));
-    let totals = Mutex::new((RayStats::default(), vec![0.0f64; list.len()]));
+    let totals = Mutex::new((
+        RayStats::default(),
+        vec![0.0f64; list.len()],
+        vec![TileSpan::default(); list.len()],
+    ));
     let start = Instant::now();
-    let finish = |tile: &Tile, buf: &[Rgb], st: RayStats, secs: f64| {
+    let finish = |tile: &Tile, buf: &[Rgb], st: RayStats, span: TileSpan| {
         film.lock()
             .unwrap_or_else(|e| e.into_inner())
             .write_tile(tile, buf)
             .expect("tiles come from the film's own size");
         let mut t = totals.lock().unwrap_or_else(|e| e.into_inner());
         t.0 += st;
-        t.1[tile.id as usize] = secs;
+        t.1[tile.id as usize] = span.end_s - span.start_s;
+        t.2[tile.id as usize] = span;
         drop(t);
-        progress(tile, &st);
+        progress(TileDone {
+            tile,
+            stats: &st,
+            pixels: buf,
+            span,
+        });
     };
-    let render_one = |tile: &Tile, buf: &mut Vec<Rgb>| {
-        let t0 = Instant::now();
+    let render_one = |thread: usize, tile: &Tile, buf: &mut Vec<Rgb>| {
+        let start_s = start.elapsed().as_secs_f64();
         let mut st = RayStats::default();
         renderer.render_tile(tile, buf, &mut st);
-        finish(tile, buf, st, t0.elapsed().as_secs_f64());
+        let span = TileSpan {
+            thread: thread as u32,
+            start_s,
+            end_s: start.elapsed().as_secs_f64(),
+        };
+        finish(tile, buf, st, span);
     };
-    // N OS threads, each running `work` until it returns.
-    let run_threads = |work: &(dyn Fn(&mut Vec<Rgb>) + Sync)| {
+    // N OS threads, each running `work` (given its index) until it returns.
+    let run_threads = |work: &(dyn Fn(usize, &mut Vec<Rgb>) + Sync)| {
         std::thread::scope(|scope| {
-            for _ in 0..threads {
-                scope.spawn(|| work(&mut Vec::new()));
+            for i in 0..threads {
+                scope.spawn(move || work(i, &mut Vec::new()));
             }
         });
     };
     match opts.executor {
         Executor::Queue => {
             let queue = Mutex::new(list.iter().copied().collect::<VecDeque<Tile>>());
-            run_threads(&|buf| loop {
+            run_threads(&|i, buf| loop {
                 let next = queue.lock().unwrap_or_else(|e| e.into_inner()).pop_front();
                 match next {
-                    Some(tile) => render_one(&tile, buf),
+                    Some(tile) => render_one(i, &tile, buf),
                     None => break,
                 }
             });
@@ -160,16 +212,18 @@ pub fn render_smp(
             pool.install(|| {
                 list.par_iter()
                     .with_max_len(1)
-                    .for_each_init(Vec::new, |buf, tile| render_one(tile, buf));
+                    .for_each_init(Vec::new, |buf, tile| {
+                        render_one(rayon::current_thread_index().unwrap_or(0), tile, buf)
+                    });
             });
         }
         Executor::Morton => {
             let order = morton_order(&list, opts.tile);
             let next = AtomicUsize::new(0);
-            run_threads(&|buf| loop {
+            run_threads(&|t, buf| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 match order.get(i) {
-                    Some(tile) => render_one(tile, buf),
+                    Some(tile) => render_one(t, tile, buf),
                     None => break,
                 }
             });
@@ -177,7 +231,7 @@ pub fn render_smp(
         Executor::Guided => {
             let order = morton_order(&list, opts.tile);
             let next = Mutex::new(0usize);
-            run_threads(&|buf| loop {
+            run_threads(&|t, buf| loop {
                 let (lo, hi) = {
                     let mut n = next.lock().unwrap_or_else(|e| e.into_inner());
                     let lo = *n;
@@ -189,18 +243,19 @@ pub fn render_smp(
                     break;
                 }
                 for tile in &order[lo..hi] {
-                    render_one(tile, buf);
+                    render_one(t, tile, buf);
                 }
             });
         }
     }
     let trace_s = start.elapsed().as_secs_f64();
-    let (stats, tile_seconds) = totals.into_inner().unwrap_or_else(|e| e.into_inner());
+    let (stats, tile_seconds, tile_spans) = totals.into_inner().unwrap_or_else(|e| e.into_inner());
     SmpResult {
         film: film.into_inner().unwrap_or_else(|e| e.into_inner()),
         stats,
         tile_seconds,
         trace_s,
+        tile_spans,
     }
 }
 

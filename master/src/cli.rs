@@ -32,6 +32,8 @@ pub enum Command {
     Cluster(commands::cluster::ClusterArgs),
     /// Benchmarks and studies that print numbers (efficiency, accuracy, ...).
     Bench(commands::bench::BenchArgs),
+    /// Draw a timeline written by --timeline as SVG or PNG (a row per thread or worker).
+    PlotTimeline(commands::plot_timeline::PlotTimelineArgs),
 }
 
 /// Parses the arguments, runs the command and returns the exit status. Errors are printed to
@@ -60,6 +62,7 @@ pub fn main() -> ExitCode {
         Command::Worker(a) => commands::worker::run(a),
         Command::Cluster(a) => commands::cluster::run(a),
         Command::Bench(a) => commands::bench::run(a),
+        Command::PlotTimeline(a) => commands::plot_timeline::run(a),
     };
     match result {
         Ok(code) => code,

@@ -54,6 +54,7 @@ fn four_replaying_workers_of_two_threads_assemble_the_smp_image_once_per_tile() 
             worker_exe: EXE.into(),
             worker_prefix: vec!["worker".into()],
             timeout: Duration::from_secs(60),
+            observers: Default::default(),
         },
     )
     .unwrap();

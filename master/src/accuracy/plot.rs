@@ -1,6 +1,6 @@
 //! Pareto plots of the study: trace time against RMSE on log–log axes, every configuration a
 //! point, the Pareto front a line, the default configuration marked. Written as SVG and PNG with
-//! axis labels and a caption. plotters lays text out with a registered font: when
+//! axis labels, a legend (what each colour and mark is) and a caption. plotters lays text out with a registered font: when
 //! [`crate::plot::font_ready`] finds none, both are drawn without text (grid lines on powers of
 //! ten, as the Markdown report explains).
 
@@ -39,6 +39,17 @@ const GREEN2: RGBColor = RGBColor(30, 150, 60);
 const ORANGE: RGBColor = RGBColor(230, 130, 0);
 const FRONT: RGBColor = RGBColor(200, 30, 30);
 const DEFAULT: RGBColor = RGBColor(20, 60, 220);
+
+impl Series {
+    /// The legend's words for it.
+    pub fn label(self) -> &'static str {
+        match self {
+            Series::F32OneSample => "f32, 1 sample per pixel",
+            Series::F64OneSample => "f64, 1 sample per pixel",
+            Series::FourSamples => "4 samples per pixel",
+        }
+    }
+}
 
 fn colour(s: Series) -> RGBColor {
     match s {
@@ -96,8 +107,8 @@ where
     if text {
         chart
             .configure_mesh()
-            .x_desc("trace time (s)")
-            .y_desc("RMSE vs reference")
+            .x_desc("trace time (s, log)")
+            .y_desc("RMSE against the reference (linear RGB in [0, 1], log)")
             .draw()
             .map_err(plotting_error)?;
     } else {
@@ -124,21 +135,37 @@ where
             ))
             .map_err(plotting_error)?;
     }
-    chart
-        .draw_series(
-            points
-                .iter()
-                .map(|p| Circle::new(pos(p), 4, colour(p.series).filled())),
-        )
-        .map_err(plotting_error)?;
+    for s in [
+        Series::F32OneSample,
+        Series::F64OneSample,
+        Series::FourSamples,
+    ] {
+        let c = colour(s);
+        let anno = chart
+            .draw_series(
+                points
+                    .iter()
+                    .filter(|p| p.series == s)
+                    .map(|p| Circle::new(pos(p), 4, c.filled())),
+            )
+            .map_err(plotting_error)?;
+        if text {
+            anno.label(s.label())
+                .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
+        }
+    }
     let mut front: Vec<(f64, f64)> = points.iter().filter(|p| p.on_front).map(pos).collect();
     front.sort_by(|a, b| a.0.total_cmp(&b.0));
-    chart
+    let anno = chart
         .draw_series(LineSeries::new(
             front.iter().copied(),
             FRONT.stroke_width(2),
         ))
         .map_err(plotting_error)?;
+    if text {
+        anno.label("Pareto front (no faster point is more accurate)")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], FRONT.stroke_width(2)));
+    }
     chart
         .draw_series(
             front
@@ -146,7 +173,7 @@ where
                 .map(|&q| Circle::new(q, 5, FRONT.stroke_width(2))),
         )
         .map_err(plotting_error)?;
-    chart
+    let anno = chart
         .draw_series(
             points
                 .iter()
@@ -154,6 +181,17 @@ where
                 .map(|p| Circle::new(pos(p), 8, DEFAULT.stroke_width(3))),
         )
         .map_err(plotting_error)?;
+    if text {
+        anno.label("default: cut-off 0.001, depth 5, f32, 1 sample")
+            .legend(|(x, y)| Circle::new((x + 8, y), 6, DEFAULT.stroke_width(3)));
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(plotting_error)?;
+    }
     root.present().map_err(plotting_error)?;
     Ok(())
 }

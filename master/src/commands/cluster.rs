@@ -70,6 +70,13 @@ pub struct ClusterArgs {
     /// Continue the render recorded in --checkpoint FILE.
     #[arg(long, requires = "checkpoint")]
     pub resume: bool,
+    /// Write the render's timeline to FILE: per tile which worker rendered it, when, and which
+    /// attempt; faults as events (CSV for .csv, else JSON; columns in docs/timeline.md).
+    #[arg(long, value_name = "FILE")]
+    pub timeline: Option<PathBuf>,
+    /// Live view in a browser (off loopback: the master's token is required).
+    #[command(flatten)]
+    pub live: crate::live::LiveArgs,
     /// Render settings (the same flags as `parrt render`, so the same bits).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -145,7 +152,12 @@ fn run_master(
     check_image_output(&args.output)?;
     if let Some(c) = &args.checkpoint {
         check_file_output(c)?;
-        check_checkpoint_apart(c, &[args.output.as_path()])?;
+        let mut others = vec![args.output.as_path()];
+        others.extend(args.timeline.as_deref());
+        check_checkpoint_apart(c, &others)?;
+    }
+    if let Some(t) = &args.timeline {
+        check_file_output(t)?;
     }
     check_listen(&args.listen)?;
     if !args.rendezvous.is_dir() {
@@ -167,7 +179,20 @@ fn run_master(
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
     let (token_text, token) = fresh_token()?;
+    let live = crate::live::Live::start(&args.live, Some(token.as_bytes()))?;
+    let watch = super::master::Watch::new(
+        args.timeline.as_deref(),
+        live,
+        crate::live::state::JobInfo {
+            scene: label.clone(),
+            mode: "distributed",
+            width: settings.width,
+            height: settings.height,
+            tile_size: args.tile,
+        },
+    );
     let opts = DistOptions {
+        observers: watch.observers(),
         tile: args.tile,
         listen: args.listen.clone(),
         token: Some(token),
@@ -214,6 +239,7 @@ fn run_master(
         .save(&args.output)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     print_summary(&result, &args.output);
+    watch.end(result.trace_s)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -7,6 +7,7 @@ use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
 use crate::distributed::{render_distributed, DistOptions, DistResult, DEFAULT_LISTEN};
 use crate::exit::input_error;
+use crate::live::state::JobInfo;
 use anyhow::Context;
 use clap::Args;
 use parrt::description::SceneDescription;
@@ -77,6 +78,13 @@ pub struct MasterArgs {
     /// Token flags (a token is required).
     #[command(flatten)]
     pub token: TokenArgs,
+    /// Write the render's timeline to FILE: per tile which worker rendered it, when, and which
+    /// attempt; faults as events (CSV for .csv, else JSON; columns in docs/timeline.md).
+    #[arg(long, value_name = "FILE")]
+    pub timeline: Option<PathBuf>,
+    /// Live view in a browser (off loopback: the master's token is required).
+    #[command(flatten)]
+    pub live: crate::live::LiveArgs,
     /// Render settings (the same flags as `parrt render`, so the same bits).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -147,12 +155,16 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         MAX_FLAG_DURATION,
     )?;
     check_image_output(&args.output)?;
-    for p in [&args.report_json, &args.checkpoint].into_iter().flatten() {
+    for p in [&args.report_json, &args.checkpoint, &args.timeline]
+        .into_iter()
+        .flatten()
+    {
         check_file_output(p)?;
     }
     if let Some(c) = &args.checkpoint {
         let mut others = vec![args.output.as_path()];
         others.extend(args.report_json.as_deref());
+        others.extend(args.timeline.as_deref());
         check_checkpoint_apart(c, &others)?;
     }
     check_listen(&args.listen)?;
@@ -163,10 +175,23 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     parrt::render::validate_job(&desc, &settings)
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
+    let live = crate::live::Live::start(&args.live, Some(token.as_bytes()))?;
+    let watch = Watch::new(
+        args.timeline.as_deref(),
+        live,
+        JobInfo {
+            scene: label.clone(),
+            mode: "distributed",
+            width: settings.width,
+            height: settings.height,
+            tile_size: args.tile,
+        },
+    );
     let opts = DistOptions {
         tile: args.tile,
         listen: args.listen.clone(),
         token: Some(token),
+        observers: watch.observers(),
         min_workers: args.min_workers.max(1),
         wait_workers,
         tile_deadline,
@@ -196,7 +221,67 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         std::fs::write(p, report_json(&result).to_string())
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
+    watch.end(result.trace_s)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The watchers of a distributed render asked for on the command line (`--timeline`,
+/// `--http`), for `parrt master` and `parrt cluster`.
+pub struct Watch {
+    timeline: Option<(PathBuf, std::sync::Arc<crate::timeline::Recorder>)>,
+    live: Option<crate::live::Live>,
+    job: JobInfo,
+}
+
+impl Watch {
+    /// Watchers writing the timeline to `timeline` and feeding `live`, for `job`.
+    pub fn new(
+        timeline: Option<&std::path::Path>,
+        live: Option<crate::live::Live>,
+        job: JobInfo,
+    ) -> Self {
+        if let Some(l) = &live {
+            l.state.set_job(JobInfo {
+                scene: job.scene.clone(),
+                ..job
+            });
+        }
+        Watch {
+            timeline: timeline.map(|p| {
+                (
+                    p.to_path_buf(),
+                    std::sync::Arc::new(crate::timeline::Recorder::new()),
+                )
+            }),
+            live,
+            job,
+        }
+    }
+
+    /// The observers to give the render.
+    pub fn observers(&self) -> crate::distributed::observer::Observers {
+        super::render::watchers(
+            &self.timeline.as_ref().map(|t| t.1.clone()),
+            self.live.as_ref(),
+        )
+    }
+
+    /// Writes the timeline, then serves the live view's last state for its linger time.
+    pub fn end(self, trace_s: f64) -> anyhow::Result<()> {
+        if let Some((path, rec)) = &self.timeline {
+            let job = crate::timeline::Job {
+                scene: &self.job.scene,
+                width: self.job.width,
+                height: self.job.height,
+                tile_size: self.job.tile_size,
+            };
+            rec.timeline(&job, trace_s).write(path)?;
+        }
+        if let Some(l) = self.live {
+            l.end(true);
+        }
+        Ok(())
+    }
 }
 
 /// Prints what a distributed render did (also `parrt cluster`'s rank 0).

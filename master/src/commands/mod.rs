@@ -6,6 +6,7 @@ pub mod durations;
 pub mod info;
 pub mod master;
 pub mod output;
+pub mod plot_timeline;
 pub mod render;
 pub mod scene;
 pub mod scene_input;

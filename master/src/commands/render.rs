@@ -10,7 +10,7 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use parrt::render::Renderer;
 use parrt::settings::{AccelKind, Precision, RenderSettings};
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt::smp::{render_smp_with, Executor, SmpOptions};
 use parrt::stats::RayStats;
 use serde_json::json;
 use std::io::IsTerminal;
@@ -187,6 +187,13 @@ pub struct RenderArgs {
     /// A FILE of another scene or other settings is refused (exit 2) and left unchanged.
     #[arg(long, requires = "checkpoint")]
     pub resume: bool,
+    /// Write the render's timeline to FILE: per tile who rendered it, when, and which attempt;
+    /// faults as events (CSV for .csv, else JSON; columns in docs/timeline.md).
+    #[arg(long, value_name = "FILE")]
+    pub timeline: Option<PathBuf>,
+    /// Live view in a browser.
+    #[command(flatten)]
+    pub live: crate::live::LiveArgs,
     /// Render settings.
     #[command(flatten)]
     pub render: RenderFlags,
@@ -323,6 +330,24 @@ struct Outcome {
     describe: Vec<String>,
     /// Extra keys for `--stats-json`.
     extra: serde_json::Value,
+    /// The timeline, when `--timeline` asked for one.
+    timeline: Option<crate::timeline::Timeline>,
+}
+
+/// The live view's description of this render.
+fn live_job(
+    spec: &SceneSpec,
+    settings: &RenderSettings,
+    tile: u32,
+    mode: &'static str,
+) -> crate::live::state::JobInfo {
+    crate::live::state::JobInfo {
+        scene: spec.label(),
+        mode,
+        width: settings.width,
+        height: settings.height,
+        tile_size: tile,
+    }
 }
 
 /// Renders on this machine's cores. Takes the description so that it is freed before the
@@ -332,6 +357,7 @@ fn render_here(
     spec: &SceneSpec,
     desc: parrt::description::SceneDescription,
     settings: &RenderSettings,
+    live: Option<&crate::live::Live>,
 ) -> anyhow::Result<Outcome> {
     let mut renderer = Renderer::from_description(desc, settings)
         .map_err(input_error)
@@ -348,12 +374,39 @@ fn render_here(
     let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len() as u64;
     let pb = progress_bar(tiles);
     let rays = AtomicU64::new(0);
+    if let Some(l) = live {
+        l.state.set_job(live_job(spec, settings, args.tile, "smp"));
+        for t in 0..threads {
+            l.state
+                .add_worker(t as u64, &format!("thread {t}"), 1, true);
+        }
+        l.state.start();
+    }
     let started = std::time::Instant::now();
-    let result = render_smp(&renderer, &opts, &|_, st| {
+    let result = render_smp_with(&renderer, &opts, &|done| {
+        let st = done.stats;
         let total = rays.fetch_add(st.total_rays(), Ordering::Relaxed) + st.total_rays();
         let secs = started.elapsed().as_secs_f64().max(1e-9);
         pb.set_message(format!("{:.2} Mrays/s", total as f64 / secs / 1e6));
         pb.inc(1);
+        if let Some(l) = live {
+            let thread = u64::from(done.span.thread);
+            l.state
+                .tile_done(thread, done.tile, done.pixels, st.total_rays());
+        }
+    });
+    if let Some(l) = live {
+        l.state.finish(true);
+    }
+    let timeline = args.timeline.as_ref().map(|_| {
+        let label = spec.label();
+        let job = crate::timeline::Job {
+            scene: &label,
+            width: settings.width,
+            height: settings.height,
+            tile_size: args.tile,
+        };
+        crate::timeline::Timeline::from_smp(&job, threads, &result.tile_spans, result.trace_s)
     });
     pb.finish_and_clear();
     let info = renderer.build_info();
@@ -398,6 +451,7 @@ fn render_here(
             "primitives": info.primitives,
             "scene_bytes": info.scene_bytes,
         }),
+        timeline,
     })
 }
 
@@ -406,6 +460,7 @@ fn render_through_workers(
     args: &RenderArgs,
     spec: &SceneSpec,
     n: usize,
+    live: Option<&crate::live::Live>,
 ) -> anyhow::Result<(Outcome, f64, RenderSettings)> {
     use crate::distributed::{render_distributed_prepared, DistError, DistOptions, JobCheck};
     /// A failure of the distributed render or of preparing its job.
@@ -426,6 +481,10 @@ fn render_through_workers(
     let prepare = || {
         let (desc, settings, secs) = load_job(args, spec).map_err(Failed::Job)?;
         parse_s.set(secs);
+        if let Some(l) = live {
+            l.state
+                .set_job(live_job(spec, &settings, args.tile, "distributed"));
+        }
         Ok((desc, settings))
     };
     // The workers each refuse a scene they cannot build; if they all did, the check says why,
@@ -435,6 +494,10 @@ fn render_through_workers(
     });
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
+    let recorder = args
+        .timeline
+        .as_ref()
+        .map(|_| std::sync::Arc::new(crate::timeline::Recorder::new()));
     let opts = DistOptions {
         workers_to_spawn: n,
         threads_per_worker: threads,
@@ -443,6 +506,7 @@ fn render_through_workers(
         pixel_format: crate::distributed::pixel_format_for(&args.output),
         checkpoint: args.checkpoint.clone(),
         resume: args.resume,
+        observers: watchers(&recorder, live),
         ..DistOptions::default()
     };
     let (r, _, settings) =
@@ -509,8 +573,33 @@ fn render_through_workers(
             "master_cpu_per_tile_us": per_tile_us,
             "master_cpu_per_mb_ms": per_mb_ms,
         }),
+        timeline: recorder.map(|rec| {
+            let label = spec.label();
+            let job = crate::timeline::Job {
+                scene: &label,
+                width: settings.width,
+                height: settings.height,
+                tile_size: args.tile,
+            };
+            rec.timeline(&job, r.trace_s)
+        }),
     };
     Ok((outcome, parse_s.get(), settings))
+}
+
+/// The observers of a distributed render: the timeline's recorder and the live view, if asked.
+pub fn watchers(
+    recorder: &Option<std::sync::Arc<crate::timeline::Recorder>>,
+    live: Option<&crate::live::Live>,
+) -> crate::distributed::observer::Observers {
+    let mut v: Vec<std::sync::Arc<dyn crate::distributed::observer::Observer>> = Vec::new();
+    if let Some(r) = recorder {
+        v.push(r.clone());
+    }
+    if let Some(l) = live {
+        v.push(l.observer());
+    }
+    crate::distributed::observer::Observers(v)
 }
 
 /// Loads the scene and the settings the flags make of it, checking the image's size: the
@@ -531,9 +620,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
     // Every output is checked before the render, so a typo costs nothing.
     check_image_output(&args.output)?;
-    for p in [&args.stats_json, &args.tile_costs, &args.checkpoint]
-        .into_iter()
-        .flatten()
+    for p in [
+        &args.stats_json,
+        &args.tile_costs,
+        &args.checkpoint,
+        &args.timeline,
+    ]
+    .into_iter()
+    .flatten()
     {
         check_file_output(p)?;
     }
@@ -541,6 +635,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         let mut others = vec![args.output.as_path()];
         others.extend(args.stats_json.as_deref());
         others.extend(args.tile_costs.as_deref());
+        others.extend(args.timeline.as_deref());
         check_checkpoint_apart(c, &others)?;
     }
     if args.tile == 0 {
@@ -549,12 +644,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if args.threads == Some(0) {
         return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
     }
+    let live = crate::live::Live::start(&args.live, None)?;
     let (out, parse_s, settings) = match args.workers {
-        Some(n) => render_through_workers(&args, &spec, n)?,
+        Some(n) => render_through_workers(&args, &spec, n, live.as_ref())?,
         None => {
             let (desc, settings, parse_s) = load_job(&args, &spec)?;
             (
-                render_here(&args, &spec, desc, &settings)?,
+                render_here(&args, &spec, desc, &settings, live.as_ref())?,
                 parse_s,
                 settings,
             )
@@ -581,6 +677,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         parrt::efficiency::write_tile_costs(path, &list, &out.tile_seconds)
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
+    if let (Some(path), Some(t)) = (&args.timeline, &out.timeline) {
+        t.write(path)?;
+    }
     if let Some(path) = &args.stats_json {
         let mut extra = json!({
             "scene": spec.label(),
@@ -602,5 +701,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         settings.height,
         parse_s + out.build_s + out.trace_s
     );
+    if let Some(l) = live {
+        l.end(true);
+    }
     Ok(ExitCode::SUCCESS)
 }

@@ -9,6 +9,7 @@
 //! - [`spawn`]: local worker processes for `parrt render --workers N`.
 //! - [`checkpoint`]: the file of accepted tiles a killed master resumes from.
 //! - [`progress`]: the progress line.
+//! - [`observer`]: watchers told what happens to workers and tiles (timeline, live view).
 //! - [`refusals`]: the bounded record of refused handshakes.
 //! - [`launcher`]: rank, size and job id from `srun`/`mpirun`/`mpiexec`'s environment.
 //! - [`rendezvous`]: the file through which the ranks of `parrt cluster` meet.
@@ -19,6 +20,7 @@
 pub mod checkpoint;
 pub mod connection;
 pub mod launcher;
+pub mod observer;
 pub mod progress;
 pub mod refusals;
 pub mod rendezvous;
@@ -226,6 +228,8 @@ pub struct DistOptions {
     /// each is told to shut down (`parrt cluster`: its worker ranks would otherwise wait for a
     /// master that has gone).
     pub await_all_workers: bool,
+    /// Told what happens to workers and tiles (`--timeline`, `--http`); none by default.
+    pub observers: observer::Observers,
 }
 
 impl Default for DistOptions {
@@ -254,6 +258,7 @@ impl Default for DistOptions {
             checkpoint: None,
             resume: false,
             await_all_workers: false,
+            observers: Default::default(),
         }
     }
 }

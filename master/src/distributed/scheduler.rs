@@ -247,6 +247,8 @@ pub struct Scheduler {
     faults: FaultCounts,
     /// Tiles accepted since [`Scheduler::take_accepted`] last ran, when a sink wants them.
     accepted: Option<Vec<AcceptedTile>>,
+    /// Who is told what happens (timeline, live view).
+    observers: super::observer::Observers,
 }
 
 impl Scheduler {
@@ -280,7 +282,13 @@ impl Scheduler {
             cost: (0.0, 0),
             faults: FaultCounts::default(),
             accepted: None,
+            observers: Default::default(),
         }
+    }
+
+    /// Tells `observers` what happens from now on.
+    pub fn set_observers(&mut self, observers: super::observer::Observers) {
+        self.observers = observers;
     }
 
     /// Starts keeping each newly accepted tile for [`Self::take_accepted`] (a checkpoint's
@@ -396,6 +404,7 @@ impl Scheduler {
                 counters,
             } => {
                 info!(worker = id, %name, threads, "worker joined");
+                self.observers.each(|o| o.joined(id, &name, threads, now));
                 self.workers.insert(
                     id,
                     Slot {
@@ -428,6 +437,7 @@ impl Scheduler {
                     w.ready_at = Some(now);
                     w.build_s = build_s;
                     w.job_to_ready_s = job_to_ready_s;
+                    self.observers.each(|o| o.ready(id, now));
                 }
             }
             Event::Result {
@@ -510,7 +520,11 @@ impl Scheduler {
                 self.fail(id, reason);
             }
             None => {
-                if self.accept(id, t, &decoded, stats, seconds) {
+                let accepted = self.accept(id, t, &decoded, stats, seconds);
+                let shown: &[Rgb] = if accepted { &decoded } else { &[] };
+                self.observers
+                    .each(|o| o.result(id, &tile, shown, &stats, seconds, accepted));
+                if accepted {
                     if let Some(sink) = &mut self.accepted {
                         sink.push(AcceptedTile {
                             tile_id,
@@ -592,6 +606,7 @@ impl Scheduler {
         let Some(w) = self.workers.remove(&id) else {
             return;
         };
+        self.observers.each(|o| o.left(id, &reason));
         let mut held: Vec<u32> = w.inflight.keys().copied().collect();
         self.requeue_all(&mut held);
         self.gone.push(report(&w, Some(reason)));
@@ -606,6 +621,7 @@ impl Scheduler {
         self.state[t] = TileState::Queued;
         self.queue.push_front(tile_id);
         self.faults.requeued += 1;
+        self.observers.each(|o| o.requeued(tile_id));
     }
 
     /// Requeues tiles so that the lowest id comes out of the queue first.
@@ -789,6 +805,8 @@ impl Scheduler {
             return;
         };
         for &(tile, attempt) in &sent {
+            self.observers
+                .each(|o| o.assigned(id, &tile, attempt, backup, now));
             w.inflight.insert(
                 tile.id,
                 Assignment {

@@ -105,6 +105,7 @@ impl Master {
                 pixel_format: opts.pixel_format,
             },
         );
+        sched.set_observers(opts.observers.clone());
         let (mut checkpoint, restored_tiles, checkpoint_bad_records): (Option<Checkpoint>, _, _) =
             match self.checkpoint {
                 Some(o) => {
@@ -193,6 +194,7 @@ impl Master {
                     info!(workers = ready, tiles = n_tiles, "starting");
                     started = Some(now);
                     cpu_at_start = crate::cpu_time::process_cpu_s();
+                    opts.observers.each(|o| o.started(now));
                 }
                 sched.fill(now);
             } else {
@@ -228,6 +230,9 @@ impl Master {
             0.0
         };
         progress.finish();
+        let complete = sched.is_done();
+        opts.observers
+            .each(|o| o.finished(complete, Instant::now()));
         if let Some(c) = &mut checkpoint {
             if let Err(e) = c.sync() {
                 warn!(error = %e, "cannot sync the checkpoint");

@@ -20,7 +20,7 @@ use std::process::ExitCode;
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
     /// Scenes: NFF files or generated scenes as NAME[:SIZE].
-    #[arg(value_name = "SCENE", required = true)]
+    #[arg(value_name = "SCENE", required_unless_present = "replot")]
     pub scenes: Vec<String>,
     /// Image size of the reference and every configuration.
     #[arg(long, value_name = "WxH", default_value = "256x256")]
@@ -37,9 +37,86 @@ pub struct AccuracyArgs {
     /// Measure the full cross product (160 configurations per scene) instead of the pruned grid.
     #[arg(long)]
     pub full: bool,
+    /// Render nothing: draw the Pareto plots again from an `accuracy.csv` this command wrote
+    /// (into --out; --size and --machine name the run in the titles).
+    #[arg(long, value_name = "CSV")]
+    pub replot: Option<PathBuf>,
+    /// With --replot: the machine the CSV was measured on, for the titles (default: this one).
+    #[arg(long, value_name = "TEXT", requires = "replot")]
+    pub machine: Option<String>,
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
+}
+
+/// The title of a scene's Pareto plot.
+fn pareto_title(label: &str, width: u32, height: u32, machine: &str) -> String {
+    format!("{label} {width}×{height}: trace time vs RMSE on {machine}")
+}
+
+/// `--replot`: the Pareto plots of every scene in an `accuracy.csv`.
+fn replot(
+    args: &AccuracyArgs,
+    csv: &std::path::Path,
+    width: u32,
+    height: u32,
+) -> anyhow::Result<ExitCode> {
+    let text =
+        std::fs::read_to_string(csv).with_context(|| format!("cannot read {}", csv.display()))?;
+    let machine = args
+        .machine
+        .clone()
+        .unwrap_or_else(super::efficiency::machine);
+    let mut scenes: Vec<(String, Vec<PlotPoint>)> = Vec::new();
+    for (n, line) in text.lines().enumerate().skip(1) {
+        let bad = || {
+            input_error(anyhow::anyhow!(
+                "{} line {}: not a row of accuracy.csv",
+                csv.display(),
+                n + 1
+            ))
+        };
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 16 {
+            return Err(bad());
+        }
+        let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
+        let config = Config {
+            cutoff: num(1)?,
+            depth: f[2].parse().map_err(|_| bad())?,
+            precision: if f[3] == "f64" {
+                Precision::F64
+            } else {
+                Precision::F32
+            },
+            spp: f[4].parse().map_err(|_| bad())?,
+        };
+        let point = PlotPoint {
+            time: num(5)?,
+            rmse: num(7)?,
+            series: series(&config),
+            is_default: config.is_default(),
+            on_front: f[15] == "true",
+        };
+        match scenes.iter_mut().find(|s| s.0 == f[0]) {
+            Some(s) => s.1.push(point),
+            None => scenes.push((f[0].to_string(), vec![point])),
+        }
+    }
+    crate::commands::output::prepare_out_dir(&args.out)?;
+    for (label, points) in &scenes {
+        plot::write(
+            &args.out.join(format!("pareto-{}", stem(label))),
+            &pareto_title(label, width, height, &machine),
+            points,
+        )?;
+    }
+    eprintln!(
+        "parrt: drew {} Pareto plots in {}",
+        scenes.len(),
+        args.out.display()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 /// Parses `WxH` (both at least 1).
@@ -84,6 +161,9 @@ fn stem(label: &str) -> String {
 /// Runs `parrt bench accuracy`.
 pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
     let (width, height) = parse_size(&args.size)?;
+    if let Some(csv) = &args.replot {
+        return replot(&args, csv, width, height);
+    }
     if args.threads == Some(0) || args.repeat == 0 {
         return Err(input_error(anyhow::anyhow!(
             "--threads and --repeat must be at least 1"
@@ -125,7 +205,7 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
             .collect();
         plot::write(
             &args.out.join(format!("pareto-{label}")),
-            &format!("{label}: trace time vs RMSE ({width}x{height})"),
+            &pareto_title(&label, width, height, &super::efficiency::machine()),
             &points,
         )?;
         studies.push(st);

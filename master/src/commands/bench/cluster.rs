@@ -347,9 +347,11 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     let px: Vec<u64> = rec.tiles.iter().map(|t| t.pixel_count() as u64).collect();
     let pixels: u64 = px.iter().sum();
     let mut rows = Vec::new();
+    let mut timelines = Vec::new();
     for &threads in &args.threads {
         for &workers in &worker_counts(&args) {
             eprintln!("{workers} workers × {threads} threads ...");
+            let recorder = std::sync::Arc::new(crate::timeline::Recorder::new());
             let m = emulate::run(
                 &desc,
                 &settings,
@@ -370,9 +372,11 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                     worker_exe: worker_exe.clone(),
                     worker_prefix: prefix.clone(),
                     timeout: Duration::from_secs_f64(args.run_timeout),
+                    observers: crate::distributed::observer::Observers(vec![recorder.clone()]),
                 },
             )
             .with_context(|| format!("{workers} workers × {threads} threads"))?;
+            timelines.push((workers, threads, recorder, m.trace_s));
             let cores = workers * threads;
             let machine_cores = std::thread::available_parallelism().map_or(1, |n| n.get());
             let master_per_tile = m.master_cpu_s / m.tiles.max(1) as f64;
@@ -480,7 +484,8 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
         args.tile,
         machine()
     );
-    let md = report(&args, &title, &path, &rec.costs, scale, &rows);
+    let mut md = report(&args, &title, &path, &rec.costs, scale, &rows);
+    md += &draw_timelines(&args, &spec.label(), &timelines)?;
     std::fs::write(args.out.join("cluster.md"), &md)?;
     std::fs::write(args.out.join("cluster.csv"), csv(&rows))?;
     plot(&args, &title, &rows)?;
@@ -591,6 +596,49 @@ fn csv(rows: &[Row]) -> String {
     s
 }
 
+/// Draws the timeline of the run with the most workers at each thread count (and of one
+/// worker, for contrast, when it differs); returns the Markdown that shows them.
+fn draw_timelines(
+    args: &ClusterArgs,
+    scene: &str,
+    runs: &[(usize, usize, std::sync::Arc<crate::timeline::Recorder>, f64)],
+) -> anyhow::Result<String> {
+    let mut md = String::new();
+    for &threads in &args.threads {
+        let of: Vec<_> = runs.iter().filter(|r| r.1 == threads).collect();
+        let (Some(most), Some(fewest)) =
+            (of.iter().max_by_key(|r| r.0), of.iter().min_by_key(|r| r.0))
+        else {
+            continue;
+        };
+        // A timeline has a row per worker thread: draw it while it stays readable.
+        let mut pick = vec![most];
+        if fewest.0 != most.0 {
+            pick.insert(0, fewest);
+        }
+        for (workers, threads, rec, trace_s) in pick.into_iter().map(|r| (r.0, r.1, &r.2, r.3)) {
+            if workers * threads > 128 {
+                continue;
+            }
+            let job = crate::timeline::Job {
+                scene,
+                width: args.size,
+                height: args.size,
+                tile_size: args.tile,
+            };
+            let tl = rec.timeline(&job, trace_s);
+            let stem = format!("timeline-{workers}x{threads}");
+            md += &super::efficiency::draw_timeline(
+                &args.out,
+                &stem,
+                &tl,
+                &format!("{workers} emulated workers × {threads} threads, replayed"),
+            )?;
+        }
+    }
+    Ok(md)
+}
+
 fn plot(args: &ClusterArgs, title: &str, rows: &[Row]) -> anyhow::Result<()> {
     let mut series = Vec::new();
     for &t in &args.threads {
@@ -623,8 +671,8 @@ fn plot(args: &ClusterArgs, title: &str, rows: &[Row]) -> anyhow::Result<()> {
     }
     let chart = Chart {
         title: title.to_string(),
-        x_label: "render threads (workers × threads per worker)".into(),
-        y_label: "efficiency t₁/(n·tₙ)".into(),
+        x_label: "render threads n (workers × threads per worker)".into(),
+        y_label: "efficiency t₁/(n·tₙ) (1 = ideal)".into(),
         series,
         log_x: true,
         y_range: Some((0.0, 1.05)),

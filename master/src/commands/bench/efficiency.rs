@@ -115,27 +115,74 @@ fn time_distributed(
     tile: u32,
     repeat: usize,
 ) -> anyhow::Result<(f64, f64, f64)> {
-    use crate::distributed::{render_distributed, DistOptions};
     let mut ts = Vec::new();
     let (mut bytes, mut transfer) = (0.0, 0.0);
     for _ in 0..repeat {
-        let opts = DistOptions {
-            workers_to_spawn: n,
-            threads_per_worker: 1,
-            tile,
-            min_workers: n,
-            progress: false,
-            // As `parrt render --workers N -o out.png` runs: 8-bit pixels on the wire.
-            pixel_format: parrt::protocol::PixelFormat::Rgb8,
-            ..DistOptions::default()
-        };
-        let r =
-            render_distributed(desc, settings, &opts, &|_| {}).context("distributed run failed")?;
+        let r = run_distributed(desc, settings, n, tile, None)?;
         ts.push(r.trace_s);
         bytes = (r.bytes_sent + r.bytes_received) as f64;
         transfer = r.scene_transfer_s;
     }
     Ok((median(&ts), bytes, transfer))
+}
+
+/// One distributed render through `n` local one-thread workers, recorded by `recorder`.
+fn run_distributed(
+    desc: &parrt::description::SceneDescription,
+    settings: &RenderSettings,
+    n: usize,
+    tile: u32,
+    recorder: Option<std::sync::Arc<crate::timeline::Recorder>>,
+) -> anyhow::Result<crate::distributed::DistResult> {
+    use crate::distributed::{render_distributed, DistOptions};
+    let opts = DistOptions {
+        workers_to_spawn: n,
+        threads_per_worker: 1,
+        tile,
+        min_workers: n,
+        progress: false,
+        // As `parrt render --workers N -o out.png` runs: 8-bit pixels on the wire.
+        pixel_format: parrt::protocol::PixelFormat::Rgb8,
+        observers: crate::distributed::observer::Observers(
+            recorder
+                .into_iter()
+                .map(|r| r as std::sync::Arc<dyn crate::distributed::observer::Observer>)
+                .collect(),
+        ),
+        ..DistOptions::default()
+    };
+    render_distributed(desc, settings, &opts, &|_| {}).context("distributed run failed")
+}
+
+/// The run drawn as a timeline: the most threads, at a 32-pixel tile if measured (the
+/// default), else the smallest tile measured.
+fn timeline_case(threads: &[usize], tiles: &[u32]) -> (usize, u32) {
+    let n = threads.iter().copied().max().unwrap_or(1);
+    let tile = if tiles.contains(&32) {
+        32
+    } else {
+        tiles.iter().copied().min().unwrap_or(32)
+    };
+    (n, tile)
+}
+
+/// Draws `tl` as `stem.svg` and `stem.png` in `out`; returns the Markdown that shows it.
+pub fn draw_timeline(
+    out: &std::path::Path,
+    stem: &str,
+    tl: &crate::timeline::Timeline,
+    what: &str,
+) -> anyhow::Result<String> {
+    let title = format!(
+        "{} {}×{}, tile {}, {what}: timeline on {}",
+        tl.scene, tl.width, tl.height, tl.tile_size, tl.machine
+    );
+    crate::timeline::plot::save_both(tl, &out.join(stem), &title)?;
+    Ok(format!(
+        "Timeline of one run ({what}, tile {}; a row per thread, a bar per tile, gaps are idle \
+         time; trace {:.3} s):\n\n![{stem}]({stem}.png)\n\n",
+        tl.tile_size, tl.trace_s
+    ))
 }
 
 /// Runs `parrt bench efficiency`.
@@ -258,6 +305,32 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 md.push('\n');
                 md.push_str(&whole.to_markdown());
                 md.push('\n');
+                // Where the time went: one more run at the most threads, drawn as a timeline.
+                let (n, tile) = timeline_case(&threads, &args.tiles);
+                let res = render_smp(
+                    &renderer,
+                    &SmpOptions {
+                        threads: n,
+                        tile,
+                        executor: ex,
+                    },
+                    &|_, _| {},
+                );
+                let label = spec.label();
+                let job = crate::timeline::Job {
+                    scene: &label,
+                    width: size,
+                    height: size,
+                    tile_size: tile,
+                };
+                let tl = crate::timeline::Timeline::from_smp(&job, n, &res.tile_spans, res.trace_s);
+                let stem = format!("timeline-{size}-{accel:?}-{}", ex.name()).to_lowercase();
+                md.push_str(&draw_timeline(
+                    &args.out,
+                    &stem,
+                    &tl,
+                    &format!("{} executor, {n} threads", ex.name()),
+                )?);
                 csv.push_str(&trace.to_csv(first_csv));
                 csv.push_str(&whole.to_csv(false));
                 first_csv = false;
@@ -312,6 +385,24 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 md.push('\n');
                 md.push_str(&whole.to_markdown());
                 md.push('\n');
+                let (n, tile) = timeline_case(&threads, &args.tiles);
+                let rec = std::sync::Arc::new(crate::timeline::Recorder::new());
+                let r = run_distributed(&desc, &settings, n, tile, Some(rec.clone()))?;
+                let label = spec.label();
+                let job = crate::timeline::Job {
+                    scene: &label,
+                    width: size,
+                    height: size,
+                    tile_size: tile,
+                };
+                let tl = rec.timeline(&job, r.trace_s);
+                let stem = format!("timeline-{size}-{accel:?}-distributed").to_lowercase();
+                md.push_str(&draw_timeline(
+                    &args.out,
+                    &stem,
+                    &tl,
+                    &format!("{n} local workers × 1 thread"),
+                )?);
                 let _ = writeln!(
                     md,
                     "Protocol overhead (distributed):\n\n| tile | workers | bytes on the wire per tile (scene included) | scene transfer |\n|---:|---:|---:|---:|\n{overhead}"
@@ -341,11 +432,12 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
             let stem = format!("efficiency-{size}-{accel:?}").to_lowercase();
             let chart = Chart {
                 title: format!(
-                    "{} {size}×{size} {accel:?}: tracing efficiency",
-                    spec.label()
+                    "{} {size}×{size} {accel:?}: tracing efficiency on {}",
+                    spec.label(),
+                    machine()
                 ),
-                x_label: "tile size (pixels)".into(),
-                y_label: "efficiency t1/(n·tn)".into(),
+                x_label: "tile edge (pixels)".into(),
+                y_label: "efficiency t1/(n·tn) (1 = ideal)".into(),
                 series: chart_series,
                 log_x: true,
                 y_range: None,

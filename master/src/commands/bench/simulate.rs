@@ -167,7 +167,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         .tiles
         .iter()
         .map(|t| Series {
-            label: format!("tile {t}"),
+            label: format!("tile {t} px"),
             points: Vec::new(),
             line: true,
         })
@@ -216,9 +216,20 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         let _ = writeln!(md, " {note} |");
     }
     let chart = Chart {
-        title: "Predicted efficiency against render threads".into(),
+        title: format!(
+            "Predicted efficiency: {} ({width}×{height}), {} thread(s)/worker, {} ms, {} Mbit/s \
+             (simulated; machine: {})",
+            args.tile_costs.file_name().map_or_else(
+                || args.tile_costs.display().to_string(),
+                |f| f.to_string_lossy().into_owned()
+            ),
+            args.threads,
+            args.latency_ms,
+            args.bandwidth_mbps,
+            super::efficiency::machine()
+        ),
         x_label: "render threads n (workers × threads)".into(),
-        y_label: "efficiency".into(),
+        y_label: "efficiency t₁/(n·tₙ) (1 = ideal)".into(),
         series,
         log_x: true,
         y_range: Some((0.0, 1.05)),

@@ -44,6 +44,8 @@ pub struct EmulatedRun {
     pub worker_prefix: Vec<String>,
     /// The whole run (start-up included) must end within this.
     pub timeout: Duration,
+    /// Told what happens to workers and tiles (the timeline).
+    pub observers: crate::distributed::observer::Observers,
 }
 
 /// What a run measured.
@@ -116,6 +118,7 @@ pub fn run(
         heartbeat_timeout: run.timeout.min(Duration::from_secs(120)),
         handshake_timeout: Duration::from_secs(60),
         progress: false,
+        observers: run.observers.clone(),
         ..DistOptions::default()
     };
     let rt = tokio::runtime::Builder::new_multi_thread()

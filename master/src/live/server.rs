@@ -1,0 +1,336 @@
+//! The live view's HTTP server: axum on a thread and current-thread runtime of its own (so
+//! no page, however slow, shares a thread with the render), serving
+//! - `GET /`: the page (`page.html`, with the status of the moment in it);
+//! - `GET /status`: [`super::state::Status`] as JSON;
+//! - `GET /events`: server-sent events: `reload` first (load the image again), then `tiles`
+//!   (a line `x,y,w,h,BASE64-RGB` per tile landed since the last, every 100 ms), `status` (the
+//!   JSON) at most every 250 ms when it changed (`done` at the end), and `reload` again when
+//!   the page fell behind and tiles were dropped for it;
+//! - `GET /frame`: the image so far, 8-bit RGB row by row (`application/octet-stream`);
+//! - `GET /image.png`: the image so far as a PNG.
+//!
+//! Every route is behind [`super::auth`].
+
+use super::auth::{allowed, needs_token};
+use super::limits::{MAX_STREAMS, PUSH_EVERY, STATUS_EVERY};
+use super::state::{LiveState, Phase};
+use anyhow::Context;
+use axum::extract::{Request, State};
+use axum::http::{header, StatusCode};
+use axum::middleware::{self, Next};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use std::convert::Infallible;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::{broadcast, oneshot, OwnedSemaphorePermit, Semaphore};
+
+/// The page, served as it is.
+const PAGE: &str = include_str!("page.html");
+
+#[derive(Clone)]
+struct App {
+    state: Arc<LiveState>,
+    token: Option<Arc<[u8]>>,
+    streams: Arc<Semaphore>,
+}
+
+/// A running live view; dropping it (or [`LiveView::stop`]) stops the server.
+pub struct LiveView {
+    addr: SocketAddr,
+    url: String,
+    stop: Option<oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl LiveView {
+    /// Binds `addr` and serves `state` from a thread of its own. `token` is required from
+    /// clients when `addr` is not loopback (an error without one).
+    pub fn start(addr: &str, state: Arc<LiveState>, token: Option<&[u8]>) -> anyhow::Result<Self> {
+        let listener = std::net::TcpListener::bind(addr)
+            .with_context(|| format!("--http {addr}: cannot listen"))?;
+        let bound = listener.local_addr().context("--http: no local address")?;
+        listener
+            .set_nonblocking(true)
+            .context("--http: cannot set the socket non-blocking")?;
+        let token: Option<Arc<[u8]>> = if needs_token(&bound) {
+            Some(Arc::from(token.context(
+                "a live view on a non-loopback address needs a token",
+            )?))
+        } else {
+            None
+        };
+        let host = match bound.ip() {
+            ip if ip.is_unspecified() => "localhost".to_string(),
+            std::net::IpAddr::V6(ip) => format!("[{ip}]"),
+            ip => ip.to_string(),
+        };
+        let url = match &token {
+            Some(t) => format!(
+                "http://{host}:{}/?token={}",
+                bound.port(),
+                String::from_utf8_lossy(t)
+                    .bytes()
+                    .map(|b| if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+                        (b as char).to_string()
+                    } else {
+                        format!("%{b:02X}")
+                    })
+                    .collect::<String>()
+            ),
+            None => format!("http://{host}:{}/", bound.port()),
+        };
+        let app = App {
+            state,
+            token,
+            streams: Arc::new(Semaphore::new(MAX_STREAMS)),
+        };
+        let (stop_tx, stop_rx) = oneshot::channel::<()>();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .context("--http: cannot start the server's runtime")?;
+        let thread = std::thread::Builder::new()
+            .name("parrt-http".into())
+            .spawn(move || {
+                rt.block_on(async move {
+                    let listener = match tokio::net::TcpListener::from_std(listener) {
+                        Ok(l) => l,
+                        Err(e) => {
+                            tracing::warn!(error = %e, "live view: cannot serve");
+                            return;
+                        }
+                    };
+                    let router = Router::new()
+                        .route("/", get(page))
+                        .route("/status", get(status))
+                        .route("/events", get(events))
+                        .route("/frame", get(frame))
+                        .route("/image.png", get(png))
+                        .layer(middleware::from_fn_with_state(app.clone(), guard))
+                        .with_state(app);
+                    tokio::select! {
+                        r = axum::serve(listener, router) => {
+                            if let Err(e) = r {
+                                tracing::warn!(error = %e, "live view stopped");
+                            }
+                        }
+                        _ = stop_rx => {}
+                    }
+                })
+            })
+            .context("--http: cannot start the server's thread")?;
+        Ok(LiveView {
+            addr: bound,
+            url,
+            stop: Some(stop_tx),
+            thread: Some(thread),
+        })
+    }
+
+    /// The address bound.
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// The page's address (with the token when one is needed).
+    pub fn url(&self) -> &str {
+        &self.url
+    }
+
+    /// Stops serving and waits for the server's thread.
+    pub fn stop(mut self) {
+        self.shutdown();
+    }
+
+    fn shutdown(&mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for LiveView {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+/// 401 and nothing else unless the request may be served.
+async fn guard(State(app): State<App>, req: Request, next: Next) -> Response {
+    let auth = req
+        .headers()
+        .get(header::AUTHORIZATION)
+        .map(|v| v.as_bytes());
+    if allowed(app.token.as_deref(), auth, req.uri().query()) {
+        next.run(req).await
+    } else {
+        (
+            StatusCode::UNAUTHORIZED,
+            [(header::WWW_AUTHENTICATE, "Bearer")],
+            "401 unauthorized: this live view needs its token\n",
+        )
+            .into_response()
+    }
+}
+
+/// The page with the status of the moment in it (so it shows something before any request
+/// of its own returns). `<` is escaped so that no scene name can end the script.
+async fn page(State(app): State<App>) -> Html<String> {
+    let json = serde_json::to_string(&app.state.status())
+        .unwrap_or_else(|_| "null".into())
+        .replace('<', "\\u003c");
+    Html(PAGE.replace("__STATUS__", &json))
+}
+
+async fn status(State(app): State<App>) -> Response {
+    match serde_json::to_string(&app.state.status()) {
+        Ok(json) => (
+            [
+                (header::CONTENT_TYPE, "application/json"),
+                (header::CACHE_CONTROL, "no-store"),
+            ],
+            json,
+        )
+            .into_response(),
+        Err(e) => (StatusCode::INTERNAL_SERVER_ERROR, format!("{e}\n")).into_response(),
+    }
+}
+
+async fn frame(State(app): State<App>) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, "application/octet-stream"),
+            (header::CACHE_CONTROL, "no-store"),
+        ],
+        app.state.frame(),
+    )
+        .into_response()
+}
+
+async fn png(State(app): State<App>) -> Response {
+    let s = app.state.status();
+    let rgb = app.state.frame();
+    let mut out = Vec::new();
+    let encoded = image::codecs::png::PngEncoder::new(&mut out);
+    use image::ImageEncoder;
+    match encoded.write_image(&rgb, s.width, s.height, image::ExtendedColorType::Rgb8) {
+        Ok(()) => (
+            [
+                (header::CONTENT_TYPE, "image/png"),
+                (header::CACHE_CONTROL, "no-store"),
+            ],
+            out,
+        )
+            .into_response(),
+        Err(e) => (StatusCode::INTERNAL_SERVER_ERROR, format!("{e}\n")).into_response(),
+    }
+}
+
+/// One page's event stream. It wakes every [`PUSH_EVERY`] and sends what landed meanwhile as one
+/// `tiles` event (a line per tile), and the status when it changed and was last sent at least
+/// [`STATUS_EVERY`] ago: a few writes a second per page however fast tiles land.
+struct Stream {
+    state: Arc<LiveState>,
+    tiles: broadcast::Receiver<Arc<str>>,
+    tick: tokio::time::Interval,
+    sent_version: Option<u64>,
+    status_at: Option<tokio::time::Instant>,
+    queue: std::collections::VecDeque<Event>,
+    _permit: OwnedSemaphorePermit,
+}
+
+impl Stream {
+    async fn next(&mut self) -> Option<Event> {
+        loop {
+            if let Some(e) = self.queue.pop_front() {
+                return Some(e);
+            }
+            self.tick.tick().await;
+            let mut lines = String::new();
+            let mut lagged = false;
+            loop {
+                match self.tiles.try_recv() {
+                    Ok(msg) => {
+                        if !lines.is_empty() {
+                            lines.push('\n');
+                        }
+                        lines.push_str(&msg);
+                    }
+                    Err(broadcast::error::TryRecvError::Lagged(_)) => lagged = true,
+                    Err(_) => break,
+                }
+            }
+            if lagged {
+                // Tiles were dropped for this page: it reloads the whole image.
+                self.queue
+                    .push_back(Event::default().event("reload").data("lagged"));
+            } else if !lines.is_empty() {
+                self.queue
+                    .push_back(Event::default().event("tiles").data(lines));
+            }
+            let now = tokio::time::Instant::now();
+            let v = self.state.version();
+            let due = self
+                .status_at
+                .is_none_or(|t| now.duration_since(t) >= STATUS_EVERY);
+            if self.sent_version != Some(v) && due {
+                self.sent_version = Some(v);
+                self.status_at = Some(now);
+                let e = self.status_event();
+                self.queue.push_back(e);
+            }
+        }
+    }
+
+    fn status_event(&self) -> Event {
+        let s = self.state.status();
+        let name = if matches!(s.state, Phase::Done | Phase::Failed) {
+            "done"
+        } else {
+            "status"
+        };
+        Event::default()
+            .event(name)
+            .data(serde_json::to_string(&s).unwrap_or_else(|_| "{}".into()))
+    }
+}
+
+async fn events(State(app): State<App>) -> Response {
+    let Ok(permit) = app.streams.clone().try_acquire_owned() else {
+        return (
+            StatusCode::SERVICE_UNAVAILABLE,
+            "too many live pages open; close one\n",
+        )
+            .into_response();
+    };
+    let mut tick = tokio::time::interval(PUSH_EVERY);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    // Subscribed before the page is told to fetch the frame: no tile falls between the two.
+    let stream = Stream {
+        tiles: app.state.subscribe(),
+        state: app.state.clone(),
+        tick,
+        sent_version: None,
+        status_at: None,
+        queue: [Event::default().event("reload").data("frame")].into(),
+        _permit: permit,
+    };
+    let body = futures::stream::unfold(stream, |mut s| async move {
+        s.next().await.map(|e| (Ok::<_, Infallible>(e), s))
+    });
+    let mut r = Sse::new(body)
+        .keep_alive(KeepAlive::new().interval(Duration::from_secs(10)))
+        .into_response();
+    r.headers_mut().insert(
+        header::CACHE_CONTROL,
+        header::HeaderValue::from_static("no-store"),
+    );
+    r
+}

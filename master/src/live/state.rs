@@ -1,0 +1,547 @@
+//! What the live view shows, kept up to date by the renderer. Every update is a short critical
+//! section (a copy into the frame, a few counters) and a send on a lossy broadcast; the
+//! renderer never waits for a page. The server reads snapshots: [`LiveState::status`] (the
+//! `/status` JSON), [`LiveState::frame`] (the image so far) and [`LiveState::subscribe`] (the
+//! tiles as they land).
+
+use super::encode::base64_into;
+use super::limits::{KEPT_FAULTS, TILE_BACKLOG};
+use crate::distributed::observer::Observer;
+use crate::distributed::scheduler::WorkerId;
+use parrt::film::{to_u8, Rgb};
+use parrt::stats::RayStats;
+use parrt::tile::Tile;
+use serde::Serialize;
+use std::collections::{HashMap, VecDeque};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+use tokio::sync::broadcast;
+
+/// A worker's (or render thread's) state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WorkerState {
+    /// Connected, building the scene.
+    Building,
+    /// Taking tiles.
+    Rendering,
+    /// Missed a deadline: its tiles were given to others (it may still deliver).
+    Requeued,
+    /// Left or was dropped.
+    Lost,
+    /// The render is over.
+    Done,
+}
+
+/// One row of the page.
+#[derive(Clone, Debug, Serialize)]
+pub struct WorkerStatus {
+    /// Its name (`thread N` for an SMP render thread).
+    pub name: String,
+    /// Its render threads.
+    pub threads: u32,
+    /// Its state.
+    pub state: WorkerState,
+    /// Tiles it delivered that are in the image.
+    pub tiles: u64,
+    /// Rays it traced for those tiles.
+    pub rays: u64,
+    /// Its rays per second (millions) since it was ready.
+    pub mrays_per_s: f64,
+    /// Why it left, if it did.
+    pub left: Option<String>,
+    #[serde(skip)]
+    id: u64,
+    #[serde(skip)]
+    ready_at: Option<Instant>,
+    #[serde(skip)]
+    end_at: Option<Instant>,
+}
+
+/// A fault the page lists.
+#[derive(Clone, Debug, Serialize)]
+pub struct Fault {
+    /// Seconds since the live view began.
+    pub t_s: f64,
+    /// `worker-lost` or `tile-requeued`.
+    pub kind: &'static str,
+    /// The worker, if one.
+    pub worker: Option<String>,
+    /// The tile, if one.
+    pub tile: Option<u32>,
+    /// Why.
+    pub detail: String,
+}
+
+/// The render's phase.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Phase {
+    /// Waiting for workers or building.
+    Starting,
+    /// Tracing.
+    Rendering,
+    /// Every tile is in the image.
+    Done,
+    /// Ended without every tile.
+    Failed,
+}
+
+/// Everything `/status` returns (keys documented in `docs/live-view.md`).
+#[derive(Clone, Debug, Serialize)]
+pub struct Status {
+    /// The scene's label.
+    pub scene: String,
+    /// `smp` or `distributed`.
+    pub mode: &'static str,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Tile edge.
+    pub tile_size: u32,
+    /// The phase.
+    pub state: Phase,
+    /// Tiles in the image.
+    pub tiles_total: usize,
+    /// Tiles done.
+    pub tiles_done: usize,
+    /// Seconds since the trace began (0 before).
+    pub elapsed_s: f64,
+    /// Seconds left at the rate so far (`null` until a tile is done, 0 when done).
+    pub eta_s: Option<f64>,
+    /// Rays traced for the tiles done.
+    pub rays: u64,
+    /// Millions of rays per second since the trace began.
+    pub mrays_per_s: f64,
+    /// A row per worker (or render thread).
+    pub workers: Vec<WorkerStatus>,
+    /// The newest faults (at most 100).
+    pub faults: Vec<Fault>,
+    /// Faults in all.
+    pub faults_total: u64,
+    /// Tiles put back in the queue.
+    pub requeued: u64,
+    /// Workers lost.
+    pub lost: u64,
+    /// Changes so far (a page polls this to see whether anything moved).
+    pub version: u64,
+}
+
+struct Inner {
+    status: Status,
+    created: Instant,
+    started: Option<Instant>,
+    finished: Option<Instant>,
+    /// Which worker holds each tile in flight (distributed).
+    holder: HashMap<u32, u64>,
+    faults: VecDeque<Fault>,
+}
+
+/// The shared state of one render's live view.
+pub struct LiveState {
+    inner: Mutex<Inner>,
+    /// The image so far: its width and its 8-bit RGB pixels row by row (what a written PNG
+    /// holds).
+    frame: Mutex<(usize, Vec<u8>)>,
+    version: AtomicU64,
+    tiles: broadcast::Sender<Arc<str>>,
+}
+
+/// What the page is told about the job.
+pub struct JobInfo {
+    /// The scene's label.
+    pub scene: String,
+    /// `smp` or `distributed`.
+    pub mode: &'static str,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Tile edge.
+    pub tile_size: u32,
+}
+
+impl LiveState {
+    /// The state of a render of `job`, before anything happened.
+    pub fn new(job: JobInfo) -> Arc<Self> {
+        let s = Arc::new(LiveState::empty());
+        s.set_job(job);
+        s
+    }
+
+    /// A state whose job is not known yet ([`Self::set_job`] tells it).
+    pub fn empty() -> Self {
+        let job = JobInfo {
+            scene: String::new(),
+            mode: "smp",
+            width: 0,
+            height: 0,
+            tile_size: 1,
+        };
+        let tiles_total = 0;
+        LiveState {
+            inner: Mutex::new(Inner {
+                status: Status {
+                    scene: job.scene,
+                    mode: job.mode,
+                    width: job.width,
+                    height: job.height,
+                    tile_size: job.tile_size,
+                    state: Phase::Starting,
+                    tiles_total,
+                    tiles_done: 0,
+                    elapsed_s: 0.0,
+                    eta_s: None,
+                    rays: 0,
+                    mrays_per_s: 0.0,
+                    workers: Vec::new(),
+                    faults: Vec::new(),
+                    faults_total: 0,
+                    requeued: 0,
+                    lost: 0,
+                    version: 0,
+                },
+                created: Instant::now(),
+                started: None,
+                finished: None,
+                holder: HashMap::new(),
+                faults: VecDeque::new(),
+            }),
+            frame: Mutex::new((0, Vec::new())),
+            version: AtomicU64::new(0),
+            tiles: broadcast::channel(TILE_BACKLOG).0,
+        }
+    }
+
+    /// Sets the job (before its first tile): its size, tiles and label.
+    pub fn set_job(&self, job: JobInfo) {
+        let tiles_total = parrt::tile::tiles(job.width, job.height, job.tile_size.max(1)).len();
+        let pixels = (job.width as usize)
+            .saturating_mul(job.height as usize)
+            .saturating_mul(3);
+        *self.frame.lock().unwrap_or_else(|e| e.into_inner()) =
+            (job.width as usize, vec![0; pixels]);
+        self.with(|i| {
+            let s = &mut i.status;
+            s.scene = job.scene;
+            s.mode = job.mode;
+            s.width = job.width;
+            s.height = job.height;
+            s.tile_size = job.tile_size;
+            s.tiles_total = tiles_total;
+        });
+    }
+
+    fn with<R>(&self, f: impl FnOnce(&mut Inner) -> R) -> R {
+        let r = f(&mut self.inner.lock().unwrap_or_else(|e| e.into_inner()));
+        self.version.fetch_add(1, Ordering::Release);
+        r
+    }
+
+    /// A number that changes whenever the state does.
+    pub fn version(&self) -> u64 {
+        self.version.load(Ordering::Acquire)
+    }
+
+    /// The status now.
+    pub fn status(&self) -> Status {
+        let version = self.version();
+        let i = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+        let now = i.finished.unwrap_or_else(Instant::now);
+        let mut s = i.status.clone();
+        s.version = version;
+        s.faults = i.faults.iter().cloned().collect();
+        if let Some(start) = i.started {
+            let el = now.saturating_duration_since(start).as_secs_f64();
+            s.elapsed_s = el;
+            if el > 0.0 {
+                s.mrays_per_s = s.rays as f64 / el / 1e6;
+            }
+            s.eta_s = match s.state {
+                Phase::Done => Some(0.0),
+                _ if s.tiles_done > 0 => Some(
+                    el * (s.tiles_total - s.tiles_done.min(s.tiles_total)) as f64
+                        / s.tiles_done as f64,
+                ),
+                _ => None,
+            };
+        }
+        for w in &mut s.workers {
+            if let Some(r) = w.ready_at {
+                let t = w
+                    .end_at
+                    .unwrap_or(now)
+                    .saturating_duration_since(r)
+                    .as_secs_f64();
+                w.mrays_per_s = if t > 0.0 {
+                    w.rays as f64 / t / 1e6
+                } else {
+                    0.0
+                };
+            }
+        }
+        s
+    }
+
+    /// The image so far (8-bit RGB).
+    pub fn frame(&self) -> Vec<u8> {
+        self.frame
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .1
+            .clone()
+    }
+
+    /// Tiles as they land, as `x,y,w,h,BASE64-RGB` text. A receiver that lags gets
+    /// `Lagged` and should reload the frame.
+    pub fn subscribe(&self) -> broadcast::Receiver<Arc<str>> {
+        self.tiles.subscribe()
+    }
+
+    /// The trace phase began.
+    pub fn start(&self) {
+        self.with(|i| {
+            i.started.get_or_insert_with(Instant::now);
+            i.status.state = Phase::Rendering;
+        });
+    }
+
+    /// The render ended.
+    pub fn finish(&self, complete: bool) {
+        self.with(|i| {
+            let now = Instant::now();
+            i.finished = Some(now);
+            i.status.state = if complete { Phase::Done } else { Phase::Failed };
+            for w in &mut i.status.workers {
+                w.end_at.get_or_insert(now);
+                if w.state != WorkerState::Lost {
+                    w.state = WorkerState::Done;
+                }
+            }
+        });
+    }
+
+    /// A worker (or render thread) `id` appeared.
+    pub fn add_worker(&self, id: u64, name: &str, threads: u32, ready: bool) {
+        self.with(|i| {
+            i.status.workers.push(WorkerStatus {
+                name: name.to_string(),
+                threads,
+                state: if ready {
+                    WorkerState::Rendering
+                } else {
+                    WorkerState::Building
+                },
+                tiles: 0,
+                rays: 0,
+                mrays_per_s: 0.0,
+                left: None,
+                id,
+                ready_at: ready.then(Instant::now),
+                end_at: None,
+            })
+        });
+    }
+
+    fn worker(i: &mut Inner, id: u64) -> Option<&mut WorkerStatus> {
+        i.status.workers.iter_mut().find(|w| w.id == id)
+    }
+
+    /// A tile landed in the image, rendered by `id`.
+    pub fn tile_done(&self, id: u64, tile: &Tile, pixels: &[Rgb], rays: u64) {
+        let mut rgb = Vec::with_capacity(pixels.len() * 3);
+        rgb.extend(
+            pixels
+                .iter()
+                .flat_map(|p| [to_u8(p[0]), to_u8(p[1]), to_u8(p[2])]),
+        );
+        {
+            let mut guard = self.frame.lock().unwrap_or_else(|e| e.into_inner());
+            let (width, frame) = (guard.0, &mut guard.1);
+            let row = tile.w as usize * 3;
+            for y in 0..tile.h as usize {
+                let at = ((tile.y as usize + y) * width + tile.x as usize) * 3;
+                if let (Some(dst), Some(src)) =
+                    (frame.get_mut(at..at + row), rgb.get(y * row..(y + 1) * row))
+                {
+                    dst.copy_from_slice(src);
+                }
+            }
+        }
+        if self.tiles.receiver_count() > 0 && rgb.len() == tile.pixel_count() * 3 {
+            let mut msg = format!("{},{},{},{},", tile.x, tile.y, tile.w, tile.h);
+            base64_into(&rgb, &mut msg);
+            // Lossy: with no room the oldest message goes and a slow page reloads.
+            let _ = self.tiles.send(Arc::from(msg));
+        }
+        self.with(|i| {
+            i.status.tiles_done += 1;
+            i.status.rays += rays;
+            i.holder.remove(&tile.id);
+            if let Some(w) = Self::worker(i, id) {
+                w.tiles += 1;
+                w.rays += rays;
+                if w.state == WorkerState::Requeued {
+                    w.state = WorkerState::Rendering;
+                }
+            }
+        });
+    }
+
+    fn fault(
+        i: &mut Inner,
+        kind: &'static str,
+        worker: Option<String>,
+        tile: Option<u32>,
+        detail: String,
+    ) {
+        let t_s = i.created.elapsed().as_secs_f64();
+        i.status.faults_total += 1;
+        if i.faults.len() == KEPT_FAULTS {
+            i.faults.pop_front();
+        }
+        i.faults.push_back(Fault {
+            t_s,
+            kind,
+            worker,
+            tile,
+            detail,
+        });
+    }
+}
+
+/// The live view as an observer of a distributed render.
+impl Observer for LiveState {
+    fn started(&self, _now: tokio::time::Instant) {
+        self.start();
+    }
+
+    fn joined(&self, id: WorkerId, name: &str, threads: u32, _now: tokio::time::Instant) {
+        self.add_worker(id, name, threads, false);
+    }
+
+    fn ready(&self, id: WorkerId, _now: tokio::time::Instant) {
+        self.with(|i| {
+            if let Some(w) = Self::worker(i, id) {
+                w.state = WorkerState::Rendering;
+                w.ready_at = Some(Instant::now());
+            }
+        });
+    }
+
+    fn assigned(
+        &self,
+        id: WorkerId,
+        tile: &Tile,
+        _attempt: u32,
+        backup: bool,
+        _now: tokio::time::Instant,
+    ) {
+        if !backup {
+            let mut i = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+            i.holder.insert(tile.id, id);
+        }
+    }
+
+    fn result(
+        &self,
+        id: WorkerId,
+        tile: &Tile,
+        pixels: &[Rgb],
+        stats: &RayStats,
+        _seconds: f64,
+        accepted: bool,
+    ) {
+        if accepted {
+            self.tile_done(id, tile, pixels, stats.total_rays());
+        }
+    }
+
+    fn requeued(&self, tile_id: u32) {
+        self.with(|i| {
+            i.status.requeued += 1;
+            let holder = i.holder.remove(&tile_id);
+            let name = holder.and_then(|h| {
+                let w = Self::worker(i, h)?;
+                if w.state != WorkerState::Lost {
+                    w.state = WorkerState::Requeued;
+                }
+                Some(w.name.clone())
+            });
+            Self::fault(i, "tile-requeued", name, Some(tile_id), String::new());
+        });
+    }
+
+    fn left(&self, id: WorkerId, reason: &str) {
+        self.with(|i| {
+            i.status.lost += 1;
+            let name = Self::worker(i, id).map(|w| {
+                w.state = WorkerState::Lost;
+                w.left = Some(reason.to_string());
+                w.end_at = Some(Instant::now());
+                w.name.clone()
+            });
+            Self::fault(i, "worker-lost", name, None, reason.to_string());
+        });
+    }
+
+    fn finished(&self, complete: bool, _now: tokio::time::Instant) {
+        self.finish(complete);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn job() -> JobInfo {
+        JobInfo {
+            scene: "test".into(),
+            mode: "distributed",
+            width: 4,
+            height: 2,
+            tile_size: 2,
+        }
+    }
+
+    #[test]
+    fn tiles_fill_the_frame_and_counts() {
+        let s = LiveState::new(job());
+        let mut rx = s.subscribe();
+        s.add_worker(7, "w", 2, true);
+        s.start();
+        let tile = parrt::tile::tiles(4, 2, 2)[1];
+        s.tile_done(7, &tile, &[[1.0, 0.0, 0.0]; 4], 10);
+        let f = s.frame();
+        assert_eq!(&f[6..9], &[255, 0, 0]);
+        assert_eq!(&f[0..3], &[0, 0, 0]);
+        let st = s.status();
+        assert_eq!((st.tiles_done, st.tiles_total, st.rays), (1, 2, 10));
+        assert_eq!(st.workers[0].tiles, 1);
+        assert!(rx
+            .try_recv()
+            .expect("a tile message")
+            .starts_with("2,0,2,2,"));
+    }
+
+    #[test]
+    fn faults_mark_workers_and_are_bounded() {
+        let s = LiveState::new(job());
+        Observer::joined(&*s, 1, "a", 1, tokio::time::Instant::now());
+        let tile = parrt::tile::tiles(4, 2, 2)[0];
+        Observer::assigned(&*s, 1, &tile, 1, false, tokio::time::Instant::now());
+        Observer::requeued(&*s, 0);
+        assert_eq!(s.status().workers[0].state, WorkerState::Requeued);
+        Observer::left(&*s, 1, "gone");
+        for t in 0..200 {
+            Observer::requeued(&*s, t);
+        }
+        let st = s.status();
+        assert_eq!(st.workers[0].state, WorkerState::Lost);
+        assert_eq!(st.faults.len(), KEPT_FAULTS);
+        assert_eq!(st.faults_total, 202);
+        assert_eq!(st.lost, 1);
+    }
+}

@@ -1,0 +1,512 @@
+//! Render timelines (`--timeline FILE`): per tile, who rendered it and when, with the faults
+//! met on the way, written as JSON or CSV (by the file's extension) and drawn by [`plot`].
+//!
+//! Times are seconds since the trace phase began (the first tile handed out); events before it
+//! (a worker joining or building the scene) have negative times. The columns are documented in
+//! `docs/timeline.md`.
+
+pub mod plot;
+pub mod recorder;
+
+pub use recorder::Recorder;
+
+use anyhow::Context;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// How a tile's result came to be in the timeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Attempt {
+    /// The tile's first assignment, and its result is in the image.
+    First,
+    /// A later assignment after the tile was requeued (worker lost, deadline missed, result
+    /// rejected), and its result is in the image.
+    Requeued,
+    /// A backup copy handed to an idle worker near the end, and its result is in the image.
+    Backup,
+    /// A result that came after another copy's had been taken: ignored (the work was wasted).
+    DuplicateIgnored,
+}
+
+impl Attempt {
+    /// The name written in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Attempt::First => "first",
+            Attempt::Requeued => "requeued",
+            Attempt::Backup => "backup",
+            Attempt::DuplicateIgnored => "duplicate-ignored",
+        }
+    }
+
+    fn parse(s: &str) -> Option<Attempt> {
+        [
+            Attempt::First,
+            Attempt::Requeued,
+            Attempt::Backup,
+            Attempt::DuplicateIgnored,
+        ]
+        .into_iter()
+        .find(|a| a.name() == s)
+    }
+}
+
+/// One rendered tile.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TileRecord {
+    /// The tile's id (row-major).
+    pub tile: u32,
+    /// Who rendered it: `thread N` in an SMP render, the worker's name in a distributed one.
+    pub worker: String,
+    /// The render thread, when known (SMP renders; workers do not say).
+    pub thread: Option<u32>,
+    /// When the master handed it out (distributed renders only).
+    pub assigned_s: Option<f64>,
+    /// When rendering began. Distributed: the result's arrival less the worker's own render
+    /// seconds, never before the assignment.
+    pub start_s: f64,
+    /// When rendering ended (SMP: pixels in the film; distributed: the result arrived).
+    pub end_s: f64,
+    /// How this copy came about.
+    pub attempt: Attempt,
+}
+
+/// What happened besides tiles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EventKind {
+    /// A worker authenticated and was sent the job.
+    WorkerJoined,
+    /// A worker built the job and can take tiles.
+    WorkerReady,
+    /// A worker left, was dropped or fell silent; its tiles were requeued.
+    WorkerLost,
+    /// A tile went back to the queue.
+    TileRequeued,
+}
+
+impl EventKind {
+    /// The name written in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            EventKind::WorkerJoined => "worker-joined",
+            EventKind::WorkerReady => "worker-ready",
+            EventKind::WorkerLost => "worker-lost",
+            EventKind::TileRequeued => "tile-requeued",
+        }
+    }
+
+    fn parse(s: &str) -> Option<EventKind> {
+        [
+            EventKind::WorkerJoined,
+            EventKind::WorkerReady,
+            EventKind::WorkerLost,
+            EventKind::TileRequeued,
+        ]
+        .into_iter()
+        .find(|k| k.name() == s)
+    }
+
+    /// Whether it is a fault (drawn as a mark on the plot).
+    pub fn is_fault(self) -> bool {
+        matches!(self, EventKind::WorkerLost | EventKind::TileRequeued)
+    }
+}
+
+/// One event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimelineEvent {
+    /// When.
+    pub t_s: f64,
+    /// What.
+    pub kind: EventKind,
+    /// The worker concerned, if one.
+    pub worker: Option<String>,
+    /// The tile concerned, if one.
+    pub tile: Option<u32>,
+    /// Why (a worker's reason for leaving, say).
+    pub detail: String,
+}
+
+/// A render's timeline.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Timeline {
+    /// `smp` or `distributed`.
+    pub mode: String,
+    /// The scene's label.
+    pub scene: String,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Tile edge.
+    pub tile_size: u32,
+    /// The machine (CPU model and cores) the render ran on.
+    pub machine: String,
+    /// Seconds of the trace phase.
+    pub trace_s: f64,
+    /// Rows of the plot, in order: `thread N` or worker names (with their thread count).
+    pub rows: Vec<Row>,
+    /// Every tile result, accepted or not, in the order they landed.
+    pub tiles: Vec<TileRecord>,
+    /// Events in the order they happened.
+    pub events: Vec<TimelineEvent>,
+}
+
+/// A thread or a worker.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    /// `thread N` or the worker's name.
+    pub worker: String,
+    /// Its render threads (1 for an SMP thread).
+    pub threads: u32,
+}
+
+/// The header of the CSV form.
+pub const CSV_HEADER: &str = "record,tile,worker,thread,assigned_s,start_s,end_s,attempt,detail";
+
+/// Where the render ran: what the titles of plots name.
+pub struct Job<'a> {
+    /// Scene label.
+    pub scene: &'a str,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Tile edge.
+    pub tile_size: u32,
+}
+
+impl Timeline {
+    /// The timeline of an SMP render from its per-tile spans.
+    pub fn from_smp(
+        job: &Job<'_>,
+        threads: usize,
+        spans: &[parrt::smp::TileSpan],
+        trace_s: f64,
+    ) -> Self {
+        let mut tiles: Vec<TileRecord> = spans
+            .iter()
+            .enumerate()
+            .map(|(id, s)| TileRecord {
+                tile: id as u32,
+                worker: format!("thread {}", s.thread),
+                thread: Some(s.thread),
+                assigned_s: None,
+                start_s: s.start_s,
+                end_s: s.end_s,
+                attempt: Attempt::First,
+            })
+            .collect();
+        tiles.sort_by(|a, b| a.end_s.total_cmp(&b.end_s));
+        Timeline {
+            mode: "smp".into(),
+            rows: (0..threads)
+                .map(|t| Row {
+                    worker: format!("thread {t}"),
+                    threads: 1,
+                })
+                .collect(),
+            tiles,
+            events: Vec::new(),
+            trace_s,
+            ..Timeline::header(job)
+        }
+    }
+
+    /// An empty timeline of `job` on this machine.
+    pub fn header(job: &Job<'_>) -> Self {
+        Timeline {
+            mode: String::new(),
+            scene: job.scene.to_string(),
+            width: job.width,
+            height: job.height,
+            tile_size: job.tile_size,
+            machine: crate::commands::bench::efficiency::machine(),
+            trace_s: 0.0,
+            rows: Vec::new(),
+            tiles: Vec::new(),
+            events: Vec::new(),
+        }
+    }
+
+    /// Writes the timeline to `path`: CSV for `.csv`, JSON otherwise.
+    pub fn write(&self, path: &Path) -> anyhow::Result<()> {
+        let text = if is_csv(path) {
+            self.to_csv()
+        } else {
+            serde_json::to_string_pretty(self)? + "\n"
+        };
+        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// Reads a timeline written by [`Self::write`] (bad content is bad input).
+    pub fn read(path: &Path) -> anyhow::Result<Self> {
+        let bytes =
+            std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| crate::exit::input_error(anyhow::anyhow!("not UTF-8 text")))
+            .with_context(|| format!("{} is not a parrt timeline", path.display()))?;
+        let parsed = if is_csv(path) {
+            Self::from_csv(&text)
+        } else {
+            serde_json::from_str(&text).map_err(anyhow::Error::from)
+        };
+        parsed
+            .map_err(crate::exit::input_error)
+            .with_context(|| format!("{} is not a parrt timeline", path.display()))
+    }
+
+    /// The CSV form: one `tile` record per tile result, one record per event (its kind in
+    /// `record`, its time in `start_s` and `end_s`); a `#` comment line with the job first.
+    pub fn to_csv(&self) -> String {
+        let mut out = format!(
+            "# mode={} scene={} width={} height={} tile_size={} trace_s={} machine={}\n",
+            self.mode,
+            self.scene.replace('\n', " "),
+            self.width,
+            self.height,
+            self.tile_size,
+            self.trace_s,
+            self.machine.replace('\n', " ")
+        );
+        for r in &self.rows {
+            out += &format!(
+                "# row={} threads={}\n",
+                r.worker.replace('\n', " "),
+                r.threads
+            );
+        }
+        out += CSV_HEADER;
+        out.push('\n');
+        let opt = |v: Option<f64>| v.map(|v| format!("{v:.6}")).unwrap_or_default();
+        for t in &self.tiles {
+            out += &format!(
+                "tile,{},{},{},{},{:.6},{:.6},{},\n",
+                t.tile,
+                csv_field(&t.worker),
+                t.thread.map(|t| t.to_string()).unwrap_or_default(),
+                opt(t.assigned_s),
+                t.start_s,
+                t.end_s,
+                t.attempt.name()
+            );
+        }
+        for e in &self.events {
+            out += &format!(
+                "{},{},{},,,{:.6},{:.6},,{}\n",
+                e.kind.name(),
+                e.tile.map(|t| t.to_string()).unwrap_or_default(),
+                csv_field(e.worker.as_deref().unwrap_or("")),
+                e.t_s,
+                e.t_s,
+                csv_field(&e.detail)
+            );
+        }
+        out
+    }
+
+    /// Parses [`Self::to_csv`]'s output.
+    pub fn from_csv(text: &str) -> anyhow::Result<Self> {
+        let mut tl = Timeline::default();
+        let mut header_seen = false;
+        for (n, line) in text.lines().enumerate() {
+            let bad = |what: &str| anyhow::anyhow!("line {}: {what}", n + 1);
+            if let Some(c) = line.strip_prefix("# row=") {
+                let (w, t) = c
+                    .rsplit_once(" threads=")
+                    .ok_or_else(|| bad("bad row line"))?;
+                tl.rows.push(Row {
+                    worker: w.to_string(),
+                    threads: t.parse().map_err(|_| bad("bad thread count"))?,
+                });
+                continue;
+            }
+            if let Some(c) = line.strip_prefix("# ") {
+                // mode=… scene=… width=… height=… tile_size=… trace_s=… machine=…
+                let keys = [
+                    "mode=",
+                    " scene=",
+                    " width=",
+                    " height=",
+                    " tile_size=",
+                    " trace_s=",
+                    " machine=",
+                ];
+                let mut rest = c;
+                let mut vals = Vec::new();
+                for (i, k) in keys.iter().enumerate() {
+                    rest = rest
+                        .strip_prefix(k)
+                        .ok_or_else(|| bad("bad header comment"))?;
+                    let end = keys
+                        .get(i + 1)
+                        .and_then(|next| rest.find(next))
+                        .unwrap_or(rest.len());
+                    vals.push(&rest[..end]);
+                    rest = &rest[end..];
+                }
+                tl.mode = vals[0].to_string();
+                tl.scene = vals[1].to_string();
+                tl.width = vals[2].parse().map_err(|_| bad("bad width"))?;
+                tl.height = vals[3].parse().map_err(|_| bad("bad height"))?;
+                tl.tile_size = vals[4].parse().map_err(|_| bad("bad tile size"))?;
+                tl.trace_s = vals[5].parse().map_err(|_| bad("bad trace_s"))?;
+                tl.machine = vals[6].to_string();
+                continue;
+            }
+            if line == CSV_HEADER {
+                header_seen = true;
+                continue;
+            }
+            if line.is_empty() {
+                continue;
+            }
+            let f = split_csv(line);
+            if f.len() != 9 {
+                return Err(bad("expected 9 fields"));
+            }
+            let num = |s: &str| -> anyhow::Result<Option<f64>> {
+                if s.is_empty() {
+                    Ok(None)
+                } else {
+                    s.parse::<f64>().map(Some).map_err(|_| bad("bad number"))
+                }
+            };
+            let tile = if f[1].is_empty() {
+                None
+            } else {
+                Some(f[1].parse::<u32>().map_err(|_| bad("bad tile id"))?)
+            };
+            let start = num(&f[5])?.ok_or_else(|| bad("missing start_s"))?;
+            if f[0] == "tile" {
+                tl.tiles.push(TileRecord {
+                    tile: tile.ok_or_else(|| bad("missing tile id"))?,
+                    worker: f[2].clone(),
+                    thread: if f[3].is_empty() {
+                        None
+                    } else {
+                        Some(f[3].parse().map_err(|_| bad("bad thread"))?)
+                    },
+                    assigned_s: num(&f[4])?,
+                    start_s: start,
+                    end_s: num(&f[6])?.ok_or_else(|| bad("missing end_s"))?,
+                    attempt: Attempt::parse(&f[7]).ok_or_else(|| bad("unknown attempt"))?,
+                });
+            } else {
+                tl.events.push(TimelineEvent {
+                    t_s: start,
+                    kind: EventKind::parse(&f[0]).ok_or_else(|| bad("unknown record"))?,
+                    worker: (!f[2].is_empty()).then(|| f[2].clone()),
+                    tile,
+                    detail: f[8].clone(),
+                });
+            }
+        }
+        if !header_seen {
+            anyhow::bail!("no `{CSV_HEADER}` line");
+        }
+        Ok(tl)
+    }
+}
+
+fn is_csv(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+}
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\"").replace(['\n', '\r'], " "))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Splits one CSV line written by [`csv_field`].
+fn split_csv(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            ('"', true) => quoted = false,
+            ('"', false) if cur.is_empty() => quoted = true,
+            (',', false) => out.push(std::mem::take(&mut cur)),
+            (c, _) => cur.push(c),
+        }
+    }
+    out.push(cur);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Timeline {
+        Timeline {
+            mode: "distributed".into(),
+            scene: "balls:2".into(),
+            width: 64,
+            height: 32,
+            tile_size: 16,
+            machine: "test cpu, 2 cores".into(),
+            trace_s: 1.5,
+            rows: vec![Row {
+                worker: "w,1".into(),
+                threads: 2,
+            }],
+            tiles: vec![TileRecord {
+                tile: 3,
+                worker: "w,1".into(),
+                thread: None,
+                assigned_s: Some(0.25),
+                start_s: 0.5,
+                end_s: 0.75,
+                attempt: Attempt::Backup,
+            }],
+            events: vec![TimelineEvent {
+                t_s: -0.5,
+                kind: EventKind::WorkerLost,
+                worker: Some("w,1".into()),
+                tile: None,
+                detail: "said \"bye\", left".into(),
+            }],
+        }
+    }
+
+    #[test]
+    fn csv_round_trips() {
+        let t = sample();
+        let back = Timeline::from_csv(&t.to_csv()).expect("parses");
+        assert_eq!(back, t);
+        assert!(t.to_csv().contains(CSV_HEADER));
+    }
+
+    #[test]
+    fn json_round_trips_with_kebab_names() {
+        let t = sample();
+        let text = serde_json::to_string(&t).expect("serialises");
+        assert!(
+            text.contains("\"backup\"") && text.contains("\"worker-lost\""),
+            "{text}"
+        );
+        let back: Timeline = serde_json::from_str(&text).expect("parses");
+        assert_eq!(back, t);
+    }
+
+    #[test]
+    fn bad_csv_is_an_error_not_a_panic() {
+        assert!(Timeline::from_csv("").is_err());
+        assert!(Timeline::from_csv(&format!("{CSV_HEADER}\ntile,x,a,,,1,2,first,\n")).is_err());
+        assert!(Timeline::from_csv("# mode=\n").is_err());
+    }
+}

@@ -1,0 +1,292 @@
+//! The live view (`--http`) as a client sees it: `/status` carries the documented keys and
+//! agrees with the render, `/frame` is the written image, the page and the event stream are
+//! served; on a non-loopback address a missing or wrong token gets 401 and nothing else.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
+
+/// A `parrt render` with a live view; killed on drop.
+struct Render {
+    child: Child,
+    /// The URL it printed.
+    url: String,
+    /// `host:port` to dial.
+    dial: String,
+}
+
+impl Drop for Render {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn start(dir: &std::path::Path, extra: &[&str]) -> Render {
+    let mut child = Command::new(EXE)
+        .args([
+            "render", "--scene", "balls:2", "--width", "64", "--height", "64",
+        ])
+        .args([
+            "--tile",
+            "16",
+            "--threads",
+            "2",
+            "--http-linger",
+            "60",
+            "-o",
+        ])
+        .arg(dir.join("out.png"))
+        .args(extra)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("parrt starts");
+    let stderr = child.stderr.take().expect("stderr");
+    // Owned (killed on drop) before anything below can fail.
+    let mut r = Render {
+        child,
+        url: String::new(),
+        dial: String::new(),
+    };
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let line = rx
+            .recv_timeout(left)
+            .expect("the live view's address is printed");
+        if let Some(url) = line.strip_prefix("parrt: live view at ") {
+            let port = url
+                .trim_start_matches("http://")
+                .split(['/', '?'])
+                .next()
+                .and_then(|hp| hp.rsplit(':').next())
+                .expect("a port")
+                .to_string();
+            r.url = url.to_string();
+            r.dial = format!("127.0.0.1:{port}");
+            return r;
+        }
+    }
+}
+
+/// One GET: the status code, the headers and the body.
+fn get(dial: &str, path: &str, auth: Option<&str>) -> (u16, String, Vec<u8>) {
+    let mut s = TcpStream::connect(dial).expect("connects");
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let auth = auth
+        .map(|a| format!("Authorization: {a}\r\n"))
+        .unwrap_or_default();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n{auth}\r\n"
+    )
+    .unwrap();
+    let mut raw = Vec::new();
+    let _ = s.read_to_end(&mut raw);
+    let split = raw
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("a response head");
+    let head = String::from_utf8_lossy(&raw[..split]).to_string();
+    let code = head
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .expect("a status code");
+    (code, head, raw[split + 4..].to_vec())
+}
+
+/// The first bytes of the event stream.
+fn events_start(dial: &str, q: &str) -> String {
+    let mut s = TcpStream::connect(dial).expect("connects");
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    write!(s, "GET /events{q} HTTP/1.1\r\nHost: localhost\r\n\r\n").unwrap();
+    let mut got = Vec::new();
+    let mut buf = [0u8; 4096];
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while Instant::now() < deadline && !String::from_utf8_lossy(&got).contains("event: done") {
+        match s.read(&mut buf) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => got.extend_from_slice(&buf[..n]),
+        }
+    }
+    String::from_utf8_lossy(&got).to_string()
+}
+
+fn status_when_done(dial: &str, auth: Option<&str>) -> serde_json::Value {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let (code, _, body) = get(dial, "/status", auth);
+        assert_eq!(code, 200);
+        let v: serde_json::Value = serde_json::from_slice(&body).expect("JSON");
+        if v["state"] == "done" || Instant::now() > deadline {
+            return v;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn status_frame_page_and_events_on_loopback() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = start(dir.path(), &["--http", "127.0.0.1:0"]);
+    assert!(
+        !r.url.contains("token"),
+        "loopback needs no token: {}",
+        r.url
+    );
+    let v = status_when_done(&r.dial, None);
+    for key in [
+        "scene",
+        "mode",
+        "width",
+        "height",
+        "tile_size",
+        "state",
+        "tiles_total",
+        "tiles_done",
+        "elapsed_s",
+        "eta_s",
+        "rays",
+        "mrays_per_s",
+        "workers",
+        "faults",
+        "faults_total",
+        "requeued",
+        "lost",
+        "version",
+    ] {
+        assert!(v.get(key).is_some(), "/status lacks {key}: {v}");
+    }
+    assert_eq!(v["state"], "done");
+    assert_eq!(v["mode"], "smp");
+    assert_eq!(
+        (v["width"].as_u64(), v["height"].as_u64()),
+        (Some(64), Some(64))
+    );
+    assert_eq!(v["tiles_total"], 16);
+    assert_eq!(v["tiles_done"], 16);
+    assert_eq!(v["eta_s"], 0.0);
+    let workers = v["workers"].as_array().expect("workers");
+    assert_eq!(workers.len(), 2, "a row per render thread: {v}");
+    let mut tiles = 0;
+    for w in workers {
+        for key in [
+            "name",
+            "threads",
+            "state",
+            "tiles",
+            "rays",
+            "mrays_per_s",
+            "left",
+        ] {
+            assert!(w.get(key).is_some(), "worker row lacks {key}: {w}");
+        }
+        assert_eq!(w["state"], "done");
+        tiles += w["tiles"].as_u64().unwrap();
+    }
+    assert_eq!(tiles, 16);
+    assert!(v["rays"].as_u64().unwrap() >= 64 * 64);
+
+    // The frame is the written image, byte for byte.
+    let (code, _, frame) = get(&r.dial, "/frame", None);
+    assert_eq!(code, 200);
+    let png = image::open(dir.path().join("out.png")).unwrap().to_rgb8();
+    assert_eq!(frame, png.into_raw());
+    let (code, head, body) = get(&r.dial, "/image.png", None);
+    assert_eq!(code, 200);
+    assert!(head.to_ascii_lowercase().contains("image/png"), "{head}");
+    assert!(image::load_from_memory(&body).is_ok());
+    let (code, _, page) = get(&r.dial, "/", None);
+    assert_eq!(code, 200);
+    let page = String::from_utf8_lossy(&page);
+    assert!(page.contains("<canvas") && page.contains("EventSource"));
+    // The stream starts by asking for the frame, then reports the finished render.
+    let ev = events_start(&r.dial, "");
+    let reload = ev.find("event: reload").expect("a reload event");
+    let done = ev.find("event: done").expect("a done event");
+    assert!(reload < done, "{ev}");
+}
+
+#[test]
+fn off_loopback_a_missing_or_wrong_token_gets_401_and_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = start(dir.path(), &["--http", "0.0.0.0:0"]);
+    let token = r
+        .url
+        .split("token=")
+        .nth(1)
+        .expect("the printed URL carries a generated token")
+        .to_string();
+    assert!(token.len() >= 32);
+    for path in ["/status", "/", "/frame", "/image.png", "/events"] {
+        for auth in [None, Some("Bearer wrong"), Some(&*format!("Basic {token}"))] {
+            let (code, _, body) = get(&r.dial, path, auth);
+            assert_eq!(code, 401, "{path} {auth:?}");
+            let body = String::from_utf8_lossy(&body);
+            assert!(
+                !body.contains("tiles_total") && !body.contains("<canvas"),
+                "{body}"
+            );
+        }
+        let (code, _, _) = get(&r.dial, &format!("{path}?token=wrong{token}"), None);
+        assert_eq!(code, 401, "{path} with a wrong parameter");
+    }
+    let v = status_when_done(&r.dial, Some(&format!("Bearer {token}")));
+    assert_eq!(v["tiles_done"], 16);
+    let (code, _, body) = get(&r.dial, &format!("/status?token={token}"), None);
+    assert_eq!(code, 200);
+    assert!(String::from_utf8_lossy(&body).contains("tiles_total"));
+    let ev = events_start(&r.dial, &format!("?token={token}"));
+    assert!(ev.contains("event: reload"), "{ev}");
+}
+
+#[test]
+fn distributed_render_shows_a_row_per_worker() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = start(dir.path(), &["--workers", "2", "--http", "127.0.0.1:0"]);
+    let v = status_when_done(&r.dial, None);
+    assert_eq!(v["state"], "done");
+    assert_eq!(v["mode"], "distributed");
+    let workers = v["workers"].as_array().expect("workers");
+    assert_eq!(workers.len(), 2, "{v}");
+    let tiles: u64 = workers.iter().map(|w| w["tiles"].as_u64().unwrap()).sum();
+    assert_eq!(tiles, 16);
+    let (_, _, frame) = get(&r.dial, "/frame", None);
+    let png = image::open(dir.path().join("out.png")).unwrap().to_rgb8();
+    assert_eq!(frame, png.into_raw());
+}
+
+#[test]
+fn bad_http_flags_are_usage_errors() {
+    for args in [
+        &["--http", "not an address"][..],
+        &["--http", "127.0.0.1:0", "--http-linger", "-1"][..],
+        &["--http-linger", "5"][..],
+    ] {
+        let out = Command::new(EXE)
+            .args([
+                "render", "--scene", "balls:1", "--width", "8", "--height", "8", "-o",
+            ])
+            .arg(std::env::temp_dir().join("parrt-live-unused.png"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
