@@ -301,7 +301,7 @@ mod tests {
             1,
             list,
             SchedOptions {
-                window_per_thread: 1,
+                window: parrt::window::Window::PerThread(1),
                 tile_deadline: Duration::from_secs(60),
                 max_failures: 3,
                 backups: true,
