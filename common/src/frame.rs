@@ -3,12 +3,12 @@
 //! scene's *relative* extent and a scene placed far from the world origin (survey, CAD or
 //! astronomy coordinates) renders as if it sat at the origin.
 //!
-//! The origin is the eye rounded to a power-of-two grid four times coarser than the scene's
-//! extent (primitives and eye). A scene whose eye lies within its own extent of the world origin
-//! (every SPD scene) therefore gets origin 0, an exact no-op: its images keep their bits. For the
-//! others every coordinate is `c − origin`, subtracted in `f64` before rounding to the renderer's
-//! precision; the grid's coarseness keeps the origin's bits few, so the subtraction is exact for
-//! coordinates near the eye.
+//! Per axis, the origin is 0 when the eye lies within twice the scene's extent (primitives and
+//! eye, rounded up to a power of two) of the world origin — every SPD scene: an exact no-op, its
+//! images keep their bits — and otherwise the eye rounded to a power-of-two grid 1/256 of that
+//! extent, so the rebased eye sits within 1/512 of the extent of the origin. Every coordinate is
+//! then `c − origin`, subtracted in `f64` before rounding to the renderer's precision; the
+//! origin has few significant bits, so the subtraction is exact for coordinates near the eye.
 //!
 //! The extent comes from the bounds of at most [`SAMPLE_LIMIT`] primitives, evenly strided
 //! ([`sampled_bounds`]): every primitive of a scene up to that size, a deterministic sample of a
@@ -18,10 +18,10 @@
 use crate::description::{Bounds, SceneDescription};
 use crate::vec3::Vec3d;
 
-/// Grid cells per scene extent (rounded up to a power of two): the eye is rounded to multiples
-/// of `GRID_FACTOR · 2^⌈log₂ extent⌉`, so an eye within twice the extent of the origin per axis
-/// keeps origin 0, and the rebased eye is never further than that from the new origin.
-const GRID_FACTOR_LOG2: i32 = 2;
+/// An eye coordinate within 2^ZERO_LOG2 · 2^⌈log₂ extent⌉ of 0 keeps origin 0 on that axis.
+const ZERO_LOG2: i32 = 1;
+/// Otherwise it is rounded to multiples of 2^⌈log₂ extent⌉ / 2^FINE_LOG2.
+const FINE_LOG2: i32 = 8;
 
 /// The origin for a scene whose primitives span `bounds` (may be empty) seen from `eye`.
 pub fn origin_for(bounds: &Bounds, eye: Vec3d) -> Vec3d {
@@ -35,18 +35,18 @@ pub fn origin_for(bounds: &Bounds, eye: Vec3d) -> Vec3d {
         return Vec3d::zero();
     }
     // 2^k ≥ extent, built exactly (powi of 2 is a product of powers of two).
-    let k = (extent.log2().ceil() as i32).clamp(-1000, 1000) + GRID_FACTOR_LOG2;
-    let cell = 2f64.powi(k);
-    if !(cell > 0.0) || !cell.is_finite() {
+    let k = (extent.log2().ceil() as i32).clamp(-900, 900);
+    let near = 2f64.powi(k + ZERO_LOG2);
+    let cell = 2f64.powi(k - FINE_LOG2);
+    if !(cell > 0.0) || !near.is_finite() {
         return Vec3d::zero();
     }
-    // eye / cell and the product are exact (power-of-two scaling); round() is exact.
+    // c / cell and the product are exact (power-of-two scaling); round() is exact.
     let snap = |c: f64| {
-        let n = (c / cell).round();
-        if n == 0.0 {
+        if c.abs() < near {
             0.0
         } else {
-            n * cell
+            (c / cell).round() * cell
         }
     };
     Vec3d::new(snap(eye.x), snap(eye.y), snap(eye.z))
@@ -111,9 +111,13 @@ mod tests {
         let eye = t + Vec3d::new(2.0, 3.0, -1.0);
         let o = origin_for(&b, eye);
         let rel = eye - o;
-        assert!(rel.abs().max_component() <= 32.0, "{o:?}");
-        // Origin is a multiple of a power of two: exactly representable, few bits.
-        assert_eq!(o.x % 16.0, 0.0);
+        // Extent 4: the eye within 4/512 of the origin, a multiple of 4/256.
+        assert!(rel.abs().max_component() <= 4.0 / 512.0, "{o:?}");
+        assert_eq!(o.x % (4.0 / 256.0), 0.0);
+        assert_ne!(o.z, 0.0);
+        // Only the far axes move.
+        let mixed = origin_for(&b, Vec3d::new(1e7, 2.0, 0.5));
+        assert_eq!((mixed.y, mixed.z), (0.0, 0.0));
     }
 
     #[test]

@@ -15,8 +15,13 @@
 //!   smallest gap between neighbouring primitives in a sample: a ray spawned from one side must
 //!   not be pushed through to the other, `2·√3·γ₇·L ≤ F`: `L/F ≤ 1/(2√3·γ₇) ≈ 6.9·10⁵`.
 //!
-//! When both hold for every feature, `f32`; otherwise `f64`, whose limits are 2²⁹ ≈ 5·10⁸ times
-//! larger.
+//! And the numbers must stay in range: intersection tests square and multiply coordinates up to
+//! four deep (a sphere's discriminant, a triangle's normal before it is normalised), so the
+//! largest coordinate must stay below ⁴√MAX/4 (1.1·10⁹ for `f32`) and the smallest feature above
+//! 4·⁴√MIN_POSITIVE (1.3·10⁻⁹ for `f32`).
+//!
+//! When all hold, `f32`; otherwise `f64`, whose limits are 2²⁹ ≈ 5·10⁸ times larger (and whose
+//! range is ⁴√ of 10³⁰⁸).
 //!
 //! One pass over the primitives — all of them up to [`frame::SAMPLE_LIMIT`], every k-th of a
 //! larger scene (the same ones the frame's origin is chosen from), without square roots — and
@@ -59,6 +64,8 @@ pub struct Estimate {
     pub origin: Vec3d,
     /// The largest |coordinate − origin| over the sampled primitives' bounds and the eye.
     pub extent: f64,
+    /// The smallest feature of any kind (∞ for a scene without primitives).
+    pub smallest: f64,
     /// The hardest shading feature (edge, radius, cone length).
     pub shading: Feature,
     /// The hardest separation (polygon thickness, sampled gap).
@@ -75,15 +82,36 @@ pub fn max_separation_ratio<R: Real>() -> f64 {
     1.0 / (2.0 * 3f64.sqrt() * R::gamma(BOUND_OPS).to_f64())
 }
 
+/// The largest coordinate and the smallest feature precision `R` keeps in range.
+pub fn range<R: Real>() -> (f64, f64) {
+    let (max, min) = (R::MAX.to_f64(), R::MIN_POSITIVE.to_f64());
+    (max.sqrt().sqrt() / 4.0, min.sqrt().sqrt() * 4.0)
+}
+
 impl Estimate {
-    /// Whether precision `R` resolves the scene by both rules.
+    /// Whether the scene's numbers stay in precision `R`'s range.
+    fn in_range<R: Real>(&self) -> bool {
+        let (hi, lo) = range::<R>();
+        self.extent <= hi && !(self.smallest < lo)
+    }
+
+    /// Whether precision `R` resolves the scene by every rule.
     pub fn fits<R: Real>(&self) -> bool {
-        self.shading.ratio <= max_shading_ratio::<R>()
+        self.in_range::<R>()
+            && self.shading.ratio <= max_shading_ratio::<R>()
             && self.separation.ratio <= max_separation_ratio::<R>()
     }
 
     /// The rule closest to (or past) its `f32` limit, as text.
     fn binding(&self) -> String {
+        if !self.in_range::<f32>() {
+            let (hi, lo) = range::<f32>();
+            return format!(
+                "origin ({}, {}, {}), extent {:.3e}, smallest feature {:.3e}: out of f32's range \
+                 [{lo:.1e}, {hi:.1e}] for products of four coordinates",
+                self.origin.x, self.origin.y, self.origin.z, self.extent, self.smallest
+            );
+        }
         let (ls, lg) = (max_shading_ratio::<f32>(), max_separation_ratio::<f32>());
         let (f, l, rule) = if self.shading.ratio / ls >= self.separation.ratio / lg {
             (&self.shading, ls, "shading feature")
@@ -328,6 +356,7 @@ pub fn estimate(desc: &SceneDescription) -> Estimate {
     Estimate {
         origin,
         extent,
+        smallest: shade.small_sq.min(sep.small_sq).sqrt(),
         shading: shade.feature(origin, e),
         separation: sep.feature(origin, e),
     }
@@ -480,6 +509,35 @@ mod tests {
         let e = estimate(&d);
         assert!((e.separation.size - 1e-6).abs() < 1e-12, "{e:?}");
         assert_eq!(resolve(Precision::Auto, &d).precision, Precision::F64);
+    }
+
+    #[test]
+    fn huge_and_tiny_scenes_leave_f32_range() {
+        let (hi, lo) = range::<f32>();
+        assert!(
+            hi > 1e9 && hi < 1.1e9 && lo > 1e-9 && lo < 2e-9,
+            "{hi} {lo}"
+        );
+        let ball = |s: f64| {
+            desc(
+                vec![Shape::Sphere {
+                    center: Vec3d::zero(),
+                    radius: s,
+                }],
+                Vec3d::new(0.0, -3.0 * s, 0.0),
+            )
+        };
+        assert_eq!(
+            resolve(Precision::Auto, &ball(1.0)).precision,
+            Precision::F32
+        );
+        let huge = resolve(Precision::Auto, &ball(1e9));
+        assert_eq!(huge.precision, Precision::F64);
+        assert!(huge.reason.contains("range"), "{}", huge.reason);
+        assert_eq!(
+            resolve(Precision::Auto, &ball(1e-10)).precision,
+            Precision::F64
+        );
     }
 
     #[test]
