@@ -75,7 +75,7 @@ pub fn generate(size: u32) -> Result<SceneDescription, GenError> {
         material(0.2, 0.8, 0.3, 0.8, 0.0, 0.0, 0.0, 0.0),
         material(0.3, 0.4, 0.9, 0.6, 0.4, 60.0, 0.0, 0.0),
     ];
-    let mut rng = Rng(0x5eed_50u64 + u64::from(size));
+    let mut rng = Rng(0x005e_ed50_u64 + u64::from(size));
     for k in 0..size as usize * 1000 {
         if k % 334 == 0 {
             b.material(colors[(k / 334) % 3].clone());
