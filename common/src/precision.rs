@@ -25,7 +25,7 @@
 //!
 //! One pass over the primitives — all of them up to [`frame::SAMPLE_LIMIT`], every k-th of a
 //! larger scene (the same ones the frame's origin is chosen from), without square roots — and
-//! pairwise gaps among a few hundred of those: under a percent of parsing the same file. A lone
+//! pairwise gaps among 128 of those: under a percent of parsing the same file. A lone
 //! sliver among millions of primitives can escape the sample; `--precision f64` forces the
 //! reference.
 
@@ -42,7 +42,7 @@ const SHADE_OPS: u32 = 3;
 /// Rounded operations behind a hit point's error bound (the triangle's γ₇).
 const BOUND_OPS: u32 = 7;
 /// Primitives sampled for the nearest-neighbour gap (pairwise among the sample).
-const GAP_SAMPLE: usize = 256;
+const GAP_SAMPLE: usize = 128;
 /// Gaps below this fraction of the coordinates are `f64` rounding of touching primitives.
 const TOUCHING: f64 = 64.0 * f64::EPSILON;
 
@@ -299,7 +299,7 @@ pub fn estimate(desc: &SceneDescription) -> Estimate {
     let eye = desc.view.from;
     let mut bounds = Bounds::empty();
     let (mut shade, mut sep) = (Hardest::new(), Hardest::new());
-    let mut sample: Vec<(usize, Bounds)> = Vec::with_capacity(GAP_SAMPLE + 1);
+    let mut sample: Vec<(usize, Bounds, (f64, f64))> = Vec::with_capacity(GAP_SAMPLE + 1);
     // One pass over the description (its polygons live all over the heap).
     for (k, i) in (0..n).step_by(step).chain(last).enumerate() {
         let p = &desc.primitives[i];
@@ -333,15 +333,14 @@ pub fn estimate(desc: &SceneDescription) -> Estimate {
             }
         }
         if k % gap_every == 0 {
-            sample.push((i, b));
+            sample.push((i, b, d));
         }
     }
-    // Nearest-neighbour gap among a few hundred of them: primitives that do not touch but
+    // Nearest-neighbour gap among 128 of them: primitives that do not touch but
     // nearly do (a decal above a floor, stacked layers) must stay apart.
-    for (a, (ia, ba)) in sample.iter().enumerate() {
-        for (_, bb) in &sample[a + 1..] {
-            let (a, b) = (reach_sq(ba, eye), reach_sq(bb, eye));
-            let d = (a.0.max(b.0), a.1.max(b.1));
+    for (a, (ia, ba, ra)) in sample.iter().enumerate() {
+        for (_, bb, rb) in &sample[a + 1..] {
+            let d = (ra.0.max(rb.0), ra.1.max(rb.1));
             sep.offer(gap_sq(ba, bb), d, "primitives", "gap", *ia);
         }
     }

@@ -221,39 +221,9 @@ fn spd_dir() -> PathBuf {
         .unwrap_or_else(|| panic!("no shared/spd above {}", start.display()))
 }
 
-/// Applies `x ↦ s·x + t` to every position of a scene (camera, lights, primitives; radii and
-/// hither scale by `s`; directions and normals are unchanged).
+/// Applies `x ↦ s·x + t` to every position of a scene ([`SceneDescription::transformed`]).
 fn transform(desc: &SceneDescription, s: f64, t: Vec3d) -> SceneDescription {
-    let p = |x: Vec3d| x * s + t;
-    let mut d = desc.clone();
-    d.view.from = p(d.view.from);
-    d.view.at = p(d.view.at);
-    d.view.hither *= s;
-    for l in &mut d.lights {
-        l.position = p(l.position);
-    }
-    for pr in &mut d.primitives {
-        match &mut pr.shape {
-            Shape::Sphere { center, radius } => {
-                *center = p(*center);
-                *radius *= s;
-            }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
-                *base = p(*base);
-                *apex = p(*apex);
-                *base_radius *= s;
-                *apex_radius *= s;
-            }
-            Shape::Polygon(vs) => vs.iter_mut().for_each(|x| *x = p(*x)),
-            Shape::Patch(vs) => vs.iter_mut().for_each(|x| x.position = p(x.position)),
-        }
-    }
-    d
+    desc.transformed(s, t)
 }
 
 /// Per-pixel differences of two films on the linear values clamped to [0, 1]: (mean absolute

@@ -4,46 +4,12 @@
 //! it — in f32 alone; and auto picks f32 on SPD's seven default scenes, whose frame stays the
 //! world's (origin 0: their images keep their bits).
 
-use parrt::description::{SceneDescription, Shape};
+use parrt::description::SceneDescription;
 use parrt::film::Film;
 use parrt::render::Renderer;
 use parrt::settings::{Precision, RenderSettings};
 use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt::vec3::{Vec3d, V3};
-
-/// Applies `x ↦ s·x + t` to every position of a scene (radii and hither scale by `s`).
-fn transform(desc: &SceneDescription, s: f64, t: Vec3d) -> SceneDescription {
-    let p = |x: Vec3d| x * s + t;
-    let mut d = desc.clone();
-    d.view.from = p(d.view.from);
-    d.view.at = p(d.view.at);
-    d.view.hither *= s;
-    for l in &mut d.lights {
-        l.position = p(l.position);
-    }
-    for pr in &mut d.primitives {
-        match &mut pr.shape {
-            Shape::Sphere { center, radius } => {
-                *center = p(*center);
-                *radius *= s;
-            }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
-                *base = p(*base);
-                *apex = p(*apex);
-                *base_radius *= s;
-                *apex_radius *= s;
-            }
-            Shape::Polygon(vs) => vs.iter_mut().for_each(|x| *x = p(*x)),
-            Shape::Patch(vs) => vs.iter_mut().for_each(|x| x.position = p(x.position)),
-        }
-    }
-    d
-}
+use parrt::vec3::V3;
 
 fn render(desc: &SceneDescription, size: u32, precision: Precision) -> Film {
     let mut s = RenderSettings::new(size, size);
@@ -95,7 +61,7 @@ fn far_and_scaled_scenes_render_like_the_untransformed_f64() {
     for (name, desc) in scenes() {
         let reference = render(&desc, size, Precision::F64);
         for (how, s, t) in copies {
-            let moved = transform(&desc, s, t);
+            let moved = desc.transformed(s, t);
             let auto = parrt::precision::resolve(Precision::Auto, &moved);
             let share = off(&reference, &render(&moved, size, Precision::Auto));
             assert!(
