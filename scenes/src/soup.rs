@@ -118,4 +118,13 @@ mod tests {
         assert_eq!(a, generate(1).unwrap());
         assert!(generate(0).is_err());
     }
+
+    #[test]
+    fn slivers_are_too_thin_for_f32_by_the_estimate() {
+        use parrt::settings::Precision;
+        let c = parrt::precision::resolve(Precision::Auto, &generate(DEFAULT_SIZE).unwrap());
+        // A needle's base edge, ~1e-5 units across at 3.4: its normal could turn by ~0.03 rad.
+        assert_eq!(c.precision, Precision::F64, "{}", c.reason);
+        assert!(c.reason.contains("edge"), "{}", c.reason);
+    }
 }
