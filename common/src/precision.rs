@@ -2,9 +2,9 @@
 //! in the rebased frame ([`crate::frame`]) resolves the scene, and says why.
 //!
 //! A feature of size F at distance L from the frame's origin (the larger of its own coordinates
-//! and the eye's, where rays start: L ≥ every coordinate the intersection computes with; bounded
-//! here by its distance from the eye plus the eye's from the origin) has its
-//! coordinates rounded by up to u·L (u: the unit round-off) and its hit points carry the error
+//! and the eye's, where rays start: L ≥ every coordinate the intersection computes with; exact
+//! when the origin is 0, else bounded by its distance from the eye plus the eye's from the
+//! origin) has its coordinates rounded by up to u·L (u: the unit round-off) and its hit points carry the error
 //! bound γ₇·L (the triangle's, [`crate::geometry::triangle`]; spheres and cones carry less), by
 //! which spawned rays are pushed off the surface. Two kinds of feature must survive that:
 //!
@@ -20,8 +20,8 @@
 //! largest coordinate must stay below ⁴√MAX/4 (1.1·10⁹ for `f32`) and the smallest feature above
 //! 4·⁴√MIN_POSITIVE (1.3·10⁻⁹ for `f32`).
 //!
-//! When all hold, `f32`; otherwise `f64`, whose limits are 2²⁹ ≈ 5·10⁸ times larger (and whose
-//! range is ⁴√ of 10³⁰⁸).
+//! When all hold, `f32`; otherwise `f64`, whose ratio limits are 2²⁹ ≈ 5·10⁸ times larger and
+//! whose range reaches 10⁷⁶.
 //!
 //! One pass over the primitives — all of them up to [`frame::SAMPLE_LIMIT`], every k-th of a
 //! larger scene (the same ones the frame's origin is chosen from), without square roots — and

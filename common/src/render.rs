@@ -108,9 +108,12 @@ pub fn validate_settings(s: &RenderSettings) -> Result<(), RenderError> {
 /// master calls this before it listens, so a job no worker could build is refused up front.
 pub fn validate_job(desc: &SceneDescription, s: &RenderSettings) -> Result<(), RenderError> {
     validate_settings(s)?;
+    // In the frame the renderer builds in: rounding to f32 far from the world origin could make
+    // a primitive degenerate that the rebased scene renders.
+    let origin = crate::frame::origin(desc);
     match resolved(s.precision, desc) {
-        Precision::F64 => drop(Scene::<f64>::build(desc)?),
-        _ => drop(Scene::<f32>::build(desc)?),
+        Precision::F64 => drop(Scene::<f64>::build_in(desc, origin)?),
+        _ => drop(Scene::<f32>::build_in(desc, origin)?),
     }
     Ok(())
 }
