@@ -635,3 +635,38 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     );
     Ok(ExitCode::SUCCESS)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Flags {
+        #[command(flatten)]
+        render: RenderFlags,
+    }
+
+    fn settings(args: &[&str], desc: &SceneDescription) -> (RenderSettings, Choice) {
+        let flags = Flags::try_parse_from(std::iter::once("parrt").chain(args.iter().copied()))
+            .expect("flags parse");
+        flags.render.settings_and_precision(desc).expect("settings")
+    }
+
+    /// What a master sends its workers is never `Auto`: auto is resolved here, once.
+    #[test]
+    fn auto_is_the_default_and_is_resolved_before_a_job_leaves() {
+        let near = parrt_scenes::generate("tetra", Some(2)).expect("tetra");
+        let (s, why) = settings(&[], &near);
+        assert_eq!(s.precision, Precision::F32);
+        assert!(why.reason.starts_with("auto: "), "{}", why.reason);
+        // The eye 1e7 away from a small scene: f32 cannot resolve it.
+        let mut far = near.clone();
+        far.view.from = far.view.at + (far.view.from - far.view.at).normalize() * 1e7;
+        let (s, why) = settings(&[], &far);
+        assert_eq!(s.precision, Precision::F64, "{}", why.reason);
+        let (s, why) = settings(&["--precision", "f32"], &far);
+        assert_eq!(s.precision, Precision::F32);
+        assert!(why.reason.starts_with("forced; auto would pick f64"));
+    }
+}
