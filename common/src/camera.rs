@@ -29,10 +29,16 @@ pub struct Camera<R> {
 }
 
 impl<R: Real> Camera<R> {
-    /// The camera of `view` for an image of `width × height`. The view is assumed valid (the
-    /// parser rejects degenerate ones); a degenerate view gives NaN directions, which trace as
-    /// background.
+    /// The camera of `view` for an image of `width × height`, in world coordinates. The view is
+    /// assumed valid (the parser rejects degenerate ones); a degenerate view gives NaN
+    /// directions, which trace as background.
     pub fn new(view: &View, width: u32, height: u32) -> Self {
+        Self::in_frame(view, width, height, V3::zero())
+    }
+
+    /// Like [`Camera::new`], with the eye relative to the frame `origin` ([`crate::frame`]),
+    /// subtracted in `f64`; the directions do not depend on the origin.
+    pub fn in_frame(view: &View, width: u32, height: u32, origin: V3<f64>) -> Self {
         let from = view.from;
         let w = (view.at - from).normalize();
         let u = w.cross(view.up).normalize();
@@ -40,7 +46,7 @@ impl<R: Real> Camera<R> {
         let shorter = width.min(height).max(1) as f64;
         let half = (view.angle.to_radians() * 0.5).tan();
         Camera {
-            eye: V3::from_f64(from),
+            eye: V3::from_f64(from - origin),
             forward: V3::from_f64(w),
             right: V3::from_f64(u),
             up: V3::from_f64(v),

@@ -198,6 +198,43 @@ impl Shape {
 }
 
 impl SceneDescription {
+    /// The same scene under `x ↦ scale·x + shift`, computed in `f64`: camera, lights and
+    /// primitives move; radii and hither scale by `scale` (which must be positive); directions
+    /// and patch normals are unchanged. The precision study and tests place scenes far away and
+    /// at other scales with it.
+    pub fn transformed(&self, scale: f64, shift: Vec3d) -> SceneDescription {
+        let p = |x: Vec3d| x * scale + shift;
+        let mut d = self.clone();
+        d.view.from = p(d.view.from);
+        d.view.at = p(d.view.at);
+        d.view.hither *= scale;
+        for l in &mut d.lights {
+            l.position = p(l.position);
+        }
+        for pr in &mut d.primitives {
+            match &mut pr.shape {
+                Shape::Sphere { center, radius } => {
+                    *center = p(*center);
+                    *radius *= scale;
+                }
+                Shape::Cone {
+                    base,
+                    base_radius,
+                    apex,
+                    apex_radius,
+                } => {
+                    *base = p(*base);
+                    *apex = p(*apex);
+                    *base_radius *= scale;
+                    *apex_radius *= scale;
+                }
+                Shape::Polygon(vs) => vs.iter_mut().for_each(|x| *x = p(*x)),
+                Shape::Patch(vs) => vs.iter_mut().for_each(|x| x.position = p(x.position)),
+            }
+        }
+        d
+    }
+
     /// The bounding box of every primitive (empty for a scene without primitives).
     pub fn bounds(&self) -> Bounds {
         let mut b = Bounds::empty();

@@ -10,6 +10,8 @@
 //!   eye rays and their shadow rays in packets).
 //! - [`tile`], [`smp`], [`film`]: tile tasks, shared-memory executors, the image.
 //! - [`settings`], [`stats`]: what decides pixels, and what was counted.
+//! - [`frame`], [`precision`]: the camera-relative origin scenes are built in, and the choice of
+//!   `f32` or `f64` a scene needs.
 //! - [`protocol`]: the master/worker wire protocol (messages, codec, auth, connection).
 //! - [`window`], [`simulate`]: how much work a worker holds at once, and a model of the
 //!   master/worker schedule.
@@ -23,9 +25,11 @@ pub mod cast;
 pub mod description;
 pub mod efficiency;
 pub mod film;
+pub mod frame;
 pub mod geometry;
 pub mod nff;
 pub mod packet_trace;
+pub mod precision;
 pub mod protocol;
 pub mod real;
 pub mod render;

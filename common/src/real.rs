@@ -36,6 +36,8 @@ pub trait Real:
     const TWO: Self;
     /// The largest finite value.
     const MAX: Self;
+    /// The smallest positive normal value.
+    const MIN_POSITIVE: Self;
     /// Positive infinity.
     const INFINITY: Self;
     /// Half a unit in the last place of 1: the unit round-off `u` of error analysis.
@@ -124,6 +126,7 @@ macro_rules! impl_real {
             const HALF: Self = 0.5;
             const TWO: Self = 2.0;
             const MAX: Self = <$t>::MAX;
+            const MIN_POSITIVE: Self = <$t>::MIN_POSITIVE;
             const INFINITY: Self = <$t>::INFINITY;
             const MACHINE_EPSILON: Self = <$t>::EPSILON * 0.5;
             const NAME: &'static str = $name;

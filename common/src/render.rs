@@ -48,6 +48,8 @@ pub struct BuildInfo {
     pub scene_bytes: u64,
     /// Accelerator statistics.
     pub accel: AccelStats,
+    /// World position of the frame's origin the scene was built in ([`crate::frame`]).
+    pub origin: [f64; 3],
 }
 
 struct Core<R> {
@@ -106,11 +108,22 @@ pub fn validate_settings(s: &RenderSettings) -> Result<(), RenderError> {
 /// master calls this before it listens, so a job no worker could build is refused up front.
 pub fn validate_job(desc: &SceneDescription, s: &RenderSettings) -> Result<(), RenderError> {
     validate_settings(s)?;
-    match s.precision {
-        Precision::F32 => drop(Scene::<f32>::build(desc)?),
-        Precision::F64 => drop(Scene::<f64>::build(desc)?),
+    // In the frame the renderer builds in: rounding to f32 far from the world origin could make
+    // a primitive degenerate that the rebased scene renders.
+    let origin = crate::frame::origin(desc);
+    match resolved(s.precision, desc) {
+        Precision::F64 => drop(Scene::<f64>::build_in(desc, origin)?),
+        _ => drop(Scene::<f32>::build_in(desc, origin)?),
     }
     Ok(())
+}
+
+/// `F32` or `F64`: `Auto` resolved from the description ([`crate::precision::resolve`]).
+fn resolved(p: Precision, desc: &SceneDescription) -> Precision {
+    match p {
+        Precision::Auto => crate::precision::resolve(p, desc).precision,
+        p => p,
+    }
 }
 
 /// The first half of a build: the render-ready scene and the camera, all a build needs from the
@@ -119,8 +132,10 @@ fn prepare<R: Real>(
     desc: &SceneDescription,
     s: &RenderSettings,
 ) -> Result<(Scene<R>, Camera<R>), RenderError> {
-    let scene = Scene::<R>::build(desc)?;
-    Ok((scene, Camera::new(&desc.view, s.width, s.height)))
+    let origin = crate::frame::origin(desc);
+    let scene = Scene::<R>::build_in(desc, origin)?;
+    let camera = Camera::in_frame(&desc.view, s.width, s.height, origin);
+    Ok((scene, camera))
 }
 
 /// The second half: the accelerator over the scene (its primitive bounds are dropped once it is
@@ -135,6 +150,7 @@ fn finish<R: Real>(scene: Scene<R>, camera: Camera<R>, s: &RenderSettings) -> (C
         build_s: 0.0,
         primitives: scene.len(),
         scene_bytes: scene.bytes(),
+        origin: scene.origin.to_array(),
         accel: AccelStats {
             build_s: accel_build_s,
             ..accel.stats()
@@ -323,19 +339,27 @@ impl Renderer {
     fn build(desc: Desc<'_>, settings: &RenderSettings) -> Result<Self, RenderError> {
         validate_settings(settings)?;
         let t0 = Instant::now();
+        // Auto normally arrives resolved (the master resolves it once for every worker);
+        // resolving here is the same pure function of the description.
+        let d = match &desc {
+            Desc::Borrowed(d) => *d,
+            Desc::Owned(d) => d,
+        };
+        let mut settings = settings.clone();
+        settings.precision = resolved(settings.precision, d);
         let (inner, mut info) = match settings.precision {
-            Precision::F32 => {
-                let (c, i) = build_core::<f32>(desc, settings)?;
-                (Inner::F32(c), i)
-            }
             Precision::F64 => {
-                let (c, i) = build_core::<f64>(desc, settings)?;
+                let (c, i) = build_core::<f64>(desc, &settings)?;
                 (Inner::F64(c), i)
+            }
+            _ => {
+                let (c, i) = build_core::<f32>(desc, &settings)?;
+                (Inner::F32(c), i)
             }
         };
         info.build_s = t0.elapsed().as_secs_f64();
         Ok(Renderer {
-            settings: settings.clone(),
+            settings,
             inner,
             info,
             packets: true,

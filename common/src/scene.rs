@@ -1,6 +1,7 @@
 //! The render-ready scene: the description turned into primitives in the renderer's precision
 //! (polygons triangulated exactly, negative radii turned into inward normals), materials, lights
-//! with their SPD intensities, and the primitive bounds the accelerators are built from.
+//! with their SPD intensities, and the primitive bounds the accelerators are built from. Every
+//! position is relative to the scene's [`crate::frame`] origin, subtracted in `f64`.
 
 use crate::description::{SceneDescription, Shape};
 use crate::geometry::aabb::Aabb;
@@ -126,6 +127,9 @@ pub struct Scene<R> {
     pub ambient: R,
     /// Background colour.
     pub background: V3<R>,
+    /// World position of this scene's origin ([`crate::frame`]): every position above is
+    /// relative to it.
+    pub origin: V3<f64>,
 }
 
 fn finite3(v: V3<f64>, what: &str) -> Result<(), SceneError> {
@@ -137,8 +141,19 @@ fn finite3(v: V3<f64>, what: &str) -> Result<(), SceneError> {
 }
 
 impl<R: Real> Scene<R> {
-    /// Builds the scene from a description.
+    /// Builds the scene from a description in world coordinates (origin 0; pair it with
+    /// [`crate::camera::Camera::new`]).
     pub fn build(desc: &SceneDescription) -> Result<Self, SceneError> {
+        Self::build_in(desc, V3::zero())
+    }
+
+    /// Builds the scene relative to `origin` (from [`crate::frame::origin`]; pair it with
+    /// [`crate::camera::Camera::in_frame`] of the same origin). Origin 0 is exactly
+    /// [`Scene::build`].
+    pub fn build_in(desc: &SceneDescription, origin: V3<f64>) -> Result<Self, SceneError> {
+        if !origin.is_finite() {
+            return Err(SceneError::NotFinite("frame origin".to_string()));
+        }
         let nl = desc.lights.len().max(1) as f64;
         let factor = nl.sqrt() / (2.0 * nl);
         let mut lights = Vec::with_capacity(desc.lights.len());
@@ -147,7 +162,7 @@ impl<R: Real> Scene<R> {
             let c = l.color.unwrap_or(V3::new(1.0, 1.0, 1.0));
             finite3(c, &format!("light {i} colour"))?;
             lights.push(PointLight {
-                position: V3::from_f64(l.position),
+                position: V3::from_f64(l.position - origin),
                 intensity: V3::from_f64(c * factor),
             });
         }
@@ -175,6 +190,7 @@ impl<R: Real> Scene<R> {
             lights,
             ambient: R::from_f64(factor),
             background: V3::from_f64(desc.background),
+            origin,
         };
         for (index, p) in desc.primitives.iter().enumerate() {
             if p.material as usize >= scene.materials.len() {
@@ -218,7 +234,7 @@ impl<R: Real> Scene<R> {
                     return Err(degenerate("sphere", "radius is zero"));
                 }
                 let s = Sphere {
-                    center: V3::from_f64(*center),
+                    center: V3::from_f64(*center - self.origin),
                     radius: R::from_f64(radius.abs()),
                 };
                 self.push(Prim::Sphere(s), material, u32::MAX, *radius < 0.0, index);
@@ -238,9 +254,9 @@ impl<R: Real> Scene<R> {
                 }
                 let inward = r0 < 0.0 || r1 < 0.0;
                 let c = Cone::new(
-                    V3::from_f64(*base),
+                    V3::from_f64(*base - self.origin),
                     R::from_f64(r0.abs()),
-                    V3::from_f64(*apex),
+                    V3::from_f64(*apex - self.origin),
                     R::from_f64(r1.abs()),
                 )
                 .ok_or_else(|| degenerate("cone", "base equals apex or both radii are zero"))?;
@@ -281,6 +297,15 @@ impl<R: Real> Scene<R> {
         if vs.iter().any(|v| !v.is_finite()) {
             return Err(degenerate("non-finite vertex"));
         }
+        // Relative to the frame's origin before anything is computed from the vertices (origin
+        // 0: the description's own vertices, untouched).
+        let rel: Vec<V3<f64>>;
+        let vs = if self.origin == V3::zero() {
+            vs
+        } else {
+            rel = vs.iter().map(|&v| v - self.origin).collect();
+            &rel[..]
+        };
         let n = newell_normal(vs);
         if !(n.length_squared() > 0.0) {
             return Err(degenerate("zero area (all vertices collinear)"));

@@ -11,6 +11,10 @@ pub enum Precision {
     F32,
     /// Double precision: the reference path.
     F64,
+    /// Whichever of the two the scene needs ([`crate::precision::resolve`]): resolved once from
+    /// the description before a render, so a worker is sent `F32` or `F64`. Last, so the wire
+    /// encoding of the others stays the same.
+    Auto,
 }
 
 /// Which acceleration structure answers ray queries.

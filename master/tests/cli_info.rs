@@ -767,3 +767,13 @@ fn missing_file_exits_2_and_names_the_path() {
         "{err}"
     );
 }
+
+/// `info --json` says which precision `render --precision auto` would use and why.
+#[test]
+fn info_says_which_precision_auto_picks() {
+    let v = info_json(&nff_support::spd_dir().join("mount-4.nff"));
+    assert_eq!(v["precision"], "f32", "{v}");
+    let why = v["precision_reason"].as_str().unwrap_or_default();
+    assert!(why.contains("origin (0, 0, 0)"), "{why}");
+    assert!(v["precision_s"].is_f64());
+}

@@ -77,6 +77,10 @@ fn renders_png_and_writes_stats_json_and_tile_costs() {
         assert!(v[key].is_f64(), "{key} missing: {v}");
     }
     assert_eq!(v["eye_rays"], 48 * 32);
+    // auto is the default, and says what it chose and why.
+    assert_eq!(v["precision"], "f32", "{v}");
+    let why = v["precision_reason"].as_str().unwrap_or_default();
+    assert!(why.starts_with("auto: f32 resolves it"), "{why}");
     // Mount's glass spheres refract.
     assert!(v["refraction_rays"].as_u64().unwrap() > 0);
     let csv = std::fs::read_to_string(&costs).unwrap();
@@ -177,6 +181,34 @@ fn bad_usage_exits_2_with_a_reason() {
         );
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
+}
+
+#[test]
+fn precision_flag_forces_one_and_stats_say_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.png");
+    let o = parrt(&[
+        "render",
+        &spd("mount-4.nff"),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--precision",
+        "f64",
+        "--stats",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("precision"))
+        .unwrap_or_else(|| panic!("no precision line in --stats: {text}"));
+    assert!(line.contains("f64 (forced; f32 resolves it"), "{line}");
+    let bad = parrt(&["render", &spd("mount-4.nff"), "--precision", "f16"]);
+    assert_eq!(bad.status.code(), Some(2));
 }
 
 #[test]

@@ -24,6 +24,8 @@ pub mod mount;
 pub mod rings;
 pub mod shells;
 pub mod sombrero;
+/// Not an SPD scene, so not in [`generators`]: the precision study's sliver soup.
+pub mod soup;
 pub mod teapot;
 pub mod teapot_data;
 pub mod tetra;
@@ -128,6 +130,7 @@ const GENERATORS: &[(GeneratorInfo, GenFn)] = &[
         },
         sombrero::generate,
     ),
+
     (
         GeneratorInfo {
             name: "teapot",

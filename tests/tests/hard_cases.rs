@@ -2,6 +2,12 @@
 //! origin and tiny ones, grazing light on huge planes, nested glass, axis-parallel rays,
 //! degenerate input, self-intersection of spawned rays (pbrt's Reintersect tests) and concave
 //! polygons. Every test asserts on pixels or hits; images are small so the suite stays fast.
+//!
+//! The scene-level cases run on every [`PLACEMENTS`] copy of their scene — as written, moved by
+//! 1e7 (mixed signs), scaled by 1e-6 and by 1e6 — in f32 (wherever auto picks it), f64 and auto:
+//! the camera-relative frame ([`parrt::frame`]) must let no leak, acne or speckle in anywhere. (The
+//! input checks and the spawned-ray tests work on primitives, not scenes: the latter already
+//! span six orders of magnitude of scale and offsets of 100× it.)
 
 use parrt::accel::Accel;
 use parrt::camera::Camera;
@@ -76,21 +82,83 @@ fn render(desc: &SceneDescription, s: &RenderSettings) -> (Film, RayStats) {
     (res.film, res.stats)
 }
 
+/// Where a hard case is placed: x ↦ s·x + t.
+#[derive(Clone, Copy, Debug)]
+struct Placement {
+    name: &'static str,
+    s: f64,
+    t: Vec3d,
+}
+
+/// As written, moved far in a mixed direction, tiny and huge.
+const PLACEMENTS: [Placement; 4] = [
+    Placement {
+        name: "as written",
+        s: 1.0,
+        t: V3::new(0.0, 0.0, 0.0),
+    },
+    Placement {
+        name: "moved 1e7",
+        s: 1.0,
+        t: V3::new(1e7, -1e7, 3e6),
+    },
+    Placement {
+        name: "scaled 1e-6",
+        s: 1e-6,
+        t: V3::new(0.0, 0.0, 0.0),
+    },
+    Placement {
+        name: "scaled 1e6",
+        s: 1e6,
+        t: V3::new(0.0, 0.0, 0.0),
+    },
+];
+
+impl Placement {
+    fn point(&self, p: Vec3d) -> Vec3d {
+        p * self.s + self.t
+    }
+
+    fn scene(&self, d: &SceneDescription) -> SceneDescription {
+        transform(d, self.s, self.t)
+    }
+}
+
+/// Every precision a rendered hard case runs in: f32, f64 and auto — except f32 where auto finds
+/// the scene outside what f32 resolves (a 2e4 ground scaled by 1e6 squares past f32's range):
+/// there auto's choice of f64 is the answer, and forcing f32 is the user's risk.
+fn precisions(desc: &SceneDescription) -> Vec<Precision> {
+    let auto = parrt::precision::resolve(Precision::Auto, desc).precision;
+    let mut all = vec![Precision::F64, Precision::Auto];
+    if auto == Precision::F32 {
+        all.insert(0, Precision::F32);
+    }
+    all
+}
+
+/// Whether auto picks f32 for `desc` (the Direct cases then test f32 as well as f64).
+fn f32_resolves(desc: &SceneDescription) -> bool {
+    parrt::precision::resolve(Precision::Auto, desc).precision == Precision::F32
+}
+
 fn settings(size: u32, precision: Precision) -> RenderSettings {
     let mut s = RenderSettings::new(size, size);
     s.precision = precision;
     s
 }
 
-/// An integrator and camera built directly, to see radiance before the film cleans it.
+/// An integrator and camera built directly, to see radiance before the film cleans it, in the
+/// scene's own frame as the renderer builds it.
 struct Direct<R> {
     integ: Integrator<R>,
     cam: Camera<R>,
+    origin: Vec3d,
 }
 
 impl<R: Real> Direct<R> {
     fn new(desc: &SceneDescription, accel: AccelKind, size: u32) -> Self {
-        let scene = Scene::<R>::build(desc).expect("scene builds");
+        let origin = parrt::frame::origin(desc);
+        let scene = Scene::<R>::build_in(desc, origin).expect("scene builds");
         let accel = Accel::build(accel, &scene.all_bounds(), 3.0);
         Direct {
             integ: Integrator {
@@ -103,7 +171,8 @@ impl<R: Real> Direct<R> {
                     two_sided: false,
                 },
             },
-            cam: Camera::new(&desc.view, size, size),
+            cam: Camera::in_frame(&desc.view, size, size, origin),
+            origin,
         }
     }
 
@@ -126,9 +195,10 @@ impl<R: Real> Direct<R> {
         out
     }
 
+    /// The closest hit of the ray from world point `o` along `d`.
     fn hit(&self, o: Vec3d, d: Vec3d) -> Option<(u32, f64)> {
         let ray = Ray {
-            o: V3::from_f64(o),
+            o: V3::from_f64(o - self.origin),
             d: V3::from_f64(d),
             t_min: R::ZERO,
             t_max: R::INFINITY,
@@ -151,39 +221,9 @@ fn spd_dir() -> PathBuf {
         .unwrap_or_else(|| panic!("no shared/spd above {}", start.display()))
 }
 
-/// Applies `x ↦ s·x + t` to every position of a scene (camera, lights, primitives; radii and
-/// hither scale by `s`; directions and normals are unchanged).
+/// Applies `x ↦ s·x + t` to every position of a scene ([`SceneDescription::transformed`]).
 fn transform(desc: &SceneDescription, s: f64, t: Vec3d) -> SceneDescription {
-    let p = |x: Vec3d| x * s + t;
-    let mut d = desc.clone();
-    d.view.from = p(d.view.from);
-    d.view.at = p(d.view.at);
-    d.view.hither *= s;
-    for l in &mut d.lights {
-        l.position = p(l.position);
-    }
-    for pr in &mut d.primitives {
-        match &mut pr.shape {
-            Shape::Sphere { center, radius } => {
-                *center = p(*center);
-                *radius *= s;
-            }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
-                *base = p(*base);
-                *apex = p(*apex);
-                *base_radius *= s;
-                *apex_radius *= s;
-            }
-            Shape::Polygon(vs) => vs.iter_mut().for_each(|x| *x = p(*x)),
-            Shape::Patch(vs) => vs.iter_mut().for_each(|x| x.position = p(x.position)),
-        }
-    }
-    d
+    desc.transformed(s, t)
 }
 
 /// Per-pixel differences of two films on the linear values clamped to [0, 1]: (mean absolute
@@ -254,7 +294,7 @@ fn jittered_mesh_has_no_leaks() {
         }
     }
     for (from, angle) in [(v(0.0, 0.0, 4.0), 60.0), (v(0.3, -1.0, 2.5), 40.0)] {
-        let desc = SceneDescription {
+        let written = SceneDescription {
             background: v(1.0, 0.0, 0.0),
             view: view(from, v(0.0, 0.5, 0.0), v(0.0, 1.0, 0.0), angle, 96),
             lights: vec![Light {
@@ -264,18 +304,25 @@ fn jittered_mesh_has_no_leaks() {
             materials: vec![mat([0.0, 1.0, 0.0], 0.8, 0.0, 0.0, 1.0)],
             primitives: prims.clone(),
         };
-        for precision in [Precision::F32, Precision::F64] {
-            for spd in [false, true] {
-                let mut s = settings(96, precision);
-                s.spd_standard = spd;
-                s.two_sided = true;
-                let (film, st) = render(&desc, &s);
-                assert_eq!(
-                    st.eye_hits, st.eye_rays,
-                    "{from:?} {precision:?} spd={spd}: eye rays leaked through the mesh"
-                );
-                let background = film.pixels.iter().filter(|p| p[0] > 0.5).count();
-                assert_eq!(background, 0, "{from:?} {precision:?}: background pixels");
+        for place in PLACEMENTS {
+            let desc = place.scene(&written);
+            let at = place.name;
+            for precision in precisions(&desc) {
+                for spd in [false, true] {
+                    let mut s = settings(96, precision);
+                    s.spd_standard = spd;
+                    s.two_sided = true;
+                    let (film, st) = render(&desc, &s);
+                    assert_eq!(
+                        st.eye_hits, st.eye_rays,
+                        "{from:?} {at} {precision:?} spd={spd}: eye rays leaked through the mesh"
+                    );
+                    let background = film.pixels.iter().filter(|p| p[0] > 0.5).count();
+                    assert_eq!(
+                        background, 0,
+                        "{from:?} {at} {precision:?}: background pixels"
+                    );
+                }
             }
         }
     }
@@ -311,31 +358,35 @@ fn many_triangles_meeting_at_a_vertex() {
         let primitives = (0..k)
             .map(|i| prim(tri(hub, rim(i), rim((i + 1) % k)), 0))
             .collect();
-        let desc = SceneDescription {
+        let written = SceneDescription {
             background: v(0.0, 0.0, 0.0),
             view: view(from, hub, e2, 30.0, 65),
             lights: vec![],
             materials: vec![mat([1.0, 1.0, 1.0], 1.0, 0.0, 0.0, 1.0)],
             primitives,
         };
-        for precision in [Precision::F32, Precision::F64] {
-            for accel in [AccelKind::Bvh, AccelKind::Grid, AccelKind::Brute] {
-                let mut s = settings(65, precision);
-                s.accel = accel;
-                let r = Renderer::new(&desc, &s).expect("builds");
-                let centre = 32.5;
-                assert!(
-                    r.probe(centre, centre).is_some(),
-                    "{hub:?} {precision:?} {accel:?}: ray through the shared vertex missed"
-                );
-                for i in 0..32 {
-                    let a = i as f64 / 32.0 * std::f64::consts::TAU;
-                    for eps in [1e-7, 1e-5, 1e-3] {
-                        let (x, y) = (centre + eps * a.cos(), centre + eps * a.sin());
-                        assert!(
-                            r.probe(x, y).is_some(),
-                            "{hub:?} {precision:?} {accel:?}: ray beside the vertex missed"
-                        );
+        for place in PLACEMENTS {
+            let desc = place.scene(&written);
+            let at = place.name;
+            for precision in precisions(&desc) {
+                for accel in [AccelKind::Bvh, AccelKind::Grid, AccelKind::Brute] {
+                    let mut s = settings(65, precision);
+                    s.accel = accel;
+                    let r = Renderer::new(&desc, &s).expect("builds");
+                    let centre = 32.5;
+                    assert!(
+                        r.probe(centre, centre).is_some(),
+                        "{hub:?} {at} {precision:?} {accel:?}: ray through the shared vertex missed"
+                    );
+                    for i in 0..32 {
+                        let a = i as f64 / 32.0 * std::f64::consts::TAU;
+                        for eps in [1e-7, 1e-5, 1e-3] {
+                            let (x, y) = (centre + eps * a.cos(), centre + eps * a.sin());
+                            assert!(
+                                r.probe(x, y).is_some(),
+                                "{hub:?} {at} {precision:?} {accel:?}: ray beside the vertex missed"
+                            );
+                        }
                     }
                 }
             }
@@ -352,18 +403,28 @@ fn mount4() -> SceneDescription {
     parrt::nff::parse_file(&path, &Default::default()).expect("mount-4 parses")
 }
 
-/// mount-4 moved by (1e5, 1e5, 1e5) and scaled by 1e-3 (and by 2⁻¹⁰) against the original, in
-/// f32 and f64, compared on the clamped linear film (mean absolute difference per channel, and
-/// share of pixels with a channel off by more than 1/255). Measured when written: scaled 1e-3,
-/// f32 mean 8e-9 and f64 0, no pixel off; moved 1e5, f64 mean 3e-12 and no pixel off, f32 mean
-/// 0.024 with 27% of pixels off. The tolerances below sit a little above those numbers.
+/// mount-4 moved by 1e5 and by 1e7 (mixed signs) and scaled by 2⁻¹⁰, 1e-3, 1e-6 and 1e6, in
+/// f32, f64 and auto, against the original in the same precision and against the original's
+/// f64 render, compared on the clamped linear film (mean absolute difference per channel, and
+/// share of pixels with a channel off by more than 1/255).
+///
+/// Before the camera-relative frame, f32 moved by 1e5 was off on 27% of pixels (mean 0.024): it
+/// resolved only 2⁻⁷ ≈ 0.0078 units there, a sixth of a facet. Now the scene, lights and eye
+/// are rebased in f64 before f32 sees them, so every far copy renders like the original.
 #[test]
 fn translated_and_scaled_scenes_render_like_the_original() {
     let base = mount4();
     let size = 96;
-    let shift = v(1e5, 1e5, 1e5);
-    let mut moved_mean = [0.0; 2];
-    for (k, precision) in [Precision::F32, Precision::F64].into_iter().enumerate() {
+    let (reference, _) = render(&base, &settings(size, Precision::F64));
+    let copies = [
+        ("moved 1e5", 1.0, v(1e5, 1e5, 1e5)),
+        ("moved 1e7", 1.0, v(1e7, -1e7, 3e6)),
+        ("moved -1e7", 1.0, v(-1e7, -1e7, -1e7)),
+        ("scaled 1e-3", 1e-3, v(0.0, 0.0, 0.0)),
+        ("scaled 1e-6", 1e-6, v(0.0, 0.0, 0.0)),
+        ("scaled 1e6", 1e6, v(0.0, 0.0, 0.0)),
+    ];
+    for precision in [Precision::F32, Precision::F64, Precision::Auto] {
         let s = settings(size, precision);
         let (orig, _) = render(&base, &s);
         // A power-of-two scale is exact in binary floating point: with no absolute epsilon
@@ -373,40 +434,25 @@ fn translated_and_scaled_scenes_render_like_the_original() {
             orig.pixels == pow2.pixels,
             "{precision:?}: scaling by 2^-10 changed the image"
         );
-        // 1e-3 is not a power of two: every coordinate rounds differently, by half an ulp,
-        // which moves hit points by far less than a pixel.
-        let (tiny, _) = render(&transform(&base, 1e-3, v(0.0, 0.0, 0.0)), &s);
-        let (mean, off) = compare(&orig, &tiny);
-        assert!(
-            mean < 1e-6 && off == 0.0,
-            "{precision:?} scaled 1e-3: mean {mean}, off {off}"
-        );
-        let (far, st) = render(&transform(&base, 1.0, shift), &s);
-        let (mean, off) = compare(&orig, &far);
-        moved_mean[k] = mean;
-        assert!(far.pixels.iter().all(|p| p.iter().all(|c| c.is_finite())));
-        match precision {
-            // f64 at 1e5 keeps 1e5·2⁻⁵³ ≈ 1e-11 absolute resolution: the same image.
-            Precision::F64 => assert!(
-                mean < 1e-9 && off == 0.0,
-                "f64 moved 1e5: mean {mean}, off {off}"
-            ),
-            // f32 at 1e5 resolves only 2⁻⁷ ≈ 0.0078 units: the eye, the vertices and every hit
-            // point snap to that lattice, about a sixth of a mount-4 facet, so silhouettes and
-            // shading move visibly. It is still the scene (hits, no NaN), but measurably worse.
-            Precision::F32 => {
-                assert!(
-                    mean < 0.04 && off < 0.4,
-                    "f32 moved 1e5: mean {mean}, off {off}"
-                );
-                assert!(st.eye_hits > 0);
-            }
+        for (name, scale, shift) in copies {
+            let (img, st) = render(&transform(&base, scale, shift), &s);
+            assert!(st.eye_hits > 0);
+            assert!(img.pixels.iter().all(|p| p.iter().all(|c| c.is_finite())));
+            let (mean, off) = compare(&orig, &img);
+            let (ref_mean, ref_off) = compare(&reference, &img);
+            // Measured: no pixel off either way; mean differences ≤ 1.7e-8 in f32 (each
+            // coordinate rounds once, relative to the eye, as in the original) and ≤ 1.5e-10 in
+            // f64.
+            assert!(
+                mean < 1e-6 && off == 0.0,
+                "{precision:?} {name}: mean {mean}, off {off} against the original"
+            );
+            assert!(
+                ref_mean < 1e-6 && ref_off == 0.0,
+                "{precision:?} {name}: mean {ref_mean}, off {ref_off} against the original in f64"
+            );
         }
     }
-    assert!(
-        moved_mean[0] > 1e6 * moved_mean[1],
-        "f32 far from the origin is measurably worse than f64: {moved_mean:?}"
-    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -427,8 +473,11 @@ fn huge_grazing_ground_has_no_shadow_acne() {
         center: v(0.0, 0.0, -1e4),
         radius: 1e4,
     };
-    for ground in [polygon, ball] {
-        let desc = SceneDescription {
+    for (ground, place) in [polygon, ball]
+        .into_iter()
+        .flat_map(|g| PLACEMENTS.map(|p| (g.clone(), p)))
+    {
+        let written = SceneDescription {
             background: v(0.0, 0.0, 1.0),
             view: view(
                 v(0.0, 0.0, 1.0),
@@ -444,10 +493,12 @@ fn huge_grazing_ground_has_no_shadow_acne() {
             materials: vec![mat([1.0, 1.0, 1.0], 0.9, 0.0, 0.0, 1.0)],
             primitives: vec![prim(ground.clone(), 0)],
         };
-        for precision in [Precision::F32, Precision::F64] {
+        let desc = place.scene(&written);
+        let at = place.name;
+        for precision in precisions(&desc) {
             let (film, st) = render(&desc, &settings(96, precision));
-            assert!(st.shadow_rays > 1000, "{ground:?}: the ground is lit");
-            assert_eq!(st.shadow_hits, 0, "{ground:?} {precision:?}: acne");
+            assert!(st.shadow_rays > 1000, "{ground:?} {at}: the ground is lit");
+            assert_eq!(st.shadow_hits, 0, "{ground:?} {at} {precision:?}: acne");
             // The lit ground is brighter than the ambient term everywhere.
             let ambient = 0.5 * 0.9;
             let dark = film
@@ -455,7 +506,10 @@ fn huge_grazing_ground_has_no_shadow_acne() {
                 .iter()
                 .filter(|p| p[2] < 0.99 && p[0] <= ambient as f32 + 1e-6)
                 .count();
-            assert_eq!(dark, 0, "{ground:?} {precision:?}: unlit ground pixels");
+            assert_eq!(
+                dark, 0,
+                "{ground:?} {at} {precision:?}: unlit ground pixels"
+            );
         }
     }
 }
@@ -538,8 +592,9 @@ fn nested_glass_and_camera_inside_glass() {
         (v(-1.5, 0.3, 0.2), v(1.0, 0.0, -1.0)),
         (v(0.3, 0.1, 0.15), v(0.0, 1.0, -1.0)),
     ];
-    for (from, at) in cases {
-        let desc = glass_scene(from, at);
+    for ((from, at), place) in cases.into_iter().flat_map(|c| PLACEMENTS.map(|p| (c, p))) {
+        let desc = place.scene(&glass_scene(from, at));
+        let from = (from, place.name);
         let size = 48;
         let check = |img: &[[f64; 3]], label: &str| {
             for (i, p) in img.iter().enumerate() {
@@ -566,10 +621,12 @@ fn nested_glass_and_camera_inside_glass() {
                 }
             }
         };
-        check(
-            &Direct::<f32>::new(&desc, AccelKind::Bvh, size as u32).radiance(size as u32),
-            "f32",
-        );
+        if f32_resolves(&desc) {
+            check(
+                &Direct::<f32>::new(&desc, AccelKind::Bvh, size as u32).radiance(size as u32),
+                "f32",
+            );
+        }
         check(
             &Direct::<f64>::new(&desc, AccelKind::Bvh, size as u32).radiance(size as u32),
             "f64",
@@ -641,8 +698,8 @@ fn axis_parallel_rays() {
         (v(1.0, -1.0, -6.0), v(0.0, 0.0, 1.0), Some(2.0)),
         // Along the shared diagonal of the two triangles.
         (v(0.5, 0.5, 3.0), v(0.0, 0.0, -1.0), Some(3.0)),
-        // Just outside the square.
-        (v(1.0000001, 0.0, 5.0), v(0.0, 0.0, -1.0), None),
+        // Just outside the square (two f32 ulps of 1, so that the scaled copies stay outside).
+        (v(1.0000002, 0.0, 5.0), v(0.0, 0.0, -1.0), None),
         // Sphere along ±x, and tangent along y (a grazing touch at x = 5, z = 1).
         (v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), Some(4.0)),
         (v(9.0, 0.0, 0.0), v(-1.0, 0.0, 0.0), Some(3.0)),
@@ -651,28 +708,38 @@ fn axis_parallel_rays() {
         (v(0.0, 5.0, 9.0), v(0.0, 0.0, -1.0), None),
         (v(0.0, -9.0, 0.0), v(0.0, 1.0, 0.0), Some(13.0)),
     ];
-    fn run<R: Real>(desc: &SceneDescription, cases: &[(Vec3d, Vec3d, Option<f64>)]) {
+    fn run<R: Real>(
+        desc: &SceneDescription,
+        place: Placement,
+        cases: &[(Vec3d, Vec3d, Option<f64>)],
+    ) {
+        let desc = place.scene(desc);
         for accel in [AccelKind::Bvh, AccelKind::Grid, AccelKind::Brute] {
-            let d = Direct::<R>::new(desc, accel, 8);
+            let d = Direct::<R>::new(&desc, accel, 8);
             for &(o, dir, want) in cases {
-                let got = d.hit(o, dir).map(|h| h.1);
-                match (got, want) {
+                let got = d.hit(place.point(o), dir).map(|h| h.1);
+                let at = place.name;
+                match (got, want.map(|w| w * place.s)) {
                     (Some(g), Some(w)) => assert!(
-                        (g - w).abs() < 1e-5 * w.max(1.0),
-                        "{} {accel:?} {o:?} {dir:?}: t = {g}, want {w}",
+                        (g - w).abs() < 1e-5 * w.max(place.s),
+                        "{} {at} {accel:?} {o:?} {dir:?}: t = {g}, want {w}",
                         R::NAME
                     ),
                     (None, None) => {}
                     _ => panic!(
-                        "{} {accel:?} {o:?} {dir:?}: {got:?}, want {want:?}",
+                        "{} {at} {accel:?} {o:?} {dir:?}: {got:?}, want {want:?}",
                         R::NAME
                     ),
                 }
             }
         }
     }
-    run::<f32>(&desc, cases);
-    run::<f64>(&desc, cases);
+    for place in PLACEMENTS {
+        if f32_resolves(&place.scene(&desc)) {
+            run::<f32>(&desc, place, cases);
+        }
+        run::<f64>(&desc, place, cases);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1035,31 +1102,38 @@ fn concave_gear_polygon_inside_and_outside() {
         // Through the NFF text as well: the parser's checks must accept the concave 144-gon.
         let text = parrt::nff::to_nff(&desc);
         let parsed = parrt::nff::parse(&text, "gear.nff", &Default::default()).expect("parses");
-        fn check<R: Real>(d: &SceneDescription, at: &dyn Fn(f64, f64) -> Vec3d, n: Vec3d) {
+        fn check<R: Real>(
+            d: &SceneDescription,
+            place: Placement,
+            at: &dyn Fn(f64, f64) -> Vec3d,
+            n: Vec3d,
+        ) {
+            let d = place.scene(d);
+            let name = format!("{} {}", R::NAME, place.name);
             for accel in [AccelKind::Bvh, AccelKind::Brute] {
-                let t = Direct::<R>::new(d, accel, 8);
+                let t = Direct::<R>::new(&d, accel, 8);
                 let probe = |r: f64, a_deg: f64| {
                     let a = a_deg.to_radians();
                     let p = at(r * a.cos(), r * a.sin());
-                    t.hit(p + n * 3.0, n * -1.0).is_some()
+                    t.hit(place.point(p + n * 3.0), n * -1.0).is_some()
                 };
                 for k in 0..36 {
                     let a0 = k as f64 * 10.0;
                     for r in [0.82, 0.9, 0.98] {
-                        assert!(
-                            probe(r, a0 + 2.5),
-                            "{}: tooth {k} at r = {r} missed",
-                            R::NAME
-                        );
-                        assert!(!probe(r, a0 + 7.5), "{}: notch {k} at r = {r} hit", R::NAME);
+                        assert!(probe(r, a0 + 2.5), "{}: tooth {k} at r = {r} missed", name);
+                        assert!(!probe(r, a0 + 7.5), "{}: notch {k} at r = {r} hit", name);
                     }
-                    assert!(probe(0.5, a0 + 7.5), "{}: hub missed", R::NAME);
-                    assert!(probe(0.0, 0.0), "{}: centre missed", R::NAME);
-                    assert!(!probe(1.02, a0 + 2.5), "{}: outside tooth {k} hit", R::NAME);
+                    assert!(probe(0.5, a0 + 7.5), "{}: hub missed", name);
+                    assert!(probe(0.0, 0.0), "{}: centre missed", name);
+                    assert!(!probe(1.02, a0 + 2.5), "{}: outside tooth {k} hit", name);
                 }
             }
         }
-        check::<f32>(&parsed, &at, n);
-        check::<f64>(&parsed, &at, n);
+        for place in PLACEMENTS {
+            if f32_resolves(&place.scene(&parsed)) {
+                check::<f32>(&parsed, place, &at, n);
+            }
+            check::<f64>(&parsed, place, &at, n);
+        }
     }
 }

@@ -45,6 +45,7 @@ impl Config {
         match self.precision {
             Precision::F32 => "f32",
             Precision::F64 => "f64",
+            Precision::Auto => "auto",
         }
     }
 

@@ -172,7 +172,7 @@ fn run_master(
     let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     let label = spec.label();
-    let settings = args.render.settings(desc.view.width, desc.view.height)?;
+    let settings = args.render.settings(&desc)?;
     args.limits
         .check_image(settings.width, settings.height, args.tile)?;
     parrt::render::validate_job(&desc, &settings)

@@ -7,6 +7,8 @@ use crate::exit::input_error;
 use clap::Args;
 use parrt::description::{Bounds, SceneDescription};
 use parrt::nff::{self, NffErrorKind, ParsedNff, Summary};
+use parrt::precision::Choice;
+use parrt::settings::Precision;
 use parrt::vec3::Vec3d;
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
@@ -27,7 +29,8 @@ With --json, the keys spheres, cones (radii differ), cylinders (equal radii), po
 patches (pp), lights, materials (f lines), width, height (integers) and bounds \
 ({\"min\":[x,y,z],\"max\":[x,y,z]}, null for a scene without primitives) are stable; \
 polygons_by_vertices, patches_by_vertices, primitives, default_material_inserted, camera, \
-background, file, bytes and parse_s are extra.")]
+background, file, bytes, parse_s, precision (what --precision auto would render with: f32 or \
+f64), precision_reason and precision_s (seconds the estimate took) are extra.")]
 pub struct InfoArgs {
     /// The NFF file to read (Eric Haines' Neutral File Format, as the SPD generators write it).
     #[arg(value_name = "SCENE.nff")]
@@ -55,13 +58,22 @@ pub fn run(args: InfoArgs) -> anyhow::Result<ExitCode> {
     })?;
     let parse_s = t0.elapsed().as_secs_f64();
     let summary = Summary::of(&parsed);
+    let t1 = Instant::now();
+    let choice = parrt::precision::resolve(Precision::Auto, &parsed.description);
+    let precision = (choice, t1.elapsed().as_secs_f64());
     let text = if args.json {
-        let mut s =
-            serde_json::to_string_pretty(&to_json(&name, bytes.len(), &parsed, &summary, parse_s))?;
+        let mut s = serde_json::to_string_pretty(&to_json(
+            &name,
+            bytes.len(),
+            &parsed,
+            &summary,
+            parse_s,
+            &precision,
+        ))?;
         s.push('\n');
         s
     } else {
-        human(&name, bytes.len(), &parsed, &summary, parse_s)
+        human(&name, bytes.len(), &parsed, &summary, parse_s, &precision)
     };
     std::io::stdout().lock().write_all(text.as_bytes())?;
     Ok(ExitCode::SUCCESS)
@@ -88,7 +100,14 @@ fn bounds_json(b: &Bounds) -> Value {
 }
 
 /// The `--json` object. The first keys are the DESIGN §10 contract: never rename them.
-fn to_json(file: &str, bytes: usize, parsed: &ParsedNff, s: &Summary, parse_s: f64) -> Value {
+fn to_json(
+    file: &str,
+    bytes: usize,
+    parsed: &ParsedNff,
+    s: &Summary,
+    parse_s: f64,
+    (choice, precision_s): &(Choice, f64),
+) -> Value {
     let d: &SceneDescription = &parsed.description;
     let v = &d.view;
     json!({
@@ -117,6 +136,9 @@ fn to_json(file: &str, bytes: usize, parsed: &ParsedNff, s: &Summary, parse_s: f
         "file": file,
         "bytes": bytes,
         "parse_s": parse_s,
+        "precision": parrt::precision::name(choice.precision),
+        "precision_reason": choice.reason,
+        "precision_s": precision_s,
     })
 }
 
@@ -132,7 +154,14 @@ fn groups(m: &BTreeMap<usize, usize>, prefix: &str) -> String {
 }
 
 /// The readable summary: one aligned `label  value` line per fact.
-fn human(file: &str, bytes: usize, parsed: &ParsedNff, s: &Summary, parse_s: f64) -> String {
+fn human(
+    file: &str,
+    bytes: usize,
+    parsed: &ParsedNff,
+    s: &Summary,
+    parse_s: f64,
+    (choice, precision_s): &(Choice, f64),
+) -> String {
     let d = &parsed.description;
     let v = &d.view;
     let mut rows: Vec<(&str, String)> = vec![
@@ -184,6 +213,15 @@ fn human(file: &str, bytes: usize, parsed: &ParsedNff, s: &Summary, parse_s: f64
         String::new()
     };
     rows.push(("parse time", format!("{:.3} ms{mbps}", parse_s * 1e3)));
+    rows.push((
+        "precision",
+        format!(
+            "{} ({}; estimated in {:.3} ms)",
+            parrt::precision::name(choice.precision),
+            choice.reason,
+            precision_s * 1e3
+        ),
+    ));
     let width = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
     let mut out = String::new();
     for (label, value) in rows {

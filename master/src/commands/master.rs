@@ -169,7 +169,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     }
     check_listen(&args.listen)?;
     let (desc, label) = load_scene(&args)?;
-    let settings = args.render.settings(desc.view.width, desc.view.height)?;
+    let settings = args.render.settings(&desc)?;
     args.limits
         .check_image(settings.width, settings.height, args.tile)?;
     parrt::render::validate_job(&desc, &settings)

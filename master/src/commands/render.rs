@@ -8,6 +8,8 @@ use crate::exit::input_error;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use parrt::description::SceneDescription;
+use parrt::precision::Choice;
 use parrt::render::Renderer;
 use parrt::settings::{AccelKind, Precision, RenderSettings};
 use parrt::smp::{render_smp_with, Executor, SmpOptions};
@@ -71,6 +73,9 @@ impl ExecutorArg {
 /// Precision choices.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum PrecisionArg {
+    /// Whichever the scene needs: f32 unless its extent over its smallest feature is too large
+    /// for f32 to resolve (see --stats).
+    Auto,
     /// Single precision (fast).
     F32,
     /// Double precision (reference).
@@ -109,18 +114,28 @@ pub struct RenderFlags {
     /// Uniform grid density: about cbrt(density × primitives) cells along the longest axis.
     #[arg(long, value_name = "X", default_value_t = parrt::settings::DEFAULT_GRID_DENSITY)]
     pub grid_density: f64,
-    /// Geometric precision: f32 (fast path) or f64 (reference path).
-    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    /// Geometric precision: auto (f32 when it resolves the scene, else f64), f32 (fast path)
+    /// or f64 (reference path).
+    #[arg(long, value_enum, default_value_t = PrecisionArg::Auto)]
     pub precision: PrecisionArg,
 }
 
 impl RenderFlags {
-    /// The render settings for a scene whose file asks for `file_w × file_h`.
-    pub fn settings(&self, file_w: u32, file_h: u32) -> anyhow::Result<RenderSettings> {
+    /// The render settings for `desc`, with the precision resolved (auto decided once, here,
+    /// from the description, so every worker is sent the same `f32` or `f64`).
+    pub fn settings(&self, desc: &SceneDescription) -> anyhow::Result<RenderSettings> {
+        Ok(self.settings_and_precision(desc)?.0)
+    }
+
+    /// [`RenderFlags::settings`] and why the precision is what it is.
+    pub fn settings_and_precision(
+        &self,
+        desc: &SceneDescription,
+    ) -> anyhow::Result<(RenderSettings, Choice)> {
         let (dw, dh) = if self.spd_standard {
             (512, 512)
         } else {
-            (file_w, file_h)
+            (desc.view.width, desc.view.height)
         };
         let mut s = RenderSettings::new(self.width.unwrap_or(dw), self.height.unwrap_or(dh));
         s.max_depth = self.max_depth;
@@ -130,12 +145,15 @@ impl RenderFlags {
         s.two_sided = self.two_sided;
         s.accel = self.accel.kind();
         s.grid_density = self.grid_density;
-        s.precision = match self.precision {
+        let requested = match self.precision {
+            PrecisionArg::Auto => Precision::Auto,
             PrecisionArg::F32 => Precision::F32,
             PrecisionArg::F64 => Precision::F64,
         };
         parrt::render::validate_settings(&s).map_err(input_error)?;
-        Ok(s)
+        let choice = parrt::precision::resolve(requested, desc);
+        s.precision = choice.precision;
+        Ok((s, choice))
     }
 }
 
@@ -461,7 +479,7 @@ fn render_through_workers(
     spec: &SceneSpec,
     n: usize,
     live: Option<&crate::live::Live>,
-) -> anyhow::Result<(Outcome, f64, RenderSettings)> {
+) -> anyhow::Result<(Outcome, f64, RenderSettings, Choice)> {
     use crate::distributed::{render_distributed_prepared, DistError, DistOptions, JobCheck};
     /// A failure of the distributed render or of preparing its job.
     enum Failed {
@@ -478,9 +496,11 @@ fn render_through_workers(
     }
     // Loading the scene runs while the worker processes start.
     let parse_s = std::cell::Cell::new(0.0);
+    let choice = std::cell::RefCell::new(None);
     let prepare = || {
-        let (desc, settings, secs) = load_job(args, spec).map_err(Failed::Job)?;
+        let (desc, settings, why, secs) = load_job(args, spec).map_err(Failed::Job)?;
         parse_s.set(secs);
+        *choice.borrow_mut() = Some(why);
         if let Some(l) = live {
             l.state
                 .set_job(live_job(spec, &settings, args.tile, "distributed"));
@@ -584,7 +604,11 @@ fn render_through_workers(
             rec.timeline(&job, r.trace_s)
         }),
     };
-    Ok((outcome, parse_s.get(), settings))
+    let choice = choice.into_inner().unwrap_or_else(|| Choice {
+        precision: settings.precision,
+        reason: String::new(),
+    });
+    Ok((outcome, parse_s.get(), settings, choice))
 }
 
 /// The observers of a distributed render: the timeline's recorder and the live view, if asked.
@@ -603,16 +627,22 @@ pub fn watchers(
 }
 
 /// Loads the scene and the settings the flags make of it, checking the image's size: the
-/// description, the settings and the seconds spent parsing or generating.
+/// description, the settings, why their precision is what it is, and the seconds spent parsing
+/// or generating.
 fn load_job(
     args: &RenderArgs,
     spec: &SceneSpec,
-) -> anyhow::Result<(parrt::description::SceneDescription, RenderSettings, f64)> {
+) -> anyhow::Result<(
+    parrt::description::SceneDescription,
+    RenderSettings,
+    Choice,
+    f64,
+)> {
     let (desc, parse_s) = spec.load(&args.limits.limits())?;
-    let settings = args.render.settings(desc.view.width, desc.view.height)?;
+    let (settings, choice) = args.render.settings_and_precision(&desc)?;
     args.limits
         .check_image(settings.width, settings.height, args.tile)?;
-    Ok((desc, settings, parse_s))
+    Ok((desc, settings, choice, parse_s))
 }
 
 /// Runs `parrt render`.
@@ -645,17 +675,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
     }
     let live = crate::live::Live::start(&args.live, None)?;
-    let (out, parse_s, settings) = match args.workers {
+    let (out, parse_s, settings, choice) = match args.workers {
         Some(n) => render_through_workers(&args, &spec, n, live.as_ref())?,
         None => {
-            let (desc, settings, parse_s) = load_job(&args, &spec)?;
+            let (desc, settings, choice, parse_s) = load_job(&args, &spec)?;
             (
                 render_here(&args, &spec, desc, &settings, live.as_ref())?,
                 parse_s,
                 settings,
+                choice,
             )
         }
     };
+    let precision = parrt::precision::name(choice.precision);
     out.film
         .save(&args.output)
         .with_context(|| format!("rendering {}", spec.label()))?;
@@ -667,6 +699,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     };
     if args.stats {
         println!("scene             {}", spec.label());
+        println!("precision         {precision} ({})", choice.reason);
         for line in &out.describe {
             println!("{line}");
         }
@@ -686,6 +719,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
             "width": settings.width,
             "height": settings.height,
             "tile": args.tile,
+            "precision": precision,
+            "precision_reason": choice.reason,
         });
         if let (Some(e), serde_json::Value::Object(more)) = (extra.as_object_mut(), out.extra) {
             e.extend(more);
@@ -705,4 +740,39 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         l.end(true);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Flags {
+        #[command(flatten)]
+        render: RenderFlags,
+    }
+
+    fn settings(args: &[&str], desc: &SceneDescription) -> (RenderSettings, Choice) {
+        let flags = Flags::try_parse_from(std::iter::once("parrt").chain(args.iter().copied()))
+            .expect("flags parse");
+        flags.render.settings_and_precision(desc).expect("settings")
+    }
+
+    /// What a master sends its workers is never `Auto`: auto is resolved here, once.
+    #[test]
+    fn auto_is_the_default_and_is_resolved_before_a_job_leaves() {
+        let near = parrt_scenes::generate("tetra", Some(2)).expect("tetra");
+        let (s, why) = settings(&[], &near);
+        assert_eq!(s.precision, Precision::F32);
+        assert!(why.reason.starts_with("auto: "), "{}", why.reason);
+        // The eye 1e7 away from a small scene: f32 cannot resolve it.
+        let mut far = near.clone();
+        far.view.from = far.view.at + (far.view.from - far.view.at).normalize() * 1e7;
+        let (s, why) = settings(&[], &far);
+        assert_eq!(s.precision, Precision::F64, "{}", why.reason);
+        let (s, why) = settings(&["--precision", "f32"], &far);
+        assert_eq!(s.precision, Precision::F32);
+        assert!(why.reason.starts_with("forced; auto would pick f64"));
+    }
 }

@@ -5,6 +5,7 @@ pub mod accuracy;
 pub mod cast;
 pub mod cluster;
 pub mod efficiency;
+pub mod precision;
 pub mod render;
 pub mod simulate;
 
@@ -34,6 +35,9 @@ pub enum BenchCommand {
     Cluster(cluster::ClusterArgs),
     /// Speed against error: a reference render against a grid of configurations.
     Accuracy(accuracy::AccuracyArgs),
+    /// Scenes moved by 1e0…1e8 and scaled by 1e-6…1e6 in f32, f64 and auto against the
+    /// untransformed f64 render: pixels off, largest error, time.
+    Precision(precision::PrecisionArgs),
 }
 
 /// Runs `parrt bench`.
@@ -45,5 +49,6 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchCommand::Cluster(a) => cluster::run(a),
         BenchCommand::Efficiency(a) => efficiency::run(a),
         BenchCommand::Simulate(a) => simulate::run(a),
+        BenchCommand::Precision(a) => precision::run(a),
     }
 }

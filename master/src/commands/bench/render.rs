@@ -70,7 +70,7 @@ pub fn run(args: BenchRenderArgs) -> anyhow::Result<ExitCode> {
         let mut size = (0, 0);
         for _ in 0..args.repeat {
             let (desc, parse_s) = spec.load(&args.limits.limits())?;
-            let settings = args.render.settings(desc.view.width, desc.view.height)?;
+            let settings = args.render.settings(&desc)?;
             args.limits
                 .check_image(settings.width, settings.height, args.tile)?;
             size = (settings.width, settings.height);
