@@ -22,6 +22,7 @@ pub mod description;
 pub mod efficiency;
 pub mod film;
 pub mod geometry;
+pub mod heap;
 pub mod nff;
 pub mod packet_trace;
 pub mod protocol;

@@ -139,6 +139,78 @@ fn finite3(v: V3<f64>, what: &str) -> Result<(), SceneError> {
 impl<R: Real> Scene<R> {
     /// Builds the scene from a description.
     pub fn build(desc: &SceneDescription) -> Result<Self, SceneError> {
+        let mut scene = Self::without_primitives(desc)?;
+        for (index, p) in desc.primitives.iter().enumerate() {
+            scene.add_primitive(index, &p.shape, p.material)?;
+        }
+        scene.check_count()?;
+        Ok(scene)
+    }
+
+    /// Like [`Scene::build`], but consumes the description from its last primitive back, freeing
+    /// each one (and, every so often, the tail of the primitive array) as soon as it is turned
+    /// into the scene's: the f64 description and the scene then never both exist in full, which
+    /// halves the peak memory of a large scene. The scene is the same, in the same order; when
+    /// several primitives are bad, the error names the last of them rather than the first.
+    pub fn build_owned(desc: SceneDescription) -> Result<Self, SceneError> {
+        let mut scene = Self::without_primitives(&desc)?;
+        let mut prims = desc.primitives;
+        // Reserved, not touched: pages of the scene's arrays cost memory only once written.
+        scene.prims.reserve(prims.len());
+        scene.info.reserve(prims.len());
+        // Memory is handed back every 1/32 of the primitives: the peak is then the
+        // description plus a 32nd of the scene.
+        let step = (prims.len() / 32).max(4096);
+        let mut next = prims.len().saturating_sub(step);
+        while let Some(p) = prims.pop() {
+            scene.add_primitive(prims.len(), &p.shape, p.material)?;
+            drop(p);
+            if prims.len() == next {
+                prims.shrink_to_fit();
+                crate::heap::give_back_free_pages();
+                next = next.saturating_sub(step);
+            }
+        }
+        drop(prims);
+        crate::heap::give_back_free_pages();
+        scene.reverse_primitive_blocks();
+        scene.check_count()?;
+        Ok(scene)
+    }
+
+    /// Puts the primitives of a backward build ([`Scene::build_owned`]: the description's
+    /// primitives last to first, each one's triangles in order) in the forward order, and the
+    /// patch normals with them.
+    fn reverse_primitive_blocks(&mut self) {
+        self.prims.reverse();
+        self.info.reverse();
+        // Each description primitive's triangles are one run of equal `source`: put each run
+        // back in its own order.
+        let mut start = 0;
+        while start < self.info.len() {
+            let src = self.info[start].source;
+            let mut end = start + 1;
+            while end < self.info.len() && self.info[end].source == src {
+                end += 1;
+            }
+            self.prims[start..end].reverse();
+            self.info[start..end].reverse();
+            start = end;
+        }
+        if !self.normals.is_empty() {
+            let old = std::mem::take(&mut self.normals);
+            self.normals.reserve_exact(old.len());
+            for info in &mut self.info {
+                if info.normals != u32::MAX {
+                    self.normals.push(old[info.normals as usize]);
+                    info.normals = (self.normals.len() - 1) as u32;
+                }
+            }
+        }
+    }
+
+    /// The scene's lights, materials and background, with no primitives yet.
+    fn without_primitives(desc: &SceneDescription) -> Result<Self, SceneError> {
         let nl = desc.lights.len().max(1) as f64;
         let factor = nl.sqrt() / (2.0 * nl);
         let mut lights = Vec::with_capacity(desc.lights.len());
@@ -167,7 +239,7 @@ impl<R: Real> Scene<R> {
             });
         }
         finite3(desc.background, "background")?;
-        let mut scene = Scene {
+        Ok(Scene {
             prims: Vec::with_capacity(desc.primitives.len()),
             info: Vec::with_capacity(desc.primitives.len()),
             normals: Vec::new(),
@@ -175,22 +247,31 @@ impl<R: Real> Scene<R> {
             lights,
             ambient: R::from_f64(factor),
             background: V3::from_f64(desc.background),
-        };
-        for (index, p) in desc.primitives.iter().enumerate() {
-            if p.material as usize >= scene.materials.len() {
-                return Err(SceneError::BadMaterial {
-                    index,
-                    material: p.material,
-                    count: scene.materials.len(),
-                });
-            }
-            scene.add_shape(index, &p.shape, p.material)?;
+        })
+    }
+
+    fn add_primitive(
+        &mut self,
+        index: usize,
+        shape: &Shape,
+        material: u32,
+    ) -> Result<(), SceneError> {
+        if material as usize >= self.materials.len() {
+            return Err(SceneError::BadMaterial {
+                index,
+                material,
+                count: self.materials.len(),
+            });
         }
+        self.add_shape(index, shape, material)
+    }
+
+    fn check_count(&self) -> Result<(), SceneError> {
         // The BVH's leaf references hold 29 bits of position.
-        if scene.prims.len() > crate::accel::bvh::wide::MAX_LEAF_OFFSET as usize {
-            return Err(SceneError::TooMany(scene.prims.len()));
+        if self.prims.len() > crate::accel::bvh::wide::MAX_LEAF_OFFSET as usize {
+            return Err(SceneError::TooMany(self.prims.len()));
         }
-        Ok(scene)
+        Ok(())
     }
 
     fn push(&mut self, prim: Prim<R>, material: u32, normals: u32, inward: bool, source: usize) {
