@@ -27,6 +27,7 @@ pub mod efficiency;
 pub mod film;
 pub mod frame;
 pub mod geometry;
+pub mod heap;
 pub mod nff;
 pub mod packet_trace;
 pub mod precision;

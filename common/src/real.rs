@@ -76,23 +76,6 @@ pub trait Real:
     /// Tangent.
     fn tan(self) -> Self;
 
-    /// Four slab tests at once ([`crate::geometry::slab4`]): SSE for `f32` on x86-64, lane by
-    /// lane otherwise; both compute exactly what the scalar slab test computes.
-    fn slab4(
-        b: &crate::geometry::slab4::Box4,
-        r: &crate::geometry::slab4::SlabRay<Self>,
-        t_max: Self,
-    ) -> (u32, [Self; 4]);
-
-    /// One box against the sixteen rays of a packet ([`crate::geometry::slab16`]): SSE for
-    /// `f32` on x86-64, lane by lane otherwise; both compute what the scalar slab test computes.
-    fn enter16(
-        l: &crate::geometry::slab16::RayLanes<Self>,
-        lo: &[f32; 3],
-        hi: &[f32; 3],
-        reach: &[Self; crate::geometry::slab16::LANES],
-    ) -> u32;
-
     /// `gamma(n) = n·u / (1 − n·u)`, the bound on the relative error of `n` rounded operations.
     #[inline]
     fn gamma(n: u32) -> Self {
@@ -102,25 +85,8 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $name:literal, $slab4:path, $enter16:path) => {
+    ($t:ty, $name:literal) => {
         impl Real for $t {
-            #[inline(always)]
-            fn enter16(
-                l: &crate::geometry::slab16::RayLanes<Self>,
-                lo: &[f32; 3],
-                hi: &[f32; 3],
-                reach: &[Self; crate::geometry::slab16::LANES],
-            ) -> u32 {
-                $enter16(l, lo, hi, reach)
-            }
-            #[inline(always)]
-            fn slab4(
-                b: &crate::geometry::slab4::Box4,
-                r: &crate::geometry::slab4::SlabRay<Self>,
-                t_max: Self,
-            ) -> (u32, [Self; 4]) {
-                $slab4(b, r, t_max)
-            }
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const HALF: Self = 0.5;
@@ -195,18 +161,8 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(
-    f32,
-    "f32",
-    crate::geometry::slab4::slab4_f32,
-    crate::geometry::slab16::enter16_f32
-);
-impl_real!(
-    f64,
-    "f64",
-    crate::geometry::slab4::slab4_lanes::<f64>,
-    crate::geometry::slab16::enter16_lanes::<f64>
-);
+impl_real!(f32, "f32");
+impl_real!(f64, "f64");
 
 #[cfg(test)]
 mod tests {

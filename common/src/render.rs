@@ -138,14 +138,13 @@ fn prepare<R: Real>(
     Ok((scene, camera))
 }
 
-/// The second half: the accelerator over the scene (its primitive bounds are dropped once it is
-/// built).
+/// The second half: the accelerator over the scene (its primitive bounds are dropped as soon as
+/// the accelerator's build no longer needs them).
 fn finish<R: Real>(scene: Scene<R>, camera: Camera<R>, s: &RenderSettings) -> (Core<R>, BuildInfo) {
     let bounds = scene.all_bounds();
     let t0 = Instant::now();
-    let accel = Accel::build(s.accel, &bounds, s.grid_density);
+    let accel = Accel::build_owned(s.accel, bounds, s.grid_density);
     let accel_build_s = t0.elapsed().as_secs_f64();
-    drop(bounds);
     let info = BuildInfo {
         build_s: 0.0,
         primitives: scene.len(),
@@ -175,7 +174,7 @@ fn finish<R: Real>(scene: Scene<R>, camera: Camera<R>, s: &RenderSettings) -> (C
     )
 }
 
-/// A description, borrowed or owned (then dropped as soon as the scene is built).
+/// A description, borrowed or owned (then consumed while the scene is built).
 enum Desc<'a> {
     Borrowed(&'a SceneDescription),
     Owned(SceneDescription),
@@ -188,11 +187,12 @@ fn build_core<R: Real>(
     let (scene, camera) = match desc {
         Desc::Borrowed(d) => prepare::<R>(d, s)?,
         Desc::Owned(d) => {
-            let prepared = prepare::<R>(&d, s)?;
-            // The description (f64, a vector per polygon) is far larger than the scene: free
-            // it before the accelerator's memory is taken.
-            drop(d);
-            prepared
+            // The description (f64, a vector per polygon) is far larger than the scene: it is
+            // freed while the scene is built, before the accelerator's memory is taken.
+            // Built in the same frame as a borrowed description would be (crate::frame).
+            let origin = crate::frame::origin(&d);
+            let camera = Camera::in_frame(&d.view, s.width, s.height, origin);
+            (Scene::<R>::build_owned_in(d, origin)?, camera)
         }
     };
     Ok(finish(scene, camera, s))
@@ -326,9 +326,9 @@ impl Renderer {
         Self::build(Desc::Borrowed(desc), settings)
     }
 
-    /// Like [`Renderer::new`], but takes the description and drops it as soon as the scene is
-    /// built, before the accelerator: peak memory is then the larger of description plus scene
-    /// and scene plus accelerator, not all three.
+    /// Like [`Renderer::new`], but takes the description and frees it piece by piece while the
+    /// scene is built ([`Scene::build_owned`]), before the accelerator: peak memory is then about
+    /// the larger of the description and scene plus accelerator build, not their sum.
     pub fn from_description(
         desc: SceneDescription,
         settings: &RenderSettings,
@@ -376,8 +376,9 @@ impl Renderer {
         &self.info
     }
 
-    /// Traces eye rays (with one sample per pixel) and their shadow rays in 4 × 4 packets
-    /// ([`crate::packet_trace`]; the default), or each ray on its own. The pixels are the same
+    /// Traces eye rays (with one sample per pixel), their shadow rays and their coherent
+    /// reflection and refraction rays in 4 × 4 packets ([`crate::packet_trace`]; the default),
+    /// or each ray on its own. The pixels are the same
     /// bits either way; the box and primitive test counts differ.
     pub fn set_packets(&mut self, on: bool) {
         self.packets = on;

@@ -151,6 +151,84 @@ impl<R: Real> Scene<R> {
     /// [`crate::camera::Camera::in_frame`] of the same origin). Origin 0 is exactly
     /// [`Scene::build`].
     pub fn build_in(desc: &SceneDescription, origin: V3<f64>) -> Result<Self, SceneError> {
+        let mut scene = Self::without_primitives(desc, origin)?;
+        for (index, p) in desc.primitives.iter().enumerate() {
+            scene.add_primitive(index, &p.shape, p.material)?;
+        }
+        scene.check_count()?;
+        Ok(scene)
+    }
+
+    /// Like [`Scene::build`], but consumes the description from its last primitive back, freeing
+    /// each one (and, every so often, the tail of the primitive array) as soon as it is turned
+    /// into the scene's: the f64 description and the scene then never both exist in full, which
+    /// halves the peak memory of a large scene. The scene is the same, in the same order; when
+    /// several primitives are bad, the error names the last of them rather than the first.
+    pub fn build_owned(desc: SceneDescription) -> Result<Self, SceneError> {
+        Self::build_owned_in(desc, V3::zero())
+    }
+
+    /// [`Scene::build_owned`] relative to `origin`, as [`Scene::build_in`] is to [`Scene::build`].
+    pub fn build_owned_in(desc: SceneDescription, origin: V3<f64>) -> Result<Self, SceneError> {
+        let mut scene = Self::without_primitives(&desc, origin)?;
+        let mut prims = desc.primitives;
+        // Reserved, not touched: pages of the scene's arrays cost memory only once written.
+        scene.prims.reserve(prims.len());
+        scene.info.reserve(prims.len());
+        // Memory is handed back every 1/32 of the primitives: the peak is then the
+        // description plus a 32nd of the scene.
+        let step = (prims.len() / 32).max(4096);
+        let mut next = prims.len().saturating_sub(step);
+        while let Some(p) = prims.pop() {
+            scene.add_primitive(prims.len(), &p.shape, p.material)?;
+            drop(p);
+            if prims.len() == next {
+                prims.shrink_to_fit();
+                crate::heap::give_back_free_pages();
+                next = next.saturating_sub(step);
+            }
+        }
+        drop(prims);
+        crate::heap::give_back_free_pages();
+        scene.reverse_primitive_blocks();
+        scene.check_count()?;
+        Ok(scene)
+    }
+
+    /// Puts the primitives of a backward build ([`Scene::build_owned`]: the description's
+    /// primitives last to first, each one's triangles in order) in the forward order, and the
+    /// patch normals with them.
+    fn reverse_primitive_blocks(&mut self) {
+        self.prims.reverse();
+        self.info.reverse();
+        // Each description primitive's triangles are one run of equal `source`: put each run
+        // back in its own order.
+        let mut start = 0;
+        while start < self.info.len() {
+            let src = self.info[start].source;
+            let mut end = start + 1;
+            while end < self.info.len() && self.info[end].source == src {
+                end += 1;
+            }
+            self.prims[start..end].reverse();
+            self.info[start..end].reverse();
+            start = end;
+        }
+        if !self.normals.is_empty() {
+            let old = std::mem::take(&mut self.normals);
+            self.normals.reserve_exact(old.len());
+            for info in &mut self.info {
+                if info.normals != u32::MAX {
+                    self.normals.push(old[info.normals as usize]);
+                    info.normals = (self.normals.len() - 1) as u32;
+                }
+            }
+        }
+    }
+
+    /// The scene's lights, materials and background relative to `origin`, with no primitives
+    /// yet.
+    fn without_primitives(desc: &SceneDescription, origin: V3<f64>) -> Result<Self, SceneError> {
         if !origin.is_finite() {
             return Err(SceneError::NotFinite("frame origin".to_string()));
         }
@@ -182,7 +260,7 @@ impl<R: Real> Scene<R> {
             });
         }
         finite3(desc.background, "background")?;
-        let mut scene = Scene {
+        Ok(Scene {
             prims: Vec::with_capacity(desc.primitives.len()),
             info: Vec::with_capacity(desc.primitives.len()),
             normals: Vec::new(),
@@ -191,22 +269,31 @@ impl<R: Real> Scene<R> {
             ambient: R::from_f64(factor),
             background: V3::from_f64(desc.background),
             origin,
-        };
-        for (index, p) in desc.primitives.iter().enumerate() {
-            if p.material as usize >= scene.materials.len() {
-                return Err(SceneError::BadMaterial {
-                    index,
-                    material: p.material,
-                    count: scene.materials.len(),
-                });
-            }
-            scene.add_shape(index, &p.shape, p.material)?;
+        })
+    }
+
+    fn add_primitive(
+        &mut self,
+        index: usize,
+        shape: &Shape,
+        material: u32,
+    ) -> Result<(), SceneError> {
+        if material as usize >= self.materials.len() {
+            return Err(SceneError::BadMaterial {
+                index,
+                material,
+                count: self.materials.len(),
+            });
         }
+        self.add_shape(index, shape, material)
+    }
+
+    fn check_count(&self) -> Result<(), SceneError> {
         // The BVH's leaf references hold 29 bits of position.
-        if scene.prims.len() > crate::accel::bvh::wide::MAX_LEAF_OFFSET as usize {
-            return Err(SceneError::TooMany(scene.prims.len()));
+        if self.prims.len() > crate::accel::bvh::wide::MAX_LEAF_OFFSET as usize {
+            return Err(SceneError::TooMany(self.prims.len()));
         }
-        Ok(scene)
+        Ok(())
     }
 
     fn push(&mut self, prim: Prim<R>, material: u32, normals: u32, inward: bool, source: usize) {

@@ -35,6 +35,15 @@ pub struct Lit<R> {
     pub arrives_front: bool,
 }
 
+/// The secondary rays of a hit ([`Integrator::spawn`]), each with its weight.
+#[derive(Clone, Copy, Debug)]
+pub struct Spawned<R> {
+    /// Mirror reflection (also total internal reflection).
+    pub reflection: Option<(Ray<R>, R)>,
+    /// Refraction.
+    pub refraction: Option<(Ray<R>, R)>,
+}
+
 /// Shading switches derived from the render settings.
 #[derive(Clone, Copy, Debug)]
 pub struct ShadeOptions<R> {
@@ -169,14 +178,38 @@ impl<R: Real> Integrator<R> {
         depth: u32,
         weight: R,
         stats: &mut RayStats,
+        occluded: O,
+    ) -> V3<R>
+    where
+        O: FnMut(usize, &Ray<R>, &mut RayStats) -> bool,
+    {
+        let mut color = self.direct(ray, lit, stats, occluded);
+        let spawned = self.spawn(ray, lit, depth, weight);
+        if let Some((refl, w)) = spawned.reflection {
+            let c = self.trace(&refl, depth + 1, weight * w, RayKind::Reflection, stats);
+            color += c * w;
+        }
+        if let Some((refr, w)) = spawned.refraction {
+            let c = self.trace(&refr, depth + 1, weight * w, RayKind::Refraction, stats);
+            color += c * w;
+        }
+        color
+    }
+
+    /// The light a lit hit sends back along `ray` directly: ambient, and diffuse and highlight
+    /// from every light whose shadow ray `occluded` says is free.
+    pub fn direct<O>(
+        &self,
+        ray: &Ray<R>,
+        lit: &Lit<R>,
+        stats: &mut RayStats,
         mut occluded: O,
     ) -> V3<R>
     where
         O: FnMut(usize, &Ray<R>, &mut RayStats) -> bool,
     {
-        let (s, m, ns, arrives_front) = (&lit.s, lit.m, lit.ns, lit.arrives_front);
-        let d = ray.d;
-        let view = -d;
+        let (s, m, ns) = (&lit.s, lit.m, lit.ns);
+        let view = -ray.d;
         let mut color = m.color * (self.scene.ambient * m.kd);
         for (li, light) in self.scene.lights.iter().enumerate() {
             let Some((shadow, n_dot_l_raw, dist)) = self.shadow_ray(lit, li) else {
@@ -199,10 +232,21 @@ impl<R: Real> Integrator<R> {
             }
             color += c.mul_elem(light.intensity);
         }
+        color
+    }
 
+    /// The reflection and refraction rays a lit hit at `depth` spawns, each with the weight its
+    /// radiance is added with (none past the depth limit, or below the cut-off).
+    pub fn spawn(&self, ray: &Ray<R>, lit: &Lit<R>, depth: u32, weight: R) -> Spawned<R> {
+        let mut out = Spawned {
+            reflection: None,
+            refraction: None,
+        };
         if depth >= self.opts.max_depth {
-            return color;
+            return out;
         }
+        let (s, m, arrives_front) = (&lit.s, lit.m, lit.arrives_front);
+        let d = ray.d;
         let cutoff = self.opts.cutoff;
         let wants = |w: R| -> bool {
             if self.opts.spd {
@@ -243,14 +287,7 @@ impl<R: Real> Integrator<R> {
                 t_min: R::ZERO,
                 t_max: R::INFINITY,
             };
-            let c = self.trace(
-                &refl,
-                depth + 1,
-                weight * refl_w,
-                RayKind::Reflection,
-                stats,
-            );
-            color += c * refl_w;
+            out.reflection = Some((refl, refl_w));
         }
         if transmits && !tir && wants(m.t) {
             let cos_t = (R::ONE - sin2_t).sqrt();
@@ -262,9 +299,8 @@ impl<R: Real> Integrator<R> {
                 t_min: R::ZERO,
                 t_max: R::INFINITY,
             };
-            let c = self.trace(&refr, depth + 1, weight * m.t, RayKind::Refraction, stats);
-            color += c * m.t;
+            out.refraction = Some((refr, m.t));
         }
-        color
+        out
     }
 }

@@ -328,3 +328,148 @@ fn renders_are_the_same_bits_with_and_without_packets() {
     }
     renders_match("balls-3", Precision::F64, 30, 30);
 }
+
+/// The integrator `parrt render` builds for `desc` at `w`×`h` (BVH, default settings but
+/// `max_depth`), with its camera.
+fn integrator<R: Real>(
+    desc: &SceneDescription,
+    w: u32,
+    h: u32,
+    max_depth: u32,
+) -> (parrt::shade::Integrator<R>, Camera<R>) {
+    let s = RenderSettings::new(w, h);
+    let scene = parrt::scene::Scene::<R>::build(desc).expect("scene builds");
+    let accel = Accel::build(s.accel, &scene.all_bounds(), DEFAULT_GRID_DENSITY);
+    let opts = parrt::shade::ShadeOptions {
+        max_depth,
+        cutoff: R::from_f64(s.cutoff),
+        spd: false,
+        two_sided: false,
+    };
+    (
+        parrt::shade::Integrator { scene, accel, opts },
+        Camera::new(&desc.view, w, h),
+    )
+}
+
+/// Secondary rays in packets: the reflection and refraction rays of each 4×4 block's eye hits,
+/// traced together with `trace_packet`, get the colour `trace` gives each alone, bit for bit;
+/// returns how many of those packets were coherent enough to go through the packet code.
+fn secondary_packets_match<R: Real>(name: &str, w: u32, h: u32, max_depth: u32) -> usize {
+    use parrt::packet_trace::directions_close;
+    use parrt::shade::RayKind;
+    let desc = load(name);
+    let (integ, camera) = integrator::<R>(&desc, w, h, max_depth);
+    let Accel::Bvh(bvh) = &integ.accel else {
+        panic!("BVH expected");
+    };
+    let mut stats = RayStats::default();
+    let mut blocked = Vec::new();
+    let mut coherent = 0;
+    for by in (0..h).step_by(4) {
+        for bx in (0..w).step_by(4) {
+            let mut next = Vec::new();
+            let mut kinds = Vec::new();
+            for y in by..(by + 4).min(h) {
+                for x in bx..(bx + 4).min(w) {
+                    let eye = camera.ray(R::from_f64(x as f64 + 0.5), R::from_f64(y as f64 + 0.5));
+                    let Some(hit) = integ.intersect(&eye, &mut stats) else {
+                        continue;
+                    };
+                    let lit = integ.lit(&eye, &hit);
+                    let sp = integ.spawn(&eye, &lit, 1, R::ONE);
+                    if let Some(r) = sp.reflection {
+                        next.push(r);
+                        kinds.push(RayKind::Reflection);
+                    }
+                    if let Some(r) = sp.refraction {
+                        next.push(r);
+                        kinds.push(RayKind::Refraction);
+                    }
+                }
+            }
+            for kind in [RayKind::Reflection, RayKind::Refraction] {
+                let group: Vec<(Ray<R>, R)> = next
+                    .iter()
+                    .zip(&kinds)
+                    .filter(|(_, k)| **k == kind)
+                    .map(|(r, _)| *r)
+                    .collect();
+                if group.is_empty() {
+                    continue;
+                }
+                let rays: Vec<Ray<R>> = group.iter().map(|(r, _)| *r).collect();
+                let weights: Vec<R> = group.iter().map(|(_, w)| *w).collect();
+                let prs: Vec<PreparedRay<R>> = rays.iter().map(|r| PreparedRay::new(*r)).collect();
+                if rays.len() > 1 && directions_close(&rays) && bvh.takes_as_packet(&prs) {
+                    coherent += 1;
+                }
+                let mut got = vec![V3::zero(); rays.len()];
+                integ.trace_packet(&rays, 2, &weights, kind, &mut got, &mut blocked, &mut stats);
+                for (i, r) in rays.iter().enumerate() {
+                    let want = integ.trace(r, 2, weights[i], kind, &mut stats);
+                    let bits = |c: V3<R>| [c.x, c.y, c.z].map(|v| v.to_f64().to_bits());
+                    assert_eq!(
+                        bits(got[i]),
+                        bits(want),
+                        "{name}: {kind:?} ray {i} of block ({bx}, {by}) differs in a packet"
+                    );
+                }
+            }
+        }
+    }
+    coherent
+}
+
+#[test]
+fn secondary_ray_packets_give_every_ray_its_single_ray_colour() {
+    // gears: a mirror floor and glass gears; teapot: a mirror floor and a curved teapot; balls:
+    // mirror spheres (incoherent); mount: glass spheres; rings: mirror cylinders.
+    let mut coherent = 0;
+    for name in ["gears-1", "teapot-2", "balls-3", "mount-4", "rings-2"] {
+        coherent += secondary_packets_match::<f32>(name, 64, 64, 5);
+    }
+    // Deeper than PACKET_DEPTH, where the packets hand over to single rays.
+    coherent += secondary_packets_match::<f32>("gears-1", 32, 32, 12);
+    coherent += secondary_packets_match::<f64>("teapot-2", 32, 32, 5);
+    assert!(
+        coherent > 50,
+        "only {coherent} secondary packets went through the packet code"
+    );
+}
+
+#[test]
+fn deep_renders_are_the_same_bits_with_and_without_secondary_packets() {
+    // Mirror floors at a depth limit beyond PACKET_DEPTH, so reflections bounce in packets, then
+    // one by one.
+    for name in ["gears-1", "teapot-2", "rings-2"] {
+        let desc = load(name);
+        let mut s = RenderSettings::new(64, 48);
+        s.max_depth = 12;
+        let mut single = Renderer::new(&desc, &s).expect("scene builds");
+        single.set_packets(false);
+        let opts = SmpOptions {
+            threads: 1,
+            tile: 16,
+            executor: Executor::Queue,
+        };
+        let want = render_smp(&single, &opts, &|_, _| {});
+        let mut packed = Renderer::new(&desc, &s).expect("scene builds");
+        packed.set_packets(true);
+        let got = render_smp(&packed, &opts, &|_, _| {});
+        assert_same_bits(&got.film, &want.film, &format!("{name} at depth 12"));
+        assert_eq!(
+            (
+                got.stats.reflection_rays,
+                got.stats.refraction_rays,
+                got.stats.shadow_rays
+            ),
+            (
+                want.stats.reflection_rays,
+                want.stats.refraction_rays,
+                want.stats.shadow_rays
+            ),
+            "{name}: ray counts"
+        );
+    }
+}

@@ -78,6 +78,15 @@ impl Accel {
         }
     }
 
+    /// Like [`Accel::build`], but takes the bounds and frees them as early as the structure
+    /// allows (the BVH: once its build records are made), for a lower peak memory.
+    pub fn build_owned(kind: AccelKind, bounds: Vec<Aabb>, grid_density: f64) -> Accel {
+        match kind {
+            AccelKind::Bvh => Accel::Bvh(Bvh::build_owned(bounds)),
+            _ => Accel::build(kind, &bounds, grid_density),
+        }
+    }
+
     /// Build statistics.
     pub fn stats(&self) -> AccelStats {
         match self {

@@ -8,6 +8,7 @@ pub mod hit;
 pub mod ray;
 pub mod slab16;
 pub mod slab4;
+pub mod slab_dispatch;
 pub mod sphere;
 pub mod triangle;
 pub mod triangulate;

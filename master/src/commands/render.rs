@@ -181,8 +181,8 @@ pub struct RenderArgs {
     /// Print ray statistics and timings after the render.
     #[arg(long)]
     pub stats: bool,
-    /// Trace every eye ray on its own instead of in 4×4 packets with their shadow rays. The
-    /// image is the same bits; the box and primitive test counts of --stats are then per single
+    /// Trace every ray on its own instead of in 4×4 packets (eye rays, their shadow rays and
+    /// coherent reflections and refractions). The image is the same bits; the box and primitive test counts of --stats are then per single
     /// ray (what `bench/bvh_quality.sh` compares).
     #[arg(long)]
     pub no_packets: bool,

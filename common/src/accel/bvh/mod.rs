@@ -42,6 +42,11 @@ impl Bvh {
         Bvh::from_binary(build::build_binary(bounds))
     }
 
+    /// Like [`Bvh::build`], but frees the bounds early (a lower peak, the same tree).
+    pub fn build_owned(bounds: Vec<Aabb>) -> Bvh {
+        Bvh::from_binary(build::build_binary_owned(bounds))
+    }
+
     /// Builds the Goldsmith–Salmon hierarchy ([`goldsmith`]), the comparator for the SAH build.
     pub fn build_goldsmith_salmon(bounds: &[Aabb]) -> Bvh {
         Bvh::from_binary(goldsmith::build_goldsmith_salmon(bounds))

@@ -19,6 +19,7 @@ use super::wide::{is_leaf, leaf_range, ChildRef};
 use super::Bvh;
 use crate::geometry::slab16::RayLanes;
 use crate::geometry::slab4::Box4;
+use crate::geometry::slab_dispatch;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
@@ -237,7 +238,7 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += n as u64;
-                let mut enter = R::enter16(&lanes, &lo, &hi, &reach_ray) & all;
+                let mut enter = slab_dispatch::enter16(&lanes, &lo, &hi, &reach_ray) & all;
                 let mut improved = false;
                 while enter != 0 {
                     let i = enter.trailing_zeros() as usize;
@@ -328,7 +329,7 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += u64::from((all & !done).count_ones());
-                let mut open = R::enter16(&lanes, &lo, &hi, &reach) & all & !done;
+                let mut open = slab_dispatch::enter16(&lanes, &lo, &hi, &reach) & all & !done;
                 while open != 0 {
                     let i = open.trailing_zeros() as usize;
                     open &= open - 1;

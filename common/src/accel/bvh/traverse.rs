@@ -10,6 +10,7 @@ use super::build::STACK_SIZE;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
 use crate::geometry::slab4::SlabRay;
+use crate::geometry::slab_dispatch;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
@@ -127,7 +128,7 @@ impl Bvh {
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
-                let (mask, t) = R::slab4(&n.bounds, &sr, best.t + slack);
+                let (mask, t) = slab_dispatch::slab4(&n.bounds, &sr, best.t + slack);
                 // Empty lanes are never entered; the mask makes that independent of the ray.
                 let mask = mask & n.lanes();
                 if mask != 0 {
@@ -195,7 +196,7 @@ impl Bvh {
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
-                let (mask, t) = R::slab4(&n.bounds, &sr, reach);
+                let (mask, t) = slab_dispatch::slab4(&n.bounds, &sr, reach);
                 let mut mask = mask & n.lanes();
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
