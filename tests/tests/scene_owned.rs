@@ -67,3 +67,41 @@ fn owned_build_refuses_bad_primitives() {
         }
     ));
 }
+
+// `parrt render` builds through `Renderer::from_description` (the owned build); a scene far
+// from the origin must get the camera-relative frame there too (issue 17), the image the
+// borrowed build gives — and in f32 the untransformed scene's image, which world coordinates
+// at 1e7 would not give.
+#[test]
+fn the_owned_build_renders_far_scenes_in_the_camera_relative_frame() {
+    use parrt::render::Renderer;
+    use parrt::settings::{Precision, RenderSettings};
+    use parrt::smp::{render_smp, Executor, SmpOptions};
+    let near = parrt_scenes::generate("mount", Some(2)).expect("generate");
+    let far = near.transformed(1.0, parrt::vec3::Vec3d::new(1e7, -1e7, 3e6));
+    let mut s = RenderSettings::new(48, 48);
+    s.precision = Precision::F32;
+    let opts = SmpOptions {
+        threads: 1,
+        tile: 16,
+        executor: Executor::Queue,
+    };
+    let image = |r: &Renderer| render_smp(r, &opts, &|_, _| {}).film.to_rgb8();
+    let owned = image(&Renderer::from_description(far.clone(), &s).expect("owned"));
+    let borrowed = image(&Renderer::new(&far, &s).expect("borrowed"));
+    assert!(
+        owned == borrowed,
+        "owned and borrowed builds differ far from the origin"
+    );
+    let untransformed = image(&Renderer::new(&near, &s).expect("near"));
+    let off = owned
+        .iter()
+        .zip(&untransformed)
+        .filter(|(a, b)| a.abs_diff(**b) > 1)
+        .count();
+    assert!(
+        off * 1000 <= owned.len(),
+        "{off} of {} bytes off against the untransformed render",
+        owned.len()
+    );
+}
