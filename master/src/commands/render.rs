@@ -418,12 +418,7 @@ fn render_here(
     }
     let timeline = args.timeline.as_ref().map(|_| {
         let label = spec.label();
-        let job = crate::timeline::Job {
-            scene: &label,
-            width: settings.width,
-            height: settings.height,
-            tile_size: args.tile,
-        };
+        let job = timeline_job(&label, settings, args.tile);
         crate::timeline::Timeline::from_smp(&job, threads, &result.tile_spans, result.trace_s)
     });
     pb.finish_and_clear();
@@ -471,6 +466,20 @@ fn render_here(
         }),
         timeline,
     })
+}
+
+/// What a timeline says of the job it records: scene, image and tile size.
+fn timeline_job<'a>(
+    label: &'a str,
+    settings: &RenderSettings,
+    tile: u32,
+) -> crate::timeline::Job<'a> {
+    crate::timeline::Job {
+        scene: label,
+        width: settings.width,
+        height: settings.height,
+        tile_size: tile,
+    }
 }
 
 /// Renders through `n` local worker processes started from this executable.
@@ -595,13 +604,7 @@ fn render_through_workers(
         }),
         timeline: recorder.map(|rec| {
             let label = spec.label();
-            let job = crate::timeline::Job {
-                scene: &label,
-                width: settings.width,
-                height: settings.height,
-                tile_size: args.tile,
-            };
-            rec.timeline(&job, r.trace_s)
+            rec.timeline(&timeline_job(&label, &settings, args.tile), r.trace_s)
         }),
     };
     let choice = choice.into_inner().unwrap_or_else(|| Choice {
