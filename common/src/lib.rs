@@ -20,6 +20,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod batch;
 pub mod camera;
 pub mod cast;
 pub mod description;

@@ -1,6 +1,8 @@
 //! A discrete-event model of the master/worker schedule (DESIGN §8, §9): measured per-tile costs,
-//! workers × threads, a window of tiles in flight per worker, one-way latency, link bandwidth,
-//! the master's per-result work and the scene transfer. It predicts the makespan and efficiency
+//! workers × threads, a window of assignments in flight per worker, each a batch of tiles sized
+//! by the master's own rule ([`crate::batch::batch_size`]) and answered in one message when its
+//! last tile is done, one-way latency, link bandwidth, the master's per-result work and the
+//! scene transfer. It predicts the makespan and efficiency
 //! of configurations larger than this machine, and says where the time goes.
 
 use std::cmp::Ordering;
@@ -13,8 +15,11 @@ pub struct SimParams {
     pub workers: usize,
     /// Render threads per worker.
     pub threads: usize,
-    /// Tiles in flight per worker (assigned but not yet returned).
+    /// Assignments in flight per worker (sent but not yet answered).
     pub window: usize,
+    /// Most tiles in one assignment (1: every tile alone); the size of each is
+    /// [`crate::batch::batch_size`] of the queue, the threads and the mean cost seen so far.
+    pub max_batch: usize,
     /// One-way network latency, seconds.
     pub latency_s: f64,
     /// Bandwidth of each worker's link, bytes per second (infinity: no limit).
@@ -24,8 +29,9 @@ pub struct SimParams {
     pub master_link_bps: f64,
     /// Master CPU time per result (decode, copy into the film, assign the next tile), seconds.
     pub master_per_tile_s: f64,
-    /// CPU each result needs on a host that every node shares (an emulated cluster on one
-    /// machine: the workers' and the relay's share of sending a result), seconds; 0 for a real
+    /// CPU each tile needs on a host that every node shares (an emulated cluster on one
+    /// machine: the workers' and the relay's share of carrying its assignment and its result),
+    /// seconds; half is spent as the assignment crosses, half as the result does. 0 for a real
     /// cluster, where each node has its own CPU.
     pub host_per_tile_s: f64,
     /// Cores of that shared host; a result waits for a free one.
@@ -47,6 +53,7 @@ impl SimParams {
             workers,
             threads,
             window: threads,
+            max_batch: 1,
             latency_s: 0.0,
             bandwidth_bps: f64::INFINITY,
             master_link_bps: f64::INFINITY,
@@ -84,12 +91,16 @@ pub struct SimResult {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
-    /// An assignment reaches a worker.
-    Assign { worker: usize, tile: usize },
-    /// A thread of a worker finishes a tile.
-    Done { worker: usize, tile: usize },
-    /// A result reaches the master.
-    Result { worker: usize },
+    /// An assignment (a batch) reaches a worker.
+    Assign { worker: usize, batch: usize },
+    /// A thread of a worker finishes a tile of a batch.
+    Done {
+        worker: usize,
+        tile: usize,
+        batch: usize,
+    },
+    /// A batch's results reach the master.
+    Result { worker: usize, batch: usize },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -123,7 +134,14 @@ struct Sim<'a> {
     pixels: &'a [u64],
     heap: BinaryHeap<Event>,
     seq: u64,
-    queue: Vec<VecDeque<usize>>,
+    /// Every batch handed out: its tiles and how many are not done yet.
+    batches: Vec<(Vec<usize>, usize)>,
+    /// Tiles each worker holds (assigned, not yet answered).
+    held: Vec<usize>,
+    /// Tiles not yet handed out (the next is `next`), and the costs seen by the master.
+    next: usize,
+    seen: (f64, usize),
+    queue: Vec<VecDeque<(usize, usize)>>,
     idle: Vec<usize>,
     link_free: Vec<f64>,
     master_link_free: f64,
@@ -154,12 +172,71 @@ impl Sim<'_> {
     /// Starts queued tiles on idle threads of `worker`.
     fn start(&mut self, worker: usize, now: f64) {
         while self.idle[worker] > 0 {
-            let Some(tile) = self.queue[worker].pop_front() else {
+            let Some((tile, batch)) = self.queue[worker].pop_front() else {
                 break;
             };
             self.idle[worker] -= 1;
-            self.push(now + self.costs[tile], Kind::Done { worker, tile });
+            self.push(
+                now + self.costs[tile],
+                Kind::Done {
+                    worker,
+                    tile,
+                    batch,
+                },
+            );
         }
+    }
+
+    /// When a message that reaches the shared host at `at` and needs `cpu` seconds of it is
+    /// through: the earliest free core takes it (no host, or no CPU: at once).
+    fn host(&mut self, at: f64, cpu: f64) -> f64 {
+        if cpu <= 0.0 {
+            return at;
+        }
+        let (core, free) = self
+            .host_free
+            .iter()
+            .copied()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((0, 0.0));
+        let done = free.max(at) + cpu;
+        if let Some(c) = self.host_free.get_mut(core) {
+            *c = done;
+        }
+        done
+    }
+
+    /// Hands `worker` batches while its window has room, as the master's `fill` does: a
+    /// batch goes whole or, when the worker holds nothing, as much of it as fits. Each
+    /// reaches the worker at `at`; returns how many messages went.
+    fn fill(&mut self, worker: usize, at: f64) -> usize {
+        let p = self.p;
+        let mut sent = 0;
+        while self.next < self.costs.len() {
+            let mean = (self.seen.1 > 0).then(|| self.seen.0 / self.seen.1 as f64);
+            let size = crate::batch::batch_size(
+                p.max_batch,
+                self.costs.len() - self.next,
+                p.workers.max(1) * p.threads.max(1),
+                mean,
+            );
+            let free = (p.window.max(1) * size).saturating_sub(self.held[worker]);
+            if free == 0 || (free < size && self.held[worker] > 0) {
+                break;
+            }
+            let take = size.min(free).min(self.costs.len() - self.next);
+            let tiles: Vec<usize> = (self.next..self.next + take).collect();
+            self.next += take;
+            self.held[worker] += take;
+            self.batches.push((tiles, take));
+            self.bytes += p.message_bytes;
+            let batch = self.batches.len() - 1;
+            let arrive = self.host(at, 0.5 * p.host_per_tile_s * take as f64);
+            self.push(arrive, Kind::Assign { worker, batch });
+            sent += 1;
+        }
+        sent
     }
 }
 
@@ -167,7 +244,6 @@ impl Sim<'_> {
 pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
     let workers = p.workers.max(1);
     let threads = p.threads.max(1);
-    let window = p.window.max(1);
     let n = workers * threads;
     let work: f64 = costs.iter().sum();
     let mut sim = Sim {
@@ -176,6 +252,10 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         pixels,
         heap: BinaryHeap::new(),
         seq: 0,
+        batches: Vec::new(),
+        held: vec![0; workers],
+        next: 0,
+        seen: (0.0, 0),
         queue: vec![VecDeque::new(); workers],
         idle: vec![threads; workers],
         link_free: vec![0.0; workers],
@@ -185,7 +265,6 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         first_idle: f64::INFINITY,
         tail_idle: 0.0,
     };
-    let mut next = 0usize;
     let mut startup: f64 = 0.0;
     // The job and the first window of assignments go out at time 0.
     for w in 0..workers {
@@ -193,20 +272,7 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         sim.bytes += job;
         let ready = p.latency_s + sim.transfer(job) + p.build_s;
         startup = startup.max(ready);
-        for _ in 0..window {
-            if next >= costs.len() {
-                break;
-            }
-            sim.bytes += p.message_bytes;
-            sim.push(
-                ready,
-                Kind::Assign {
-                    worker: w,
-                    tile: next,
-                },
-            );
-            next += 1;
-        }
+        sim.fill(w, ready);
     }
     let mut master_free = 0.0f64;
     let mut master_busy = 0.0f64;
@@ -215,54 +281,55 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
     while let Some(ev) = sim.heap.pop() {
         let now = ev.time;
         match ev.kind {
-            Kind::Assign { worker, tile } => {
-                sim.queue[worker].push_back(tile);
+            Kind::Assign { worker, batch } => {
+                for i in 0..sim.batches[batch].0.len() {
+                    let tile = sim.batches[batch].0[i];
+                    sim.queue[worker].push_back((tile, batch));
+                }
                 sim.start(worker, now);
             }
-            Kind::Done { worker, tile } => {
-                let bytes = p.message_bytes + p.result_bytes_per_pixel * sim.pixels[tile] as f64;
-                sim.bytes += bytes;
-                let sent = sim.link_free[worker].max(now) + sim.transfer(bytes);
-                sim.link_free[worker] = sent;
-                let sent = if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
-                    sim.master_link_free.max(sent) + bytes / p.master_link_bps
-                } else {
-                    sent
-                };
-                sim.master_link_free = sent;
-                let sent = if p.host_per_tile_s > 0.0 {
-                    // The earliest free core of the shared host handles this result.
-                    let (core, free) = sim
-                        .host_free
-                        .iter()
-                        .copied()
-                        .enumerate()
-                        .min_by(|a, b| a.1.total_cmp(&b.1))
-                        .unwrap_or((0, 0.0));
-                    let done = free.max(sent) + p.host_per_tile_s;
-                    sim.host_free[core] = done;
-                    done
-                } else {
-                    sent
-                };
-                sim.push(sent + p.latency_s, Kind::Result { worker });
+            Kind::Done {
+                worker,
+                tile: _,
+                batch,
+            } => {
                 sim.idle[worker] += 1;
                 sim.start(worker, now);
-                if sim.idle[worker] > 0 && next >= costs.len() {
+                sim.batches[batch].1 -= 1;
+                if sim.batches[batch].1 == 0 {
+                    // The batch's last tile: its results go back in one message.
+                    let tiles = &sim.batches[batch].0;
+                    let px: u64 = tiles.iter().map(|&t| sim.pixels[t]).sum();
+                    let count = tiles.len() as f64;
+                    let bytes = p.message_bytes + p.result_bytes_per_pixel * px as f64;
+                    sim.bytes += bytes;
+                    let sent = sim.link_free[worker].max(now) + sim.transfer(bytes);
+                    sim.link_free[worker] = sent;
+                    let sent = if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
+                        sim.master_link_free.max(sent) + bytes / p.master_link_bps
+                    } else {
+                        sent
+                    };
+                    sim.master_link_free = sent;
+                    let sent = sim.host(sent, 0.5 * p.host_per_tile_s * count);
+                    sim.push(sent + p.latency_s, Kind::Result { worker, batch });
+                }
+                if sim.idle[worker] > 0 && sim.next >= costs.len() {
                     sim.first_idle = sim.first_idle.min(now);
                 }
             }
-            Kind::Result { worker } => {
-                master_free = master_free.max(now) + p.master_per_tile_s;
-                master_busy += p.master_per_tile_s;
-                done += 1;
+            Kind::Result { worker, batch } => {
+                let tiles = std::mem::take(&mut sim.batches[batch].0);
+                let per = p.master_per_tile_s * tiles.len() as f64;
+                master_free = master_free.max(now) + per;
+                master_busy += per;
+                done += tiles.len();
+                sim.held[worker] -= tiles.len();
+                sim.seen.0 += tiles.iter().map(|&t| costs[t]).sum::<f64>();
+                sim.seen.1 += tiles.len();
                 makespan = makespan.max(master_free);
-                if next < costs.len() {
-                    sim.bytes += p.message_bytes;
-                    let arrive = master_free + p.latency_s + sim.transfer(p.message_bytes);
-                    sim.push(arrive, Kind::Assign { worker, tile: next });
-                    next += 1;
-                }
+                let arrive = master_free + p.latency_s + sim.transfer(p.message_bytes);
+                sim.fill(worker, arrive);
             }
         }
     }
@@ -361,12 +428,44 @@ mod tests {
 
     #[test]
     fn a_shared_host_bounds_throughput_by_its_cores() {
-        // 400 results each needing 10 ms of a 2-core host: at least 2 s, however many workers.
+        // 400 tiles each needing 10 ms of a 2-core host (half for the assignment, half for
+        // the result): at least 2 s, however many workers.
         let mut p = SimParams::ideal(100, 1);
         p.host_per_tile_s = 0.01;
         p.host_cores = 2;
         let r = simulate(&vec![0.001; 400], &vec![1; 400], &p);
-        assert!(r.makespan >= 2.0, "{}", r.makespan);
+        assert!(r.makespan >= 2.0 - 1e-9, "{}", r.makespan);
         assert!(r.makespan < 2.1, "{}", r.makespan);
+    }
+
+    /// Batches follow the master's rule: single tiles until a cost is seen, then cheap tiles
+    /// go in batches (fewer messages), and a batch's results come back together.
+    #[test]
+    fn cheap_tiles_go_in_batches_and_come_back_together() {
+        let costs = vec![1e-5; 512];
+        let px = vec![16u64; 512];
+        let mut p = SimParams::ideal(2, 1);
+        p.window = 2;
+        p.message_bytes = 10.0;
+        p.result_bytes_per_pixel = 0.0;
+        let single = simulate(&costs, &px, &p);
+        p.max_batch = 8;
+        let batched = simulate(&costs, &px, &p);
+        // Messages: an assignment and a result per batch, plus the job per worker.
+        assert_eq!(single.bytes, 10.0 * (2.0 + 2.0 * 512.0));
+        assert!(batched.bytes < single.bytes / 4.0, "{}", batched.bytes);
+        assert!((batched.work - single.work).abs() < 1e-12);
+        // One worker, one thread, one assignment at a time, 1 s latency each way: 41 tiles go
+        // as batches of 1 (no cost seen yet), 8, 8, 6, 4, 3, 2, 2 and seven of 1 (a quarter of
+        // the queue, at most 8): 15 round trips, each a batch's tiles back in one message.
+        let mut p = SimParams::ideal(1, 1);
+        p.window = 1;
+        p.max_batch = 8;
+        p.latency_s = 1.0;
+        p.message_bytes = 10.0;
+        p.result_bytes_per_pixel = 0.0;
+        let r = simulate(&[1e-5; 41], &[1; 41], &p);
+        assert_eq!(r.bytes, 10.0 * (1.0 + 2.0 * 15.0));
+        assert!((r.makespan - (30.0 + 41e-5)).abs() < 1e-9, "{}", r.makespan);
     }
 }

@@ -26,8 +26,7 @@ use tokio::sync::mpsc::UnboundedSender;
 use tokio::time::Instant;
 use tracing::{debug, info, warn};
 
-/// The most work, in seconds at the mean tile cost, that one batch of tiles may hold.
-pub const BATCH_SECONDS: f64 = 0.05;
+pub use parrt::batch::BATCH_SECONDS;
 
 /// A worker's id, unique within one master run.
 pub type WorkerId = u64;
@@ -665,30 +664,17 @@ impl Scheduler {
         }
     }
 
-    /// Tiles per assignment message now: guided, as the SMP `guided` schedule shrinks its
-    /// runs — a quarter of the queued tiles' share per ready render thread, between 1 and
-    /// `max_batch` — and no more than [`BATCH_SECONDS`] of work at the mean tile cost seen so
-    /// far (single tiles until a result has been seen). Large batches of cheap tiles cut the
-    /// messages (and the wake-ups of master and worker) per tile; costly tiles, which amortise
-    /// a message anyway, go alone so a batch never nears the tile deadline; single tiles at
-    /// the tail keep the workers' finish even.
+    /// Tiles per assignment message now ([`parrt::batch::batch_size`]), from the queue, the
+    /// ready render threads and the mean tile cost seen so far.
     fn batch_size(&self) -> usize {
-        if self.opts.max_batch <= 1 || self.cost.1 == 0 {
-            return 1;
-        }
-        let mean = self.cost.0 / self.cost.1 as f64;
-        let by_cost = if mean > 0.0 {
-            (BATCH_SECONDS / mean).clamp(1.0, self.opts.max_batch as f64) as usize
-        } else {
-            self.opts.max_batch
-        };
         let threads: usize = self
             .workers
             .values()
             .filter(|w| w.ready_at.is_some())
             .map(|w| w.threads.max(1) as usize)
             .sum();
-        (self.queue.len() / (4 * threads.max(1))).clamp(1, by_cost)
+        let mean = (self.cost.1 > 0).then(|| self.cost.0 / self.cost.1 as f64);
+        parrt::batch::batch_size(self.opts.max_batch, self.queue.len(), threads, mean)
     }
 
     /// Hands out tiles to every ready worker with room in its window ([`Window::assignments`]
@@ -1230,7 +1216,7 @@ mod tests {
     /// tiles (a batch would hold more than `BATCH_SECONDS`) always go alone.
     #[tokio::test(start_paused = true)]
     async fn batches_are_guided_by_queue_and_cost_and_every_tile_lands_once() {
-        let sizes = batch_sizes(0.001);
+        let sizes = batch_sizes(BATCH_SECONDS / 20.0);
         assert_eq!(&sizes[..2], &[1, 1], "{sizes:?}");
         let top = sizes.iter().position(|&n| n == 8).expect("reaches 8");
         assert!(

@@ -393,6 +393,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                     ),
                     work / costs.len().max(1) as f64,
                 ),
+                max_batch: args.max_batch,
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: worker_bps,
                 master_link_bps: master_bps,
@@ -628,6 +629,8 @@ fn draw_timelines(
             };
             let tl = rec.timeline(&job, trace_s);
             let stem = format!("timeline-{workers}x{threads}");
+            // The data behind the plot, for whoever wants to look closer.
+            tl.write(&args.out.join(format!("{stem}.json")))?;
             md += &super::efficiency::draw_timeline(
                 &args.out,
                 &stem,

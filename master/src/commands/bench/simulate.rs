@@ -188,6 +188,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
                 workers: w,
                 threads: args.threads,
                 window: args.window.unwrap_or(2 * args.threads),
+                // Every tile alone: the model of tile size and window, without batches.
+                max_batch: 1,
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: args.bandwidth_mbps * 1e6 / 8.0,
                 master_link_bps: f64::INFINITY,

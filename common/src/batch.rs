@@ -1,0 +1,50 @@
+//! How many tiles go in one assignment message (issue 15, DESIGN §8): the master's scheduler
+//! and the schedule simulator both call [`batch_size`], so the model follows the rule the
+//! master runs.
+
+/// The most work, in seconds at the mean tile cost, that one batch of tiles may hold.
+pub const BATCH_SECONDS: f64 = 0.002;
+
+/// Tiles in the next assignment: guided, as the SMP `guided` schedule shrinks its runs — a
+/// quarter of the queued tiles' share per ready render thread, between 1 and `max_batch` — and
+/// no more than [`BATCH_SECONDS`] of work at `mean_cost`, the mean one-thread cost of the
+/// tiles seen so far (single tiles until one has been seen, `None`). Large batches of cheap
+/// tiles cut the messages (and the wake-ups of master and worker) per tile; costly tiles,
+/// which amortise a message anyway, go alone so a batch never nears the tile deadline; single
+/// tiles at the tail keep the workers' finish even.
+pub fn batch_size(
+    max_batch: usize,
+    queued: usize,
+    ready_threads: usize,
+    mean_cost: Option<f64>,
+) -> usize {
+    let Some(mean) = mean_cost else {
+        return 1;
+    };
+    if max_batch <= 1 {
+        return 1;
+    }
+    let by_cost = if mean > 0.0 {
+        (BATCH_SECONDS / mean).clamp(1.0, max_batch as f64) as usize
+    } else {
+        max_batch
+    };
+    (queued / (4 * ready_threads.max(1))).clamp(1, by_cost)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn single_tiles_until_a_cost_is_known_or_when_costly() {
+        assert_eq!(batch_size(8, 10_000, 2, None), 1);
+        assert_eq!(batch_size(1, 10_000, 2, Some(1e-6)), 1);
+        assert_eq!(batch_size(8, 10_000, 2, Some(1e-6)), 8);
+        assert_eq!(batch_size(8, 10_000, 2, Some(BATCH_SECONDS)), 1);
+        assert_eq!(batch_size(8, 10_000, 2, Some(BATCH_SECONDS / 3.0)), 3);
+        // Guided: the queue's share per thread shrinks the batch toward the tail.
+        assert_eq!(batch_size(8, 24, 2, Some(1e-6)), 3);
+        assert_eq!(batch_size(8, 3, 2, Some(1e-6)), 1);
+    }
+}
