@@ -142,7 +142,7 @@ impl SceneBuilder {
 
     /// Writes a polygon (counter-clockwise seen from the front).
     pub fn polygon(&mut self, vertices: Vec<Vec3d>) {
-        self.push(Shape::Polygon(vertices));
+        self.push(Shape::Polygon(vertices.into()));
     }
 
     /// Writes a polygonal patch (vertices with normals).
