@@ -199,7 +199,8 @@ mod tests {
     /// mostly full.
     #[test]
     fn collapse_keeps_every_primitive_and_nests_boxes() {
-        for n in [0usize, 1, 3, 4, 5, 17, 1000] {
+        // 20,000: many 4096-node steps of the freeing collapse.
+        for n in [0usize, 1, 3, 4, 5, 17, 1000, 20_000] {
             let b = boxes(n);
             let bin = build_binary(&b);
             let wide = collapse(bin.nodes.clone(), bin.order.len()).expect("collapses");
