@@ -3,6 +3,7 @@
 //! it, and [`crate::scene`] turns it into something to trace. It never holds derived data.
 
 use crate::vec3::Vec3d;
+pub use crate::vertices::Vertices;
 use serde::{Deserialize, Serialize};
 
 /// The `v` block: camera and image size.
@@ -95,7 +96,7 @@ pub enum Shape {
         apex_radius: f64,
     },
     /// `p`: a planar polygon, counter-clockwise seen from the front, possibly concave.
-    Polygon(Vec<Vec3d>),
+    Polygon(Vertices),
     /// `pp`: a polygon with a normal at each vertex.
     Patch(Vec<PatchVertex>),
 }

@@ -43,4 +43,5 @@ pub mod smp;
 pub mod stats;
 pub mod tile;
 pub mod vec3;
+pub mod vertices;
 pub mod window;

@@ -430,11 +430,14 @@ mod tests {
     }
 
     fn tri(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Shape {
-        Shape::Polygon(vec![
-            Vec3d::from_array(a),
-            Vec3d::from_array(b),
-            Vec3d::from_array(c),
-        ])
+        Shape::Polygon(
+            vec![
+                Vec3d::from_array(a),
+                Vec3d::from_array(b),
+                Vec3d::from_array(c),
+            ]
+            .into(),
+        )
     }
 
     #[test]

@@ -97,7 +97,7 @@ fn shape() -> impl Strategy<Value = Shape> {
         .prop_filter("non-zero Newell normal", |vs| {
             checks::polygon(vs.iter().copied()).is_ok()
         })
-        .prop_map(Shape::Polygon);
+        .prop_map(|vs| Shape::Polygon(vs.into()));
     let patch = prop::collection::vec((point(), color()), 3..7)
         .prop_filter("non-zero Newell normal", |vs| {
             checks::polygon(vs.iter().map(|v| v.0)).is_ok()

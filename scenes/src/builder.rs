@@ -7,8 +7,9 @@ use parrt::description::{Light, Material, PatchVertex, Primitive, SceneDescripti
 use parrt::vec3::Vec3d;
 
 /// The most primitives a generator may produce: 2^24 (16.7 million). A generated triangle costs
-/// about 170 bytes in a [`SceneDescription`] (a gear quad about 240 with its share of the 144-gon
-/// faces), so the largest allowed scene needs about 3–4 GB; the
+/// 88 bytes in a [`SceneDescription`] (its three vertices inline, see
+/// [`parrt::vertices::Vertices`]; a gear quad about 250 with its vertex block and its share of
+/// the 144-gon faces), so the largest allowed scene needs about 1.5–4 GB; the
 /// limit is a quarter of the NFF parser's default primitive limit, so every scene we generate can
 /// also be written out and read back with default limits. Sizes that would exceed it (mount 12,
 /// balls 8, tetra 13, ...) are refused with [`GenError::BadSize`] before anything is allocated.
@@ -142,7 +143,7 @@ impl SceneBuilder {
 
     /// Writes a polygon (counter-clockwise seen from the front).
     pub fn polygon(&mut self, vertices: Vec<Vec3d>) {
-        self.push(Shape::Polygon(vertices));
+        self.push(Shape::Polygon(vertices.into()));
     }
 
     /// Writes a polygonal patch (vertices with normals).

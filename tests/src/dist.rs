@@ -67,12 +67,15 @@ pub fn test_scene(width: u32, height: u32) -> SceneDescription {
         ],
         primitives: vec![
             Primitive {
-                shape: Shape::Polygon(vec![
-                    v(-5.0, -1.0, -5.0),
-                    v(-5.0, -1.0, 5.0),
-                    v(5.0, -1.0, 5.0),
-                    v(5.0, -1.0, -5.0),
-                ]),
+                shape: Shape::Polygon(
+                    vec![
+                        v(-5.0, -1.0, -5.0),
+                        v(-5.0, -1.0, 5.0),
+                        v(5.0, -1.0, 5.0),
+                        v(5.0, -1.0, -5.0),
+                    ]
+                    .into(),
+                ),
                 material: 0,
             },
             Primitive {

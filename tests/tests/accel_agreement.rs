@@ -341,19 +341,26 @@ fn triangle_soup(seed: u64) -> SceneDescription {
     let mut prims = Vec::new();
     for i in 0..n {
         for j in 0..n {
-            prims.push(Shape::Polygon(vec![p(i, j), p(i + 1, j), p(i + 1, j + 1)]));
-            prims.push(Shape::Polygon(vec![p(i, j), p(i + 1, j + 1), p(i, j + 1)]));
+            prims.push(Shape::Polygon(
+                vec![p(i, j), p(i + 1, j), p(i + 1, j + 1)].into(),
+            ));
+            prims.push(Shape::Polygon(
+                vec![p(i, j), p(i + 1, j + 1), p(i, j + 1)].into(),
+            ));
         }
     }
     let c = v(0.1, 0.2, 0.8);
     for k in 0..10 {
         let a0 = k as f64 / 10.0 * std::f64::consts::TAU;
         let a1 = (k + 1) as f64 / 10.0 * std::f64::consts::TAU;
-        prims.push(Shape::Polygon(vec![
-            c,
-            c + v(a0.cos(), a0.sin(), 0.2) * 0.5,
-            c + v(a1.cos(), a1.sin(), 0.2) * 0.5,
-        ]));
+        prims.push(Shape::Polygon(
+            vec![
+                c,
+                c + v(a0.cos(), a0.sin(), 0.2) * 0.5,
+                c + v(a1.cos(), a1.sin(), 0.2) * 0.5,
+            ]
+            .into(),
+        ));
     }
     for k in 0..20 {
         let dup = prims[rng.gen_range(0..prims.len())].clone();
@@ -440,18 +447,24 @@ fn cones(seed: u64) -> SceneDescription {
 fn huge_background(seed: u64) -> SceneDescription {
     let mut rng = StdRng::seed_from_u64(seed);
     let mut prims = vec![
-        Shape::Polygon(vec![
-            v(-1000.0, -1000.0, -0.5),
-            v(1000.0, -1000.0, -0.5),
-            v(1000.0, 1000.0, -0.5),
-            v(-1000.0, 1000.0, -0.5),
-        ]),
-        Shape::Polygon(vec![
-            v(-1000.0, 3.0, -0.5),
-            v(1000.0, 3.0, -0.5),
-            v(1000.0, 3.0, 500.0),
-            v(-1000.0, 3.0, 500.0),
-        ]),
+        Shape::Polygon(
+            vec![
+                v(-1000.0, -1000.0, -0.5),
+                v(1000.0, -1000.0, -0.5),
+                v(1000.0, 1000.0, -0.5),
+                v(-1000.0, 1000.0, -0.5),
+            ]
+            .into(),
+        ),
+        Shape::Polygon(
+            vec![
+                v(-1000.0, 3.0, -0.5),
+                v(1000.0, 3.0, -0.5),
+                v(1000.0, 3.0, 500.0),
+                v(-1000.0, 3.0, 500.0),
+            ]
+            .into(),
+        ),
     ];
     for _ in 0..100 {
         let c = v(
@@ -466,7 +479,7 @@ fn huge_background(seed: u64) -> SceneDescription {
         let a = c + unit_dir(&mut rng) * 0.2;
         let b = c + unit_dir(&mut rng) * 0.2;
         if (a - c).cross(b - c).length() > 1e-4 {
-            prims.push(Shape::Polygon(vec![c, a, b]));
+            prims.push(Shape::Polygon(vec![c, a, b].into()));
         }
     }
     describe(prims, v(2.0, -4.0, 1.5))

@@ -42,7 +42,7 @@ fn describe(primitives: Vec<Shape>) -> SceneDescription {
 }
 
 fn tri(a: Rv, b: Rv, c: Rv) -> Shape {
-    Shape::Polygon(vec![a, b, c])
+    Shape::Polygon(vec![a, b, c].into())
 }
 
 /// A scene whose box is exactly [-1, 1]³ (the unit sphere) with geometry around the point `o`:
@@ -404,13 +404,16 @@ fn flat_scene(with_bvh: bool) {
             p.push(tri(q(i, j), q(i + 1, j + 1), q(i, j + 1)));
         }
     }
-    p.push(Shape::Polygon(vec![
-        v(-0.5, -0.5, 0.0),
-        v(0.5, -0.5, 0.0),
-        v(0.0, 0.0, 0.0),
-        v(0.5, 0.5, 0.0),
-        v(-0.5, 0.5, 0.0),
-    ]));
+    p.push(Shape::Polygon(
+        vec![
+            v(-0.5, -0.5, 0.0),
+            v(0.5, -0.5, 0.0),
+            v(0.0, 0.0, 0.0),
+            v(0.5, 0.5, 0.0),
+            v(-0.5, 0.5, 0.0),
+        ]
+        .into(),
+    ));
     let desc = describe(p);
     let t = Trio::<f32>::new(&desc, 8.0);
     let g = grid_of(&t);

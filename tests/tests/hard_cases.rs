@@ -65,7 +65,7 @@ fn prim(shape: Shape, material: u32) -> Primitive {
 }
 
 fn tri(a: Vec3d, b: Vec3d, c: Vec3d) -> Shape {
-    Shape::Polygon(vec![a, b, c])
+    Shape::Polygon(vec![a, b, c].into())
 }
 
 fn render(desc: &SceneDescription, s: &RenderSettings) -> (Film, RayStats) {
@@ -463,12 +463,15 @@ fn translated_and_scaled_scenes_render_like_the_original() {
 /// angles. Nothing blocks the light, so every shadow ray blocked is self-intersection (acne).
 #[test]
 fn huge_grazing_ground_has_no_shadow_acne() {
-    let polygon = Shape::Polygon(vec![
-        v(-1e4, -1e4, 0.0),
-        v(1e4, -1e4, 0.0),
-        v(1e4, 1e4, 0.0),
-        v(-1e4, 1e4, 0.0),
-    ]);
+    let polygon = Shape::Polygon(
+        vec![
+            v(-1e4, -1e4, 0.0),
+            v(1e4, -1e4, 0.0),
+            v(1e4, 1e4, 0.0),
+            v(-1e4, 1e4, 0.0),
+        ]
+        .into(),
+    );
     let ball = Shape::Sphere {
         center: v(0.0, 0.0, -1e4),
         radius: 1e4,
@@ -548,12 +551,15 @@ fn glass_scene(from: Vec3d, at: Vec3d) -> SceneDescription {
             let (x, y) = (i as f64 * 2.0 - 8.0, j as f64 * 2.0 - 8.0);
             let m = ((i + j) % 2) as u32 * 4;
             prims.push(prim(
-                Shape::Polygon(vec![
-                    v(x, y, -3.0),
-                    v(x + 2.0, y, -3.0),
-                    v(x + 2.0, y + 2.0, -3.0),
-                    v(x, y + 2.0, -3.0),
-                ]),
+                Shape::Polygon(
+                    vec![
+                        v(x, y, -3.0),
+                        v(x + 2.0, y, -3.0),
+                        v(x + 2.0, y + 2.0, -3.0),
+                        v(x, y + 2.0, -3.0),
+                    ]
+                    .into(),
+                ),
                 m,
             ));
         }
@@ -644,12 +650,15 @@ fn nested_glass_and_camera_inside_glass() {
 #[test]
 fn axis_parallel_rays() {
     let square = |z: f64| {
-        Shape::Polygon(vec![
-            v(-1.0, -1.0, z),
-            v(1.0, -1.0, z),
-            v(1.0, 1.0, z),
-            v(-1.0, 1.0, z),
-        ])
+        Shape::Polygon(
+            vec![
+                v(-1.0, -1.0, z),
+                v(1.0, -1.0, z),
+                v(1.0, 1.0, z),
+                v(-1.0, 1.0, z),
+            ]
+            .into(),
+        )
     };
     let desc = SceneDescription {
         background: v(0.0, 0.0, 0.0),
@@ -795,7 +804,7 @@ fn degenerate_input_is_rejected_with_a_clear_message() {
             "zero area",
         ),
         (
-            Shape::Polygon(vec![v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0)]),
+            Shape::Polygon(vec![v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0)].into()),
             "fewer than 3",
         ),
         (

@@ -645,7 +645,7 @@ impl<'a> Parser<'a> {
             ));
         }
         self.plane(kw, "polygon", checks::polygon(vs.iter().copied()))?;
-        Ok(Shape::Polygon(vs))
+        Ok(Shape::Polygon(vs.into()))
     }
 
     fn patch(&mut self, kw: &Token) -> Result<Shape, NffError> {

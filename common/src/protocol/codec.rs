@@ -352,11 +352,14 @@ mod tests {
                     material: 0,
                 },
                 Primitive {
-                    shape: Shape::Polygon(vec![
-                        Vec3d::new(0.0, 0.0, 0.0),
-                        Vec3d::new(1.0, 0.0, 0.0),
-                        Vec3d::new(0.0, 1.0, 0.0),
-                    ]),
+                    shape: Shape::Polygon(
+                        vec![
+                            Vec3d::new(0.0, 0.0, 0.0),
+                            Vec3d::new(1.0, 0.0, 0.0),
+                            Vec3d::new(0.0, 1.0, 0.0),
+                        ]
+                        .into(),
+                    ),
                     material: 0,
                 },
             ],

@@ -180,50 +180,99 @@ pub fn build_binary(bounds: &[Aabb]) -> BinaryBvh {
     build_items(items_of(bounds))
 }
 
-/// Like [`build_binary`], but frees the bounds as soon as the build's own copy of them is made,
-/// before the tree's nodes take their memory: the same tree, a lower peak.
-pub fn build_binary_owned(bounds: Vec<Aabb>) -> BinaryBvh {
-    let items = items_of(&bounds);
+/// Like [`build_binary`], but frees the bounds while the build's own copy of them is made, and
+/// the items of each large subtree once it is built, so the bounds, the build records and the
+/// tree's nodes never all exist in full: the same tree, a lower peak.
+pub fn build_binary_owned(mut bounds: Vec<Aabb>) -> BinaryBvh {
+    // The records are made from the last box back, the boxes' array shrunk every 1/32, then put
+    // in order.
+    let n = bounds.len();
+    let mut items: Vec<Item> = Vec::with_capacity(n);
+    let step = (n / 32).max(4096);
+    let mut next = n.saturating_sub(step);
+    while let Some(b) = bounds.pop() {
+        items.push(Item::from_aabb(&b));
+        if bounds.len() == next {
+            bounds.shrink_to_fit();
+            crate::heap::give_back_free_pages();
+            next = next.saturating_sub(step);
+        }
+    }
     drop(bounds);
-    build_items(items)
+    crate::heap::give_back_free_pages();
+    items.reverse();
+    let (world, cworld) = extent(&items);
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    let mut b = Builder::new(n);
+    if n > 0 {
+        let owned = OwnedItems {
+            min_len: (n / 8).max(OWNED_MIN),
+        };
+        b.build_owned(owned, items, &mut order, 0, world, cworld, 0);
+    }
+    b.finish(order)
+}
+
+/// Subtrees with at least this many items (and at least 1/8 of all: three levels, so few items
+/// are copied) keep their items in their own allocation, freed as soon as the subtree is built.
+const OWNED_MIN: usize = 4096;
+
+/// How [`Builder::build_owned`] splits its work.
+#[derive(Clone, Copy)]
+struct OwnedItems {
+    /// Smaller subtrees are built in place ([`Builder::build`]).
+    min_len: usize,
+}
+
+/// The box of the items and the box of their centroids, in item order.
+fn extent(items: &[Item]) -> (Item, Item) {
+    let mut world = Item::EMPTY;
+    let mut cworld = Item::EMPTY;
+    for it in items {
+        world.grow(it);
+        cworld.grow_point(it.centroid());
+    }
+    (world, cworld)
 }
 
 /// The build records of the primitives, with the box of all of them and of their centroids.
 fn items_of(bounds: &[Aabb]) -> (Vec<Item>, Item, Item) {
-    let mut items: Vec<Item> = Vec::with_capacity(bounds.len());
-    let mut world = Item::EMPTY;
-    let mut cworld = Item::EMPTY;
-    for b in bounds {
-        let it = Item::from_aabb(b);
-        world.grow(&it);
-        cworld.grow_point(it.centroid());
-        items.push(it);
-    }
+    let items: Vec<Item> = bounds.iter().map(Item::from_aabb).collect();
+    let (world, cworld) = extent(&items);
     (items, world, cworld)
 }
 
 fn build_items((mut items, world, cworld): (Vec<Item>, Item, Item)) -> BinaryBvh {
     let n = items.len();
     let mut order: Vec<u32> = (0..n as u32).collect();
-    let mut b = Builder {
-        // A tree over n primitives has at most 2n - 1 nodes; pages never written cost nothing.
-        nodes: Vec::with_capacity((2 * n).saturating_sub(1)),
-        max_depth: 0,
-        scratch: Vec::new(),
-    };
+    let mut b = Builder::new(n);
     if n > 0 {
         b.build(&mut items, &mut order, 0, world, cworld, 0);
     }
     drop(items);
-    b.nodes.shrink_to_fit();
-    BinaryBvh {
-        nodes: b.nodes,
-        order,
-        max_depth: b.max_depth,
-    }
+    b.finish(order)
 }
 
 impl Builder {
+    fn new(n: usize) -> Builder {
+        Builder {
+            // A tree over n primitives has at most 2n - 1 nodes; pages never written cost
+            // nothing.
+            nodes: Vec::with_capacity((2 * n).saturating_sub(1)),
+            max_depth: 0,
+            scratch: Vec::new(),
+        }
+    }
+
+    fn finish(mut self, order: Vec<u32>) -> BinaryBvh {
+        self.nodes.shrink_to_fit();
+        BinaryBvh {
+            nodes: self.nodes,
+            order,
+            max_depth: self.max_depth,
+        }
+    }
+
     /// Builds the subtree over `items` and their primitive indices `index` (which start at
     /// `first` in the final order), with box `bounds` and centroid box `cbounds`; returns its
     /// node index.
@@ -236,6 +285,70 @@ impl Builder {
         cbounds: Item,
         depth: u32,
     ) -> u32 {
+        let (me, split) = self.open(items, index, first, &bounds, &cbounds, depth);
+        let Some(s) = split else {
+            return me;
+        };
+        let (li, ri) = items.split_at_mut(s.mid);
+        let (lx, rx) = index.split_at_mut(s.mid);
+        self.build(li, lx, first, s.left.0, s.left.1, depth + 1);
+        let second = self.build(ri, rx, first + s.mid, s.right.0, s.right.1, depth + 1);
+        self.close(me, second, s.axis);
+        me
+    }
+
+    /// [`Builder::build`] over items it owns: a large subtree moves its right part's items to
+    /// their own allocation and shrinks its own to the left part, so each part's items are
+    /// freed as soon as it is built. The same tree as [`Builder::build`].
+    #[allow(clippy::too_many_arguments)]
+    fn build_owned(
+        &mut self,
+        how: OwnedItems,
+        mut items: Vec<Item>,
+        index: &mut [u32],
+        first: usize,
+        bounds: Item,
+        cbounds: Item,
+        depth: u32,
+    ) -> u32 {
+        if items.len() < how.min_len {
+            return self.build(&mut items, index, first, bounds, cbounds, depth);
+        }
+        let (me, split) = self.open(&mut items, index, first, &bounds, &cbounds, depth);
+        let Some(s) = split else {
+            return me;
+        };
+        let right = items.split_off(s.mid);
+        items.shrink_to_fit();
+        crate::heap::give_back_free_pages();
+        let (lx, rx) = index.split_at_mut(s.mid);
+        self.build_owned(how, items, lx, first, s.left.0, s.left.1, depth + 1);
+        crate::heap::give_back_free_pages();
+        let second = self.build_owned(
+            how,
+            right,
+            rx,
+            first + s.mid,
+            s.right.0,
+            s.right.1,
+            depth + 1,
+        );
+        self.close(me, second, s.axis);
+        me
+    }
+
+    /// Makes the node over `items` and chooses its split (partitioning the items and their
+    /// indices); `None` for a leaf.
+    #[inline(always)]
+    fn open(
+        &mut self,
+        items: &mut [Item],
+        index: &mut [u32],
+        first: usize,
+        bounds: &Item,
+        cbounds: &Item,
+        depth: u32,
+    ) -> (u32, Option<Split>) {
         self.max_depth = self.max_depth.max(depth);
         let me = self.nodes.len() as u32;
         let n = items.len();
@@ -248,29 +361,29 @@ impl Builder {
             axis: 0,
         });
         if n == 1 {
-            return me;
+            return (me, None);
         }
         let split = if depth >= SAH_DEPTH_LIMIT {
             Err(NoSplit)
         } else if n <= SMALL {
-            sah_split_small(items, index, &bounds, &cbounds)
+            sah_split_small(items, index, bounds, cbounds)
         } else {
-            sah_split_binned(items, index, &bounds, &cbounds)
+            sah_split_binned(items, index, bounds, cbounds)
         };
         let s = match split {
             Ok(s) => s,
-            Err(NoSplit) if n <= MAX_LEAF && depth < SAH_DEPTH_LIMIT => return me,
-            Err(NoSplit) => self.median_split(items, index, &cbounds),
+            Err(NoSplit) if n <= MAX_LEAF && depth < SAH_DEPTH_LIMIT => return (me, None),
+            Err(NoSplit) => self.median_split(items, index, cbounds),
         };
-        let (li, ri) = items.split_at_mut(s.mid);
-        let (lx, rx) = index.split_at_mut(s.mid);
-        self.build(li, lx, first, s.left.0, s.left.1, depth + 1);
-        let second = self.build(ri, rx, first + s.mid, s.right.0, s.right.1, depth + 1);
+        (me, Some(s))
+    }
+
+    /// Turns node `me` into an inner node whose second child is `second`.
+    fn close(&mut self, me: u32, second: u32, axis: usize) {
         let node = &mut self.nodes[me as usize];
         node.offset = second;
         node.count = 0;
-        node.axis = s.axis as u16;
-        me
+        node.axis = axis as u16;
     }
 
     /// Splits at the median centroid along the widest centroid axis (by index when all are
@@ -366,6 +479,7 @@ impl Bins {
 }
 
 /// Binned SAH over all three axes in one pass; partitions the items by the best split.
+#[inline(never)]
 fn sah_split_binned(
     items: &mut [Item],
     index: &mut [u32],

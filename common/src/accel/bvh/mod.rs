@@ -58,17 +58,20 @@ impl Bvh {
     /// When the tree holds more than 2²⁹ primitive references; scenes are limited far below
     /// that (`--max-primitives`).
     pub fn from_binary(bin: BinaryBvh) -> Bvh {
-        let nodes = match wide::collapse(&bin) {
+        let margin = margin(&bin.world());
+        let sah_cost = bin.sah_cost();
+        let leaves = bin.nodes.iter().filter(|n| n.is_leaf()).count() as u64;
+        let nodes = match wide::collapse(bin.nodes, bin.order.len()) {
             Ok(nodes) => nodes,
             Err(wide::TooManyReferences(n)) => {
                 panic!("{n} primitive references exceed the BVH's 2^29 limit")
             }
         };
         Bvh {
-            margin: margin(&bin.world()),
-            sah_cost: bin.sah_cost(),
+            margin,
+            sah_cost,
             max_depth: bin.max_depth,
-            leaves: bin.nodes.iter().filter(|n| n.is_leaf()).count() as u64,
+            leaves,
             nodes,
             order: bin.order,
         }

@@ -3,7 +3,6 @@
 //! slab test. A child is an inner node or a leaf (a run of at most [`MAX_LEAF`] primitives in
 //! the primitive order), packed into one `u32` ([`ChildRef`]).
 
-use super::binary::BinaryBvh;
 use super::build::MAX_LEAF;
 use super::node::BvhNode;
 use crate::geometry::slab4::Box4;
@@ -77,12 +76,19 @@ pub struct TooManyReferences(pub usize);
 /// has fewer than four, replaces the inner child with the largest surface by that child's own
 /// two children. No nodes for an empty tree; a tree that is a single leaf gets one node with
 /// one leaf child.
-pub fn collapse(bin: &BinaryBvh) -> Result<Vec<WideNode>, TooManyReferences> {
-    if bin.order.len() > MAX_LEAF_OFFSET as usize {
-        return Err(TooManyReferences(bin.order.len()));
+///
+/// Takes the binary nodes (`references` is the length of their primitive order) and frees them
+/// from the end as the collapse leaves them behind: it walks the subtrees right to left, so the
+/// binary nodes and the wide nodes that replace them never both exist in full.
+pub fn collapse(
+    mut nodes: Vec<BvhNode>,
+    references: usize,
+) -> Result<Vec<WideNode>, TooManyReferences> {
+    if references > MAX_LEAF_OFFSET as usize {
+        return Err(TooManyReferences(references));
     }
-    let mut out = Vec::with_capacity(bin.nodes.len() / 3 + 1);
-    let Some(root) = bin.nodes.first() else {
+    let mut out = Vec::with_capacity(nodes.len() / 3 + 1);
+    let Some(root) = nodes.first() else {
         return Ok(out);
     };
     if root.is_leaf() {
@@ -96,22 +102,35 @@ pub fn collapse(bin: &BinaryBvh) -> Result<Vec<WideNode>, TooManyReferences> {
         out.push(n);
         return Ok(out);
     }
-    // Depth-first with an explicit work list: (binary node, wide slot to fill).
+    // Binary nodes are handed back every 1/32 of them.
+    let step = (nodes.len() / 32).max(4096);
+    let mut next = nodes.len().saturating_sub(step);
+    // Depth-first with an explicit work list: (binary node, wide slot to fill, end of the
+    // binary node's subtree). A subtree is the range [node, end) of the depth-first array, the
+    // gathered children's ranges follow each other, and the last child pushed is taken first:
+    // when a node is taken, every binary node from its end on is done with.
     out.push(placeholder());
-    let mut work = vec![(0u32, 0u32)];
-    while let Some((b, slot)) = work.pop() {
-        let kids = gather(&bin.nodes, b);
+    let mut work = vec![(0u32, 0u32, nodes.len() as u32)];
+    while let Some((b, slot, end)) = work.pop() {
+        if (end as usize) <= next {
+            nodes.truncate(end as usize);
+            nodes.shrink_to_fit();
+            crate::heap::give_back_free_pages();
+            next = (end as usize).saturating_sub(step);
+        }
+        let kids = gather(&nodes, b);
         let mut node = placeholder();
         node.used = kids.len() as u32;
         for (i, &k) in kids.iter().enumerate() {
-            let n = &bin.nodes[k as usize];
+            let n = &nodes[k as usize];
             node.bounds.set(i, n.min, n.max);
             node.child[i] = if n.is_leaf() {
                 leaf_ref(n.offset, n.count as u32)
             } else {
                 let index = out.len() as u32;
                 out.push(placeholder());
-                work.push((k, index));
+                let kid_end = kids.get(i + 1).copied().unwrap_or(end);
+                work.push((k, index, kid_end));
                 index
             };
         }
@@ -180,10 +199,11 @@ mod tests {
     /// mostly full.
     #[test]
     fn collapse_keeps_every_primitive_and_nests_boxes() {
-        for n in [0usize, 1, 3, 4, 5, 17, 1000] {
+        // 20,000: many 4096-node steps of the freeing collapse.
+        for n in [0usize, 1, 3, 4, 5, 17, 1000, 20_000] {
             let b = boxes(n);
             let bin = build_binary(&b);
-            let wide = collapse(&bin).expect("collapses");
+            let wide = collapse(bin.nodes.clone(), bin.order.len()).expect("collapses");
             let mut seen = vec![0u32; n];
             let mut stack = vec![(0u32, None::<([f32; 3], [f32; 3])>)];
             while let Some((i, parent)) = stack.pop().filter(|_| n > 0) {
