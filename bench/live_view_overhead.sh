@@ -39,14 +39,19 @@ run_http() { # run_http CLIENTS
         curl -sN -K "$T/k$i" > "$T/c$i" 2>/dev/null &
         cpids+=($!)
     done
+    rm -f "$T/errpipe"; mkfifo "$T/errpipe"
     "$bin" render "${args[@]}" -o "$T/o.png" --stats-json "$T/s.json" \
-        --http 127.0.0.1:0 --http-linger 1 2>"$T/err" &
-    local pid=$! url= c0=0 p
-    for _ in $(seq 1 500); do
-        url=$(sed -n 's/^parrt: live view at //p' "$T/err"); [ -n "$url" ] && break; sleep 0.002
+        --http 127.0.0.1:0 --http-linger 1 2>"$T/errpipe" &
+    local pid=$! url= c0=0 p line
+    # The address as soon as it is printed (no polling), then the rest of stderr to a file.
+    exec 3<"$T/errpipe"
+    while IFS= read -r -u 3 line; do
+        case $line in "parrt: live view at "*) url=${line#parrt: live view at }; break ;; esac
     done
     for p in "${cpids[@]}"; do c0=$((c0 + $(ns /proc/"$p"))); done
     for i in $(seq 1 "$n"); do echo "url = \"${url}events\"" > "$T/k$i"; done
+    cat <&3 > "$T/err" &
+    exec 3<&-
     # While it lingers: CPU of the server's thread, of the whole process (threads that ended
     # included; clock ticks) and of the clients since they were given the URL.
     for _ in $(seq 1 1000); do grep -q "stays up" "$T/err" 2>/dev/null && break; sleep 0.01; done
