@@ -28,8 +28,14 @@ T=$(mktemp -d)
 trap 'jobs -p | xargs -r kill 2>/dev/null; rm -rf "$T"' EXIT
 
 trace() { jq -r .trace_s "$T/s.json"; }
-# Nanoseconds on a CPU of a thread or process (its /proc/.../schedstat; 0 once it is gone).
-ns() { awk '{print $1}' "$1/schedstat" 2>/dev/null || echo 0; }
+# Adds the nanoseconds on a CPU of the threads or processes /proc/ID... to the variable named
+# first (their schedstat; 0 once gone). Bash builtins only: nothing is started while the render
+# runs, so the script itself takes no CPU from it.
+add_ns() {
+    local -n sum=$1; local f a
+    shift
+    for f in "$@"; do a=0; { read -r a _ < "$f/schedstat"; } 2>/dev/null || a=0; sum=$((sum + a)); done
+}
 run_plain() { "$bin" render "${args[@]}" -o "$T/o.png" --stats-json "$T/s.json" 2>/dev/null; trace; }
 run_http() { # run_http CLIENTS
     local n=$1 i cpids=()
@@ -42,26 +48,26 @@ run_http() { # run_http CLIENTS
     rm -f "$T/errpipe"; mkfifo "$T/errpipe"
     "$bin" render "${args[@]}" -o "$T/o.png" --stats-json "$T/s.json" \
         --http 127.0.0.1:0 --http-linger 1 2>"$T/errpipe" &
-    local pid=$! url= c0=0 p line
-    # The address as soon as it is printed (no polling), then the rest of stderr to a file.
+    local pid=$! url= c0=0 line
+    # The address as soon as it is printed (blocking reads of a FIFO, no polling).
     exec 3<"$T/errpipe"
     while IFS= read -r -u 3 line; do
         case $line in "parrt: live view at "*) url=${line#parrt: live view at }; break ;; esac
     done
-    for p in "${cpids[@]}"; do c0=$((c0 + $(ns /proc/"$p"))); done
-    for i in $(seq 1 "$n"); do echo "url = \"${url}events\"" > "$T/k$i"; done
-    cat <&3 > "$T/err" &
+    add_ns c0 "${cpids[@]/#//proc/}"
+    for ((i = 1; i <= n; i++)); do echo "url = \"${url}events\"" > "$T/k$i"; done
+    # Then nothing until it lingers (the trace is over).
+    while IFS= read -r -u 3 line; do case $line in *"stays up"*) break ;; esac; done
+    cat <&3 > /dev/null &
     exec 3<&-
-    # While it lingers: CPU of the server's thread, of the whole process (threads that ended
-    # included; clock ticks) and of the clients since they were given the URL.
-    for _ in $(seq 1 1000); do grep -q "stays up" "$T/err" 2>/dev/null && break; sleep 0.01; done
+    # CPU of the server's thread, of the whole process (threads that ended included; clock
+    # ticks) and of the clients since they were given the URL.
     local http=0 all=0 c1=0 f
     read -r all < <(awk '{print $14 + $15}' /proc/"$pid"/stat 2>/dev/null) || all=0
     for f in /proc/"$pid"/task/*; do
-        [ "$(cat "$f/comm" 2>/dev/null)" = parrt-http ] || continue
-        http=$((http + $(ns "$f")))
+        [ "$(cat "$f/comm" 2>/dev/null)" = parrt-http ] && add_ns http "$f"
     done
-    for p in "${cpids[@]}"; do c1=$((c1 + $(ns /proc/"$p"))); done
+    add_ns c1 "${cpids[@]/#//proc/}"
     echo "$http $((all * 1000000000 / $(getconf CLK_TCK))) $((c1 - c0))" >> "$T/cpu$n"
     wait "$pid"
     trace
