@@ -1,10 +1,10 @@
 //! The one task on the server's thread that turns what the renderer noted into events for the
-//! pages: every [`PUSH_EVERY`] the tiles landed since become one `tiles` event (encoded once,
-//! the same bytes sent to every page), and the status, when it changed and was last sent at
+//! pages: every [`PUSH_EVERY`] the tiles landed since become one `tiles` event (one PNG, encoded
+//! once, the same bytes sent to every page; more events for very many tiles), and the status, when it changed and was last sent at
 //! least [`STATUS_EVERY`] ago, one `status` (`done` once the render ended). With no page open
 //! it sleeps.
 
-use super::encode::{event, tiles_event};
+use super::encode::{event, tiles_events};
 use super::limits::{PUSH_EVERY, STATUS_EVERY};
 use super::state::{LiveState, Phase};
 use std::sync::Arc;
@@ -50,8 +50,10 @@ impl Batcher {
         }
         if landed.overflow {
             self.state.send(event("reload", "overflow"));
-        } else if !landed.tiles.is_empty() {
-            self.state.send(tiles_event(&landed.tiles, &landed.rgb));
+        } else {
+            for e in tiles_events(&landed.tiles, &landed.rgb) {
+                self.state.send(e);
+            }
         }
         let v = self.state.version();
         let due = self
@@ -115,20 +117,13 @@ mod tests {
         batcher.tick(t0);
         let (ta, tb) = (a.try_recv().unwrap(), b.try_recv().unwrap());
         assert_eq!(ta.as_ptr(), tb.as_ptr(), "one encoding, shared");
-        let text = std::str::from_utf8(&ta).unwrap();
-        let lines: Vec<&str> = text.lines().collect();
-        assert_eq!((lines.len(), lines[3]), (4, ""), "{text}");
-        assert_eq!(lines[0], "event: tiles");
-        for (line, want) in lines[1..3]
+        let tiles = crate::live::encode::tests::decode_tiles(&ta);
+        let got: Vec<_> = tiles
             .iter()
-            .zip([("2,0,2,2", [255, 0, 0]), ("0,0,2,2", [0, 0, 255])])
-        {
-            let (head, b64) = line.rsplit_once(',').unwrap();
-            assert_eq!(head, format!("data: {}", want.0));
-            let png = crate::live::encode::tests::unbase64(b64);
-            let px = image::load_from_memory(&png).unwrap().to_rgb8().into_raw();
-            assert_eq!(px, want.1.repeat(4));
-        }
+            .map(|(t, px)| ((t.x, t.y, t.w, t.h), &px[..]))
+            .collect();
+        let (red, blue) = ([255, 0, 0].repeat(4), [0, 0, 255].repeat(4));
+        assert_eq!(got, [((2, 0, 2, 2), &red[..]), ((0, 0, 2, 2), &blue[..])]);
         assert_eq!(name(&a.try_recv().unwrap()), "status");
         // Nothing landed, the status was sent 100 ms ago: nothing.
         batcher.tick(t0 + Duration::from_millis(100));

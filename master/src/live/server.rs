@@ -3,10 +3,10 @@
 //! - `GET /`: the page (`page.html`, with the status of the moment in it);
 //! - `GET /status`: [`super::state::Status`] as JSON;
 //! - `GET /events`: server-sent events: `reload` first (load the image again) and the status,
-//!   then what [`super::batcher`] makes once for every page: `tiles` (a line
-//!   `x,y,w,h,BASE64-RGB` per tile landed since the last, every 100 ms), `status` (the JSON) at
-//!   most every 250 ms when it changed (`done` at the end); and `reload` again when the page
-//!   fell behind and events were dropped for it;
+//!   then what [`super::batcher`] makes once for every page: `tiles` every 100 ms (a PNG of
+//!   the tiles landed since, one under the other, in base64, then a line `x,y,w,h` per tile),
+//!   `status` (the JSON) at most every 250 ms when it changed (`done` at the end); and `reload`
+//!   again when the page fell behind and events were dropped for it;
 //! - `GET /frame`: the image so far, 8-bit RGB row by row (`application/octet-stream`);
 //! - `GET /image.png`: the image so far as a PNG.
 //!
