@@ -1,54 +1,89 @@
 #!/usr/bin/env bash
 # What watching costs the render (issue 19): the trace time of one render with no live view, with
-# --http and no page open, and with --http and CLIENTS `curl -N` event streams connected the whole
-# time (each receiving every tile), alternated REPS times; prints the medians and the fastest runs
-# (the least disturbed by other work on the machine) and their ratios.
-# Needs `cargo build --release` first, and curl.
+# --http and no page open, and with --http and CLIENTS `curl -N` event streams connected before the
+# trace begins (each receiving every tile), alternated REPS times; prints the medians and the
+# fastest runs (the least disturbed by other work on the machine), their ratios, and CPU time that
+# load moves little: the server's thread, the whole render process, and the clients, per render.
+# Needs `cargo build --release` first, curl and jq.
+#
+# The clients are started before the render, each blocked opening its config file (a FIFO) so that
+# their process start-up (exec, loading the TLS libraries) is over before the render begins; the
+# URL is written to them as soon as the render prints it, while the scene is parsed and built
+# (~0.1 s for mount:8), so they are connected before the trace begins. Each client's first
+# `status` event says whether it was: `starting` (connected before the trace) or not; the script
+# counts the late ones. (With mount:6 the build takes ~3 ms and clients connect mid-trace.)
 #
 # Usage: bench/live_view_overhead.sh [REPS] [CLIENTS] [-- RENDER ARGS...]
-#   default render: --scene mount:6 --width 1024 --height 1024   PARRT_BIN: target/release/parrt
+#   default render: --scene mount:8 --width 1024 --height 1024 --threads 2
+#   PARRT_BIN: target/release/parrt
 set -euo pipefail
 reps=${1:-5}
 clients=${2:-10}
 shift 2 || true
 [ "${1:-}" = "--" ] && shift
 args=("$@")
-[ ${#args[@]} -gt 0 ] || args=(--scene mount:6 --width 1024 --height 1024)
+[ ${#args[@]} -gt 0 ] || args=(--scene mount:8 --width 1024 --height 1024 --threads 2)
 bin=${PARRT_BIN:-target/release/parrt}
 T=$(mktemp -d)
 trap 'jobs -p | xargs -r kill 2>/dev/null; rm -rf "$T"' EXIT
 
 trace() { jq -r .trace_s "$T/s.json"; }
+# Adds the nanoseconds on a CPU of the threads or processes /proc/ID... to the variable named
+# first (their schedstat; 0 once gone). Bash builtins only: nothing is started while the render
+# runs, so the script itself takes no CPU from it.
+add_ns() {
+    local -n sum=$1; local f a
+    shift
+    for f in "$@"; do a=0; { read -r a _ < "$f/schedstat"; } 2>/dev/null || a=0; sum=$((sum + a)); done
+}
 run_plain() { "$bin" render "${args[@]}" -o "$T/o.png" --stats-json "$T/s.json" 2>/dev/null; trace; }
 run_http() { # run_http CLIENTS
+    local n=$1 i cpids=()
+    for i in $(seq 1 "$n"); do
+        rm -f "$T/k$i" "$T/c$i"
+        mkfifo "$T/k$i"
+        curl -sN -K "$T/k$i" > "$T/c$i" 2>/dev/null &
+        cpids+=($!)
+    done
+    rm -f "$T/errpipe"; mkfifo "$T/errpipe"
     "$bin" render "${args[@]}" -o "$T/o.png" --stats-json "$T/s.json" \
-        --http 127.0.0.1:0 --http-linger 1 2>"$T/err" &
-    local pid=$! url=
-    if [ "$1" -gt 0 ]; then
-        # The clients connect while the scene is built; the trace has not begun.
-        for _ in $(seq 1 100); do
-            url=$(sed -n 's/^parrt: live view at //p' "$T/err"); [ -n "$url" ] && break; sleep 0.02
-        done
-        for i in $(seq 1 "$1"); do curl -sN "${url}events" > "$T/c$i" 2>/dev/null & done
-    fi
-    # While it lingers: CPU ticks of the server's thread and of the whole process (threads that
-    # ended included).
-    for _ in $(seq 1 500); do grep -q "stays up" "$T/err" 2>/dev/null && break; sleep 0.02; done
-    local http=0 all=0 f
+        --http 127.0.0.1:0 --http-linger 1 2>"$T/errpipe" &
+    local pid=$! url= c0=0 line
+    # The address as soon as it is printed (blocking reads of a FIFO, no polling).
+    exec 3<"$T/errpipe"
+    while IFS= read -r -u 3 line; do
+        case $line in "parrt: live view at "*) url=${line#parrt: live view at }; break ;; esac
+    done
+    add_ns c0 "${cpids[@]/#//proc/}"
+    for ((i = 1; i <= n; i++)); do echo "url = \"${url}events\"" > "$T/k$i"; done
+    # Then nothing until it lingers (the trace is over).
+    while IFS= read -r -u 3 line; do case $line in *"stays up"*) break ;; esac; done
+    cat <&3 > /dev/null &
+    exec 3<&-
+    # CPU of the server's thread, of the whole process (threads that ended included; clock
+    # ticks) and of the clients since they were given the URL.
+    local http=0 all=0 c1=0 f
     read -r all < <(awk '{print $14 + $15}' /proc/"$pid"/stat 2>/dev/null) || all=0
     for f in /proc/"$pid"/task/*; do
-        [ "$(cat "$f/comm" 2>/dev/null)" = parrt-http ] || continue
-        read -r u < <(awk '{print $14 + $15}' "$f/stat" 2>/dev/null) || continue
-        http=$((http + u))
+        [ "$(cat "$f/comm" 2>/dev/null)" = parrt-http ] && add_ns http "$f"
     done
-    echo "$http $all" >> "$T/cpu$1"
+    add_ns c1 "${cpids[@]/#//proc/}"
+    echo "$http $((all * 1000000000 / $(getconf CLK_TCK))) $((c1 - c0))" >> "$T/cpu$n"
     wait "$pid"
     trace
-    [ "$1" -gt 0 ] && { for i in $(seq 1 "$1"); do [ -s "$T/c$i" ] || echo "client $i got nothing" >&2; done; }
+    local late=0
+    for i in $(seq 1 "$n"); do
+        [ -s "$T/c$i" ] || { echo "client $i got nothing" >&2; continue; }
+        stat -c %s "$T/c$i" >> "$T/bytes"
+        awk '/^event: (status|done)/ {getline; print; exit}' "$T/c$i" \
+            | grep -q '"state":"starting"' || late=$((late + 1))
+    done
+    [ "$late" = 0 ] || echo "$late of $n clients connected after the trace began" >&2
+    wait "${cpids[@]}" 2>/dev/null || true
     return 0
 }
 median() { sort -g | awk '{a[NR]=$1} END {print (NR%2 ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2)}'; }
-: > "$T/none"; : > "$T/idle"; : > "$T/watched"
+: > "$T/none"; : > "$T/idle"; : > "$T/watched"; : > "$T/cpu0"; : > "$T/cpu$clients"; : > "$T/bytes"
 for r in $(seq 1 "$reps"); do
     run_plain >> "$T/none"
     run_http 0 >> "$T/idle"
@@ -56,8 +91,9 @@ for r in $(seq 1 "$reps"); do
     echo "round $r: none $(tail -1 "$T/none") s, --http $(tail -1 "$T/idle") s, $clients clients $(tail -1 "$T/watched") s" >&2
 done
 mn() { sort -g | head -1; }
-sum() { awk '{h += $1; a += $2} END {printf "%d of %d CPU ticks (%.2f%%)", h, a, a ? 100 * h / a : 0}' "$1"; }
-echo "Live view thread, summed over the runs: no page $(sum "$T/cpu0"); $clients clients $(sum "$T/cpu$clients") of the process's CPU."
+cpu() { awk '{h += $1; a += $2; c += $3} END {printf "server thread %.1f ms, process %.0f ms, clients %.1f ms", h / NR / 1e6, a / NR / 1e6, c / NR / 1e6}' "$1"; }
+echo "CPU per render, mean of $reps: no page: $(cpu "$T/cpu0"); $clients clients: $(cpu "$T/cpu$clients")"
+echo "Each client received $(awk '{b += $1} END {printf "%.2f", NR ? b / NR / 1e6 : 0}' "$T/bytes") MB per render."
 echo
 n=$(median < "$T/none"); i=$(median < "$T/idle"); w=$(median < "$T/watched")
 n1=$(mn < "$T/none"); i1=$(mn < "$T/idle"); w1=$(mn < "$T/watched")

@@ -1,6 +1,7 @@
 //! The live view (`--http`) as a client sees it: `/status` carries the documented keys and
 //! agrees with the render, `/frame` is the written image, the page and the event stream are
-//! served; on a non-loopback address a missing or wrong token gets 401 and nothing else.
+//! served, the tiles the stream carries are the written image's pixels; on a non-loopback
+//! address a missing or wrong token gets 401 and nothing else.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
@@ -25,20 +26,20 @@ impl Drop for Render {
     }
 }
 
+/// The render `start` makes: 16 tiles of 16 pixels.
+const SMALL: &[&str] = &[
+    "--scene", "balls:2", "--width", "64", "--height", "64", "--tile", "16",
+];
+
 fn start(dir: &std::path::Path, extra: &[&str]) -> Render {
+    start_render(dir, SMALL, extra)
+}
+
+fn start_render(dir: &std::path::Path, job: &[&str], extra: &[&str]) -> Render {
     let mut child = Command::new(EXE)
-        .args([
-            "render", "--scene", "balls:2", "--width", "64", "--height", "64",
-        ])
-        .args([
-            "--tile",
-            "16",
-            "--threads",
-            "2",
-            "--http-linger",
-            "60",
-            "-o",
-        ])
+        .arg("render")
+        .args(job)
+        .args(["--threads", "2", "--http-linger", "60", "-o"])
         .arg(dir.join("out.png"))
         .args(extra)
         .stdout(Stdio::null())
@@ -108,12 +109,17 @@ fn get(dial: &str, path: &str, auth: Option<&str>) -> (u16, String, Vec<u8>) {
 
 /// The first bytes of the event stream.
 fn events_start(dial: &str, q: &str) -> String {
+    events_until_done(dial, q, Duration::from_secs(5))
+}
+
+/// The event stream until its `done` event (or `wait`).
+fn events_until_done(dial: &str, q: &str, wait: Duration) -> String {
     let mut s = TcpStream::connect(dial).expect("connects");
     s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     write!(s, "GET /events{q} HTTP/1.1\r\nHost: localhost\r\n\r\n").unwrap();
     let mut got = Vec::new();
-    let mut buf = [0u8; 4096];
-    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut buf = [0u8; 65536];
+    let deadline = Instant::now() + wait;
     while Instant::now() < deadline && !String::from_utf8_lossy(&got).contains("event: done") {
         match s.read(&mut buf) {
             Ok(0) | Err(_) => break,
@@ -288,5 +294,103 @@ fn bad_http_flags_are_usage_errors() {
             "{args:?}: {}",
             String::from_utf8_lossy(&out.stderr)
         );
+    }
+}
+
+/// The body of a chunked HTTP response (its head and chunk sizes dropped).
+fn dechunk(raw: &str) -> String {
+    let (_, mut rest) = raw.split_once("\r\n\r\n").expect("a response head");
+    let mut out = String::new();
+    while let Some((size, after)) = rest.split_once("\r\n") {
+        let n = usize::from_str_radix(size, 16).expect("a chunk size");
+        let Some(chunk) = after.get(..n) else {
+            break;
+        };
+        out.push_str(chunk);
+        rest = after.get(n + 2..).unwrap_or("");
+    }
+    out
+}
+
+/// Standard base64 back to bytes.
+fn unbase64(s: &str) -> Vec<u8> {
+    const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let v = |c: u8| ALPHABET.iter().position(|&a| a == c).expect("base64") as u32;
+    let mut out = Vec::new();
+    for chunk in s.trim_end_matches('=').as_bytes().chunks(4) {
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0, |n, (i, &c)| n | v(c) << (18 - 6 * i));
+        out.extend_from_slice(&n.to_be_bytes()[1..chunk.len()]);
+    }
+    out
+}
+
+#[test]
+fn tiles_events_carry_the_written_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two workers: the stream is open while they start, before the first tile lands.
+    let job = [
+        "--scene", "balls:2", "--width", "128", "--height", "96", "--tile", "16", "--spp", "4",
+    ];
+    let r = start_render(
+        dir.path(),
+        &job,
+        &["--workers", "2", "--http", "127.0.0.1:0"],
+    );
+    let ev = events_until_done(&r.dial, "", Duration::from_secs(60));
+    assert!(ev.contains("event: done"), "the stream reports the end");
+    let ev = dechunk(&ev);
+    let png = image::open(dir.path().join("out.png")).unwrap().to_rgb8();
+    let mut seen = std::collections::BTreeSet::new();
+    let mut first_state = None;
+    for e in ev.split("\n\n") {
+        let mut lines = e.lines();
+        match lines.next() {
+            Some("event: tiles") => {}
+            Some("event: status") | Some("event: done") => {
+                if first_state.is_none() {
+                    let json = lines.next().and_then(|l| l.strip_prefix("data: "));
+                    let v: serde_json::Value = serde_json::from_str(json.expect("data")).unwrap();
+                    first_state = Some(v["state"].as_str().unwrap_or("").to_string());
+                }
+                continue;
+            }
+            _ => continue,
+        }
+        // A PNG of the tiles one under the other, then where each goes.
+        let strip = lines.next().and_then(|l| l.strip_prefix("data: "));
+        let strip = image::load_from_memory(&unbase64(strip.expect("the PNG")))
+            .expect("a PNG")
+            .to_rgb8();
+        let mut sy = 0;
+        for line in lines {
+            let p: Vec<u32> = line
+                .strip_prefix("data: ")
+                .expect("data")
+                .split(',')
+                .map(|n| n.parse().expect("a number"))
+                .collect();
+            assert_eq!(p.len(), 4, "x,y,w,h: {line}");
+            let (x, y, w, h) = (p[0], p[1], p[2], p[3]);
+            let tile = image::imageops::crop_imm(&strip, 0, sy, w, h).to_image();
+            sy += h;
+            let want = image::imageops::crop_imm(&png, x, y, w, h).to_image();
+            assert!(
+                tile == want,
+                "tile at {x},{y} differs from the written image"
+            );
+            seen.insert((x, y));
+        }
+        assert_eq!(sy, strip.height(), "the strip holds the tiles listed");
+    }
+    assert!(
+        !seen.is_empty(),
+        "no tiles event: {}",
+        &ev[..ev.len().min(2000)]
+    );
+    if first_state.as_deref() == Some("starting") {
+        assert_eq!(seen.len(), 8 * 6, "open from the start, every tile is sent");
     }
 }

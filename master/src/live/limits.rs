@@ -5,15 +5,22 @@ use std::time::Duration;
 /// Pages (event streams) open at once; more get 503 until one closes.
 pub const MAX_STREAMS: usize = 32;
 
-/// Tile messages buffered for the pages; a page that falls this far behind is told to reload
-/// the whole image instead.
-pub const TILE_BACKLOG: usize = 1024;
+/// Events (each a batch of tiles or a status) buffered for the pages, about 2 s of them; a page
+/// that falls this far behind is told to reload the whole image instead.
+pub const EVENT_BACKLOG: usize = 24;
 
-/// How often an open page's stream wakes to send the tiles landed since (in one event).
+/// How often the tiles landed since are sent to the open pages (in one event, made once).
 pub const PUSH_EVERY: Duration = Duration::from_millis(100);
 
-/// How often an open page is sent the status (when it changed).
+/// The most rows of one `tiles` event's PNG (its tiles one under the other); a bigger batch is
+/// sent as several events. Far under what browsers decode.
+pub const STRIP_ROWS: u32 = 4096;
+
+/// How often the open pages are sent the status (when it changed).
 pub const STATUS_EVERY: Duration = Duration::from_millis(250);
+
+/// A page's stream sends a comment when it sent nothing for this long (so proxies keep it).
+pub const KEEP_ALIVE: Duration = Duration::from_secs(10);
 
 /// Faults kept for the page and `/status` (the newest; the count of all is kept too).
 pub const KEPT_FAULTS: usize = 100;

@@ -3,16 +3,20 @@
 //! faults, progress and ETA, and `GET /status` with the same as JSON (`docs/live-view.md`).
 //!
 //! ## Layout
-//! - [`state`]: what the renderer pushes (never waiting: a mutex held for a copy, a lossy
-//!   broadcast of tiles) and what the server reads.
+//! - [`state`]: what the renderer pushes (never waiting: a mutex held for a copy that notes
+//!   which tile landed, a few counters) and what the server reads.
 //! - [`server`]: the HTTP server (axum) on a thread and runtime of its own, so a slow or stuck
 //!   browser can never hold the render up.
+//! - [`batcher`]: the server's task that encodes the tiles landed, once per 100 ms for every
+//!   page, and the status, into events shared by all pages (lossy: a page that falls behind
+//!   reloads).
 //! - [`auth`]: who may see it: anyone on loopback, only holders of the token elsewhere.
 //! - [`limits`]: the server's limits.
-//! - [`encode`]: base64 for the tiles sent to the page.
+//! - [`encode`]: the bytes of the events (tiles in base64).
 //! - `page.html`: the page (HTML and plain JavaScript, served as it is).
 
 pub mod auth;
+pub mod batcher;
 pub mod encode;
 pub mod limits;
 pub mod server;

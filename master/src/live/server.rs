@@ -2,30 +2,33 @@
 //! no page, however slow, shares a thread with the render), serving
 //! - `GET /`: the page (`page.html`, with the status of the moment in it);
 //! - `GET /status`: [`super::state::Status`] as JSON;
-//! - `GET /events`: server-sent events: `reload` first (load the image again), then `tiles`
-//!   (a line `x,y,w,h,BASE64-RGB` per tile landed since the last, every 100 ms), `status` (the
-//!   JSON) at most every 250 ms when it changed (`done` at the end), and `reload` again when
-//!   the page fell behind and tiles were dropped for it;
+//! - `GET /events`: server-sent events: `reload` first (load the image again) and the status,
+//!   then what [`super::batcher`] makes once for every page: `tiles` every 100 ms (a PNG of
+//!   the tiles landed since, one under the other, in base64, then a line `x,y,w,h` per tile),
+//!   `status` (the JSON) at most every 250 ms when it changed (`done` at the end); and `reload`
+//!   again when the page fell behind and events were dropped for it;
 //! - `GET /frame`: the image so far, 8-bit RGB row by row (`application/octet-stream`);
 //! - `GET /image.png`: the image so far as a PNG.
 //!
 //! Every route is behind [`super::auth`].
 
 use super::auth::{allowed, needs_token};
-use super::limits::{MAX_STREAMS, PUSH_EVERY, STATUS_EVERY};
-use super::state::{LiveState, Phase};
+use super::batcher::{status_event, Batcher};
+use super::encode::event;
+use super::limits::{KEEP_ALIVE, MAX_STREAMS};
+use super::state::LiveState;
 use anyhow::Context;
+use axum::body::Body;
 use axum::extract::{Request, State};
 use axum::http::{header, StatusCode};
 use axum::middleware::{self, Next};
-use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
+use bytes::Bytes;
 use std::convert::Infallible;
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::time::Duration;
 use tokio::sync::{broadcast, oneshot, OwnedSemaphorePermit, Semaphore};
 
 /// The page, served as it is.
@@ -104,6 +107,7 @@ impl LiveView {
                             return;
                         }
                     };
+                    tokio::spawn(Batcher::new(app.state.clone()).run());
                     let router = Router::new()
                         .route("/", get(page))
                         .route("/status", get(status))
@@ -233,72 +237,31 @@ async fn png(State(app): State<App>) -> Response {
     }
 }
 
-/// One page's event stream. It wakes every [`PUSH_EVERY`] and sends what landed meanwhile as one
-/// `tiles` event (a line per tile), and the status when it changed and was last sent at least
-/// [`STATUS_EVERY`] ago: a few writes a second per page however fast tiles land.
+/// One page's event stream: what it is owed first (`reload`, the status), then the events the
+/// batcher sends to every page, as they come, the same bytes for all.
 struct Stream {
     state: Arc<LiveState>,
-    tiles: broadcast::Receiver<Arc<str>>,
-    tick: tokio::time::Interval,
-    sent_version: Option<u64>,
-    status_at: Option<tokio::time::Instant>,
-    queue: std::collections::VecDeque<Event>,
+    events: broadcast::Receiver<Bytes>,
+    queue: std::collections::VecDeque<Bytes>,
     _permit: OwnedSemaphorePermit,
 }
 
 impl Stream {
-    async fn next(&mut self) -> Option<Event> {
-        loop {
-            if let Some(e) = self.queue.pop_front() {
-                return Some(e);
-            }
-            self.tick.tick().await;
-            let mut lines = String::new();
-            let mut lagged = false;
-            loop {
-                match self.tiles.try_recv() {
-                    Ok(msg) => {
-                        if !lines.is_empty() {
-                            lines.push('\n');
-                        }
-                        lines.push_str(&msg);
-                    }
-                    Err(broadcast::error::TryRecvError::Lagged(_)) => lagged = true,
-                    Err(_) => break,
-                }
-            }
-            if lagged {
-                // Tiles were dropped for this page: it reloads the whole image.
-                self.queue
-                    .push_back(Event::default().event("reload").data("lagged"));
-            } else if !lines.is_empty() {
-                self.queue
-                    .push_back(Event::default().event("tiles").data(lines));
-            }
-            let now = tokio::time::Instant::now();
-            let v = self.state.version();
-            let due = self
-                .status_at
-                .is_none_or(|t| now.duration_since(t) >= STATUS_EVERY);
-            if self.sent_version != Some(v) && due {
-                self.sent_version = Some(v);
-                self.status_at = Some(now);
-                let e = self.status_event();
-                self.queue.push_back(e);
-            }
+    async fn next(&mut self) -> Option<Bytes> {
+        if let Some(e) = self.queue.pop_front() {
+            return Some(e);
         }
-    }
-
-    fn status_event(&self) -> Event {
-        let s = self.state.status();
-        let name = if matches!(s.state, Phase::Done | Phase::Failed) {
-            "done"
-        } else {
-            "status"
-        };
-        Event::default()
-            .event(name)
-            .data(serde_json::to_string(&s).unwrap_or_else(|_| "{}".into()))
+        match tokio::time::timeout(KEEP_ALIVE, self.events.recv()).await {
+            Err(_) => Some(Bytes::from_static(b": keep-alive\n\n")),
+            Ok(Ok(e)) => Some(e),
+            Ok(Err(broadcast::error::RecvError::Lagged(_))) => {
+                // Events were dropped for this page: it reloads the whole image, and is told
+                // the status it may have missed.
+                self.queue.push_back(status_event(&self.state));
+                Some(event("reload", "lagged"))
+            }
+            Ok(Err(broadcast::error::RecvError::Closed)) => None,
+        }
     }
 }
 
@@ -310,27 +273,23 @@ async fn events(State(app): State<App>) -> Response {
         )
             .into_response();
     };
-    let mut tick = tokio::time::interval(PUSH_EVERY);
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    // Subscribed before the page is told to fetch the frame: no tile falls between the two.
+    // Subscribed before the page is told to fetch the frame: from now on the renderer notes
+    // every tile that lands, so none falls between the two.
     let stream = Stream {
-        tiles: app.state.subscribe(),
+        events: app.state.subscribe(),
+        queue: [event("reload", "frame"), status_event(&app.state)].into(),
         state: app.state.clone(),
-        tick,
-        sent_version: None,
-        status_at: None,
-        queue: [Event::default().event("reload").data("frame")].into(),
         _permit: permit,
     };
     let body = futures::stream::unfold(stream, |mut s| async move {
         s.next().await.map(|e| (Ok::<_, Infallible>(e), s))
     });
-    let mut r = Sse::new(body)
-        .keep_alive(KeepAlive::new().interval(Duration::from_secs(10)))
-        .into_response();
-    r.headers_mut().insert(
-        header::CACHE_CONTROL,
-        header::HeaderValue::from_static("no-store"),
-    );
-    r
+    (
+        [
+            (header::CONTENT_TYPE, "text/event-stream"),
+            (header::CACHE_CONTROL, "no-store"),
+        ],
+        Body::from_stream(body),
+    )
+        .into_response()
 }

@@ -1,11 +1,11 @@
 //! What the live view shows, kept up to date by the renderer. Every update is a short critical
-//! section (a copy into the frame, a few counters) and a send on a lossy broadcast; the
-//! renderer never waits for a page. The server reads snapshots: [`LiveState::status`] (the
-//! `/status` JSON), [`LiveState::frame`] (the image so far) and [`LiveState::subscribe`] (the
-//! tiles as they land).
+//! section: a copy into the 8-bit frame that notes which tile landed (while a page is open),
+//! a few counters; the renderer never encodes, allocates or waits for a page. The server reads
+//! snapshots: [`LiveState::status`] (the `/status` JSON), [`LiveState::frame`] (the image so
+//! far) and [`LiveState::take_landed`] (the tiles landed since, which the batcher encodes once
+//! and sends to every page on [`LiveState::subscribe`]'s channel).
 
-use super::encode::base64_into;
-use super::limits::{KEPT_FAULTS, TILE_BACKLOG};
+use super::limits::{EVENT_BACKLOG, KEPT_FAULTS};
 use crate::distributed::observer::Observer;
 use crate::distributed::scheduler::WorkerId;
 use parrt::film::{to_u8, Rgb};
@@ -17,6 +17,29 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use tokio::sync::broadcast;
+
+/// The image so far, and which tiles landed in it since the pages were last sent them.
+struct Frame {
+    /// Image width.
+    width: usize,
+    /// 8-bit RGB pixels row by row (what a written PNG holds).
+    rgb: Vec<u8>,
+    /// Tiles landed since the last batch while a page was open. Room for every tile of the
+    /// image is reserved with it, so the renderer never allocates here.
+    landed: Vec<Tile>,
+    /// More tiles landed than `landed` had room for: the pages reload the image instead.
+    overflow: bool,
+}
+
+/// The tiles landed since the last call of [`LiveState::take_landed`].
+pub struct Landed {
+    /// The tiles, in the order they landed.
+    pub tiles: Vec<Tile>,
+    /// Their 8-bit RGB pixels, row by row, one tile after the other.
+    pub rgb: Vec<u8>,
+    /// More landed than were noted: the pages must reload the whole image.
+    pub overflow: bool,
+}
 
 /// A worker's (or render thread's) state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -142,11 +165,12 @@ struct Inner {
 /// The shared state of one render's live view.
 pub struct LiveState {
     inner: Mutex<Inner>,
-    /// The image so far: its width and its 8-bit RGB pixels row by row (what a written PNG
-    /// holds).
-    frame: Mutex<(usize, Vec<u8>)>,
+    frame: Mutex<Frame>,
     version: AtomicU64,
-    tiles: broadcast::Sender<Arc<str>>,
+    /// The events every open page is sent (made once by the server's batcher).
+    events: broadcast::Sender<bytes::Bytes>,
+    /// Told when a page subscribes (the batcher sleeps while none is open).
+    opened: tokio::sync::Notify,
 }
 
 /// What the page is told about the job.
@@ -209,9 +233,15 @@ impl LiveState {
                 holder: HashMap::new(),
                 faults: VecDeque::new(),
             }),
-            frame: Mutex::new((0, Vec::new())),
+            frame: Mutex::new(Frame {
+                width: 0,
+                rgb: Vec::new(),
+                landed: Vec::new(),
+                overflow: false,
+            }),
             version: AtomicU64::new(0),
-            tiles: broadcast::channel(TILE_BACKLOG).0,
+            events: broadcast::channel(EVENT_BACKLOG).0,
+            opened: tokio::sync::Notify::new(),
         }
     }
 
@@ -221,8 +251,12 @@ impl LiveState {
         let pixels = (job.width as usize)
             .saturating_mul(job.height as usize)
             .saturating_mul(3);
-        *self.frame.lock().unwrap_or_else(|e| e.into_inner()) =
-            (job.width as usize, vec![0; pixels]);
+        *self.frame.lock().unwrap_or_else(|e| e.into_inner()) = Frame {
+            width: job.width as usize,
+            rgb: vec![0; pixels],
+            landed: Vec::with_capacity(tiles_total),
+            overflow: false,
+        };
         self.with(|i| {
             let s = &mut i.status;
             s.scene = job.scene;
@@ -290,14 +324,58 @@ impl LiveState {
         self.frame
             .lock()
             .unwrap_or_else(|e| e.into_inner())
-            .1
+            .rgb
             .clone()
     }
 
-    /// Tiles as they land, as `x,y,w,h,BASE64-RGB` text. A receiver that lags gets
-    /// `Lagged` and should reload the frame.
-    pub fn subscribe(&self) -> broadcast::Receiver<Arc<str>> {
-        self.tiles.subscribe()
+    /// The events sent to every open page (`tiles` batches, statuses), as the bytes of the
+    /// event stream. A receiver that lags gets `Lagged` and should reload the frame. While
+    /// one is open the renderer notes which tiles land.
+    pub fn subscribe(&self) -> broadcast::Receiver<bytes::Bytes> {
+        let rx = self.events.subscribe();
+        self.opened.notify_one();
+        rx
+    }
+
+    /// Returns once a page subscribed since the last call (at once if one did meanwhile).
+    pub async fn page_opened(&self) {
+        self.opened.notified().await;
+    }
+
+    /// Whether a page is open.
+    pub fn watched(&self) -> bool {
+        self.events.receiver_count() > 0
+    }
+
+    /// Sends `event` to every open page (lossy: with no room the oldest goes, and a page that
+    /// missed it reloads).
+    pub fn send(&self, event: bytes::Bytes) {
+        let _ = self.events.send(event);
+    }
+
+    /// The tiles landed since the last call and their pixels (copied under the frame's lock,
+    /// a memory copy; the encoding is the caller's, off the renderer's threads).
+    pub fn take_landed(&self) -> Landed {
+        let mut f = self.frame.lock().unwrap_or_else(|e| e.into_inner());
+        let f = &mut *f;
+        let tiles: Vec<Tile> = f.landed.drain(..).collect();
+        let overflow = std::mem::take(&mut f.overflow);
+        let mut rgb = Vec::with_capacity(tiles.iter().map(|t| t.pixel_count() * 3).sum());
+        for t in &tiles {
+            let row = t.w as usize * 3;
+            for y in 0..t.h as usize {
+                let at = ((t.y as usize + y) * f.width + t.x as usize) * 3;
+                match f.rgb.get(at..at + row) {
+                    Some(src) => rgb.extend_from_slice(src),
+                    None => rgb.resize(rgb.len() + row, 0),
+                }
+            }
+        }
+        Landed {
+            tiles,
+            rgb,
+            overflow,
+        }
     }
 
     /// The trace phase began.
@@ -351,30 +429,29 @@ impl LiveState {
 
     /// A tile landed in the image, rendered by `id`.
     pub fn tile_done(&self, id: u64, tile: &Tile, pixels: &[Rgb], rays: u64) {
-        let mut rgb = Vec::with_capacity(pixels.len() * 3);
-        rgb.extend(
-            pixels
-                .iter()
-                .flat_map(|p| [to_u8(p[0]), to_u8(p[1]), to_u8(p[2])]),
-        );
         {
             let mut guard = self.frame.lock().unwrap_or_else(|e| e.into_inner());
-            let (width, frame) = (guard.0, &mut guard.1);
-            let row = tile.w as usize * 3;
+            let f = &mut *guard;
+            let w = tile.w as usize;
             for y in 0..tile.h as usize {
-                let at = ((tile.y as usize + y) * width + tile.x as usize) * 3;
-                if let (Some(dst), Some(src)) =
-                    (frame.get_mut(at..at + row), rgb.get(y * row..(y + 1) * row))
-                {
-                    dst.copy_from_slice(src);
+                let at = ((tile.y as usize + y) * f.width + tile.x as usize) * 3;
+                if let (Some(dst), Some(src)) = (
+                    f.rgb.get_mut(at..at + w * 3),
+                    pixels.get(y * w..(y + 1) * w),
+                ) {
+                    for (d, p) in dst.chunks_exact_mut(3).zip(src) {
+                        d.copy_from_slice(&[to_u8(p[0]), to_u8(p[1]), to_u8(p[2])]);
+                    }
                 }
             }
-        }
-        if self.tiles.receiver_count() > 0 && rgb.len() == tile.pixel_count() * 3 {
-            let mut msg = format!("{},{},{},{},", tile.x, tile.y, tile.w, tile.h);
-            base64_into(&rgb, &mut msg);
-            // Lossy: with no room the oldest message goes and a slow page reloads.
-            let _ = self.tiles.send(Arc::from(msg));
+            // Which tile landed, for the server to encode (only while a page is open).
+            if pixels.len() == tile.pixel_count() && self.watched() {
+                if f.landed.len() < f.landed.capacity() {
+                    f.landed.push(*tile);
+                } else {
+                    f.overflow = true;
+                }
+            }
         }
         self.with(|i| {
             i.status.tiles_done += 1;
@@ -509,7 +586,7 @@ mod tests {
     #[test]
     fn tiles_fill_the_frame_and_counts() {
         let s = LiveState::new(job());
-        let mut rx = s.subscribe();
+        let _rx = s.subscribe();
         s.add_worker(7, "w", 2, true);
         s.start();
         let tile = parrt::tile::tiles(4, 2, 2)[1];
@@ -520,10 +597,20 @@ mod tests {
         let st = s.status();
         assert_eq!((st.tiles_done, st.tiles_total, st.rays), (1, 2, 10));
         assert_eq!(st.workers[0].tiles, 1);
-        assert!(rx
-            .try_recv()
-            .expect("a tile message")
-            .starts_with("2,0,2,2,"));
+        let landed = s.take_landed();
+        assert_eq!(landed.tiles, [tile]);
+        assert_eq!(landed.rgb, [255, 0, 0].repeat(4));
+        assert!(!landed.overflow);
+        assert!(s.take_landed().tiles.is_empty(), "taken once");
+    }
+
+    #[test]
+    fn no_tile_is_noted_while_no_page_is_open() {
+        let s = LiveState::new(job());
+        let tile = parrt::tile::tiles(4, 2, 2)[0];
+        s.tile_done(0, &tile, &[[0.5; 3]; 4], 1);
+        assert!(s.take_landed().tiles.is_empty());
+        assert_eq!(&s.frame()[0..3], &[128, 128, 128]);
     }
 
     #[test]
