@@ -12,7 +12,7 @@
 //!   reloads).
 //! - [`auth`]: who may see it: anyone on loopback, only holders of the token elsewhere.
 //! - [`limits`]: the server's limits.
-//! - [`encode`]: the bytes of the events (tiles in base64).
+//! - [`encode`]: the bytes of the events (a batch of tiles as one PNG, in base64).
 //! - `page.html`: the page (HTML and plain JavaScript, served as it is).
 
 pub mod auth;
