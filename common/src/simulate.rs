@@ -7,6 +7,7 @@
 
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, VecDeque};
+use std::ops::Range;
 
 /// The model's parameters.
 #[derive(Clone, Debug, PartialEq)]
@@ -94,11 +95,7 @@ enum Kind {
     /// An assignment (a batch) reaches a worker.
     Assign { worker: usize, batch: usize },
     /// A thread of a worker finishes a tile of a batch.
-    Done {
-        worker: usize,
-        tile: usize,
-        batch: usize,
-    },
+    Done { worker: usize, batch: usize },
     /// A batch's results reach the master.
     Result { worker: usize, batch: usize },
 }
@@ -134,8 +131,9 @@ struct Sim<'a> {
     pixels: &'a [u64],
     heap: BinaryHeap<Event>,
     seq: u64,
-    /// Every batch handed out: its tiles and how many are not done yet.
-    batches: Vec<(Vec<usize>, usize)>,
+    /// Every batch handed out: its tiles (consecutive in the queue) and how many are not
+    /// done yet.
+    batches: Vec<(Range<usize>, usize)>,
     /// Tiles each worker holds (assigned, not yet answered).
     held: Vec<usize>,
     /// Tiles not yet handed out (the next is `next`), and the costs seen by the master.
@@ -176,14 +174,7 @@ impl Sim<'_> {
                 break;
             };
             self.idle[worker] -= 1;
-            self.push(
-                now + self.costs[tile],
-                Kind::Done {
-                    worker,
-                    tile,
-                    batch,
-                },
-            );
+            self.push(now + self.costs[tile], Kind::Done { worker, batch });
         }
     }
 
@@ -209,10 +200,9 @@ impl Sim<'_> {
 
     /// Hands `worker` batches while its window has room, as the master's `fill` does: a
     /// batch goes whole or, when the worker holds nothing, as much of it as fits. Each
-    /// reaches the worker at `at`; returns how many messages went.
-    fn fill(&mut self, worker: usize, at: f64) -> usize {
+    /// reaches the worker at `at`.
+    fn fill(&mut self, worker: usize, at: f64) {
         let p = self.p;
-        let mut sent = 0;
         while self.next < self.costs.len() {
             let mean = (self.seen.1 > 0).then(|| self.seen.0 / self.seen.1 as f64);
             let size = crate::batch::batch_size(
@@ -226,17 +216,14 @@ impl Sim<'_> {
                 break;
             }
             let take = size.min(free).min(self.costs.len() - self.next);
-            let tiles: Vec<usize> = (self.next..self.next + take).collect();
+            self.batches.push((self.next..self.next + take, take));
             self.next += take;
             self.held[worker] += take;
-            self.batches.push((tiles, take));
             self.bytes += p.message_bytes;
             let batch = self.batches.len() - 1;
             let arrive = self.host(at, 0.5 * p.host_per_tile_s * take as f64);
             self.push(arrive, Kind::Assign { worker, batch });
-            sent += 1;
         }
-        sent
     }
 }
 
@@ -282,24 +269,18 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         let now = ev.time;
         match ev.kind {
             Kind::Assign { worker, batch } => {
-                for i in 0..sim.batches[batch].0.len() {
-                    let tile = sim.batches[batch].0[i];
-                    sim.queue[worker].push_back((tile, batch));
-                }
+                let tiles = sim.batches[batch].0.clone();
+                sim.queue[worker].extend(tiles.map(|tile| (tile, batch)));
                 sim.start(worker, now);
             }
-            Kind::Done {
-                worker,
-                tile: _,
-                batch,
-            } => {
+            Kind::Done { worker, batch } => {
                 sim.idle[worker] += 1;
                 sim.start(worker, now);
                 sim.batches[batch].1 -= 1;
                 if sim.batches[batch].1 == 0 {
                     // The batch's last tile: its results go back in one message.
-                    let tiles = &sim.batches[batch].0;
-                    let px: u64 = tiles.iter().map(|&t| sim.pixels[t]).sum();
+                    let tiles = sim.batches[batch].0.clone();
+                    let px: u64 = sim.pixels[tiles.clone()].iter().sum();
                     let count = tiles.len() as f64;
                     let bytes = p.message_bytes + p.result_bytes_per_pixel * px as f64;
                     sim.bytes += bytes;
@@ -319,14 +300,14 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
                 }
             }
             Kind::Result { worker, batch } => {
-                let tiles = std::mem::take(&mut sim.batches[batch].0);
+                let tiles = sim.batches[batch].0.clone();
                 let per = p.master_per_tile_s * tiles.len() as f64;
                 master_free = master_free.max(now) + per;
                 master_busy += per;
                 done += tiles.len();
                 sim.held[worker] -= tiles.len();
-                sim.seen.0 += tiles.iter().map(|&t| costs[t]).sum::<f64>();
                 sim.seen.1 += tiles.len();
+                sim.seen.0 += costs[tiles].iter().sum::<f64>();
                 makespan = makespan.max(master_free);
                 let arrive = master_free + p.latency_s + sim.transfer(p.message_bytes);
                 sim.fill(worker, arrive);

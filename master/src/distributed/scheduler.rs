@@ -673,8 +673,17 @@ impl Scheduler {
             .filter(|w| w.ready_at.is_some())
             .map(|w| w.threads.max(1) as usize)
             .sum();
-        let mean = (self.cost.1 > 0).then(|| self.cost.0 / self.cost.1 as f64);
-        parrt::batch::batch_size(self.opts.max_batch, self.queue.len(), threads, mean)
+        parrt::batch::batch_size(
+            self.opts.max_batch,
+            self.queue.len(),
+            threads,
+            self.mean_cost(),
+        )
+    }
+
+    /// The mean render seconds of the tiles delivered so far (`None` before the first).
+    fn mean_cost(&self) -> Option<f64> {
+        (self.cost.1 > 0).then(|| self.cost.0 / self.cost.1 as f64)
     }
 
     /// Hands out tiles to every ready worker with room in its window ([`Window::assignments`]
@@ -696,11 +705,7 @@ impl Scheduler {
                 };
                 // Expired tiles still count: a stalled worker gets nothing new.
                 let held = w.inflight.len();
-                let mean = if self.cost.1 > 0 {
-                    self.cost.0 / self.cost.1 as f64
-                } else {
-                    0.0
-                };
+                let mean = self.mean_cost().unwrap_or(0.0);
                 let free = self
                     .opts
                     .window
