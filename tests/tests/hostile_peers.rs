@@ -560,9 +560,12 @@ async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
 /// whole message, but above the floor rate, is taken.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn master_takes_a_slow_result() {
-    let desc = test_scene(128, 128);
+    // One 256 x 256 tile: a 786 KB result, so the floor rate allows it 2 s + 12 s, and the
+    // trickle below (at least 3.3 s, 240 KB/s) stays far inside that even when the test is
+    // slowed several times over by the tests beside it.
+    let desc = test_scene(256, 256);
     let settings = settings_for(&desc);
-    let mut opts = test_options(128);
+    let mut opts = test_options(256);
     // The smallest timeout the CLI allows: the test runs beside others that load the machine,
     // and a stall of the test itself must not read as a silent worker.
     opts.heartbeat_timeout = Duration::from_secs(2);
@@ -600,12 +603,25 @@ async fn master_takes_a_slow_result() {
         },
         seconds: 0.0,
     });
+    assert!(result.len() > 700_000, "a {}-byte result", result.len());
     let (_r, mut w) = c.into_inner().into_split();
-    // 196 KB at 80 KB/s: about 2.5 s, longer than the timeout, no whole message meanwhile.
-    for part in result.chunks(12 * 1024) {
-        w.write_all(part).await.unwrap();
-        sleep(Duration::from_millis(150)).await;
+    let began = std::time::Instant::now();
+    for part in result.chunks(24 * 1024) {
+        if let Err(e) = w.write_all(part).await {
+            let why = match timeout(Duration::from_secs(5), m.handle).await {
+                Ok(Ok(Err(e))) => format!("the master failed: {e:#}"),
+                Ok(Ok(Ok(_))) => "the master finished without the result".into(),
+                other => format!("the master: {other:?}"),
+            };
+            panic!("the master closed after {:?} ({e}); {why}", began.elapsed());
+        }
+        sleep(Duration::from_millis(100)).await;
     }
+    let trickled = began.elapsed();
+    assert!(
+        trickled > opts.heartbeat_timeout,
+        "the result took {trickled:?}, not longer than the timeout: nothing was tested"
+    );
     let r = m.handle.await.unwrap().expect("the slow result was taken");
     assert_eq!(r.film.pixels[0], [0.25, 0.5, 0.75]);
 }
