@@ -560,15 +560,15 @@ async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
 /// whole message, but above the floor rate, is taken.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn master_takes_a_slow_result() {
-    // One 256 x 256 tile: a 786 KB result, so the floor rate allows it 2 s + 12 s, and the
-    // trickle below (at least 3.3 s, 240 KB/s) stays far inside that even when the test is
-    // slowed several times over by the tests beside it.
+    // One 256 x 256 tile: a 786 KB result, so the floor rate allows it 3 s + 12 s, and the
+    // trickle below (at least 4.8 s, 160 KB/s, a chunk every 100 ms) stays far inside that
+    // even when the tests beside it slow this one several times over.
     let desc = test_scene(256, 256);
     let settings = settings_for(&desc);
     let mut opts = test_options(256);
-    // The smallest timeout the CLI allows: the test runs beside others that load the machine,
-    // and a stall of the test itself must not read as a silent worker.
-    opts.heartbeat_timeout = Duration::from_secs(2);
+    // Short enough that the trickle outlasts it; long enough that a stall of this test, run
+    // beside others that load the machine, does not read as a silent worker.
+    opts.heartbeat_timeout = Duration::from_secs(3);
     opts.wait_workers = Duration::from_secs(8);
     opts.backups = false;
     let m = start_master(&desc, &settings, &opts).await;
@@ -606,7 +606,7 @@ async fn master_takes_a_slow_result() {
     assert!(result.len() > 700_000, "a {}-byte result", result.len());
     let (_r, mut w) = c.into_inner().into_split();
     let began = std::time::Instant::now();
-    for part in result.chunks(24 * 1024) {
+    for part in result.chunks(16 * 1024) {
         if let Err(e) = w.write_all(part).await {
             let why = match timeout(Duration::from_secs(5), m.handle).await {
                 Ok(Ok(Err(e))) => format!("the master failed: {e:#}"),
