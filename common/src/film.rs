@@ -1,5 +1,7 @@
 //! The film: a linear float RGB image that tiles are written into, and its output as PNG or PPM
-//! (8-bit, clamped) or EXR (float, for error measurement). NaN and infinity never reach it.
+//! (8-bit, clamped) or EXR (float, for error measurement). NaN and infinity never reach it. A
+//! film made for an 8-bit output ([`Film::new_rgb8`]) keeps the 8-bit bytes themselves, so
+//! 8-bit tiles from workers go in with a copy and out to the PNG without a float pass.
 //! [`check_output`] tells before a render whether its image can be written; [`Film::save`]
 //! writes a temporary file beside the target and renames it, so a failed write leaves no
 //! half-written image.
@@ -161,8 +163,17 @@ pub struct Film {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// Pixels, row-major.
+    /// Pixels, row-major; empty for an 8-bit film, whose pixels [`Film::get`] reads.
     pub pixels: Vec<Rgb>,
+    /// An 8-bit film's RGB bytes, row-major ([`to_u8`] of each linear value); `None` for a
+    /// linear film.
+    rgb8: Option<Vec<u8>>,
+}
+
+/// An 8-bit value as a linear one, `b / 255`, which [`to_u8`] maps back to `b` exactly.
+#[inline]
+pub fn unit(b: u8) -> f32 {
+    b as f32 / 255.0
 }
 
 /// Converts a linear value to 8 bits: clamp to [0, 1], scale, round to nearest.
@@ -175,19 +186,85 @@ pub fn to_u8(v: f32) -> u8 {
 impl Film {
     /// A black film.
     pub fn new(width: u32, height: u32) -> Self {
+        Film::from_pixels(
+            width,
+            height,
+            vec![[0.0; 3]; width as usize * height as usize],
+        )
+    }
+
+    /// A film holding `pixels` (row-major, `width × height` of them).
+    pub fn from_pixels(width: u32, height: u32, pixels: Vec<Rgb>) -> Self {
+        debug_assert_eq!(pixels.len(), width as usize * height as usize);
         Film {
             width,
             height,
-            pixels: vec![[0.0; 3]; width as usize * height as usize],
+            pixels,
+            rgb8: None,
         }
+    }
+
+    /// A black film that keeps 8-bit RGB, for an output that keeps no more (PNG, PPM): a
+    /// quarter of a linear film's memory, and [`Film::save`] writes its bytes as they are.
+    /// Linear values written into it are stored as [`to_u8`] of each; [`Film::get`] gives a
+    /// byte `b` back as `b / 255`.
+    pub fn new_rgb8(width: u32, height: u32) -> Self {
+        Film {
+            width,
+            height,
+            pixels: Vec::new(),
+            rgb8: Some(vec![0; width as usize * height as usize * 3]),
+        }
+    }
+
+    /// Whether this film keeps 8-bit RGB ([`Film::new_rgb8`]).
+    pub fn is_rgb8(&self) -> bool {
+        self.rgb8.is_some()
+    }
+
+    /// Checks that `tile` lies inside the film and that `len` is its pixel count.
+    fn check_fit(&self, tile: &Tile, len: usize) -> Result<(), FilmError> {
+        let fits = tile.x.checked_add(tile.w).is_some_and(|r| r <= self.width)
+            && tile.y.checked_add(tile.h).is_some_and(|b| b <= self.height)
+            && len == tile.pixel_count();
+        if fits {
+            return Ok(());
+        }
+        Err(FilmError::BadTile {
+            id: tile.id,
+            x: tile.x,
+            y: tile.y,
+            w: tile.w,
+            h: tile.h,
+            width: self.width,
+            height: self.height,
+            len,
+        })
     }
 
     /// Copies a tile's pixels (row-major within the tile) into place.
     pub fn write_tile(&mut self, tile: &Tile, pixels: &[Rgb]) -> Result<(), FilmError> {
-        let fits = tile.x.checked_add(tile.w).is_some_and(|r| r <= self.width)
-            && tile.y.checked_add(tile.h).is_some_and(|b| b <= self.height)
-            && pixels.len() == tile.pixel_count();
-        if !fits {
+        self.check_fit(tile, pixels.len())?;
+        let (w, width) = (tile.w as usize, self.width as usize);
+        for (row, src) in pixels.chunks_exact(w.max(1)).enumerate() {
+            let dst = (tile.y as usize + row) * width + tile.x as usize;
+            match &mut self.rgb8 {
+                None => self.pixels[dst..dst + w].copy_from_slice(src),
+                Some(bytes) => {
+                    for (d, p) in bytes[dst * 3..(dst + w) * 3].chunks_exact_mut(3).zip(src) {
+                        d.copy_from_slice(&[to_u8(p[0]), to_u8(p[1]), to_u8(p[2])]);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Copies a tile's 8-bit RGB bytes (3 a pixel, row-major within the tile) into place: as
+    /// they are into an 8-bit film, as `b / 255` into a linear one.
+    pub fn write_tile_rgb8(&mut self, tile: &Tile, bytes: &[u8]) -> Result<(), FilmError> {
+        self.check_fit(tile, bytes.len() / 3)?;
+        if bytes.len() % 3 != 0 {
             return Err(FilmError::BadTile {
                 id: tile.id,
                 x: tile.x,
@@ -196,28 +273,52 @@ impl Film {
                 h: tile.h,
                 width: self.width,
                 height: self.height,
-                len: pixels.len(),
+                len: bytes.len(),
             });
         }
-        let w = tile.w as usize;
-        for row in 0..tile.h as usize {
-            let dst = (tile.y as usize + row) * self.width as usize + tile.x as usize;
-            self.pixels[dst..dst + w].copy_from_slice(&pixels[row * w..row * w + w]);
+        let (w, width) = (tile.w as usize, self.width as usize);
+        for (row, src) in bytes.chunks_exact((w * 3).max(1)).enumerate() {
+            let dst = (tile.y as usize + row) * width + tile.x as usize;
+            match &mut self.rgb8 {
+                Some(film) => film[dst * 3..(dst + w) * 3].copy_from_slice(src),
+                None => {
+                    for (d, b) in self.pixels[dst..dst + w]
+                        .iter_mut()
+                        .zip(src.chunks_exact(3))
+                    {
+                        *d = [unit(b[0]), unit(b[1]), unit(b[2])];
+                    }
+                }
+            }
         }
         Ok(())
     }
 
     /// The pixel at column `x`, row `y`.
     pub fn get(&self, x: u32, y: u32) -> Rgb {
-        self.pixels[y as usize * self.width as usize + x as usize]
+        let i = y as usize * self.width as usize + x as usize;
+        match &self.rgb8 {
+            None => self.pixels[i],
+            Some(b) => [unit(b[3 * i]), unit(b[3 * i + 1]), unit(b[3 * i + 2])],
+        }
     }
 
     /// The image as 8-bit RGB bytes.
     pub fn to_rgb8(&self) -> Vec<u8> {
-        self.pixels
-            .iter()
-            .flat_map(|p| [to_u8(p[0]), to_u8(p[1]), to_u8(p[2])])
-            .collect()
+        self.rgb8_bytes().into_owned()
+    }
+
+    /// The image as 8-bit RGB bytes, borrowed from an 8-bit film.
+    fn rgb8_bytes(&self) -> std::borrow::Cow<'_, [u8]> {
+        match &self.rgb8 {
+            Some(b) => std::borrow::Cow::Borrowed(b),
+            None => std::borrow::Cow::Owned(
+                self.pixels
+                    .iter()
+                    .flat_map(|p| [to_u8(p[0]), to_u8(p[1]), to_u8(p[2])])
+                    .collect(),
+            ),
+        }
     }
 
     /// Writes the film; the format follows the file's extension. The image goes to a temporary
@@ -247,17 +348,25 @@ impl Film {
     fn write_as(&self, path: &Path, format: ImageFormat) -> Result<(), image::ImageError> {
         match format {
             ImageFormat::Png | ImageFormat::Ppm => {
-                let img = image::RgbImage::from_raw(self.width, self.height, self.to_rgb8())
-                    .expect("buffer size matches dimensions");
                 let fmt = if format == ImageFormat::Png {
                     image::ImageFormat::Png
                 } else {
                     image::ImageFormat::Pnm
                 };
-                img.save_with_format(path, fmt)
+                image::save_buffer_with_format(
+                    path,
+                    &self.rgb8_bytes(),
+                    self.width,
+                    self.height,
+                    image::ExtendedColorType::Rgb8,
+                    fmt,
+                )
             }
             ImageFormat::Exr => {
-                let flat: Vec<f32> = self.pixels.iter().flatten().copied().collect();
+                let flat: Vec<f32> = match &self.rgb8 {
+                    None => self.pixels.iter().flatten().copied().collect(),
+                    Some(b) => b.iter().map(|&v| unit(v)).collect(),
+                };
                 let img = image::Rgb32FImage::from_raw(self.width, self.height, flat)
                     .expect("buffer size matches dimensions");
                 img.save_with_format(path, image::ImageFormat::OpenExr)
@@ -347,5 +456,87 @@ mod tests {
             cause = c.source();
         }
         assert_eq!(msg.matches("No such file or directory").count(), 1, "{msg}");
+    }
+
+    /// An 8-bit film holds what a linear film's PNG holds: tiles written as bytes or as linear
+    /// values give the same pixels, the same `get`, and byte-identical PNG and PPM files.
+    #[test]
+    fn an_8_bit_film_writes_the_linear_films_png() {
+        let (w, h) = (5u32, 4u32);
+        let tiles = [
+            Tile {
+                id: 0,
+                x: 0,
+                y: 0,
+                w: 3,
+                h: 4,
+            },
+            Tile {
+                id: 1,
+                x: 3,
+                y: 0,
+                w: 2,
+                h: 4,
+            },
+        ];
+        let value = |x: u32, y: u32| [x as f32 / 4.0, y as f32 / 3.0 - 0.1, 1.5 - x as f32];
+        let mut linear = Film::new(w, h);
+        let mut from_bytes = Film::new_rgb8(w, h);
+        let mut from_values = Film::new_rgb8(w, h);
+        for t in &tiles {
+            let px: Vec<Rgb> = (t.y..t.y + t.h)
+                .flat_map(|y| (t.x..t.x + t.w).map(move |x| value(x, y)))
+                .collect();
+            let bytes: Vec<u8> = px.iter().flatten().map(|&v| to_u8(v)).collect();
+            linear.write_tile(t, &px).unwrap();
+            from_bytes.write_tile_rgb8(t, &bytes).unwrap();
+            from_values.write_tile(t, &px).unwrap();
+        }
+        assert!(from_bytes.is_rgb8() && !linear.is_rgb8());
+        assert!(
+            from_bytes.pixels.is_empty(),
+            "an 8-bit film keeps no floats"
+        );
+        assert_eq!(from_bytes, from_values);
+        assert_eq!(from_bytes.to_rgb8(), linear.to_rgb8());
+        let (x, y) = (4, 2);
+        assert_eq!(from_bytes.get(x, y), value(x, y).map(|v| unit(to_u8(v))));
+        // Bytes into a linear film become b / 255.
+        let mut back = Film::new(w, h);
+        back.write_tile_rgb8(&tiles[1], &from_bytes.to_rgb8()[..0])
+            .unwrap_err();
+        let all = Tile {
+            id: 0,
+            x: 0,
+            y: 0,
+            w,
+            h,
+        };
+        back.write_tile_rgb8(&all, &from_bytes.to_rgb8()).unwrap();
+        assert_eq!(back.get(x, y), from_bytes.get(x, y));
+        let d = tempfile::tempdir().unwrap();
+        for ext in ["png", "ppm"] {
+            let (a, b) = (
+                d.path().join(format!("a.{ext}")),
+                d.path().join(format!("b.{ext}")),
+            );
+            linear.save(&a).unwrap();
+            from_bytes.save(&b).unwrap();
+            assert_eq!(
+                std::fs::read(&a).unwrap(),
+                std::fs::read(&b).unwrap(),
+                "{ext}"
+            );
+        }
+        // A misfit is refused as it is for floats.
+        let t = Tile {
+            id: 2,
+            x: 4,
+            y: 0,
+            w: 2,
+            h: 1,
+        };
+        assert!(from_bytes.write_tile_rgb8(&t, &[0; 6]).is_err());
+        assert!(from_bytes.write_tile_rgb8(&tiles[1], &[0; 7]).is_err());
     }
 }

@@ -130,6 +130,7 @@ pub fn smp_reference(
 /// Asserts two films are equal bit for bit (f32 bit patterns), naming the first difference.
 pub fn assert_same_bits(a: &Film, b: &Film, what: &str) {
     assert_eq!((a.width, a.height), (b.width, b.height), "{what}: size");
+    assert_eq!(a.pixels.len(), b.pixels.len(), "{what}: linear pixels held");
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         let same = p.iter().zip(q).all(|(x, y)| x.to_bits() == y.to_bits());
         assert!(

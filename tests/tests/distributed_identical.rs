@@ -173,11 +173,11 @@ fn master_and_workers_on_the_command_line_write_the_smp_image() {
     let log = rest.join().unwrap();
     assert!(status.success(), "master failed: {log}");
     let img = image::open(&out).unwrap().into_rgb32f();
-    let film = parrt::film::Film {
-        width: img.width(),
-        height: img.height(),
-        pixels: img.pixels().map(|p| p.0).collect(),
-    };
+    let film = parrt::film::Film::from_pixels(
+        img.width(),
+        img.height(),
+        img.pixels().map(|p| p.0).collect(),
+    );
     assert_same_bits(&film, &reference, "CLI master + 2 CLI workers");
     let rep: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();

@@ -5,7 +5,7 @@
 //! (12 bytes a pixel). Either way the pixels are one byte blob, copied in and out without a
 //! per-value encoding step.
 
-use crate::film::{to_u8, Rgb};
+use crate::film::{to_u8, unit, Rgb};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -85,15 +85,21 @@ impl TilePixels {
         TilePixels { format, bytes }
     }
 
-    /// Decodes into `out` (cleared first) the pixels of a tile of `count` pixels sent for a job
-    /// that asked for `want`, checking the format, the count and that every value is finite.
-    /// An 8-bit value `b` becomes `b / 255`, which [`to_u8`] maps back to `b` exactly.
-    pub fn decode_into(
-        &self,
-        want: PixelFormat,
-        count: usize,
-        out: &mut Vec<Rgb>,
-    ) -> Result<(), PixelError> {
+    /// The 8-bit bytes of a tile of `count` pixels sent for a job that asked for `want`, after
+    /// the checks [`TilePixels::decode_into`] makes (an 8-bit value needs no other).
+    pub fn rgb8(&self, want: PixelFormat, count: usize) -> Result<&[u8], PixelError> {
+        self.check(want, count)?;
+        match self.format {
+            PixelFormat::Rgb8 => Ok(&self.bytes),
+            PixelFormat::F32 => Err(PixelError::Format {
+                got: self.format,
+                want: PixelFormat::Rgb8,
+            }),
+        }
+    }
+
+    /// Checks the format against `want` and the byte count against `count` pixels.
+    fn check(&self, want: PixelFormat, count: usize) -> Result<(), PixelError> {
         if self.format != want {
             return Err(PixelError::Format {
                 got: self.format,
@@ -108,6 +114,19 @@ impl TilePixels {
                 pixels: count,
             });
         }
+        Ok(())
+    }
+
+    /// Decodes into `out` (cleared first) the pixels of a tile of `count` pixels sent for a job
+    /// that asked for `want`, checking the format, the count and that every value is finite.
+    /// An 8-bit value `b` becomes [`unit`]`(b)`, which [`to_u8`] maps back to `b` exactly.
+    pub fn decode_into(
+        &self,
+        want: PixelFormat,
+        count: usize,
+        out: &mut Vec<Rgb>,
+    ) -> Result<(), PixelError> {
+        self.check(want, count)?;
         out.clear();
         out.reserve(count);
         match self.format {
@@ -121,14 +140,11 @@ impl TilePixels {
                     out.push(rgb);
                 }
             }
-            PixelFormat::Rgb8 => {
-                let f = |b: u8| b as f32 / 255.0;
-                out.extend(
-                    self.bytes
-                        .chunks_exact(3)
-                        .map(|px| [f(px[0]), f(px[1]), f(px[2])]),
-                );
-            }
+            PixelFormat::Rgb8 => out.extend(
+                self.bytes
+                    .chunks_exact(3)
+                    .map(|px| [unit(px[0]), unit(px[1]), unit(px[2])]),
+            ),
         }
         Ok(())
     }

@@ -272,7 +272,11 @@ impl Scheduler {
             queue: (0..n as u32).collect(),
             tiles,
             done: 0,
-            film: Film::new(width, height),
+            // An 8-bit output's film keeps bytes: 8-bit results go in with a copy.
+            film: match opts.pixel_format {
+                PixelFormat::Rgb8 => Film::new_rgb8(width, height),
+                PixelFormat::F32 => Film::new(width, height),
+            },
             stats: RayStats::default(),
             tile_seconds: vec![0.0; n],
             workers: BTreeMap::new(),
@@ -504,22 +508,32 @@ impl Scheduler {
         let t = tile_id as usize;
         let tile = self.tiles[t];
         let mut decoded = std::mem::take(&mut self.scratch);
-        let invalid =
-            match pixels.decode_into(self.opts.pixel_format, tile.pixel_count(), &mut decoded) {
-                Err(e) => Some(format!("tile {tile_id}: {e}")),
-                Ok(()) => stats
-                    .check_tile(&tile, &self.settings, self.lights)
-                    .err()
-                    .map(|e| format!("tile {tile_id}: {e}")),
-            };
-        match invalid {
-            Some(reason) => {
+        // 8-bit pixels go into an 8-bit film as they came, decoded only for observers.
+        let (format, count) = (self.opts.pixel_format, tile.pixel_count());
+        let checked = if self.film.is_rgb8() && self.observers.is_empty() {
+            decoded.clear();
+            pixels.rgb8(format, count).map(Checked::Rgb8)
+        } else {
+            match pixels.decode_into(format, count, &mut decoded) {
+                Ok(()) => Ok(Checked::Linear(&decoded)),
+                Err(e) => Err(e),
+            }
+        };
+        let checked = match checked {
+            Err(e) => Err(format!("tile {tile_id}: {e}")),
+            Ok(px) => match stats.check_tile(&tile, &self.settings, self.lights) {
+                Ok(()) => Ok(px),
+                Err(e) => Err(format!("tile {tile_id}: {e}")),
+            },
+        };
+        match checked {
+            Err(reason) => {
                 self.faults.rejected_results += 1;
                 self.requeue(tile_id);
                 self.fail(id, reason);
             }
-            None => {
-                let accepted = self.accept(id, t, &decoded, stats, seconds);
+            Ok(px) => {
+                let accepted = self.accept(id, t, px, stats, seconds);
                 let shown: &[Rgb] = if accepted { &decoded } else { &[] };
                 self.observers
                     .each(|o| o.result(id, &tile, shown, &stats, seconds, accepted));
@@ -544,7 +558,7 @@ impl Scheduler {
         &mut self,
         id: WorkerId,
         t: usize,
-        pixels: &[Rgb],
+        pixels: Checked,
         stats: RayStats,
         seconds: f64,
     ) -> bool {
@@ -554,7 +568,11 @@ impl Scheduler {
             debug!(worker = id, tile_id = t, "duplicate result ignored");
             return false;
         }
-        if let Err(e) = self.film.write_tile(&tile, pixels) {
+        let written = match pixels {
+            Checked::Linear(px) => self.film.write_tile(&tile, px),
+            Checked::Rgb8(bytes) => self.film.write_tile_rgb8(&tile, bytes),
+        };
+        if let Err(e) = written {
             // Cannot happen: the tile is ours and the count was checked.
             warn!(error = %e, "tile does not fit the film");
             return false;
@@ -845,6 +863,15 @@ impl Scheduler {
             complete: self.done == self.tiles.len(),
         }
     }
+}
+
+/// A checked result's pixels, as the film takes them.
+#[derive(Clone, Copy)]
+enum Checked<'a> {
+    /// Decoded linear values.
+    Linear(&'a [Rgb]),
+    /// 8-bit RGB bytes, for an 8-bit film.
+    Rgb8(&'a [u8]),
 }
 
 fn report(w: &Slot, left: Option<String>) -> WorkerReport {
