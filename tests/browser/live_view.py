@@ -171,8 +171,9 @@ class Watch:
 
     def between(self, t0, t1):
         """tiles events, reload events, image.png loads touching [t0, t1]."""
-        n = lambda ts: sum(1 for t in ts if t0 <= t <= t1)
-        loads = sum(1 for s, e in self.images.values() if s <= t1 and (e is None or e >= t0))
+        n = lambda ts: sum(1 for t in list(ts) if t0 <= t <= t1)
+        spans = list(self.images.values())  # one copy: the reader thread adds to it
+        loads = sum(1 for s, e in spans if s <= t1 and (e is None or e >= t0))
         return n(self.tiles), n(self.reloads), loads
 
 

@@ -40,7 +40,7 @@ T=$(mktemp -d /tmp/parrt-live-view.XXXXXX)
 trap 'rm -rf "$T"' EXIT
 # The driver ends Chromium and parrt itself on every path; `timeout` is the last resort.
 rc=0
-timeout -k 10 300 python3 "$HERE/live_view.py" "$CHROME" "$BIN" "$T" || rc=$?
+PYTHONDONTWRITEBYTECODE=1 timeout -k 10 300 python3 "$HERE/live_view.py" "$CHROME" "$BIN" "$T" || rc=$?
 if [ $rc != 0 ]; then
     for f in render.err chrome.log; do
         [ -s "$T/$f" ] && { echo "--- $f (last lines)" >&2; grep -v dbus "$T/$f" | tail -n 20 >&2; }
