@@ -24,6 +24,8 @@ pub fn spd_dir() -> PathBuf {
     }
 }
 
+pub mod deliveries;
+pub use deliveries::Deliveries;
 pub mod dist;
 pub use dist::*;
 pub mod spd;

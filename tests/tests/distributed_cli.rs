@@ -71,6 +71,7 @@ fn ctrl_c_on_the_master_shuts_workers_down_and_exits_1() {
         .arg("-o")
         .arg(dir.path().join("x.png"))
         .env("PARRT_TOKEN", TEST_TOKEN)
+        .env("PARRT_LOG", "info")
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
@@ -88,7 +89,19 @@ fn ctrl_c_on_the_master_shuts_workers_down_and_exits_1() {
     };
     let master = ChildGuard(master);
     let mut worker = spawn_worker_process(EXE.as_ref(), addr, 1, Some(100), TEST_TOKEN);
-    std::thread::sleep(Duration::from_millis(700));
+    // Interrupt once the worker has joined and tiles go out (its 64 tiles of 100 ms leave
+    // seconds of work), however long it took to start: a worker still dialling would not be
+    // told to shut down.
+    loop {
+        line.clear();
+        assert!(
+            stderr.read_line(&mut line).unwrap() > 0,
+            "master ended before starting"
+        );
+        if line.contains("starting") {
+            break;
+        }
+    }
     master.signal("INT");
     let mut master = master;
     let status = master.0.wait().unwrap();

@@ -4,12 +4,13 @@
 //! Worker processes use the `PARRT_WORKER_TILE_DELAY_MS` test hook so "mid-job" is certain.
 
 use parrt::protocol::{Connection, Message, PROTOCOL_VERSION};
-use parrt_master::distributed::DistResult;
+use parrt_master::distributed::{DistOptions, DistResult};
 use parrt_tests::*;
+use std::sync::Arc;
 use std::time::Duration;
 use tokio::io::AsyncWriteExt;
 use tokio::net::TcpStream;
-use tokio::time::{sleep, timeout};
+use tokio::time::timeout;
 
 const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
 
@@ -29,15 +30,35 @@ fn report_of(r: &DistResult, pid: u32) -> &parrt_master::distributed::WorkerRepo
         .unwrap_or_else(|| panic!("no report for pid {pid}: {:?}", r.per_worker))
 }
 
+/// `opts` for a job both worker processes take part in from the start (neither can finish it
+/// alone before the other has joined), watched for the tiles each delivers.
+fn two_workers_watched(opts: DistOptions) -> (DistOptions, Arc<Deliveries>) {
+    let seen = Deliveries::new();
+    let opts = DistOptions {
+        min_workers: 2,
+        observers: seen.observers(),
+        ..opts
+    };
+    (opts, seen)
+}
+
+/// Waits until `worker` has delivered a tile: it is connected, rendering and holds more (64
+/// tiles of 40 ms on two workers leave over a second of work), however long it took to start.
+async fn mid_job(seen: &Deliveries, worker: &ChildGuard) {
+    let suffix = format!("-{}", worker.pid());
+    seen.wait_for(&suffix, 1, Duration::from_secs(30)).await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn worker_killed_mid_job_loses_its_tiles_to_the_others() {
     let desc = test_scene(64, 64);
     let settings = settings_for(&desc);
     let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
-    let m = start_master(&desc, &settings, &test_options(8)).await;
+    let (opts, seen) = two_workers_watched(test_options(8));
+    let m = start_master(&desc, &settings, &opts).await;
     let victim = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
     let _other = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
-    sleep(Duration::from_millis(600)).await;
+    mid_job(&seen, &victim).await;
     victim.signal("KILL");
     let r = finish(m).await;
     assert_same_bits(&r.film, &reference, "after SIGKILL");
@@ -60,10 +81,11 @@ async fn stopped_worker_tiles_move_after_the_deadline() {
     opts.tile_deadline = Duration::from_millis(400);
     opts.heartbeat_timeout = Duration::from_secs(60); // so only the deadline can move tiles
     opts.backups = false;
+    let (opts, seen) = two_workers_watched(opts);
     let m = start_master(&desc, &settings, &opts).await;
     let stopped = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
     let _other = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
-    sleep(Duration::from_millis(600)).await;
+    mid_job(&seen, &stopped).await;
     stopped.signal("STOP");
     let r = finish(m).await;
     assert_same_bits(&r.film, &reference, "after SIGSTOP");
@@ -83,12 +105,15 @@ async fn stopped_worker_is_dropped_after_missed_heartbeats() {
     let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
     let mut opts = test_options(8);
     opts.tile_deadline = Duration::from_secs(60); // so only the heartbeat timeout can act
-    opts.heartbeat_timeout = Duration::from_millis(1500); // > the 1 s heartbeat
+                                                  // Three of the workers' 1 s heartbeats: a healthy worker waiting for tiles (before the
+                                                  // start, or for the stopped one's) is not dropped for a heartbeat a loaded machine delays.
+    opts.heartbeat_timeout = Duration::from_secs(3);
     opts.backups = false;
+    let (opts, seen) = two_workers_watched(opts);
     let m = start_master(&desc, &settings, &opts).await;
     let stopped = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
     let _other = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
-    sleep(Duration::from_millis(600)).await;
+    mid_job(&seen, &stopped).await;
     stopped.signal("STOP");
     let r = finish(m).await;
     assert_same_bits(&r.film, &reference, "after missed heartbeats");
@@ -106,11 +131,17 @@ async fn worker_joining_late_gets_tiles() {
     let desc = test_scene(64, 64);
     let settings = settings_for(&desc);
     let (reference, _) = smp_reference(&desc, &settings, 8);
-    let m = start_master(&desc, &settings, &test_options(8)).await;
+    let seen = Deliveries::new();
+    let opts = DistOptions {
+        observers: seen.observers(),
+        ..test_options(8)
+    };
+    let m = start_master(&desc, &settings, &opts).await;
     let mut early = worker_options(m.addr, 1, "early");
     early.tile_delay = Some(Duration::from_millis(25));
     let w1 = start_worker(early);
-    sleep(Duration::from_millis(400)).await;
+    // Late for certain: the render is under way, with about 1.5 s of the early one's work left.
+    seen.wait_for("early", 1, Duration::from_secs(30)).await;
     let mut late = worker_options(m.addr, 1, "late");
     late.tile_delay = Some(Duration::from_millis(25));
     let w2 = start_worker(late);
@@ -134,6 +165,9 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     let mut opts = test_options(8);
     opts.max_failures = 1;
     opts.handshake_timeout = Duration::from_millis(500);
+    // The good worker and the liar below: the render cannot start, let alone end, before the
+    // liar has its job, however slowly the bad peers before it are handled.
+    opts.min_workers = 2;
     let m = start_master(&desc, &settings, &opts).await;
     // A peer that connects and says nothing holds no slot for long.
     let mut mute = TcpStream::connect(m.addr).await.unwrap();
@@ -239,6 +273,15 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     })
     .await
     .unwrap();
+    // Once the render is under way (tiles from the front of the queue come to it), the result
+    // of the last tile, which it does not hold.
+    loop {
+        match timeout(Duration::from_secs(30), c.read()).await {
+            Ok(Ok(Some(Message::Assign { .. } | Message::AssignBatch { .. }))) => break,
+            Ok(Ok(Some(_))) => {}
+            other => panic!("the liar was given no tile: {other:?}"),
+        }
+    }
     let last = parrt::tile::tiles(64, 64, 8).len() as u32 - 1;
     c.write(&Message::TileResult {
         job_id: job.job_id,
@@ -355,10 +398,12 @@ async fn interrupted_worker_disconnects_and_its_tiles_are_requeued() {
     let desc = test_scene(64, 64);
     let settings = settings_for(&desc);
     let (reference, _) = smp_reference(&desc, &settings, 8);
-    let m = start_master(&desc, &settings, &test_options(8)).await;
+    let (opts, seen) = two_workers_watched(test_options(8));
+    let m = start_master(&desc, &settings, &opts).await;
     let mut quitter = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
     let _other = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
-    sleep(Duration::from_millis(600)).await;
+    // Its first tile delivered: it is running (its Ctrl-C handler installed) and holds tiles.
+    mid_job(&seen, &quitter).await;
     quitter.signal("INT");
     let status = tokio::task::spawn_blocking(move || {
         let st = quitter.0.wait().unwrap();
@@ -399,6 +444,9 @@ fn spawned_workers_that_cannot_build_the_job_end_with_the_jobs_own_error() {
         worker_exe: Some(EXE.into()),
         token: None,
         min_workers: 2,
+        // Far beyond the bound below: a master that waits for the workers that refused the
+        // job waits this long, a working one ends as soon as they have refused.
+        wait_workers: Duration::from_secs(60),
         ..test_options(16)
     };
     let t0 = std::time::Instant::now();
@@ -416,7 +464,7 @@ fn spawned_workers_that_cannot_build_the_job_end_with_the_jobs_own_error() {
         Ok(_) => panic!("a job no worker can build rendered"),
     }
     assert!(
-        t0.elapsed() < Duration::from_secs(10),
+        t0.elapsed() < Duration::from_secs(30),
         "took {:?}: the master waited for workers that had all refused the job",
         t0.elapsed()
     );

@@ -427,7 +427,7 @@ fn worker_flags_fail_at_once_with_exit_2() {
 }
 
 /// Item 11: a master that stops reading cannot hang a worker: its writes give up after the
-/// master timeout and it ends with a clear error.
+/// master timeout and it ends with a clear error, even while the master still sends heartbeats.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn worker_gives_up_on_a_master_that_stops_reading() {
     let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
@@ -453,14 +453,22 @@ async fn worker_gives_up_on_a_master_that_stops_reading() {
         .await
         .unwrap();
     }
-    // Now never read (and send nothing more).
-    let ended = timeout(Duration::from_secs(30), worker).await;
+    // Now never read, but keep beating: the worker cannot take the master for silent (as it
+    // would if filling the socket buffers took longer than the timeout on a loaded machine),
+    // so only its stalled writes can end it.
+    let (_unread, mut w) = c.into_inner().into_split();
+    let beats = tokio::spawn(async move {
+        while w.write_all(&frame(&Message::Heartbeat)).await.is_ok() {
+            sleep(Duration::from_millis(100)).await;
+        }
+    });
+    let ended = timeout(Duration::from_secs(60), worker).await;
+    beats.abort();
     let err = ended
         .expect("the worker hung on a master that stopped reading")
         .unwrap()
         .unwrap_err();
     assert!(matches!(err, WorkerError::MasterNotReading(_)), "{err}");
-    drop(c);
 }
 
 /// Reads frames from a raw read half until `want` arrives; false on close or error.
@@ -512,11 +520,17 @@ fn big_job(bytes: usize) -> Message {
     }))
 }
 
-/// Item 12: a job trickling in at 160 KB/s, slower than the 1 s master timeout allows for a
+/// Item 12: a job trickling in at 320 KB/s, slower than the 1 s master timeout allows for a
 /// whole message but above the floor rate, is received; one below the floor is dropped.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
-    for (chunk, pause_ms, accepted) in [(16 * 1024, 100, true), (1024, 100, false)] {
+    // Taken: 600 KB in 32 KB chunks every 100 ms, at least 1.9 s (past the timeout) against
+    // the 1 s + 9.4 s the floor rate allows: over 5 times as slow still passes. Dropped: 300 KB
+    // at 10 KB/s, allowed 1 s + 4.7 s, which it would take 30 s to send.
+    for (size, chunk, pause_ms, accepted) in [
+        (600 * 1024, 32 * 1024, 100, true),
+        (300 * 1024, 1024, 100, false),
+    ] {
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
         let addr = listener.local_addr().unwrap();
         let mut w = worker_options(addr, 1, "w");
@@ -524,7 +538,8 @@ async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
         let worker = start_worker(w);
         let c = welcome_one(&listener).await;
         let (mut r, mut wr) = c.into_inner().into_split();
-        let bytes = frame(&big_job(300 * 1024));
+        let bytes = frame(&big_job(size));
+        let began = std::time::Instant::now();
         let trickle = tokio::spawn(async move {
             for part in bytes.chunks(chunk) {
                 if wr.write_all(part).await.is_err() {
@@ -543,7 +558,18 @@ async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
         });
         let ready = read_until(&mut r, |m| matches!(m, Message::Ready { .. })).await;
         if accepted {
-            assert!(ready.is_some(), "the slow job was dropped");
+            let took = began.elapsed();
+            if ready.is_none() {
+                let why = match timeout(Duration::from_secs(5), worker).await {
+                    Ok(Ok(Err(e))) => format!("the worker failed: {e}"),
+                    other => format!("the worker: {other:?}"),
+                };
+                panic!("the slow job was dropped after {took:?}; {why}");
+            }
+            assert!(
+                took > Duration::from_secs(1),
+                "the job took {took:?}, not longer than the timeout: nothing was tested"
+            );
             drop(r);
             trickle.abort();
             let _ = worker.await;
@@ -682,6 +708,7 @@ async fn heartbeats_do_not_wait_for_a_big_pool() {
     let mut c = welcome_one(&listener).await;
     let first = timeout(Duration::from_secs(60), c.read()).await.unwrap();
     let threads_then = render_threads();
+    eprintln!("first heartbeat with {threads_then} of {THREADS} render threads started");
     assert_eq!(first.unwrap(), Some(Message::Heartbeat));
     assert!(
         threads_then < THREADS,

@@ -3,6 +3,7 @@
 //! served, the tiles the stream carries are the written image's pixels; on a non-loopback
 //! address a missing or wrong token gets 401 and nothing else.
 
+use parrt_worker::options::TILE_DELAY_ENV;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::process::{Child, Command, Stdio};
@@ -17,6 +18,24 @@ struct Render {
     url: String,
     /// `host:port` to dial.
     dial: String,
+    /// The lines it prints on stderr, as they come.
+    lines: std::sync::mpsc::Receiver<String>,
+}
+
+impl Render {
+    /// Waits (at most 60 s) for the line saying the image was written: the live view says
+    /// `done` when the render ends, a moment before the file is there.
+    fn written(&self) {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(line) if line.starts_with("parrt: wrote ") => return,
+                Ok(_) => {}
+                Err(e) => panic!("no `parrt: wrote` line: {e}"),
+            }
+        }
+    }
 }
 
 impl Drop for Render {
@@ -32,28 +51,38 @@ const SMALL: &[&str] = &[
 ];
 
 fn start(dir: &std::path::Path, extra: &[&str]) -> Render {
-    start_render(dir, SMALL, extra)
+    start_render(dir, SMALL, extra, None)
 }
 
-fn start_render(dir: &std::path::Path, job: &[&str], extra: &[&str]) -> Render {
-    let mut child = Command::new(EXE)
-        .arg("render")
+/// Starts `parrt render` with `job` and `extra`; `tile_delay_ms` slows its workers' tiles.
+fn start_render(
+    dir: &std::path::Path,
+    job: &[&str],
+    extra: &[&str],
+    tile_delay_ms: Option<u64>,
+) -> Render {
+    let mut cmd = Command::new(EXE);
+    cmd.arg("render")
         .args(job)
         .args(["--threads", "2", "--http-linger", "60", "-o"])
         .arg(dir.join("out.png"))
         .args(extra)
+        .env_remove(TILE_DELAY_ENV)
         .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("parrt starts");
+        .stderr(Stdio::piped());
+    if let Some(ms) = tile_delay_ms {
+        cmd.env(TILE_DELAY_ENV, ms.to_string());
+    }
+    let mut child = cmd.spawn().expect("parrt starts");
     let stderr = child.stderr.take().expect("stderr");
+    let (tx, rx) = std::sync::mpsc::channel();
     // Owned (killed on drop) before anything below can fail.
     let mut r = Render {
         child,
         url: String::new(),
         dial: String::new(),
+        lines: rx,
     };
-    let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
             let _ = tx.send(line);
@@ -62,7 +91,8 @@ fn start_render(dir: &std::path::Path, job: &[&str], extra: &[&str]) -> Render {
     let deadline = Instant::now() + Duration::from_secs(20);
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
-        let line = rx
+        let line = r
+            .lines
             .recv_timeout(left)
             .expect("the live view's address is printed");
         if let Some(url) = line.strip_prefix("parrt: live view at ") {
@@ -205,6 +235,7 @@ fn status_frame_page_and_events_on_loopback() {
     assert!(v["rays"].as_u64().unwrap() >= 64 * 64);
 
     // The frame is the written image, byte for byte.
+    r.written();
     let (code, _, frame) = get(&r.dial, "/frame", None);
     assert_eq!(code, 200);
     let png = image::open(dir.path().join("out.png")).unwrap().to_rgb8();
@@ -268,6 +299,7 @@ fn distributed_render_shows_a_row_per_worker() {
     assert_eq!(workers.len(), 2, "{v}");
     let tiles: u64 = workers.iter().map(|w| w["tiles"].as_u64().unwrap()).sum();
     assert_eq!(tiles, 16);
+    r.written();
     let (_, _, frame) = get(&r.dial, "/frame", None);
     let png = image::open(dir.path().join("out.png")).unwrap().to_rgb8();
     assert_eq!(frame, png.into_raw());
@@ -330,7 +362,9 @@ fn unbase64(s: &str) -> Vec<u8> {
 #[test]
 fn tiles_events_carry_the_written_pixels() {
     let dir = tempfile::tempdir().unwrap();
-    // Two workers: the stream is open while they start, before the first tile lands.
+    // Two workers: the stream is open while they start, before the first tile lands. Their
+    // 48 tiles take at least 40 ms each on 4 threads: the render lasts half a second after
+    // they start, so a client slowed by a loaded machine still connects before its end.
     let job = [
         "--scene", "balls:2", "--width", "128", "--height", "96", "--tile", "16", "--spp", "4",
     ];
@@ -338,10 +372,12 @@ fn tiles_events_carry_the_written_pixels() {
         dir.path(),
         &job,
         &["--workers", "2", "--http", "127.0.0.1:0"],
+        Some(40),
     );
     let ev = events_until_done(&r.dial, "", Duration::from_secs(60));
     assert!(ev.contains("event: done"), "the stream reports the end");
     let ev = dechunk(&ev);
+    r.written();
     let png = image::open(dir.path().join("out.png")).unwrap().to_rgb8();
     let mut seen = std::collections::BTreeSet::new();
     let mut first_state = None;
