@@ -222,11 +222,12 @@ impl Film {
         self.rgb8.is_some()
     }
 
-    /// Checks that `tile` lies inside the film and that `len` is its pixel count.
-    fn check_fit(&self, tile: &Tile, len: usize) -> Result<(), FilmError> {
+    /// Checks that `tile` lies inside the film and that `values` is its pixel count times
+    /// `per_pixel` (1 for pixels, 3 for bytes).
+    fn check_fit(&self, tile: &Tile, values: usize, per_pixel: usize) -> Result<(), FilmError> {
         let fits = tile.x.checked_add(tile.w).is_some_and(|r| r <= self.width)
             && tile.y.checked_add(tile.h).is_some_and(|b| b <= self.height)
-            && len == tile.pixel_count();
+            && Some(values) == tile.pixel_count().checked_mul(per_pixel);
         if fits {
             return Ok(());
         }
@@ -238,13 +239,13 @@ impl Film {
             h: tile.h,
             width: self.width,
             height: self.height,
-            len,
+            len: values / per_pixel,
         })
     }
 
     /// Copies a tile's pixels (row-major within the tile) into place.
     pub fn write_tile(&mut self, tile: &Tile, pixels: &[Rgb]) -> Result<(), FilmError> {
-        self.check_fit(tile, pixels.len())?;
+        self.check_fit(tile, pixels.len(), 1)?;
         let (w, width) = (tile.w as usize, self.width as usize);
         for (row, src) in pixels.chunks_exact(w.max(1)).enumerate() {
             let dst = (tile.y as usize + row) * width + tile.x as usize;
@@ -263,19 +264,7 @@ impl Film {
     /// Copies a tile's 8-bit RGB bytes (3 a pixel, row-major within the tile) into place: as
     /// they are into an 8-bit film, as `b / 255` into a linear one.
     pub fn write_tile_rgb8(&mut self, tile: &Tile, bytes: &[u8]) -> Result<(), FilmError> {
-        self.check_fit(tile, bytes.len() / 3)?;
-        if bytes.len() % 3 != 0 {
-            return Err(FilmError::BadTile {
-                id: tile.id,
-                x: tile.x,
-                y: tile.y,
-                w: tile.w,
-                h: tile.h,
-                width: self.width,
-                height: self.height,
-                len: bytes.len(),
-            });
-        }
+        self.check_fit(tile, bytes.len(), 3)?;
         let (w, width) = (tile.w as usize, self.width as usize);
         for (row, src) in bytes.chunks_exact((w * 3).max(1)).enumerate() {
             let dst = (tile.y as usize + row) * width + tile.x as usize;
