@@ -6,6 +6,7 @@ use parrt::protocol::Token;
 use std::net::SocketAddr;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
 use thiserror::Error;
 
 /// Errors starting local workers.
@@ -26,7 +27,7 @@ pub enum SpawnError {
     },
 }
 
-/// Running local worker processes; killed (and reaped) on drop.
+/// Running local worker processes; killed on drop (and reaped on a thread of their own).
 #[derive(Debug)]
 pub struct LocalWorkers {
     children: Vec<Child>,
@@ -40,9 +41,28 @@ impl LocalWorkers {
 }
 
 impl Drop for LocalWorkers {
+    /// Kills every worker at once, then reaps them on a thread of its own: a process's exit
+    /// takes ~0.5-1 ms to tear down its memory, and the caller (writing the image) need not
+    /// wait for that. If no thread can be started they are reaped here.
     fn drop(&mut self) {
         for c in &mut self.children {
             let _ = c.kill();
+        }
+        let children = Arc::new(Mutex::new(std::mem::take(&mut self.children)));
+        let theirs = Arc::clone(&children);
+        let spawned = std::thread::Builder::new()
+            .name("parrt-reap".into())
+            .spawn(move || reap(&theirs));
+        if spawned.is_err() {
+            reap(&children);
+        }
+    }
+}
+
+/// Waits for every (killed) child to exit.
+fn reap(children: &Mutex<Vec<Child>>) {
+    if let Ok(mut children) = children.lock() {
+        for c in children.iter_mut() {
             let _ = c.wait();
         }
     }
@@ -94,4 +114,34 @@ pub fn spawn_workers_from(
         workers.children.push(child);
     }
     Ok(workers)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::{Duration, Instant};
+
+    /// Dropping the handle kills the workers without waiting for them, and they are reaped
+    /// (no zombie left behind) soon after.
+    #[test]
+    fn dropping_kills_at_once_and_reaps_behind() {
+        let children: Vec<Child> = (0..2)
+            .map(|_| Command::new("sleep").arg("30").spawn().expect("sleep runs"))
+            .collect();
+        let pids: Vec<u32> = children.iter().map(|c| c.id()).collect();
+        let t0 = Instant::now();
+        drop(LocalWorkers { children });
+        assert!(t0.elapsed() < Duration::from_secs(10), "drop waited");
+        // A killed but unreaped child stays in /proc as a zombie until waited for.
+        for pid in pids {
+            let path = format!("/proc/{pid}");
+            while std::path::Path::new(&path).exists() {
+                assert!(
+                    t0.elapsed() < Duration::from_secs(20),
+                    "worker {pid} not reaped"
+                );
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        }
+    }
 }
