@@ -514,19 +514,15 @@ impl Scheduler {
             decoded.clear();
             pixels.rgb8(format, count).map(Checked::Rgb8)
         } else {
-            match pixels.decode_into(format, count, &mut decoded) {
-                Ok(()) => Ok(Checked::Linear(&decoded)),
-                Err(e) => Err(e),
-            }
+            pixels
+                .decode_into(format, count, &mut decoded)
+                .map(|()| Checked::Linear(&decoded))
         };
-        let checked = match checked {
-            Err(e) => Err(format!("tile {tile_id}: {e}")),
-            Ok(px) => match stats.check_tile(&tile, &self.settings, self.lights) {
-                Ok(()) => Ok(px),
-                Err(e) => Err(format!("tile {tile_id}: {e}")),
-            },
-        };
-        match checked {
+        let checked = checked.map_err(|e| e.to_string()).and_then(|px| {
+            let valid = stats.check_tile(&tile, &self.settings, self.lights);
+            valid.map(|()| px).map_err(|e| e.to_string())
+        });
+        match checked.map_err(|e| format!("tile {tile_id}: {e}")) {
             Err(reason) => {
                 self.faults.rejected_results += 1;
                 self.requeue(tile_id);
