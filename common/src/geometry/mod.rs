@@ -11,6 +11,7 @@ pub mod slab4;
 pub mod slab_dispatch;
 pub mod sphere;
 pub mod triangle;
+pub mod triangle4;
 pub mod triangulate;
 
 pub use aabb::Aabb;

@@ -9,6 +9,7 @@
 use super::build::STACK_SIZE;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
+use crate::accel::prim_test::PrimTest;
 use crate::geometry::slab4::SlabRay;
 use crate::geometry::slab_dispatch;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
@@ -97,17 +98,14 @@ impl Bvh {
         }
     }
 
-    /// Closest hit; `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
+    /// Closest hit; `test` is the primitive test (inclusive of `t_max`), called leaf by leaf.
     #[inline]
-    pub fn intersect<R: Real, F>(
+    pub fn intersect<R: Real, T: PrimTest<R>>(
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
-        mut test: F,
-    ) -> Option<PrimHit<R>>
-    where
-        F: FnMut(u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) -> Option<PrimHit<R>> {
         if self.nodes.is_empty() {
             return None;
         }
@@ -121,10 +119,8 @@ impl Bvh {
         'walk: loop {
             if is_leaf(cur) {
                 let (first, count) = leaf_range(cur);
-                for &p in &self.order[first..first + count] {
-                    prim_tests += 1;
-                    best.offer(test(p, best.t));
-                }
+                prim_tests += count as u64;
+                test.closest(&self.order[first..first + count], &mut best);
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
@@ -163,15 +159,12 @@ impl Bvh {
 
     /// True when anything is hit within the ray's range.
     #[inline]
-    pub fn occluded<R: Real, F>(
+    pub fn occluded<R: Real, T: PrimTest<R>>(
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
-        mut test: F,
-    ) -> bool
-    where
-        F: FnMut(u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -186,13 +179,13 @@ impl Bvh {
         'walk: loop {
             if is_leaf(cur) {
                 let (first, count) = leaf_range(cur);
-                for &p in &self.order[first..first + count] {
-                    prim_tests += 1;
-                    if test(p, t_max).is_some() {
-                        hit = true;
-                        break 'walk;
-                    }
+                // Counted as the one-at-a-time loop counts: up to the first hit.
+                if let Some(i) = test.any(&self.order[first..first + count], t_max) {
+                    prim_tests += i as u64 + 1;
+                    hit = true;
+                    break 'walk;
                 }
+                prim_tests += count as u64;
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
