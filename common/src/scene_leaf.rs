@@ -1,17 +1,19 @@
 //! The scene's primitive test as the accelerators call it ([`crate::accel::RayPrimTest`]): one
 //! primitive at a time through [`Scene::intersect_prim`], except that a BVH leaf of two or more
-//! triangles in `f32` goes to the four-at-a-time SIMD kernel ([`crate::geometry::triangle4`]),
-//! which gives each triangle exactly the scalar test's answer. The choice of precision is by
+//! triangles, or of two or more spheres, in `f32` goes to a four-at-a-time SIMD kernel
+//! ([`crate::geometry::triangle4`], [`crate::geometry::sphere4`]), which gives each primitive
+//! exactly the scalar test's answer. The choice of precision is by
 //! type and folds away at compile time; the kernel is chosen at run time by CPU features.
 
 use std::any::Any;
 
 use crate::accel::{OneRay, RayPrimTest};
-use crate::geometry::triangle4::{intersect4, Tris4, LANES};
+use crate::geometry::sphere::Sphere;
+use crate::geometry::sphere4::{self, Spheres4};
+use crate::geometry::triangle4::{self, Tris4, LANES};
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::scene::{Prim, Scene};
-use crate::vec3::V3;
 
 /// The primitive test of a scene's primitives.
 #[derive(Clone, Copy, Debug)]
@@ -51,26 +53,60 @@ impl<'a, R: Real> SceneLeaf<'a, R> {
     }
 }
 
-/// The triangles of a leaf of 2..=4 primitives, or `None` when it is shorter, longer or holds
-/// another kind of primitive.
+/// A leaf the SIMD kernels take: 2..=4 triangles or 2..=4 spheres.
+enum Simd<'a> {
+    Triangles(Tris4<'a, f32>),
+    Spheres(Spheres4<'a, f32>),
+}
+
+/// The kernel input of a leaf, or `None` when it is shorter, longer or mixed.
 #[inline(always)]
-fn triangles<'a>(prims: &'a [Prim<f32>], leaf: &[u32]) -> Option<Tris4<'a, f32>> {
+fn simd_leaf<'a>(prims: &'a [Prim<f32>], leaf: &[u32]) -> Option<Simd<'a>> {
     if leaf.len() < 2 || leaf.len() > LANES {
         return None;
     }
-    let tri = |p: u32| -> Option<&'a [V3<f32>; 3]> {
-        match prims.get(p as usize)? {
-            Prim::Triangle(v) => Some(v),
-            _ => None,
+    match prims.get(leaf[0] as usize)? {
+        Prim::Triangle(first) => {
+            let mut tris = [first; LANES];
+            for (slot, &p) in tris.iter_mut().zip(leaf).skip(1) {
+                let Prim::Triangle(v) = prims.get(p as usize)? else {
+                    return None;
+                };
+                *slot = v;
+            }
+            Some(Simd::Triangles(tris))
         }
-    };
-    let first = tri(leaf[0])?;
-    let mut tris = [first; LANES];
-    for (slot, &p) in tris.iter_mut().zip(leaf).skip(1) {
-        *slot = tri(p)?;
+        Prim::Sphere(first) => {
+            let mut spheres: [&Sphere<f32>; LANES] = [first; LANES];
+            for (slot, &p) in spheres.iter_mut().zip(leaf).skip(1) {
+                let Prim::Sphere(s) = prims.get(p as usize)? else {
+                    return None;
+                };
+                *slot = s;
+            }
+            Some(Simd::Spheres(spheres))
+        }
+        Prim::Cone(_) => None,
     }
-    Some(tris)
 }
+
+/// Bit `i` set when lane `i` is hit, and lane `i`'s `(t, u, v)`.
+#[inline(always)]
+fn run(pr: &PreparedRay<f32>, leaf: &Simd<'_>, used: usize, t_max: f32) -> (u32, Lanes) {
+    match leaf {
+        Simd::Triangles(tris) => {
+            let h = triangle4::intersect4(pr, tris, used, t_max);
+            (h.mask, (h.t, h.b1, h.b2))
+        }
+        Simd::Spheres(spheres) => {
+            let h = sphere4::intersect4(&pr.ray, spheres, used, t_max);
+            (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
+        }
+    }
+}
+
+/// Per lane: distance and the two surface parameters.
+type Lanes = ([f32; LANES], [f32; LANES], [f32; LANES]);
 
 impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
     #[inline(always)]
@@ -81,20 +117,19 @@ impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
     #[inline(always)]
     fn closest(&mut self, pr: &PreparedRay<R>, leaf: &[u32], best: &mut Nearest<R>) {
         if let Some((scene, pr32)) = self.as_f32(pr) {
-            if let Some(tris) = triangles(&scene.prims, leaf) {
+            if let Some(simd) = simd_leaf(&scene.prims, leaf) {
                 // Every lane with the bound the leaf is entered with: a hit beyond the best so
                 // far never beats it, so offering the hits in order picks what the one-at-a-time
                 // loop picks.
-                let h = intersect4(pr32, &tris, leaf.len(), best.t.to_f32());
-                let mut m = h.mask;
+                let (mut m, (t, u, v)) = run(pr32, &simd, leaf.len(), best.t.to_f32());
                 while m != 0 {
                     let i = m.trailing_zeros() as usize;
                     m &= m - 1;
                     best.offer(Some(PrimHit {
-                        t: R::from_f32(h.t[i]),
+                        t: R::from_f32(t[i]),
                         prim: leaf[i],
-                        u: R::from_f32(h.b1[i]),
-                        v: R::from_f32(h.b2[i]),
+                        u: R::from_f32(u[i]),
+                        v: R::from_f32(v[i]),
                     }));
                 }
                 return;
@@ -108,8 +143,8 @@ impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
     #[inline(always)]
     fn any(&mut self, pr: &PreparedRay<R>, leaf: &[u32], t_max: R) -> Option<usize> {
         if let Some((scene, pr32)) = self.as_f32(pr) {
-            if let Some(tris) = triangles(&scene.prims, leaf) {
-                let m = intersect4(pr32, &tris, leaf.len(), t_max.to_f32()).mask;
+            if let Some(simd) = simd_leaf(&scene.prims, leaf) {
+                let (m, _) = run(pr32, &simd, leaf.len(), t_max.to_f32());
                 return (m != 0).then(|| m.trailing_zeros() as usize);
             }
         }

@@ -1,11 +1,11 @@
-//! Leaves tested four triangles at a time (issue 18): the BVH with the SIMD leaf test the
-//! renderer uses (`SceneLeaf::new`) and with the portable one-at-a-time test
-//! (`SceneLeaf::scalar`, and the plain closure) gives every ray the same closest hit — primitive,
-//! `t`, `u`, `v` bit for bit —, the same occlusion answer and the same primitive-test count, one
-//! ray at a time and in packets: on the SPD scenes, on a mesh with exact integer vertices whose
-//! edges and vertices rays hit exactly (the kernel's `f64` redo of zero edge functions), and on
-//! duplicated triangles (ties decided by the primitive index). In `f64` leaves go one at a time,
-//! and the test holds there too.
+//! Leaves tested four triangles or four spheres at a time (issue 18): the BVH with the SIMD
+//! leaf test the renderer uses (`SceneLeaf::new`) and with the portable one-at-a-time test
+//! (`SceneLeaf::scalar`, and the plain closure) gives every ray the same closest hit —
+//! primitive, `t`, `u`, `v` bit for bit —, the same occlusion answer and the same
+//! primitive-test count, one ray at a time and in packets: on the SPD scenes (triangle and
+//! sphere leaves, edge and vertex hits, the kernel's `f64` redo of zero edge functions), and on
+//! a mesh with exact integer vertices and duplicated triangles (ties decided by the primitive
+//! index). In `f64` leaves go one at a time, and the test holds there too.
 
 use parrt::accel::bvh::packet::PACKET;
 use parrt::accel::Accel;
