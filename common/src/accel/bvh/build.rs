@@ -22,18 +22,6 @@ const BINS: usize = 16;
 pub const MAX_LEAF: usize = 4;
 /// Cost of one node visit relative to one primitive test.
 pub const TRAVERSAL_COST: f32 = 1.0;
-/// Cost of each primitive of a leaf after the first, relative to one primitive test: leaves of
-/// triangles or spheres are tested four at a time ([`crate::scene_leaf`]). `parrt bench cast`
-/// against 1.0 (one test per primitive): 0.5 gave teapot-12 +6 %, the other scenes ±1 %, and
-/// mount-10 79 bytes per primitive instead of 94 (half the nodes); 0.25 gave teapot-12 +4 %.
-pub const LEAF_EXTRA_COST: f32 = 0.5;
-
-/// Cost of testing a leaf of `n` primitives.
-#[inline]
-fn leaf_cost(n: usize) -> f32 {
-    1.0 + LEAF_EXTRA_COST * (n as f32 - 1.0)
-}
-
 /// Below this depth the SAH decides; deeper, splits are at the median so depth stays bounded.
 const SAH_DEPTH_LIMIT: u32 = 56;
 /// Traversal stack size: SAH depth limit plus a balanced tree over 2^32 primitives.
@@ -457,12 +445,12 @@ fn consider(best: &mut Best, cost: f32, axis: usize, boundary: usize) {
 }
 
 /// Turns the best candidate into a decision: a leaf is preferred for small sets when splitting
-/// costs at least as much as testing the leaf ([`leaf_cost`]).
+/// costs at least as much as testing every primitive.
 fn decide(best: Best, n: usize, bounds: &Item) -> Result<(usize, usize), NoSplit> {
     let (cost, axis, boundary) = best.ok_or(NoSplit)?;
     let area = bounds.half_area();
     let split_cost = TRAVERSAL_COST + if area > 0.0 { cost / area } else { n as f32 };
-    if n <= MAX_LEAF && split_cost >= leaf_cost(n) {
+    if n <= MAX_LEAF && split_cost >= n as f32 {
         return Err(NoSplit);
     }
     Ok((axis, boundary))
