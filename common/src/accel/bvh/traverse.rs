@@ -4,7 +4,9 @@
 //! meanwhile. Pruning allows a slack of the scene's margin beyond the best hit: box entry
 //! distances and primitive distances are rounded differently, and without it a primitive hit at
 //! (or a few ulps below) the best `t` — a shared edge, a ray in a box face — could be skipped.
-//! The stack is fixed-size and never zeroed per ray; `occluded` returns at the first hit.
+//! The stack is fixed-size and never zeroed per ray; `occluded` returns at the first hit. A
+//! leaf's primitives go to the primitive test together ([`crate::accel::PrimTest`]), which may
+//! test them four at a time.
 
 use super::build::STACK_SIZE;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
