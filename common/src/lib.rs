@@ -36,6 +36,7 @@ pub mod protocol;
 pub mod real;
 pub mod render;
 pub mod scene;
+pub mod scene_leaf;
 pub mod settings;
 pub mod shade;
 pub mod simulate;

@@ -9,6 +9,7 @@
 use crate::accel::bvh::packet::PACKET;
 use crate::geometry::{PreparedRay, PrimHit, Ray};
 use crate::real::Real;
+use crate::scene_leaf::SceneLeaf;
 use crate::shade::{Integrator, Lit, RayKind};
 use crate::stats::RayStats;
 use crate::vec3::V3;
@@ -45,16 +46,14 @@ impl<R: Real> Integrator<R> {
         out: &mut [Option<PrimHit<R>>],
         stats: &mut RayStats,
     ) {
-        self.accel.intersect_packet(rays, out, stats, |pr, p, t| {
-            self.scene.intersect_prim(p, pr, t)
-        });
+        self.accel
+            .intersect_packet(rays, out, stats, SceneLeaf::new(&self.scene));
     }
 
     /// Occlusion of up to [`PACKET`] rays, into `out`.
     pub fn occluded_packet(&self, rays: &[PreparedRay<R>], out: &mut [bool], stats: &mut RayStats) {
-        self.accel.occluded_packet(rays, out, stats, |pr, p, t| {
-            self.scene.intersect_prim(p, pr, t)
-        });
+        self.accel
+            .occluded_packet(rays, out, stats, SceneLeaf::new(&self.scene));
     }
 
     /// Radiance along up to [`PACKET`] eye rays, into `out`: the same colours as

@@ -8,6 +8,7 @@ use crate::geometry::{offset_ray_origin, PreparedRay, PrimHit, Ray};
 use crate::real::Real;
 use crate::scene::Scene;
 use crate::scene::{Mat, Surface};
+use crate::scene_leaf::SceneLeaf;
 use crate::stats::RayStats;
 use crate::vec3::V3;
 
@@ -78,7 +79,7 @@ impl<R: Real> Integrator<R> {
     ) -> Option<crate::geometry::PrimHit<R>> {
         let pr = PreparedRay::new(*ray);
         self.accel
-            .intersect(&pr, stats, |i, t| self.scene.intersect_prim(i, &pr, t))
+            .intersect(&pr, stats, SceneLeaf::new(&self.scene).ray(&pr))
     }
 
     /// True when anything blocks `ray` within its range.
@@ -86,7 +87,7 @@ impl<R: Real> Integrator<R> {
     pub fn occluded(&self, ray: &Ray<R>, stats: &mut RayStats) -> bool {
         let pr = PreparedRay::new(*ray);
         self.accel
-            .occluded(&pr, stats, |i, t| self.scene.intersect_prim(i, &pr, t))
+            .occluded(&pr, stats, SceneLeaf::new(&self.scene).ray(&pr))
     }
 
     /// Radiance along `ray`. `weight` is the product of reflect/transmit weights so far.

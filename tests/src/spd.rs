@@ -8,6 +8,7 @@ use parrt::description::SceneDescription;
 use parrt::geometry::{PreparedRay, PrimHit, Ray};
 use parrt::real::Real;
 use parrt::scene::Scene;
+use parrt::scene_leaf::SceneLeaf;
 use parrt::settings::AccelKind;
 use parrt::stats::RayStats;
 
@@ -111,10 +112,15 @@ impl<R: Real> Trio<R> {
         let pr = PreparedRay::new(*ray);
         let test = |i: u32, t: R| self.scene.intersect_prim(i, &pr, t);
         let want = self.brute.intersect(&pr, &mut st.brute, test);
-        let bvh = self.bvh.intersect(&pr, &mut st.bvh, test);
+        // The BVH with the leaf test the renderer uses (triangle leaves four at a time).
+        let bvh = self
+            .bvh
+            .intersect(&pr, &mut st.bvh, SceneLeaf::new(&self.scene).ray(&pr));
         let grid = self.grid.intersect(&pr, &mut st.grid, test);
         let occ_want = self.brute.occluded(&pr, &mut st.brute, test);
-        let occ_bvh = self.bvh.occluded(&pr, &mut st.bvh, test);
+        let occ_bvh = self
+            .bvh
+            .occluded(&pr, &mut st.bvh, SceneLeaf::new(&self.scene).ray(&pr));
         let occ_grid = self.grid.occluded(&pr, &mut st.grid, test);
         st.rays += 1;
         st.hits += want.is_some() as u64;

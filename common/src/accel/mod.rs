@@ -5,6 +5,7 @@
 pub mod brute;
 pub mod bvh;
 pub mod grid;
+pub mod prim_test;
 
 use crate::geometry::{Aabb, PreparedRay, PrimHit};
 use crate::real::Real;
@@ -14,6 +15,7 @@ use crate::stats::RayStats;
 pub use brute::Brute;
 pub use bvh::Bvh;
 pub use grid::Grid;
+pub use prim_test::{OneRay, PrimTest, RayPrimTest};
 
 /// The margin every accelerator widens primitive boxes by, relative to the scene's largest
 /// coordinate magnitude: 2⁻¹⁴, about a thousand `f32` ulps. A primitive's hit then lies strictly
@@ -96,75 +98,71 @@ impl Accel {
         }
     }
 
-    /// Closest hit: `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
+    /// Closest hit: `test` is the primitive test (inclusive of `t_max`); the BVH calls it leaf
+    /// by leaf, the others one primitive at a time.
     #[inline]
-    pub fn intersect<R: Real, F>(
+    pub fn intersect<R: Real, T: PrimTest<R>>(
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
-        test: F,
-    ) -> Option<PrimHit<R>>
-    where
-        F: FnMut(u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) -> Option<PrimHit<R>> {
         match self {
             Accel::Bvh(b) => b.intersect(pr, stats, test),
-            Accel::Grid(g) => g.intersect(pr, stats, test),
-            Accel::Brute(b) => b.intersect(pr, stats, test),
+            Accel::Grid(g) => g.intersect(pr, stats, |p, t| test.test(p, t)),
+            Accel::Brute(b) => b.intersect(pr, stats, |p, t| test.test(p, t)),
         }
     }
 
     /// Any hit within the ray's range.
     #[inline]
-    pub fn occluded<R: Real, F>(&self, pr: &PreparedRay<R>, stats: &mut RayStats, test: F) -> bool
-    where
-        F: FnMut(u32, R) -> Option<PrimHit<R>>,
-    {
+    pub fn occluded<R: Real, T: PrimTest<R>>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        mut test: T,
+    ) -> bool {
         match self {
             Accel::Bvh(b) => b.occluded(pr, stats, test),
-            Accel::Grid(g) => g.occluded(pr, stats, test),
-            Accel::Brute(b) => b.occluded(pr, stats, test),
+            Accel::Grid(g) => g.occluded(pr, stats, |p, t| test.test(p, t)),
+            Accel::Brute(b) => b.occluded(pr, stats, |p, t| test.test(p, t)),
         }
     }
 
     /// Closest hits of a packet of at most [`bvh::packet::PACKET`] rays into `out`:
-    /// `test(ray, prim, t_max)` is the primitive test. The BVH traces the packet together; the
+    /// `test` is the primitive test. The BVH traces the packet together; the
     /// other accelerators trace its rays one by one. Either way each ray gets the hit it gets
     /// alone.
-    pub fn intersect_packet<R: Real, F>(
+    pub fn intersect_packet<R: Real, T: RayPrimTest<R>>(
         &self,
         rays: &[PreparedRay<R>],
         out: &mut [Option<PrimHit<R>>],
         stats: &mut RayStats,
-        mut test: F,
-    ) where
-        F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) {
         match self {
             Accel::Bvh(b) => b.intersect_packet(rays, out, stats, test),
             _ => {
                 for (pr, o) in rays.iter().zip(out.iter_mut()) {
-                    *o = self.intersect(pr, stats, |p, t| test(pr, p, t));
+                    *o = self.intersect(pr, stats, |p, t| test.test(pr, p, t));
                 }
             }
         }
     }
 
     /// Occlusion of each ray of a packet of at most [`bvh::packet::PACKET`] rays into `out`.
-    pub fn occluded_packet<R: Real, F>(
+    pub fn occluded_packet<R: Real, T: RayPrimTest<R>>(
         &self,
         rays: &[PreparedRay<R>],
         out: &mut [bool],
         stats: &mut RayStats,
-        mut test: F,
-    ) where
-        F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) {
         match self {
             Accel::Bvh(b) => b.occluded_packet(rays, out, stats, test),
             _ => {
                 for (pr, o) in rays.iter().zip(out.iter_mut()) {
-                    *o = self.occluded(pr, stats, |p, t| test(pr, p, t));
+                    *o = self.occluded(pr, stats, |p, t| test.test(pr, p, t));
                 }
             }
         }

@@ -10,7 +10,9 @@ pub mod slab16;
 pub mod slab4;
 pub mod slab_dispatch;
 pub mod sphere;
+pub mod sphere4;
 pub mod triangle;
+pub mod triangle4;
 pub mod triangulate;
 
 pub use aabb::Aabb;

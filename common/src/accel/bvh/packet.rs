@@ -17,6 +17,7 @@
 use super::traverse::Stack;
 use super::wide::{is_leaf, leaf_range, ChildRef};
 use super::Bvh;
+use crate::accel::prim_test::{OneRay, RayPrimTest};
 use crate::geometry::slab16::RayLanes;
 use crate::geometry::slab4::Box4;
 use crate::geometry::slab_dispatch;
@@ -182,19 +183,24 @@ impl Bvh {
     ///
     /// # Panics
     /// When `rays` is longer than [`PACKET`] or `out` shorter than `rays`.
-    pub fn intersect_packet<R: Real, F>(
+    pub fn intersect_packet<R: Real, T: RayPrimTest<R>>(
         &self,
         rays: &[PreparedRay<R>],
         out: &mut [Option<PrimHit<R>>],
         stats: &mut RayStats,
-        mut test: F,
-    ) where
-        F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         let Some(frustum) = self.packet_bounds(rays) else {
             for (pr, o) in rays.iter().zip(out.iter_mut()) {
-                *o = self.intersect(pr, stats, |p, t| test(pr, p, t));
+                *o = self.intersect(
+                    pr,
+                    stats,
+                    OneRay {
+                        test: &mut test,
+                        pr,
+                    },
+                );
             }
             return;
         };
@@ -243,13 +249,10 @@ impl Bvh {
                 while enter != 0 {
                     let i = enter.trailing_zeros() as usize;
                     enter &= enter - 1;
-                    let pr = &rays[i];
-                    for &p in prims {
-                        prim_tests += 1;
-                        let before = best[i].t;
-                        best[i].offer(test(pr, p, best[i].t));
-                        improved |= best[i].t != before;
-                    }
+                    prim_tests += prims.len() as u64;
+                    let before = best[i].t;
+                    test.closest(&rays[i], prims, &mut best[i]);
+                    improved |= best[i].t != before;
                     reach_ray[i] = best[i].t + slack[i];
                 }
                 if improved {
@@ -283,19 +286,24 @@ impl Bvh {
     ///
     /// # Panics
     /// When `rays` is longer than [`PACKET`] or `out` shorter than `rays`.
-    pub fn occluded_packet<R: Real, F>(
+    pub fn occluded_packet<R: Real, T: RayPrimTest<R>>(
         &self,
         rays: &[PreparedRay<R>],
         out: &mut [bool],
         stats: &mut RayStats,
-        mut test: F,
-    ) where
-        F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         let Some(frustum) = self.packet_bounds(rays) else {
             for (pr, o) in rays.iter().zip(out.iter_mut()) {
-                *o = self.occluded(pr, stats, |p, t| test(pr, p, t));
+                *o = self.occluded(
+                    pr,
+                    stats,
+                    OneRay {
+                        test: &mut test,
+                        pr,
+                    },
+                );
             }
             return;
         };
@@ -334,12 +342,13 @@ impl Bvh {
                     let i = open.trailing_zeros() as usize;
                     open &= open - 1;
                     let pr = &rays[i];
-                    for &p in prims {
-                        prim_tests += 1;
-                        if test(pr, p, pr.ray.t_max).is_some() {
+                    // Counted as the one-at-a-time loop counts: up to the first hit.
+                    match test.any(pr, prims, pr.ray.t_max) {
+                        Some(k) => {
+                            prim_tests += k as u64 + 1;
                             done |= 1 << i;
-                            break;
                         }
+                        None => prim_tests += prims.len() as u64,
                     }
                 }
                 if done == all {

@@ -4,11 +4,14 @@
 //! meanwhile. Pruning allows a slack of the scene's margin beyond the best hit: box entry
 //! distances and primitive distances are rounded differently, and without it a primitive hit at
 //! (or a few ulps below) the best `t` — a shared edge, a ray in a box face — could be skipped.
-//! The stack is fixed-size and never zeroed per ray; `occluded` returns at the first hit.
+//! The stack is fixed-size and never zeroed per ray; `occluded` returns at the first hit. A
+//! leaf's primitives go to the primitive test together ([`crate::accel::PrimTest`]), which may
+//! test them four at a time.
 
 use super::build::STACK_SIZE;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
+use crate::accel::prim_test::PrimTest;
 use crate::geometry::slab4::SlabRay;
 use crate::geometry::slab_dispatch;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
@@ -97,17 +100,14 @@ impl Bvh {
         }
     }
 
-    /// Closest hit; `test(prim, t_max)` is the primitive test (inclusive of `t_max`).
+    /// Closest hit; `test` is the primitive test (inclusive of `t_max`), called leaf by leaf.
     #[inline]
-    pub fn intersect<R: Real, F>(
+    pub fn intersect<R: Real, T: PrimTest<R>>(
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
-        mut test: F,
-    ) -> Option<PrimHit<R>>
-    where
-        F: FnMut(u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) -> Option<PrimHit<R>> {
         if self.nodes.is_empty() {
             return None;
         }
@@ -121,10 +121,8 @@ impl Bvh {
         'walk: loop {
             if is_leaf(cur) {
                 let (first, count) = leaf_range(cur);
-                for &p in &self.order[first..first + count] {
-                    prim_tests += 1;
-                    best.offer(test(p, best.t));
-                }
+                prim_tests += count as u64;
+                test.closest(&self.order[first..first + count], &mut best);
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
@@ -163,15 +161,12 @@ impl Bvh {
 
     /// True when anything is hit within the ray's range.
     #[inline]
-    pub fn occluded<R: Real, F>(
+    pub fn occluded<R: Real, T: PrimTest<R>>(
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
-        mut test: F,
-    ) -> bool
-    where
-        F: FnMut(u32, R) -> Option<PrimHit<R>>,
-    {
+        mut test: T,
+    ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -186,13 +181,13 @@ impl Bvh {
         'walk: loop {
             if is_leaf(cur) {
                 let (first, count) = leaf_range(cur);
-                for &p in &self.order[first..first + count] {
-                    prim_tests += 1;
-                    if test(p, t_max).is_some() {
-                        hit = true;
-                        break 'walk;
-                    }
+                // Counted as the one-at-a-time loop counts: up to the first hit.
+                if let Some(i) = test.any(&self.order[first..first + count], t_max) {
+                    prim_tests += i as u64 + 1;
+                    hit = true;
+                    break 'walk;
                 }
+                prim_tests += count as u64;
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);

@@ -1,0 +1,299 @@
+//! Four spheres against one ray at once: [`Sphere::intersect`] with one sphere per SIMD lane,
+//! for BVH leaves of spheres (shells, balls). Every lane does the scalar test's IEEE operations
+//! in the same order (no FMA, no reassociation), so each lane's answer is bit for bit the
+//! scalar one. [`intersect4`] picks the kernel at run time like [`super::triangle4`]: AVX when
+//! the CPU has it, SSE2 otherwise, the portable lane loop ([`intersect4_lanes`]) elsewhere.
+
+use super::ray::Ray;
+use super::sphere::Sphere;
+use crate::real::Real;
+
+/// Spheres per call.
+pub const LANES: usize = 4;
+
+/// The spheres of the lanes (unused lanes repeat a used one; `used` says how many count).
+pub type Spheres4<'a, R> = [&'a Sphere<R>; LANES];
+
+/// The answers of the four lanes: bit `i` of `mask` is set when lane `i` is hit at `t[i]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereHits4<R> {
+    /// Lanes hit.
+    pub mask: u32,
+    /// Distances (valid for set bits).
+    pub t: [R; LANES],
+}
+
+/// The portable kernel: the scalar test lane by lane, in any precision.
+#[inline(always)]
+pub fn intersect4_lanes<R: Real>(
+    ray: &Ray<R>,
+    spheres: &Spheres4<'_, R>,
+    used: usize,
+    t_max: R,
+) -> SphereHits4<R> {
+    let mut h = SphereHits4 {
+        mask: 0,
+        t: [R::ZERO; LANES],
+    };
+    for (i, s) in spheres.iter().take(used).enumerate() {
+        if let Some(t) = s.intersect(ray, t_max) {
+            h.mask |= 1 << i;
+            h.t[i] = t;
+        }
+    }
+    h
+}
+
+/// The `f32` test of `used` (1..=4) spheres, with the fastest kernel this CPU runs.
+#[inline]
+pub fn intersect4(
+    ray: &Ray<f32>,
+    spheres: &Spheres4<'_, f32>,
+    used: usize,
+    t_max: f32,
+) -> SphereHits4<f32> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            return unsafe { x86::intersect4_avx(ray, spheres, used, t_max) };
+        }
+        x86::intersect4_sse2(ray, spheres, used, t_max)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    intersect4_lanes(ray, spheres, used, t_max)
+}
+
+#[cfg(target_arch = "x86_64")]
+pub use x86::{intersect4_avx, intersect4_sse2};
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::{SphereHits4, Spheres4, LANES};
+    use crate::geometry::ray::Ray;
+    use std::arch::x86_64::*;
+
+    /// The SSE2 kernel (every x86-64 CPU has SSE2).
+    #[inline(never)]
+    pub fn intersect4_sse2(
+        ray: &Ray<f32>,
+        spheres: &Spheres4<'_, f32>,
+        used: usize,
+        t_max: f32,
+    ) -> SphereHits4<f32> {
+        // SAFETY: SSE2 is part of the x86-64 baseline.
+        unsafe { kernel(ray, spheres, used, t_max) }
+    }
+
+    /// The same kernel compiled for AVX (VEX encodings; no FMA: the scalar test has none).
+    ///
+    /// # Safety
+    /// The CPU must support AVX.
+    #[target_feature(enable = "avx")]
+    #[inline(never)]
+    pub unsafe fn intersect4_avx(
+        ray: &Ray<f32>,
+        spheres: &Spheres4<'_, f32>,
+        used: usize,
+        t_max: f32,
+    ) -> SphereHits4<f32> {
+        kernel(ray, spheres, used, t_max)
+    }
+
+    /// `if m { a } else { b }` lane by lane.
+    #[inline(always)]
+    unsafe fn select(m: __m128, a: __m128, b: __m128) -> __m128 {
+        _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b))
+    }
+
+    /// The scalar test's arithmetic (see [`crate::geometry::sphere`]) in four lanes.
+    #[inline(always)]
+    unsafe fn kernel(
+        ray: &Ray<f32>,
+        spheres: &Spheres4<'_, f32>,
+        used: usize,
+        t_max: f32,
+    ) -> SphereHits4<f32> {
+        let lane = |f: &dyn Fn(usize) -> f32| _mm_setr_ps(f(0), f(1), f(2), f(3));
+        let (cx, cy, cz) = (
+            lane(&|i| spheres[i].center.x),
+            lane(&|i| spheres[i].center.y),
+            lane(&|i| spheres[i].center.z),
+        );
+        let r = lane(&|i| spheres[i].radius);
+        let zero = _mm_setzero_ps();
+        let sign = _mm_set1_ps(-0.0);
+        let (dx, dy, dz) = (
+            _mm_set1_ps(ray.d.x),
+            _mm_set1_ps(ray.d.y),
+            _mm_set1_ps(ray.d.z),
+        );
+        let fx = _mm_sub_ps(_mm_set1_ps(ray.o.x), cx);
+        let fy = _mm_sub_ps(_mm_set1_ps(ray.o.y), cy);
+        let fz = _mm_sub_ps(_mm_set1_ps(ray.o.z), cz);
+        let dot = |ax, ay, az, bx, by, bz| {
+            _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(ax, bx), _mm_mul_ps(ay, by)),
+                _mm_mul_ps(az, bz),
+            )
+        };
+        let b = dot(fx, fy, fz, dx, dy, dz);
+        let r2 = _mm_mul_ps(r, r);
+        let c = _mm_sub_ps(dot(fx, fy, fz, fx, fy, fz), r2);
+        let used_mask = (1u32 << used) - 1;
+        // Outside and heading away.
+        let mut reject = _mm_and_ps(_mm_cmpgt_ps(c, zero), _mm_cmpgt_ps(b, zero));
+        if _mm_movemask_ps(reject) as u32 & used_mask == used_mask {
+            return SphereHits4 {
+                mask: 0,
+                t: [0.0; LANES],
+            };
+        }
+        let a_s = ray.d.length_squared();
+        let a = _mm_set1_ps(a_s);
+        let ba = _mm_div_ps(b, a);
+        let vx = _mm_sub_ps(fx, _mm_mul_ps(dx, ba));
+        let vy = _mm_sub_ps(fy, _mm_mul_ps(dy, ba));
+        let vz = _mm_sub_ps(fz, _mm_mul_ps(dz, ba));
+        let disc = _mm_mul_ps(a, _mm_sub_ps(r2, dot(vx, vy, vz, vx, vy, vz)));
+        reject = _mm_or_ps(reject, _mm_cmplt_ps(disc, zero));
+        let root = _mm_sqrt_ps(disc);
+        let signed_root = _mm_or_ps(_mm_andnot_ps(sign, root), _mm_and_ps(sign, b));
+        let q = _mm_xor_ps(_mm_add_ps(b, signed_root), sign);
+        let q_zero = _mm_cmpeq_ps(q, zero);
+        let t0 = select(q_zero, zero, _mm_div_ps(q, a));
+        let t1 = select(q_zero, zero, _mm_div_ps(c, q));
+        let swap = _mm_cmpgt_ps(t0, t1);
+        let (t0, t1) = (select(swap, t1, t0), select(swap, t0, t1));
+        let (t_min, t_max) = (_mm_set1_ps(ray.t_min), _mm_set1_ps(t_max));
+        let ok = |t| {
+            _mm_and_ps(
+                _mm_and_ps(_mm_cmpge_ps(t, t_min), _mm_cmple_ps(t, t_max)),
+                _mm_cmpgt_ps(t, zero),
+            )
+        };
+        let (ok0, ok1) = (ok(t0), ok(t1));
+        let t = select(ok0, t0, t1);
+        let hit = _mm_andnot_ps(reject, _mm_or_ps(ok0, ok1));
+        let mut out = [0.0f32; LANES];
+        _mm_storeu_ps(out.as_mut_ptr(), t);
+        SphereHits4 {
+            mask: _mm_movemask_ps(hit) as u32 & used_mask,
+            t: out,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vec3::V3;
+    use proptest::prelude::*;
+
+    /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit.
+    fn check(ray: &Ray<f32>, s: &Spheres4<'_, f32>, used: usize, t_max: f32) -> u32 {
+        let want = intersect4_lanes(ray, s, used, t_max);
+        let mut kernels = vec![intersect4(ray, s, used, t_max)];
+        #[cfg(target_arch = "x86_64")]
+        {
+            kernels.push(intersect4_sse2(ray, s, used, t_max));
+            if std::arch::is_x86_feature_detected!("avx") {
+                // SAFETY: the CPU has AVX.
+                kernels.push(unsafe { intersect4_avx(ray, s, used, t_max) });
+            }
+        }
+        for got in kernels {
+            assert_eq!(got.mask, want.mask, "{ray:?} used {used} t_max {t_max}");
+            for i in 0..LANES {
+                if want.mask & (1 << i) != 0 {
+                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "lane {i}");
+                }
+            }
+        }
+        want.mask
+    }
+
+    fn coord() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            4 => -4.0f32..4.0,
+            1 => Just(0.0f32),
+            1 => Just(1.0f32),
+            1 => -3.0e4f32..3.0e4,
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4000))]
+        /// Random spheres (some around the origin, so rays start inside; some touching the
+        /// ray), axis-parallel and tangent rays: the kernels agree lane for lane.
+        #[test]
+        fn kernels_agree_on_random_spheres(
+            centers in proptest::array::uniform4(proptest::array::uniform3(coord())),
+            radii in proptest::array::uniform4(prop_oneof![0.01f32..3.0, Just(1.0f32)]),
+            o in proptest::array::uniform3(coord()),
+            d in proptest::array::uniform3(coord()),
+            tangent in 0usize..5,
+            used in 1usize..=4,
+            t_max in prop_oneof![Just(f32::INFINITY), 0.0f32..50.0],
+        ) {
+            let mut spheres = [Sphere { center: V3::zero(), radius: 1.0f32 }; 4];
+            for i in 0..4 {
+                spheres[i] = Sphere { center: V3::from_array(centers[i]), radius: radii[i] };
+            }
+            let o = V3::from_array(o);
+            let mut d = V3::from_array(d);
+            if tangent < 4 {
+                // Aimed at a point on the sphere's silhouette seen along the z axis.
+                let s = spheres[tangent];
+                d = s.center + V3::new(s.radius, 0.0, 0.0) - o;
+            }
+            prop_assume!(d.length() > 0.0 && d.length().is_finite());
+            let ray = Ray { o, d: d.normalize(), t_min: 0.0, t_max };
+            let refs = [&spheres[0], &spheres[1], &spheres[2], &spheres[3]];
+            check(&ray, &refs, used, t_max);
+        }
+    }
+
+    #[test]
+    fn kernels_agree_inside_outside_and_behind() {
+        let s = [
+            Sphere {
+                center: V3::new(0.0f32, 0.0, 5.0),
+                radius: 1.0,
+            },
+            Sphere {
+                center: V3::new(0.0, 0.0, 0.0),
+                radius: 2.0,
+            },
+            Sphere {
+                center: V3::new(0.0, 0.0, -5.0),
+                radius: 1.0,
+            },
+            Sphere {
+                center: V3::new(1.0, 0.0, 5.0),
+                radius: 1.0,
+            },
+        ];
+        let refs = [&s[0], &s[1], &s[2], &s[3]];
+        let mut hits = 0;
+        for d in [
+            [0.0f32, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [0.2, 0.0, 1.0],
+        ] {
+            let ray = Ray {
+                o: V3::zero(),
+                d: V3::from_array(d).normalize(),
+                t_min: 0.0,
+                t_max: f32::INFINITY,
+            };
+            for used in 1..=4 {
+                for t_max in [f32::INFINITY, 4.0, 2.0, 1.0] {
+                    hits += check(&ray, &refs, used, t_max).count_ones();
+                }
+            }
+        }
+        assert!(hits > 30, "{hits}");
+    }
+}
