@@ -71,6 +71,7 @@ pub use x86::{intersect4_avx, intersect4_sse2};
 mod x86 {
     use super::{SphereHits4, Spheres4, LANES};
     use crate::geometry::ray::Ray;
+    use crate::geometry::sse4::{select, store};
     use std::arch::x86_64::*;
 
     /// The SSE2 kernel (every x86-64 CPU has SSE2).
@@ -98,12 +99,6 @@ mod x86 {
         t_max: f32,
     ) -> SphereHits4<f32> {
         kernel(ray, spheres, used, t_max)
-    }
-
-    /// `if m { a } else { b }` lane by lane.
-    #[inline(always)]
-    unsafe fn select(m: __m128, a: __m128, b: __m128) -> __m128 {
-        _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b))
     }
 
     /// The scalar test's arithmetic (see [`crate::geometry::sphere`]) in four lanes.
@@ -175,11 +170,9 @@ mod x86 {
         let (ok0, ok1) = (ok(t0), ok(t1));
         let t = select(ok0, t0, t1);
         let hit = _mm_andnot_ps(reject, _mm_or_ps(ok0, ok1));
-        let mut out = [0.0f32; LANES];
-        _mm_storeu_ps(out.as_mut_ptr(), t);
         SphereHits4 {
             mask: _mm_movemask_ps(hit) as u32 & used_mask,
-            t: out,
+            t: store(t),
         }
     }
 }

@@ -85,6 +85,7 @@ pub use x86::{intersect4_avx, intersect4_sse2};
 mod x86 {
     use super::{Hits4, Tris4, LANES};
     use crate::geometry::ray::PreparedRay;
+    use crate::geometry::sse4::{select, store};
     use crate::real::Real;
     use std::arch::x86_64::*;
 
@@ -155,20 +156,12 @@ mod x86 {
     #[inline(always)]
     unsafe fn maxnum(a: __m128, b: __m128) -> __m128 {
         let m = _mm_max_ps(a, b);
-        let b_nan = _mm_cmpunord_ps(b, b);
-        _mm_or_ps(_mm_and_ps(b_nan, a), _mm_andnot_ps(b_nan, m))
+        select(_mm_cmpunord_ps(b, b), a, m)
     }
 
     #[inline(always)]
     unsafe fn abs(a: __m128) -> __m128 {
         _mm_andnot_ps(_mm_set1_ps(-0.0), a)
-    }
-
-    #[inline(always)]
-    unsafe fn store(a: __m128) -> [f32; LANES] {
-        let mut out = [0.0f32; LANES];
-        _mm_storeu_ps(out.as_mut_ptr(), a);
-        out
     }
 
     /// The scalar test's arithmetic (see [`crate::geometry::triangle`]) in four lanes.
