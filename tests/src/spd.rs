@@ -67,7 +67,7 @@ pub struct TrioStats {
 }
 
 /// The parts of a closest hit that must agree bit for bit.
-fn key<R: Real>(h: &Option<PrimHit<R>>) -> Option<(u32, u64, u64, u64)> {
+pub fn key<R: Real>(h: &Option<PrimHit<R>>) -> Option<(u32, u64, u64, u64)> {
     h.map(|h| {
         (
             h.prim,

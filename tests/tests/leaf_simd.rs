@@ -11,23 +11,16 @@ use parrt::accel::bvh::packet::PACKET;
 use parrt::accel::Accel;
 use parrt::camera::Camera;
 use parrt::description::{Material, Primitive, SceneDescription, Shape, View};
-use parrt::geometry::{PreparedRay, PrimHit, Ray};
+use parrt::geometry::{PreparedRay, Ray};
 use parrt::real::Real;
 use parrt::scene::{Prim, Scene};
 use parrt::scene_leaf::SceneLeaf;
 use parrt::settings::{AccelKind, DEFAULT_GRID_DENSITY};
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
-use parrt_tests::spd::{load, SMALL_SCENES};
+use parrt_tests::spd::{key, load, SMALL_SCENES};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-
-fn key<R: Real>(h: &Option<PrimHit<R>>) -> Option<(u32, u64, u64, u64)> {
-    h.map(|h| {
-        let b = |x: R| x.to_f64().to_bits();
-        (h.prim, b(h.t), b(h.u), b(h.v))
-    })
-}
 
 /// What a scene's comparison covered.
 #[derive(Default, Debug)]

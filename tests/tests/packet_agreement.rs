@@ -8,7 +8,7 @@ use parrt::accel::bvh::packet::PACKET;
 use parrt::accel::Accel;
 use parrt::camera::Camera;
 use parrt::description::SceneDescription;
-use parrt::geometry::{offset_ray_origin, PreparedRay, PrimHit, Ray};
+use parrt::geometry::{offset_ray_origin, PreparedRay, Ray};
 use parrt::real::Real;
 use parrt::render::Renderer;
 use parrt::settings::{Precision, RenderSettings, DEFAULT_GRID_DENSITY};
@@ -16,16 +16,9 @@ use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
 use parrt_tests::dist::assert_same_bits;
-use parrt_tests::spd::{load, Trio, SMALL_SCENES};
+use parrt_tests::spd::{key, load, Trio, SMALL_SCENES};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-
-fn key<R: Real>(h: &Option<PrimHit<R>>) -> Option<(u32, u64, u64, u64)> {
-    h.map(|h| {
-        let b = |x: R| x.to_f64().to_bits();
-        (h.prim, b(h.t), b(h.u), b(h.v))
-    })
-}
 
 /// Counts of what one scene's checks covered.
 #[derive(Default, Debug)]
