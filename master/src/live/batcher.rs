@@ -1,10 +1,10 @@
 //! The one task on the server's thread that turns what the renderer noted into events for the
 //! pages: every [`PUSH_EVERY`] the tiles landed since become one `tiles` event (one PNG, encoded
-//! once, the same bytes sent to every page; more events for very many tiles), and the status, when it changed and was last sent at
-//! least [`STATUS_EVERY`] ago, one `status` (`done` once the render ended). With no page open
-//! it sleeps.
+//! once, the same bytes sent to every page; more events for very many tiles), and the status,
+//! when it changed and was last sent at least [`STATUS_EVERY`] ago, one `status` (`done` once
+//! the render ended). With no page open it sleeps.
 
-use super::encode::{event, tiles_events};
+use super::encode::{event, tiles_events, Scratch};
 use super::limits::{PUSH_EVERY, STATUS_EVERY};
 use super::state::{LiveState, Phase};
 use std::sync::Arc;
@@ -15,6 +15,9 @@ pub struct Batcher {
     state: Arc<LiveState>,
     sent_version: Option<u64>,
     status_at: Option<Instant>,
+    /// The landed tiles' pixels and the encoder's memory, kept from tick to tick.
+    rgb: Vec<u8>,
+    scratch: Scratch,
 }
 
 impl Batcher {
@@ -24,6 +27,8 @@ impl Batcher {
             state,
             sent_version: None,
             status_at: None,
+            rgb: Vec::new(),
+            scratch: Scratch::default(),
         }
     }
 
@@ -43,7 +48,7 @@ impl Batcher {
 
     /// One tick at `now`: sends what is due to the open pages.
     pub fn tick(&mut self, now: Instant) {
-        let landed = self.state.take_landed();
+        let landed = self.state.take_landed(&mut self.rgb);
         if !self.state.watched() {
             self.sent_version = None;
             return;
@@ -51,7 +56,7 @@ impl Batcher {
         if landed.overflow {
             self.state.send(event("reload", "overflow"));
         } else {
-            for e in tiles_events(&landed.tiles, &landed.rgb) {
+            for e in tiles_events(&landed.tiles, &self.rgb, &mut self.scratch) {
                 self.state.send(e);
             }
         }

@@ -12,9 +12,9 @@ pub const EVENT_BACKLOG: usize = 24;
 /// How often the tiles landed since are sent to the open pages (in one event, made once).
 pub const PUSH_EVERY: Duration = Duration::from_millis(100);
 
-/// The most rows of one `tiles` event's PNG (its tiles one under the other); a bigger batch is
-/// sent as several events. Far under what browsers decode.
-pub const STRIP_ROWS: u32 = 4096;
+/// The longest side of one `tiles` event's PNG (a sheet of its tiles side by side), unless one
+/// tile is bigger; a bigger batch is sent as several events. Far under what browsers decode.
+pub const SHEET_SIDE: u32 = 4096;
 
 /// How often the open pages are sent the status (when it changed).
 pub const STATUS_EVERY: Duration = Duration::from_millis(250);

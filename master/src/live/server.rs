@@ -4,7 +4,8 @@
 //! - `GET /status`: [`super::state::Status`] as JSON;
 //! - `GET /events`: server-sent events: `reload` first (load the image again) and the status,
 //!   then what [`super::batcher`] makes once for every page: `tiles` every 100 ms (a PNG of
-//!   the tiles landed since, one under the other, in base64, then a line `x,y,w,h` per tile),
+//!   the tiles landed since, side by side on a sheet, in base64, then a line `x,y,w,h,sx,sy`
+//!   per tile: where it goes and where it is on the sheet),
 //!   `status` (the JSON) at most every 250 ms when it changed (`done` at the end); and `reload`
 //!   again when the page fell behind and events were dropped for it;
 //! - `GET /frame`: the image so far, 8-bit RGB row by row (`application/octet-stream`);

@@ -31,12 +31,11 @@ struct Frame {
     overflow: bool,
 }
 
-/// The tiles landed since the last call of [`LiveState::take_landed`].
+/// The tiles landed since the last call of [`LiveState::take_landed`] (their pixels go to the
+/// caller's buffer).
 pub struct Landed {
     /// The tiles, in the order they landed.
     pub tiles: Vec<Tile>,
-    /// Their 8-bit RGB pixels, row by row, one tile after the other.
-    pub rgb: Vec<u8>,
     /// More landed than were noted: the pages must reload the whole image.
     pub overflow: bool,
 }
@@ -353,14 +352,17 @@ impl LiveState {
         let _ = self.events.send(event);
     }
 
-    /// The tiles landed since the last call and their pixels (copied under the frame's lock,
-    /// a memory copy; the encoding is the caller's, off the renderer's threads).
-    pub fn take_landed(&self) -> Landed {
+    /// The tiles landed since the last call; their 8-bit RGB pixels, row by row, one tile after
+    /// the other, replace what `rgb` held (copied under the frame's lock, a memory copy into
+    /// the caller's buffer, kept from call to call; the encoding is the caller's, off the
+    /// renderer's threads).
+    pub fn take_landed(&self, rgb: &mut Vec<u8>) -> Landed {
         let mut f = self.frame.lock().unwrap_or_else(|e| e.into_inner());
         let f = &mut *f;
         let tiles: Vec<Tile> = f.landed.drain(..).collect();
         let overflow = std::mem::take(&mut f.overflow);
-        let mut rgb = Vec::with_capacity(tiles.iter().map(|t| t.pixel_count() * 3).sum());
+        rgb.clear();
+        rgb.reserve(tiles.iter().map(|t| t.pixel_count() * 3).sum());
         for t in &tiles {
             let row = t.w as usize * 3;
             for y in 0..t.h as usize {
@@ -371,11 +373,7 @@ impl LiveState {
                 }
             }
         }
-        Landed {
-            tiles,
-            rgb,
-            overflow,
-        }
+        Landed { tiles, overflow }
     }
 
     /// The trace phase began.
@@ -597,11 +595,13 @@ mod tests {
         let st = s.status();
         assert_eq!((st.tiles_done, st.tiles_total, st.rays), (1, 2, 10));
         assert_eq!(st.workers[0].tiles, 1);
-        let landed = s.take_landed();
+        let mut rgb = vec![9; 99];
+        let landed = s.take_landed(&mut rgb);
         assert_eq!(landed.tiles, [tile]);
-        assert_eq!(landed.rgb, [255, 0, 0].repeat(4));
+        assert_eq!(rgb, [255, 0, 0].repeat(4));
         assert!(!landed.overflow);
-        assert!(s.take_landed().tiles.is_empty(), "taken once");
+        assert!(s.take_landed(&mut rgb).tiles.is_empty(), "taken once");
+        assert!(rgb.is_empty());
     }
 
     #[test]
@@ -609,7 +609,7 @@ mod tests {
         let s = LiveState::new(job());
         let tile = parrt::tile::tiles(4, 2, 2)[0];
         s.tile_done(0, &tile, &[[0.5; 3]; 4], 1);
-        assert!(s.take_landed().tiles.is_empty());
+        assert!(s.take_landed(&mut Vec::new()).tiles.is_empty());
         assert_eq!(&s.frame()[0..3], &[128, 128, 128]);
     }
 
