@@ -13,9 +13,14 @@
 # `status` event says whether it was: `starting` (connected before the trace) or not; the script
 # counts the late ones. (With mount:6 the build takes ~3 ms and clients connect mid-trace.)
 #
+# KIND says what the clients do: `read` (default) reads every event as it comes; `slow` reads
+# at SLOW_RATE (curl --limit-rate, default 100k: a slow link, the page falls behind and is
+# told to reload); `stuck` sends its request and never reads (python3: the render starts once
+# every one has said on a FIFO that its interpreter is up, then each waits for the URL).
+#
 # Usage: bench/live_view_overhead.sh [REPS] [CLIENTS] [-- RENDER ARGS...]
 #   default render: --scene mount:8 --width 1024 --height 1024 --threads 2
-#   PARRT_BIN: target/release/parrt
+#   PARRT_BIN: target/release/parrt; KIND: read, slow or stuck; SLOW_RATE: 100k
 set -euo pipefail
 reps=${1:-5}
 clients=${2:-10}
@@ -24,6 +29,18 @@ shift 2 || true
 args=("$@")
 [ ${#args[@]} -gt 0 ] || args=(--scene mount:8 --width 1024 --height 1024 --threads 2)
 bin=${PARRT_BIN:-target/release/parrt}
+kind=${KIND:-read}
+case $kind in read | slow | stuck) ;; *) echo "KIND must be read, slow or stuck" >&2; exit 2 ;; esac
+# The stuck client: the URL from its FIFO, then the request, then nothing read until killed.
+stuck='import socket, sys, time, urllib.parse
+socket.getaddrinfo("127.0.0.1", 80)  # the resolver loaded now, not during the render
+with open(sys.argv[2], "w") as ready:
+    ready.write("up\n")
+u = urllib.parse.urlsplit(open(sys.argv[1]).read().strip())
+s = socket.socket()
+s.connect((u.hostname, u.port))
+s.sendall(f"GET {u.path} HTTP/1.1\r\nHost: {u.netloc}\r\n\r\n".encode())
+time.sleep(3600)'
 T=$(mktemp -d)
 trap 'jobs -p | xargs -r kill 2>/dev/null; rm -rf "$T"' EXIT
 
@@ -39,12 +56,19 @@ add_ns() {
 run_plain() { "$bin" render "${args[@]}" -o "$T/o.png" --stats-json "$T/s.json" 2>/dev/null; trace; }
 run_http() { # run_http CLIENTS
     local n=$1 i cpids=()
+    rm -f "$T/ready"; mkfifo "$T/ready"; exec 4<>"$T/ready"
     for i in $(seq 1 "$n"); do
         rm -f "$T/k$i" "$T/c$i"
         mkfifo "$T/k$i"
-        curl -sN -K "$T/k$i" > "$T/c$i" 2>/dev/null &
+        if [ "$kind" = stuck ]; then
+            python3 -c "$stuck" "$T/k$i" "$T/ready" > "$T/c$i" 2>/dev/null &
+        else
+            curl -sN -K "$T/k$i" > "$T/c$i" 2>/dev/null &
+        fi
         cpids+=($!)
     done
+    if [ "$kind" = stuck ]; then for ((i = 1; i <= n; i++)); do read -r -u 4 _; done; fi
+    exec 4<&-
     rm -f "$T/errpipe"; mkfifo "$T/errpipe"
     "$bin" render "${args[@]}" -o "$T/o.png" --stats-json "$T/s.json" \
         --http 127.0.0.1:0 --http-linger 1 2>"$T/errpipe" &
@@ -55,7 +79,13 @@ run_http() { # run_http CLIENTS
         case $line in "parrt: live view at "*) url=${line#parrt: live view at }; break ;; esac
     done
     add_ns c0 "${cpids[@]/#//proc/}"
-    for ((i = 1; i <= n; i++)); do echo "url = \"${url}events\"" > "$T/k$i"; done
+    for ((i = 1; i <= n; i++)); do
+        case $kind in
+            stuck) echo "${url}events" > "$T/k$i" ;;
+            slow) printf 'url = "%s"\nlimit-rate = "%s"\n' "${url}events" "${SLOW_RATE:-100k}" > "$T/k$i" ;;
+            read) echo "url = \"${url}events\"" > "$T/k$i" ;;
+        esac
+    done
     # Then nothing until it lingers (the trace is over).
     while IFS= read -r -u 3 line; do case $line in *"stays up"*) break ;; esac; done
     cat <&3 > /dev/null &
@@ -71,6 +101,12 @@ run_http() { # run_http CLIENTS
     echo "$http $((all * 1000000000 / $(getconf CLK_TCK))) $((c1 - c0))" >> "$T/cpu$n"
     wait "$pid"
     trace
+    # Slow and stuck clients would take long to read what the sockets hold, or never.
+    [ "$kind" = read ] || kill "${cpids[@]}" 2>/dev/null || true
+    if [ "$kind" = stuck ]; then
+        wait "${cpids[@]}" 2>/dev/null || true
+        return 0
+    fi
     local late=0
     for i in $(seq 1 "$n"); do
         [ -s "$T/c$i" ] || { echo "client $i got nothing" >&2; continue; }
@@ -102,4 +138,5 @@ echo "| render | trace s, median of $reps | ratio | fastest | ratio |"
 echo "|---|---:|---:|---:|---:|"
 echo "| no --http | $n | 1.000 | $n1 | 1.000 |"
 echo "| --http, no page | $i | $(r "$i" "$n") | $i1 | $(r "$i1" "$n1") |"
-echo "| --http, $clients SSE clients | $w | $(r "$w" "$n") | $w1 | $(r "$w1" "$n1") |"
+echo "| --http, $clients SSE clients ($kind) | $w | $(r "$w" "$n") | $w1 | $(r "$w1" "$n1") |"
+echo "| $clients clients ($kind) against --http with no page | | $(r "$w" "$i") | | $(r "$w1" "$i1") |"
