@@ -1,7 +1,8 @@
-//! A packet's rays tested against a leaf together (issue 18): `SceneLeaf`'s
-//! `closest_many` and `any_many`, which gather a leaf of triangles or spheres into the kernel's
-//! lanes once for all the rays that enter it, give every ray of the mask exactly what the
-//! one-ray-at-a-time scalar test gives it — primitive, `t`, `u`, `v` and the bound bit for bit,
+//! A packet's rays tested against a leaf together (issue 18): `closest_many` and `any_many` of
+//! `SceneLeaf` (which gathers a leaf of triangles or spheres into the four-lane kernel's lanes
+//! once for all the rays that enter it) and of `PacketLeaf` (one primitive against all the
+//! rays at once, a ray per AVX-512 lane, where the CPU has it) give every ray of the mask
+//! exactly what the one-ray-at-a-time scalar test gives it — primitive, `t`, `u`, `v` and the bound bit for bit,
 //! the first blocking primitive's position — and leave the rays outside the mask alone. Leaves
 //! of 2..=4 triangles and spheres from SPD scenes and from a mesh on integer vertices (rays
 //! exactly through edges and vertices, ties the primitive index decides), mixed leaves, rays
@@ -10,6 +11,7 @@
 use parrt::accel::RayPrimTest;
 use parrt::description::{Material, Primitive, SceneDescription, Shape, View};
 use parrt::geometry::{Nearest, PreparedRay, Ray};
+use parrt::packet_leaf::PacketLeaf;
 use parrt::real::Real;
 use parrt::scene::{Prim, Scene};
 use parrt::scene_leaf::SceneLeaf;
@@ -70,11 +72,31 @@ fn targets<R: Real>(p: &Prim<R>, eye: V3<R>) -> Vec<V3<R>> {
 }
 
 /// Rays from `eye` at every target of `leaf`, as full rays, as segments ending exactly at the
-/// target and at half way, and turned away (misses).
-fn leaf_rays<R: Real>(scene: &Scene<R>, leaf: &[u32], eye: V3<R>) -> Vec<PreparedRay<R>> {
+/// target and at half way, and turned away (misses); and from a random point near each target
+/// at it (so a packet mixes rays whose largest direction axes differ).
+fn leaf_rays<R: Real>(
+    scene: &Scene<R>,
+    leaf: &[u32],
+    eye: V3<R>,
+    rng: &mut StdRng,
+) -> Vec<PreparedRay<R>> {
     let mut out = Vec::new();
     for &p in leaf {
         for t in targets(&scene.prims[p as usize], eye) {
+            let off = V3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0f64),
+            );
+            if off.length() > 1e-3 {
+                let off = V3::from_f64(off * 4.0);
+                out.push(PreparedRay::new(Ray {
+                    o: t - off,
+                    d: off.normalize(),
+                    t_min: R::ZERO,
+                    t_max: R::INFINITY,
+                }));
+            }
             let d = t - eye;
             let len = d.length();
             if len.partial_cmp(&R::ZERO) != Some(std::cmp::Ordering::Greater) {
@@ -123,7 +145,7 @@ fn compare_leaf<R: Real>(
     rng: &mut StdRng,
     c: &mut Covered,
 ) {
-    let rays = leaf_rays(scene, leaf, eye);
+    let rays = leaf_rays(scene, leaf, eye, rng);
     c.leaves += 1;
     for packet in rays.chunks(PACKET) {
         let n = packet.len();
@@ -148,6 +170,11 @@ fn compare_leaf<R: Real>(
             SceneLeaf::new(scene).closest_many(packet, mask, leaf, &mut many);
             let mut first = [usize::MAX; PACKET];
             let blocked = SceneLeaf::new(scene).any_many(packet, mask, leaf, &mut first);
+            let mut lanes = start.clone();
+            PacketLeaf::new(scene, packet).closest_many(packet, mask, leaf, &mut lanes);
+            let mut lanes_first = [usize::MAX; PACKET];
+            let lanes_blocked =
+                PacketLeaf::new(scene, packet).any_many(packet, mask, leaf, &mut lanes_first);
             for (i, pr) in packet.iter().enumerate() {
                 let mut want = start[i];
                 let mut want_blocked = None;
@@ -161,10 +188,20 @@ fn compare_leaf<R: Real>(
                     (key(&want.hit), want.t.to_f64().to_bits()),
                     "{what}: leaf {leaf:?}, mask {mask:#x}, ray {i} {pr:?}"
                 );
+                assert_eq!(
+                    (key(&lanes[i].hit), lanes[i].t.to_f64().to_bits()),
+                    (key(&want.hit), want.t.to_f64().to_bits()),
+                    "{what}: lanes, leaf {leaf:?}, mask {mask:#x}, ray {i} {pr:?}"
+                );
                 let got_blocked = (blocked & (1 << i) != 0).then_some(first[i]);
                 assert_eq!(
                     got_blocked, want_blocked,
                     "{what}: blocked, leaf {leaf:?}, mask {mask:#x}, ray {i} {pr:?}"
+                );
+                let lanes_got = (lanes_blocked & (1 << i) != 0).then_some(lanes_first[i]);
+                assert_eq!(
+                    lanes_got, want_blocked,
+                    "{what}: lanes blocked, leaf {leaf:?}, mask {mask:#x}, ray {i} {pr:?}"
                 );
                 if mask & (1 << i) == 0 {
                     continue;
@@ -186,12 +223,12 @@ fn compare_leaf<R: Real>(
     }
 }
 
-/// Leaves of `k` = 2..=4 consecutive primitives (neighbours in a mesh share edges), every
+/// Leaves of `k` = 1..=4 consecutive primitives (neighbours in a mesh share edges), every
 /// `step`-th start, and a few leaves mixing a triangle with a sphere.
 fn leaves<R: Real>(scene: &Scene<R>, step: usize) -> Vec<Vec<u32>> {
     let n = scene.prims.len() as u32;
     let mut out = Vec::new();
-    for k in 2..=4u32 {
+    for k in 1..=4u32 {
         let mut s = 0;
         while s + k <= n {
             out.push((s..s + k).collect());
