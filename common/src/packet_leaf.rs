@@ -2,7 +2,7 @@
 //! that where the CPU has AVX-512F and the scene is in `f32`, a leaf of triangles or of spheres
 //! that several of the packet's rays enter is tested one primitive at a time against all of them
 //! at once, a ray per lane ([`crate::geometry::leaf16`]). The packet's rays are put into lanes
-//! once, when the test is made for them; every ray gets exactly the one-ray test's answer.
+//! once, when the first such leaf needs them; every ray gets exactly the one-ray test's answer.
 
 use std::any::{Any, TypeId};
 
@@ -17,37 +17,43 @@ use crate::scene_leaf::SceneLeaf;
 /// takes the leaf four primitives at a time through [`SceneLeaf`]).
 pub const MIN_RAYS: u32 = 3;
 
-/// The primitive test of the packet it was made for.
-#[derive(Clone, Copy, Debug)]
+/// The primitive test of one packet's rays: make one per packet (it keeps the rays' lanes
+/// between leaves and is moved into the traversal, so it is neither `Clone` nor `Copy`).
+#[derive(Debug)]
 pub struct PacketLeaf<'a, R> {
     leaf: SceneLeaf<'a, R>,
+    /// The scene when it is in `f32` and the CPU runs the ray-per-lane kernels.
     scene: Option<&'a Scene<f32>>,
+    /// The packet's rays in lanes, made when a leaf first needs them.
     lanes: Option<Rays16>,
 }
 
 impl<'a, R: Real> PacketLeaf<'a, R> {
-    /// The test of `scene`'s primitives for the packet `rays` (the calls must pass the same
-    /// slice; for any other, this is [`SceneLeaf::new`]).
+    /// The test of `scene`'s primitives.
     #[inline]
-    pub fn new(scene: &'a Scene<R>, rays: &[PreparedRay<R>]) -> Self {
-        let leaf = SceneLeaf::new(scene);
-        let scene = (scene as &dyn Any).downcast_ref::<Scene<f32>>();
-        let lanes = match (scene, f32_rays(rays)) {
-            (Some(_), Some(r)) if r.len() > 1 => Rays16::new(r),
-            _ => None,
-        };
-        PacketLeaf { leaf, scene, lanes }
+    pub fn new(scene: &'a Scene<R>) -> Self {
+        PacketLeaf {
+            leaf: SceneLeaf::new(scene),
+            scene: (scene as &dyn Any)
+                .downcast_ref::<Scene<f32>>()
+                .filter(|_| leaf16::available()),
+            lanes: None,
+        }
     }
 
-    /// The scene, the rays and their lanes when the ray-per-lane kernels take `rays`.
+    /// The scene, the rays and their lanes when the ray-per-lane kernels take `rays` (the lanes
+    /// are made once per packet: again only when `rays` is another slice).
     #[inline(always)]
     fn lanes<'b>(
-        &'b self,
+        &'b mut self,
         rays: &'b [PreparedRay<R>],
     ) -> Option<(&'a Scene<f32>, &'b [PreparedRay<f32>], &'b Rays16)> {
-        let lanes = self.lanes.as_ref()?;
+        let scene = self.scene?;
         let r = f32_rays(rays)?;
-        lanes.made_from(r).then_some((self.scene?, r, lanes))
+        if !self.lanes.as_ref().is_some_and(|l| l.made_from(r)) {
+            self.lanes = Rays16::new(r);
+        }
+        Some((scene, r, self.lanes.as_ref()?))
     }
 }
 
@@ -105,6 +111,15 @@ fn run(
     }
 }
 
+/// Whether the rays of `mask` take `leaf` together.
+#[inline(always)]
+fn takes(mask: u32, leaf: &[u32]) -> bool {
+    mask.count_ones() >= MIN_RAYS.max(RAYS_PER_PRIM * leaf.len() as u32)
+}
+
+/// Fewest entering rays per primitive of the leaf for the ray-per-lane kernels.
+pub const RAYS_PER_PRIM: u32 = 0;
+
 impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
     #[inline(always)]
     fn test(&mut self, pr: &PreparedRay<R>, prim: u32, t_max: R) -> Option<PrimHit<R>> {
@@ -129,7 +144,7 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
         leaf: &[u32],
         best: &mut [Nearest<R>],
     ) {
-        if mask.count_ones() >= MIN_RAYS {
+        if takes(mask, leaf) {
             if let Some((scene, r32, lanes)) = self.lanes(rays) {
                 if kind(&scene.prims, leaf) != Kind::Other {
                     // Every primitive with the bound each ray entered the leaf with: a hit
@@ -171,7 +186,7 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
         leaf: &[u32],
         first: &mut [usize],
     ) -> u32 {
-        if mask.count_ones() >= MIN_RAYS {
+        if takes(mask, leaf) {
             if let Some((scene, r32, lanes)) = self.lanes(rays) {
                 if kind(&scene.prims, leaf) != Kind::Other {
                     let mut t_max = [0.0f32; LANES];

@@ -47,13 +47,13 @@ impl<R: Real> Integrator<R> {
         stats: &mut RayStats,
     ) {
         self.accel
-            .intersect_packet(rays, out, stats, PacketLeaf::new(&self.scene, rays));
+            .intersect_packet(rays, out, stats, PacketLeaf::new(&self.scene));
     }
 
     /// Occlusion of up to [`PACKET`] rays, into `out`.
     pub fn occluded_packet(&self, rays: &[PreparedRay<R>], out: &mut [bool], stats: &mut RayStats) {
         self.accel
-            .occluded_packet(rays, out, stats, PacketLeaf::new(&self.scene, rays));
+            .occluded_packet(rays, out, stats, PacketLeaf::new(&self.scene));
     }
 
     /// Radiance along up to [`PACKET`] eye rays, into `out`: the same colours as
