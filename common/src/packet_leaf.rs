@@ -1,5 +1,5 @@
 //! The primitive test of one packet's rays ([`crate::accel::RayPrimTest`]): [`SceneLeaf`], except
-//! that where the CPU has AVX-512F and the scene is in `f32`, a leaf of triangles or of spheres
+//! that where the CPU has AVX and the scene is in `f32`, a leaf of triangles or of spheres
 //! that several of the packet's rays enter is tested one primitive at a time against all of them
 //! at once, a ray per lane ([`crate::geometry::leaf16`]). The packet's rays are put into lanes
 //! once, when the first such leaf needs them; every ray gets exactly the one-ray test's answer.
@@ -44,10 +44,7 @@ impl<'a, R: Real> PacketLeaf<'a, R> {
     /// The scene, the rays and their lanes when the ray-per-lane kernels take `rays` (the lanes
     /// are made once per packet: again only when `rays` is another slice).
     #[inline(always)]
-    fn lanes<'b>(
-        &'b mut self,
-        rays: &'b [PreparedRay<R>],
-    ) -> Option<(&'a Scene<f32>, &'b [PreparedRay<f32>], &'b Rays16)> {
+    fn lanes<'b>(&'b mut self, rays: &'b [PreparedRay<R>]) -> Option<Lanes<'a, 'b>> {
         let scene = self.scene?;
         let r = f32_rays(rays)?;
         if !self.lanes.as_ref().is_some_and(|l| l.made_from(r)) {
@@ -56,6 +53,9 @@ impl<'a, R: Real> PacketLeaf<'a, R> {
         Some((scene, r, self.lanes.as_ref()?))
     }
 }
+
+/// The `f32` scene, a packet's rays and their lanes.
+type Lanes<'a, 'b> = (&'a Scene<f32>, &'b [PreparedRay<f32>], &'b Rays16);
 
 /// `rays` as `f32` rays when `R` is `f32`.
 #[inline(always)]

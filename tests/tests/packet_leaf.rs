@@ -1,7 +1,7 @@
 //! A packet's rays tested against a leaf together (issue 18): `closest_many` and `any_many` of
 //! `SceneLeaf` (which gathers a leaf of triangles or spheres into the four-lane kernel's lanes
 //! once for all the rays that enter it) and of `PacketLeaf` (one primitive against all the
-//! rays at once, a ray per AVX-512 lane, where the CPU has it) give every ray of the mask
+//! rays at once, a ray per AVX lane, where the CPU has it) give every ray of the mask
 //! exactly what the one-ray-at-a-time scalar test gives it — primitive, `t`, `u`, `v` and the bound bit for bit,
 //! the first blocking primitive's position — and leave the rays outside the mask alone. Leaves
 //! of 2..=4 triangles and spheres from SPD scenes and from a mesh on integer vertices (rays
