@@ -30,6 +30,7 @@ pub mod frame;
 pub mod geometry;
 pub mod heap;
 pub mod nff;
+pub mod packet_leaf;
 pub mod packet_trace;
 pub mod precision;
 pub mod protocol;

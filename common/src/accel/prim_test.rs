@@ -2,7 +2,9 @@
 //! BVH leaf's run of primitives at once ([`PrimTest::closest`], [`PrimTest::any`]), which a
 //! scene can answer with SIMD ([`crate::scene_leaf::SceneLeaf`]). Any closure
 //! `FnMut(prim, t_max) -> Option<PrimHit>` is a test that goes one primitive at a time;
-//! [`RayPrimTest`] is the same for packets, where the ray comes with each call.
+//! [`RayPrimTest`] is the same for packets, where the ray comes with each call, and can take a
+//! leaf against several of the packet's rays at once ([`RayPrimTest::closest_many`],
+//! [`RayPrimTest::any_many`]) so work on the leaf is shared.
 //!
 //! A leaf's answers must be those of the one-at-a-time loop: [`PrimTest::closest`] offers each
 //! primitive's hit in order, testing it with `t_max` = the best `t` so far or any larger bound
@@ -58,6 +60,49 @@ pub trait RayPrimTest<R: Real> {
         prims
             .iter()
             .position(|&p| self.test(pr, p, t_max).is_some())
+    }
+
+    /// [`Self::closest`] of `prims` for every ray `rays[i]` whose bit `i` is set in `mask`,
+    /// into `best[i]`; each ray gets exactly the answer [`Self::closest`] gives it alone.
+    #[inline(always)]
+    fn closest_many(
+        &mut self,
+        rays: &[PreparedRay<R>],
+        mask: u32,
+        prims: &[u32],
+        best: &mut [Nearest<R>],
+    ) {
+        let mut m = mask;
+        while m != 0 {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            self.closest(&rays[i], prims, &mut best[i]);
+        }
+    }
+
+    /// [`Self::any`] of `prims` for every ray `rays[i]` whose bit `i` is set in `mask`, each
+    /// within its own `t_max`: bit `i` of the answer is set when ray `i` is blocked, and then
+    /// `first[i]` is [`Self::any`]'s position.
+    #[inline(always)]
+    fn any_many(
+        &mut self,
+        rays: &[PreparedRay<R>],
+        mask: u32,
+        prims: &[u32],
+        first: &mut [usize],
+    ) -> u32 {
+        let mut hit = 0;
+        let mut m = mask;
+        while m != 0 {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let pr = &rays[i];
+            if let Some(k) = self.any(pr, prims, pr.ray.t_max) {
+                first[i] = k;
+                hit |= 1 << i;
+            }
+        }
+        hit
     }
 }
 

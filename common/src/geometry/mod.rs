@@ -5,6 +5,7 @@
 pub mod aabb;
 pub mod cone;
 pub mod hit;
+pub mod leaf16;
 pub mod ray;
 pub mod slab16;
 pub mod slab4;

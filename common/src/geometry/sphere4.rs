@@ -3,6 +3,8 @@
 //! in the same order (no FMA, no reassociation), so each lane's answer is bit for bit the
 //! scalar one. [`intersect4`] picks the kernel at run time like [`super::triangle4`]: AVX when
 //! the CPU has it, SSE2 otherwise, the portable lane loop ([`intersect4_lanes`]) elsewhere.
+//! [`SphereLanes`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
+//! that enter the leaf share one gather ([`intersect4_gathered`]).
 
 use super::ray::Ray;
 use super::sphere::Sphere;
@@ -13,6 +15,34 @@ pub const LANES: usize = 4;
 
 /// The spheres of the lanes (unused lanes repeat a used one; `used` says how many count).
 pub type Spheres4<'a, R> = [&'a Sphere<R>; LANES];
+
+/// Four spheres gathered into lanes: centre components by axis, then radii (the kernel's
+/// layout).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(16))]
+pub struct SphereLanes {
+    /// Centre components by axis and lane.
+    pub c: [[f32; LANES]; 3],
+    /// Radii by lane.
+    pub r: [f32; LANES],
+}
+
+impl SphereLanes {
+    /// The lanes of `spheres`.
+    #[inline(always)]
+    pub fn gather(spheres: &Spheres4<'_, f32>) -> Self {
+        let mut c = [[0.0; LANES]; 3];
+        for (axis, lanes) in c.iter_mut().enumerate() {
+            for (lane, v) in lanes.iter_mut().enumerate() {
+                *v = spheres[lane].center.to_array()[axis];
+            }
+        }
+        SphereLanes {
+            c,
+            r: spheres.map(|s| s.radius),
+        }
+    }
+}
 
 /// The answers of the four lanes: bit `i` of `mask` is set when lane `i` is hit at `t[i]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,12 +94,38 @@ pub fn intersect4(
     intersect4_lanes(ray, spheres, used, t_max)
 }
 
+/// [`intersect4`] on spheres already gathered into lanes: the same answers bit for bit.
+#[inline]
+pub fn intersect4_gathered(
+    ray: &Ray<f32>,
+    spheres: &SphereLanes,
+    used: usize,
+    t_max: f32,
+) -> SphereHits4<f32> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            return unsafe { x86::gathered_avx(ray, spheres, used, t_max) };
+        }
+        x86::gathered_sse2(ray, spheres, used, t_max)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let s = [0, 1, 2, 3].map(|i| Sphere {
+            center: crate::vec3::V3::new(spheres.c[0][i], spheres.c[1][i], spheres.c[2][i]),
+            radius: spheres.r[i],
+        });
+        intersect4_lanes(ray, &[&s[0], &s[1], &s[2], &s[3]], used, t_max)
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
-pub use x86::{intersect4_avx, intersect4_sse2};
+pub use x86::{gathered_avx, gathered_sse2, intersect4_avx, intersect4_sse2};
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{SphereHits4, Spheres4, LANES};
+    use super::{SphereHits4, SphereLanes, Spheres4, LANES};
     use crate::geometry::ray::Ray;
     use crate::geometry::sse4::{select, store};
     use std::arch::x86_64::*;
@@ -101,21 +157,74 @@ mod x86 {
         kernel(ray, spheres, used, t_max)
     }
 
-    /// The scalar test's arithmetic (see [`crate::geometry::sphere`]) in four lanes.
-    #[inline(always)]
-    unsafe fn kernel(
+    /// The SSE2 kernel on gathered lanes.
+    #[inline(never)]
+    pub fn gathered_sse2(
         ray: &Ray<f32>,
-        spheres: &Spheres4<'_, f32>,
+        spheres: &SphereLanes,
         used: usize,
         t_max: f32,
     ) -> SphereHits4<f32> {
-        let lane = |f: &dyn Fn(usize) -> f32| _mm_setr_ps(f(0), f(1), f(2), f(3));
-        let (cx, cy, cz) = (
-            lane(&|i| spheres[i].center.x),
-            lane(&|i| spheres[i].center.y),
-            lane(&|i| spheres[i].center.z),
-        );
-        let r = lane(&|i| spheres[i].radius);
+        // SAFETY: SSE2 is part of the x86-64 baseline.
+        unsafe { kernel(ray, spheres, used, t_max) }
+    }
+
+    /// The AVX kernel on gathered lanes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX.
+    #[target_feature(enable = "avx")]
+    #[inline(never)]
+    pub unsafe fn gathered_avx(
+        ray: &Ray<f32>,
+        spheres: &SphereLanes,
+        used: usize,
+        t_max: f32,
+    ) -> SphereHits4<f32> {
+        kernel(ray, spheres, used, t_max)
+    }
+
+    /// Where the kernel reads the spheres from: gathered from four spheres on the spot, or
+    /// loaded from lanes gathered once.
+    pub trait Source {
+        /// Centre `x`, `y`, `z` and radius of the four spheres.
+        unsafe fn lanes(&self) -> [__m128; 4];
+    }
+
+    impl Source for Spheres4<'_, f32> {
+        #[inline(always)]
+        unsafe fn lanes(&self) -> [__m128; 4] {
+            let lane = |f: &dyn Fn(usize) -> f32| _mm_setr_ps(f(0), f(1), f(2), f(3));
+            [
+                lane(&|i| self[i].center.x),
+                lane(&|i| self[i].center.y),
+                lane(&|i| self[i].center.z),
+                lane(&|i| self[i].radius),
+            ]
+        }
+    }
+
+    impl Source for SphereLanes {
+        #[inline(always)]
+        unsafe fn lanes(&self) -> [__m128; 4] {
+            [
+                _mm_load_ps(self.c[0].as_ptr()),
+                _mm_load_ps(self.c[1].as_ptr()),
+                _mm_load_ps(self.c[2].as_ptr()),
+                _mm_load_ps(self.r.as_ptr()),
+            ]
+        }
+    }
+
+    /// The scalar test's arithmetic (see [`crate::geometry::sphere`]) in four lanes.
+    #[inline(always)]
+    unsafe fn kernel<S: Source>(
+        ray: &Ray<f32>,
+        spheres: &S,
+        used: usize,
+        t_max: f32,
+    ) -> SphereHits4<f32> {
+        let [cx, cy, cz, r] = spheres.lanes();
         let zero = _mm_setzero_ps();
         let sign = _mm_set1_ps(-0.0);
         let (dx, dy, dz) = (
@@ -186,13 +295,20 @@ mod tests {
     /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit.
     fn check(ray: &Ray<f32>, s: &Spheres4<'_, f32>, used: usize, t_max: f32) -> u32 {
         let want = intersect4_lanes(ray, s, used, t_max);
-        let mut kernels = vec![intersect4(ray, s, used, t_max)];
+        let lanes = SphereLanes::gather(s);
+        let mut kernels = vec![
+            intersect4(ray, s, used, t_max),
+            intersect4_gathered(ray, &lanes, used, t_max),
+        ];
         #[cfg(target_arch = "x86_64")]
         {
             kernels.push(intersect4_sse2(ray, s, used, t_max));
+            kernels.push(gathered_sse2(ray, &lanes, used, t_max));
             if std::arch::is_x86_feature_detected!("avx") {
                 // SAFETY: the CPU has AVX.
                 kernels.push(unsafe { intersect4_avx(ray, s, used, t_max) });
+                // SAFETY: as above.
+                kernels.push(unsafe { gathered_avx(ray, &lanes, used, t_max) });
             }
         }
         for got in kernels {

@@ -7,6 +7,8 @@
 //! [`intersect4`] picks the kernel at run time: AVX (the same instructions in their
 //! three-operand VEX form) when the CPU has it, SSE2 (the x86-64 baseline) otherwise, and the
 //! portable lane-by-lane loop ([`intersect4_lanes`]) on other targets and for `f64`.
+//! [`TriLanes`] holds a leaf's triangles already gathered into lanes, so the rays of a packet
+//! that enter the leaf share one gather ([`intersect4_gathered`]).
 
 use super::ray::PreparedRay;
 use super::triangle::intersect_triangle;
@@ -32,6 +34,38 @@ pub struct Hits4<R> {
 
 /// The triangles of the lanes (unused lanes repeat a used one; `used` says how many count).
 pub type Tris4<'a, R> = [&'a [V3<R>; 3]; LANES];
+
+/// Four triangles gathered into lanes: `v[vertex][axis][lane]` (the kernel's layout, so a ray
+/// loads each component with one aligned load instead of gathering it from four triangles).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(16))]
+pub struct TriLanes {
+    /// Vertex components by vertex, axis and lane.
+    pub v: [[[f32; LANES]; 3]; 3],
+}
+
+impl TriLanes {
+    /// The lanes of `tris`.
+    #[inline(always)]
+    pub fn gather(tris: &Tris4<'_, f32>) -> Self {
+        let mut v = [[[0.0; LANES]; 3]; 3];
+        for (vertex, comps) in v.iter_mut().enumerate() {
+            for (axis, lanes) in comps.iter_mut().enumerate() {
+                for (lane, c) in lanes.iter_mut().enumerate() {
+                    *c = tris[lane][vertex].to_array()[axis];
+                }
+            }
+        }
+        TriLanes { v }
+    }
+
+    /// Triangle `lane` as vertices.
+    #[inline(always)]
+    fn triangle(&self, lane: usize) -> [V3<f32>; 3] {
+        let p = |k: usize| V3::new(self.v[k][0][lane], self.v[k][1][lane], self.v[k][2][lane]);
+        [p(0), p(1), p(2)]
+    }
+}
 
 /// The portable kernel: the scalar test lane by lane, in any precision.
 #[inline(always)]
@@ -78,12 +112,35 @@ pub fn intersect4(
     intersect4_lanes(pr, tris, used, t_max)
 }
 
+/// [`intersect4`] on triangles already gathered into lanes: the same answers bit for bit.
+#[inline]
+pub fn intersect4_gathered(
+    pr: &PreparedRay<f32>,
+    tris: &TriLanes,
+    used: usize,
+    t_max: f32,
+) -> Hits4<f32> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            return unsafe { x86::gathered_avx(pr, tris, used, t_max) };
+        }
+        x86::gathered_sse2(pr, tris, used, t_max)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let t = [0, 1, 2, 3].map(|i| tris.triangle(i));
+        intersect4_lanes(pr, &[&t[0], &t[1], &t[2], &t[3]], used, t_max)
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
-pub use x86::{intersect4_avx, intersect4_sse2};
+pub use x86::{gathered_avx, gathered_sse2, intersect4_avx, intersect4_sse2};
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{Hits4, Tris4, LANES};
+    use super::{Hits4, TriLanes, Tris4, LANES};
     use crate::geometry::ray::PreparedRay;
     use crate::geometry::sse4::{select, store};
     use crate::real::Real;
@@ -116,39 +173,93 @@ mod x86 {
         permuted(pr, tris, used, t_max)
     }
 
+    /// The SSE2 kernel on gathered lanes.
+    #[inline(never)]
+    pub fn gathered_sse2(
+        pr: &PreparedRay<f32>,
+        tris: &TriLanes,
+        used: usize,
+        t_max: f32,
+    ) -> Hits4<f32> {
+        // SAFETY: SSE2 is part of the x86-64 baseline.
+        unsafe { permuted(pr, tris, used, t_max) }
+    }
+
+    /// The AVX kernel on gathered lanes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX.
+    #[target_feature(enable = "avx")]
+    #[inline(never)]
+    pub unsafe fn gathered_avx(
+        pr: &PreparedRay<f32>,
+        tris: &TriLanes,
+        used: usize,
+        t_max: f32,
+    ) -> Hits4<f32> {
+        permuted(pr, tris, used, t_max)
+    }
+
+    /// Where the kernel reads the triangles' components from: gathered from four triangles
+    /// on the spot, or loaded from lanes gathered once.
+    pub trait Source {
+        /// Component `K` of vertex `V` of the four triangles, minus the ray origin's
+        /// component.
+        unsafe fn rel<const V: usize, const K: usize>(&self, o: f32) -> __m128;
+        /// The portable kernel on the same triangles.
+        fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32>;
+    }
+
+    impl Source for Tris4<'_, f32> {
+        #[inline(always)]
+        unsafe fn rel<const V: usize, const K: usize>(&self, o: f32) -> __m128 {
+            let c = |i: usize| {
+                let p = self[i][V];
+                match K {
+                    0 => p.x,
+                    1 => p.y,
+                    _ => p.z,
+                }
+            };
+            _mm_sub_ps(_mm_setr_ps(c(0), c(1), c(2), c(3)), _mm_set1_ps(o))
+        }
+
+        fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32> {
+            super::intersect4_lanes(pr, self, used, t_max)
+        }
+    }
+
+    impl Source for TriLanes {
+        #[inline(always)]
+        unsafe fn rel<const V: usize, const K: usize>(&self, o: f32) -> __m128 {
+            _mm_sub_ps(_mm_load_ps(self.v[V][K].as_ptr()), _mm_set1_ps(o))
+        }
+
+        fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32> {
+            let t = [0, 1, 2, 3].map(|i| self.triangle(i));
+            super::intersect4_lanes(pr, &[&t[0], &t[1], &t[2], &t[3]], used, t_max)
+        }
+    }
+
     /// Matches the ray's axis permutation once, like the scalar test, so the gathers use
     /// constant component indices.
     #[inline(always)]
-    unsafe fn permuted(
+    unsafe fn permuted<S: Source>(
         pr: &PreparedRay<f32>,
-        tris: &Tris4<'_, f32>,
+        tris: &S,
         used: usize,
         t_max: f32,
     ) -> Hits4<f32> {
         match (pr.kx, pr.ky, pr.kz) {
-            (1, 2, 0) => kernel::<1, 2, 0>(pr, tris, used, t_max),
-            (2, 1, 0) => kernel::<2, 1, 0>(pr, tris, used, t_max),
-            (2, 0, 1) => kernel::<2, 0, 1>(pr, tris, used, t_max),
-            (0, 2, 1) => kernel::<0, 2, 1>(pr, tris, used, t_max),
-            (0, 1, 2) => kernel::<0, 1, 2>(pr, tris, used, t_max),
-            (1, 0, 2) => kernel::<1, 0, 2>(pr, tris, used, t_max),
+            (1, 2, 0) => kernel::<1, 2, 0, S>(pr, tris, used, t_max),
+            (2, 1, 0) => kernel::<2, 1, 0, S>(pr, tris, used, t_max),
+            (2, 0, 1) => kernel::<2, 0, 1, S>(pr, tris, used, t_max),
+            (0, 2, 1) => kernel::<0, 2, 1, S>(pr, tris, used, t_max),
+            (0, 1, 2) => kernel::<0, 1, 2, S>(pr, tris, used, t_max),
+            (1, 0, 2) => kernel::<1, 0, 2, S>(pr, tris, used, t_max),
             // `PreparedRay::new` only makes the six permutations above.
-            _ => super::intersect4_lanes(pr, tris, used, t_max),
+            _ => tris.lanes(pr, used, t_max),
         }
-    }
-
-    /// Component `K` of vertex `V` of the four triangles, minus the ray origin's component.
-    #[inline(always)]
-    unsafe fn rel<const V: usize, const K: usize>(tris: &Tris4<'_, f32>, o: f32) -> __m128 {
-        let c = |i: usize| {
-            let p = tris[i][V];
-            match K {
-                0 => p.x,
-                1 => p.y,
-                _ => p.z,
-            }
-        };
-        _mm_sub_ps(_mm_setr_ps(c(0), c(1), c(2), c(3)), _mm_set1_ps(o))
     }
 
     /// `f32::max` lane by lane: the larger value, or the operand that is not NaN (`maxps`
@@ -166,9 +277,9 @@ mod x86 {
 
     /// The scalar test's arithmetic (see [`crate::geometry::triangle`]) in four lanes.
     #[inline(always)]
-    unsafe fn kernel<const KX: usize, const KY: usize, const KZ: usize>(
+    unsafe fn kernel<const KX: usize, const KY: usize, const KZ: usize, S: Source>(
         pr: &PreparedRay<f32>,
-        tris: &Tris4<'_, f32>,
+        tris: &S,
         used: usize,
         t_max: f32,
     ) -> Hits4<f32> {
@@ -176,15 +287,15 @@ mod x86 {
         let s = pr.shear;
         let zero = _mm_setzero_ps();
         let (sx, sy, sz) = (_mm_set1_ps(s.x), _mm_set1_ps(s.y), _mm_set1_ps(s.z));
-        let az = rel::<0, KZ>(tris, o[KZ]);
-        let bz = rel::<1, KZ>(tris, o[KZ]);
-        let cz = rel::<2, KZ>(tris, o[KZ]);
-        let ax = _mm_sub_ps(rel::<0, KX>(tris, o[KX]), _mm_mul_ps(sx, az));
-        let ay = _mm_sub_ps(rel::<0, KY>(tris, o[KY]), _mm_mul_ps(sy, az));
-        let bx = _mm_sub_ps(rel::<1, KX>(tris, o[KX]), _mm_mul_ps(sx, bz));
-        let by = _mm_sub_ps(rel::<1, KY>(tris, o[KY]), _mm_mul_ps(sy, bz));
-        let cx = _mm_sub_ps(rel::<2, KX>(tris, o[KX]), _mm_mul_ps(sx, cz));
-        let cy = _mm_sub_ps(rel::<2, KY>(tris, o[KY]), _mm_mul_ps(sy, cz));
+        let az = tris.rel::<0, KZ>(o[KZ]);
+        let bz = tris.rel::<1, KZ>(o[KZ]);
+        let cz = tris.rel::<2, KZ>(o[KZ]);
+        let ax = _mm_sub_ps(tris.rel::<0, KX>(o[KX]), _mm_mul_ps(sx, az));
+        let ay = _mm_sub_ps(tris.rel::<0, KY>(o[KY]), _mm_mul_ps(sy, az));
+        let bx = _mm_sub_ps(tris.rel::<1, KX>(o[KX]), _mm_mul_ps(sx, bz));
+        let by = _mm_sub_ps(tris.rel::<1, KY>(o[KY]), _mm_mul_ps(sy, bz));
+        let cx = _mm_sub_ps(tris.rel::<2, KX>(o[KX]), _mm_mul_ps(sx, cz));
+        let cy = _mm_sub_ps(tris.rel::<2, KY>(o[KY]), _mm_mul_ps(sy, cz));
         let mut e0 = _mm_sub_ps(_mm_mul_ps(bx, cy), _mm_mul_ps(by, cx));
         let mut e1 = _mm_sub_ps(_mm_mul_ps(cx, ay), _mm_mul_ps(cy, ax));
         let mut e2 = _mm_sub_ps(_mm_mul_ps(ax, by), _mm_mul_ps(ay, bx));
@@ -340,13 +451,20 @@ mod tests {
     /// returns the lanes hit.
     fn check(r: &PreparedRay<f32>, tris: &Tris4<'_, f32>, used: usize, t_max: f32) -> u32 {
         let want = intersect4_lanes(r, tris, used, t_max);
-        let mut kernels = vec![intersect4(r, tris, used, t_max)];
+        let lanes = TriLanes::gather(tris);
+        let mut kernels = vec![
+            intersect4(r, tris, used, t_max),
+            intersect4_gathered(r, &lanes, used, t_max),
+        ];
         #[cfg(target_arch = "x86_64")]
         {
             kernels.push(intersect4_sse2(r, tris, used, t_max));
+            kernels.push(gathered_sse2(r, &lanes, used, t_max));
             if std::arch::is_x86_feature_detected!("avx") {
                 // SAFETY: the CPU has AVX.
                 kernels.push(unsafe { intersect4_avx(r, tris, used, t_max) });
+                // SAFETY: as above.
+                kernels.push(unsafe { gathered_avx(r, &lanes, used, t_max) });
             }
         }
         for got in kernels {

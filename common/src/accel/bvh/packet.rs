@@ -3,7 +3,8 @@
 //! (the rays must agree in direction signs and have no zero direction component, and rays whose
 //! origins spread too far for their length, [`COHERENCE`], go one by one); at a leaf each
 //! ray tests the leaf's box (all rays side by side, each with the scalar slab test's arithmetic)
-//! and then, if it enters, the leaf's primitives.
+//! and the rays that enter test the leaf's primitives together
+//! ([`RayPrimTest::closest_many`], [`RayPrimTest::any_many`]).
 //!
 //! Every ray gets exactly the answer the single-ray traversal gives it. The interval test is
 //! conservative in floating point, not just in exact arithmetic: `fl(x·y)` and `fl(x − y)` are
@@ -244,15 +245,19 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += n as u64;
-                let mut enter = slab_dispatch::enter16(&lanes, &lo, &hi, &reach_ray) & all;
+                let enter = slab_dispatch::enter16(&lanes, &lo, &hi, &reach_ray) & all;
+                if enter == 0 {
+                    continue;
+                }
+                prim_tests += u64::from(enter.count_ones()) * prims.len() as u64;
+                let before = best.map(|b| b.t);
+                test.closest_many(rays, enter, prims, &mut best);
                 let mut improved = false;
-                while enter != 0 {
-                    let i = enter.trailing_zeros() as usize;
-                    enter &= enter - 1;
-                    prim_tests += prims.len() as u64;
-                    let before = best[i].t;
-                    test.closest(&rays[i], prims, &mut best[i]);
-                    improved |= best[i].t != before;
+                let mut m = enter;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    improved |= best[i].t != before[i];
                     reach_ray[i] = best[i].t + slack[i];
                 }
                 if improved {
@@ -337,20 +342,21 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += u64::from((all & !done).count_ones());
-                let mut open = slab_dispatch::enter16(&lanes, &lo, &hi, &reach) & all & !done;
-                while open != 0 {
-                    let i = open.trailing_zeros() as usize;
-                    open &= open - 1;
-                    let pr = &rays[i];
-                    // Counted as the one-at-a-time loop counts: up to the first hit.
-                    match test.any(pr, prims, pr.ray.t_max) {
-                        Some(k) => {
-                            prim_tests += k as u64 + 1;
-                            done |= 1 << i;
-                        }
-                        None => prim_tests += prims.len() as u64,
-                    }
+                let open = slab_dispatch::enter16(&lanes, &lo, &hi, &reach) & all & !done;
+                if open == 0 {
+                    continue;
                 }
+                let mut first = [0usize; PACKET];
+                let blocked = test.any_many(rays, open, prims, &mut first);
+                // Counted as the one-at-a-time loop counts: up to the first hit.
+                prim_tests += u64::from((open & !blocked).count_ones()) * prims.len() as u64;
+                let mut m = blocked;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    prim_tests += first[i] as u64 + 1;
+                }
+                done |= blocked;
                 if done == all {
                     break 'walk;
                 }

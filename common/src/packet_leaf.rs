@@ -1,0 +1,217 @@
+//! The primitive test of one packet's rays ([`crate::accel::RayPrimTest`]): [`SceneLeaf`], except
+//! that where the CPU has AVX and the scene is in `f32`, a leaf of triangles or of spheres
+//! that several of the packet's rays enter is tested one primitive at a time against all of them
+//! at once, a ray per lane ([`crate::geometry::leaf16`]). The packet's rays are put into lanes
+//! once, when the first such leaf needs them; every ray gets exactly the one-ray test's answer.
+
+use std::any::{Any, TypeId};
+
+use crate::accel::RayPrimTest;
+use crate::geometry::leaf16::{self, Rays16, LANES};
+use crate::geometry::{Nearest, PreparedRay, PrimHit};
+use crate::real::Real;
+use crate::scene::{Prim, Scene};
+use crate::scene_leaf::SceneLeaf;
+
+/// Fewest entering rays for which a leaf goes to the ray-per-lane kernels (below, each ray
+/// takes the leaf four primitives at a time through [`SceneLeaf`]).
+pub const MIN_RAYS: u32 = 3;
+
+/// The primitive test of one packet's rays: make one per packet (it keeps the rays' lanes
+/// between leaves and is moved into the traversal, so it is neither `Clone` nor `Copy`).
+#[derive(Debug)]
+pub struct PacketLeaf<'a, R> {
+    leaf: SceneLeaf<'a, R>,
+    /// The scene when it is in `f32` and the CPU runs the ray-per-lane kernels.
+    scene: Option<&'a Scene<f32>>,
+    /// The packet's rays in lanes, made when a leaf first needs them.
+    lanes: Option<Rays16>,
+}
+
+impl<'a, R: Real> PacketLeaf<'a, R> {
+    /// The test of `scene`'s primitives.
+    #[inline]
+    pub fn new(scene: &'a Scene<R>) -> Self {
+        PacketLeaf {
+            leaf: SceneLeaf::new(scene),
+            scene: (scene as &dyn Any)
+                .downcast_ref::<Scene<f32>>()
+                .filter(|_| leaf16::available()),
+            lanes: None,
+        }
+    }
+
+    /// The scene, the rays and their lanes when the ray-per-lane kernels take `rays` (the lanes
+    /// are made once per packet: again only when `rays` is another slice).
+    #[inline(always)]
+    fn lanes<'b>(&'b mut self, rays: &'b [PreparedRay<R>]) -> Option<Lanes<'a, 'b>> {
+        let scene = self.scene?;
+        let r = f32_rays(rays)?;
+        if !self.lanes.as_ref().is_some_and(|l| l.made_from(r)) {
+            self.lanes = Rays16::new(r);
+        }
+        Some((scene, r, self.lanes.as_ref()?))
+    }
+}
+
+/// The `f32` scene, a packet's rays and their lanes.
+type Lanes<'a, 'b> = (&'a Scene<f32>, &'b [PreparedRay<f32>], &'b Rays16);
+
+/// `rays` as `f32` rays when `R` is `f32`.
+#[inline(always)]
+fn f32_rays<R: Real>(rays: &[PreparedRay<R>]) -> Option<&[PreparedRay<f32>]> {
+    if TypeId::of::<R>() == TypeId::of::<f32>() {
+        // SAFETY: `R` is `f32`, so both slices have the same type.
+        Some(unsafe { &*(rays as *const [PreparedRay<R>] as *const [PreparedRay<f32>]) })
+    } else {
+        None
+    }
+}
+
+/// What a leaf holds, for the ray-per-lane kernels.
+#[derive(Clone, Copy, PartialEq)]
+enum Kind {
+    Triangles,
+    Spheres,
+    Other,
+}
+
+#[inline(always)]
+fn kind(prims: &[Prim<f32>], leaf: &[u32]) -> Kind {
+    let of = |p: u32| match prims.get(p as usize) {
+        Some(Prim::Triangle(_)) => Kind::Triangles,
+        Some(Prim::Sphere(_)) => Kind::Spheres,
+        _ => Kind::Other,
+    };
+    let Some(&first) = leaf.first() else {
+        return Kind::Other;
+    };
+    let k = of(first);
+    if leaf[1..].iter().all(|&p| of(p) == k) {
+        k
+    } else {
+        Kind::Other
+    }
+}
+
+/// Primitive `p` (of a leaf whose kind was checked) against the rays of `active`.
+#[inline(always)]
+fn run(
+    scene: &Scene<f32>,
+    rays: &[PreparedRay<f32>],
+    lanes: &Rays16,
+    p: u32,
+    active: u32,
+    t_max: &[f32; LANES],
+) -> leaf16::Hits16 {
+    match &scene.prims[p as usize] {
+        Prim::Triangle(v) => leaf16::triangle16(lanes, rays, v, active, t_max),
+        Prim::Sphere(s) => leaf16::sphere16(lanes, rays, s, active, t_max),
+        Prim::Cone(_) => unreachable!("leaf kind checked"),
+    }
+}
+
+/// Whether the rays of `mask` take `leaf` together.
+#[inline(always)]
+fn takes(mask: u32, leaf: &[u32]) -> bool {
+    mask.count_ones() >= MIN_RAYS.max(RAYS_PER_PRIM * leaf.len() as u32)
+}
+
+/// Fewest entering rays per primitive of the leaf for the ray-per-lane kernels.
+pub const RAYS_PER_PRIM: u32 = 0;
+
+impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
+    #[inline(always)]
+    fn test(&mut self, pr: &PreparedRay<R>, prim: u32, t_max: R) -> Option<PrimHit<R>> {
+        self.leaf.test(pr, prim, t_max)
+    }
+
+    #[inline(always)]
+    fn closest(&mut self, pr: &PreparedRay<R>, leaf: &[u32], best: &mut Nearest<R>) {
+        self.leaf.closest(pr, leaf, best)
+    }
+
+    #[inline(always)]
+    fn any(&mut self, pr: &PreparedRay<R>, leaf: &[u32], t_max: R) -> Option<usize> {
+        self.leaf.any(pr, leaf, t_max)
+    }
+
+    #[inline(always)]
+    fn closest_many(
+        &mut self,
+        rays: &[PreparedRay<R>],
+        mask: u32,
+        leaf: &[u32],
+        best: &mut [Nearest<R>],
+    ) {
+        if takes(mask, leaf) {
+            if let Some((scene, r32, lanes)) = self.lanes(rays) {
+                if kind(&scene.prims, leaf) != Kind::Other {
+                    // Every primitive with the bound each ray entered the leaf with: a hit
+                    // beyond the best so far never beats it, so offering each ray its hits in
+                    // leaf order picks what the one-at-a-time loop picks.
+                    let mut t_max = [0.0f32; LANES];
+                    let mut m = mask;
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        t_max[i] = best[i].t.to_f32();
+                    }
+                    for &p in leaf {
+                        let h = run(scene, r32, lanes, p, mask, &t_max);
+                        let mut m = h.mask;
+                        while m != 0 {
+                            let i = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            best[i].offer(Some(PrimHit {
+                                t: R::from_f32(h.t[i]),
+                                prim: p,
+                                u: R::from_f32(h.b1[i]),
+                                v: R::from_f32(h.b2[i]),
+                            }));
+                        }
+                    }
+                    return;
+                }
+            }
+        }
+        self.leaf.closest_many(rays, mask, leaf, best)
+    }
+
+    #[inline(always)]
+    fn any_many(
+        &mut self,
+        rays: &[PreparedRay<R>],
+        mask: u32,
+        leaf: &[u32],
+        first: &mut [usize],
+    ) -> u32 {
+        if takes(mask, leaf) {
+            if let Some((scene, r32, lanes)) = self.lanes(rays) {
+                if kind(&scene.prims, leaf) != Kind::Other {
+                    let mut t_max = [0.0f32; LANES];
+                    for (t, r) in t_max.iter_mut().zip(r32) {
+                        *t = r.ray.t_max;
+                    }
+                    let (mut open, mut blocked) = (mask, 0);
+                    for (j, &p) in leaf.iter().enumerate() {
+                        let new = run(scene, r32, lanes, p, open, &t_max).mask & open;
+                        let mut m = new;
+                        while m != 0 {
+                            let i = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            first[i] = j;
+                        }
+                        blocked |= new;
+                        open &= !new;
+                        if open == 0 {
+                            break;
+                        }
+                    }
+                    return blocked;
+                }
+            }
+        }
+        self.leaf.any_many(rays, mask, leaf, first)
+    }
+}
