@@ -1,13 +1,16 @@
 //! The scene's primitive test as the accelerators call it ([`crate::accel::RayPrimTest`]): one
 //! primitive at a time through [`Scene::intersect_prim`], except that a BVH leaf of two or more
-//! triangles, or of two or more spheres, in `f32` goes to a four-at-a-time SIMD kernel
-//! ([`crate::geometry::triangle4`], [`crate::geometry::sphere4`]), which gives each primitive
+//! triangles, of two or more spheres, or of two or more cones in `f32` goes to a four-at-a-time
+//! SIMD kernel ([`crate::geometry::triangle4`], [`crate::geometry::sphere4`],
+//! [`crate::geometry::cone4`]), which gives each primitive
 //! exactly the scalar test's answer. The choice of precision is by
 //! type and folds away at compile time; the kernel is chosen at run time by CPU features.
 
 use std::any::Any;
 
 use crate::accel::{OneRay, RayPrimTest};
+use crate::geometry::cone::Cone;
+use crate::geometry::cone4::{self, Cones4};
 use crate::geometry::sphere::Sphere;
 use crate::geometry::sphere4::{self, Spheres4};
 use crate::geometry::triangle4::{self, Tris4, LANES};
@@ -53,10 +56,11 @@ impl<'a, R: Real> SceneLeaf<'a, R> {
     }
 }
 
-/// A leaf the SIMD kernels take: 2..=4 triangles or 2..=4 spheres.
+/// A leaf the SIMD kernels take: 2..=4 triangles, 2..=4 spheres or 2..=4 cones.
 enum Simd<'a> {
     Triangles(Tris4<'a, f32>),
     Spheres(Spheres4<'a, f32>),
+    Cones(Cones4<'a, f32>),
 }
 
 /// The kernel input of a leaf, or `None` when it is shorter, longer or mixed.
@@ -86,7 +90,16 @@ fn simd_leaf<'a>(prims: &'a [Prim<f32>], leaf: &[u32]) -> Option<Simd<'a>> {
             }
             Some(Simd::Spheres(spheres))
         }
-        Prim::Cone(_) => None,
+        Prim::Cone(first) => {
+            let mut cones: [&Cone<f32>; LANES] = [first; LANES];
+            for (slot, &p) in cones.iter_mut().zip(leaf).skip(1) {
+                let Prim::Cone(c) = prims.get(p as usize)? else {
+                    return None;
+                };
+                *slot = c;
+            }
+            Some(Simd::Cones(cones))
+        }
     }
 }
 
@@ -100,6 +113,10 @@ fn run(pr: &PreparedRay<f32>, leaf: &Simd<'_>, used: usize, t_max: f32) -> (u32,
         }
         Simd::Spheres(spheres) => {
             let h = sphere4::intersect4(&pr.ray, spheres, used, t_max);
+            (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
+        }
+        Simd::Cones(cones) => {
+            let h = cone4::intersect4(&pr.ray, cones, used, t_max);
             (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
         }
     }
