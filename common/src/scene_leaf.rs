@@ -3,7 +3,8 @@
 //! triangles, of two or more spheres, or of two or more cones in `f32` goes to a four-at-a-time
 //! SIMD kernel ([`crate::geometry::triangle4`], [`crate::geometry::sphere4`],
 //! [`crate::geometry::cone4`]), which gives each primitive
-//! exactly the scalar test's answer. The choice of precision is by
+//! exactly the scalar test's answer; and a packet's rays entering a leaf with a cone meet each
+//! of its cones four rays at a time ([`cone4::intersect_rays4`]). The choice of precision is by
 //! type and folds away at compile time; the kernel is chosen at run time by CPU features.
 
 use std::any::Any;
@@ -14,7 +15,7 @@ use crate::geometry::cone4::{self, Cones4};
 use crate::geometry::sphere::Sphere;
 use crate::geometry::sphere4::{self, Spheres4};
 use crate::geometry::triangle4::{self, Tris4, LANES};
-use crate::geometry::{Nearest, PreparedRay, PrimHit};
+use crate::geometry::{Nearest, PreparedRay, PrimHit, Ray};
 use crate::real::Real;
 use crate::scene::{Prim, Scene};
 
@@ -42,6 +43,19 @@ impl<'a, R: Real> SceneLeaf<'a, R> {
     #[inline(always)]
     pub fn ray<'b>(&'b mut self, pr: &'b PreparedRay<R>) -> OneRay<'b, R, Self> {
         OneRay { test: self, pr }
+    }
+
+    /// The `f32` scene when `R` is `f32`, leaves go to the kernels, two or more of a packet's
+    /// rays (`which`) enter `leaf` and it holds a cone.
+    #[inline(always)]
+    fn cone_packet(&self, which: u32, leaf: &[u32]) -> Option<&'a Scene<f32>> {
+        if !self.simd || which & which.wrapping_sub(1) == 0 {
+            return None;
+        }
+        let scene = (self.scene as &dyn Any).downcast_ref::<Scene<f32>>()?;
+        leaf.iter()
+            .any(|&p| matches!(scene.prims.get(p as usize), Some(Prim::Cone(_))))
+            .then_some(scene)
     }
 
     /// The `f32` scene, ray and hit record when `R` is `f32` and leaves go to the kernel.
@@ -100,6 +114,44 @@ fn simd_leaf<'a>(prims: &'a [Prim<f32>], leaf: &[u32]) -> Option<Simd<'a>> {
             }
             Some(Simd::Cones(cones))
         }
+    }
+}
+
+/// The `f32` form of one of a packet's rays when `R` is `f32`.
+#[inline(always)]
+fn ray_f32<R: Real>(pr: &PreparedRay<R>) -> Option<&Ray<f32>> {
+    (pr as &dyn Any)
+        .downcast_ref::<PreparedRay<f32>>()
+        .map(|p| &p.ray)
+}
+
+/// The rays named by the bits of `which`, in order, in groups of up to four: calls
+/// `f(indices, rays, used)` per group (unused lanes repeat the group's first ray).
+#[inline(always)]
+fn ray_groups<R: Real>(
+    rays: &[PreparedRay<R>],
+    which: u32,
+    mut f: impl FnMut(&[usize; LANES], &[&Ray<f32>; LANES], usize),
+) {
+    let mut m = which;
+    while m != 0 {
+        let first = m.trailing_zeros() as usize;
+        let Some(r0) = ray_f32(&rays[first]) else {
+            return;
+        };
+        let mut idx = [first; LANES];
+        let mut group = [r0; LANES];
+        let mut used = 0;
+        while m != 0 && used < LANES {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            idx[used] = i;
+            if let Some(r) = ray_f32(&rays[i]) {
+                group[used] = r;
+            }
+            used += 1;
+        }
+        f(&idx, &group, used);
     }
 }
 
@@ -166,5 +218,120 @@ impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
             }
         }
         leaf.iter().position(|&p| self.test(pr, p, t_max).is_some())
+    }
+
+    #[inline(always)]
+    fn closest_rays(
+        &mut self,
+        rays: &[PreparedRay<R>],
+        which: u32,
+        leaf: &[u32],
+        best: &mut [Nearest<R>],
+    ) -> bool {
+        let Some(scene) = self.cone_packet(which, leaf) else {
+            return false;
+        };
+        self.closest_rays_cones(scene, rays, which, leaf, best);
+        true
+    }
+
+    #[inline(always)]
+    fn any_rays(
+        &mut self,
+        rays: &[PreparedRay<R>],
+        which: u32,
+        leaf: &[u32],
+        tests: &mut u64,
+    ) -> Option<u32> {
+        let scene = self.cone_packet(which, leaf)?;
+        Some(self.any_rays_cones(scene, rays, which, leaf, tests))
+    }
+}
+
+impl<R: Real> SceneLeaf<'_, R> {
+    /// [`RayPrimTest::closest_rays`] of a leaf with a cone (kept out of line: the packet
+    /// traversal of scenes without cones stays as small as it was).
+    #[inline(never)]
+    fn closest_rays_cones(
+        &mut self,
+        scene: &Scene<f32>,
+        rays: &[PreparedRay<R>],
+        which: u32,
+        leaf: &[u32],
+        best: &mut [Nearest<R>],
+    ) {
+        // Primitive by primitive, each ray with its own best so far: every ray meets the
+        // leaf's primitives in order with the bounds the one-at-a-time loop gives it.
+        for &p in leaf {
+            let Some(Prim::Cone(cone)) = scene.prims.get(p as usize) else {
+                let mut m = which;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    best[i].offer(self.test(&rays[i], p, best[i].t));
+                }
+                continue;
+            };
+            ray_groups(rays, which, |idx, group, used| {
+                let t_max = idx.map(|i| best[i].t.to_f32());
+                let h = cone4::intersect_rays4(cone, group, used, t_max);
+                let mut m = h.mask;
+                while m != 0 {
+                    let l = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    best[idx[l]].offer(Some(PrimHit {
+                        t: R::from_f32(h.t[l]),
+                        prim: p,
+                        u: R::ZERO,
+                        v: R::ZERO,
+                    }));
+                }
+            });
+        }
+    }
+
+
+    /// [`RayPrimTest::any_rays`] of a leaf with a cone (out of line as above).
+    #[inline(never)]
+    fn any_rays_cones(
+        &mut self,
+        scene: &Scene<f32>,
+        rays: &[PreparedRay<R>],
+        which: u32,
+        leaf: &[u32],
+        tests: &mut u64,
+    ) -> u32 {
+        let mut hit = 0;
+        // Primitive by primitive over the rays not yet hit: each ray stops at its first hit,
+        // having been tested against the primitives up to it.
+        for &p in leaf {
+            let open = which & !hit;
+            if open == 0 {
+                break;
+            }
+            *tests += u64::from(open.count_ones());
+            let Some(Prim::Cone(cone)) = scene.prims.get(p as usize) else {
+                let mut m = open;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if self.test(&rays[i], p, rays[i].ray.t_max).is_some() {
+                        hit |= 1 << i;
+                    }
+                }
+                continue;
+            };
+            ray_groups(rays, open, |idx, group, used| {
+                let t_max = idx.map(|i| rays[i].ray.t_max.to_f32());
+                let h = cone4::intersect_rays4(cone, group, used, t_max);
+                let mut m = h.mask;
+                while m != 0 {
+                    let l = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    hit |= 1 << idx[l];
+                }
+            });
+        }
+        hit
     }
 }

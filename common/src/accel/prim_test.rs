@@ -59,6 +59,35 @@ pub trait RayPrimTest<R: Real> {
             .iter()
             .position(|&p| self.test(pr, p, t_max).is_some())
     }
+
+    /// [`RayPrimTest::closest`] for each ray `rays[i]` whose bit `i` is set in `which`, into
+    /// `best[i]`, all at once (a packet's rays entering a leaf); `false`, having done nothing,
+    /// when this test has no way to take these rays together (the caller then goes ray by ray).
+    #[inline(always)]
+    fn closest_rays(
+        &mut self,
+        _rays: &[PreparedRay<R>],
+        _which: u32,
+        _prims: &[u32],
+        _best: &mut [Nearest<R>],
+    ) -> bool {
+        false
+    }
+
+    /// [`RayPrimTest::any`] for each ray `rays[i]` whose bit `i` is set in `which`, within the
+    /// ray's own `t_max`, all at once: the bits of the rays hit, with the primitive tests added
+    /// to `tests` as the one-at-a-time loop counts them (up to each ray's first hit); `None`,
+    /// having done nothing, as [`RayPrimTest::closest_rays`] says.
+    #[inline(always)]
+    fn any_rays(
+        &mut self,
+        _rays: &[PreparedRay<R>],
+        _which: u32,
+        _prims: &[u32],
+        _tests: &mut u64,
+    ) -> Option<u32> {
+        None
+    }
 }
 
 impl<R: Real, F: FnMut(&PreparedRay<R>, u32, R) -> Option<PrimHit<R>>> RayPrimTest<R> for F {

@@ -66,18 +66,62 @@ pub fn intersect4(
     intersect4_lanes(ray, cones, used, t_max)
 }
 
+/// The portable kernel of one cone against up to four rays (lane `i`: `rays[i]` within
+/// `t_max[i]`), the scalar test lane by lane.
+#[inline(always)]
+pub fn intersect_rays4_lanes<R: Real>(
+    cone: &Cone<R>,
+    rays: &[&Ray<R>; LANES],
+    used: usize,
+    t_max: [R; LANES],
+) -> ConeHits4<R> {
+    let mut h = ConeHits4 {
+        mask: 0,
+        t: [R::ZERO; LANES],
+    };
+    for (i, r) in rays.iter().take(used).enumerate() {
+        if let Some(t) = cone.intersect(r, t_max[i]) {
+            h.mask |= 1 << i;
+            h.t[i] = t;
+        }
+    }
+    h
+}
+
+/// One `f32` cone against `used` (1..=4) rays (a packet's rays entering a leaf), with the
+/// fastest kernel this CPU runs; lane `i` is [`Cone::intersect`] of `rays[i]` within `t_max[i]`.
+#[inline]
+pub fn intersect_rays4(
+    cone: &Cone<f32>,
+    rays: &[&Ray<f32>; LANES],
+    used: usize,
+    t_max: [f32; LANES],
+) -> ConeHits4<f32> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            return unsafe { x86::intersect_rays4_avx(cone, rays, used, t_max) };
+        }
+        x86::intersect_rays4_sse2(cone, rays, used, t_max)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    intersect_rays4_lanes(cone, rays, used, t_max)
+}
+
 #[cfg(target_arch = "x86_64")]
-pub use x86::{intersect4_avx, intersect4_sse2};
+pub use x86::{intersect4_avx, intersect4_sse2, intersect_rays4_avx, intersect_rays4_sse2};
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{ConeHits4, Cones4};
+    use super::{ConeHits4, Cones4, LANES};
+    use crate::geometry::cone::Cone;
     use crate::geometry::ray::Ray;
     use crate::geometry::sse4::{select, store};
     use crate::real::Real;
     use std::arch::x86_64::*;
 
-    /// The SSE2 kernel (every x86-64 CPU has SSE2).
+    /// The SSE2 kernel of four cones and one ray (every x86-64 CPU has SSE2).
     #[inline(never)]
     pub fn intersect4_sse2(
         ray: &Ray<f32>,
@@ -86,7 +130,7 @@ mod x86 {
         t_max: f32,
     ) -> ConeHits4<f32> {
         // SAFETY: SSE2 is part of the x86-64 baseline.
-        unsafe { kernel(ray, cones, used, t_max) }
+        unsafe { cones_kernel(ray, cones, used, t_max) }
     }
 
     /// The same kernel compiled for AVX (VEX encodings; no FMA: the scalar test has none).
@@ -101,52 +145,163 @@ mod x86 {
         used: usize,
         t_max: f32,
     ) -> ConeHits4<f32> {
-        kernel(ray, cones, used, t_max)
+        cones_kernel(ray, cones, used, t_max)
     }
 
-    /// The scalar test's arithmetic (see [`crate::geometry::cone`]) in four lanes; each of its
-    /// early returns is a lane mask.
+    /// The SSE2 kernel of one cone and four rays.
+    #[inline(never)]
+    pub fn intersect_rays4_sse2(
+        cone: &Cone<f32>,
+        rays: &[&Ray<f32>; LANES],
+        used: usize,
+        t_max: [f32; LANES],
+    ) -> ConeHits4<f32> {
+        // SAFETY: SSE2 is part of the x86-64 baseline.
+        unsafe { rays_kernel(cone, rays, used, t_max) }
+    }
+
+    /// The same kernel compiled for AVX.
+    ///
+    /// # Safety
+    /// The CPU must support AVX.
+    #[target_feature(enable = "avx")]
+    #[inline(never)]
+    pub unsafe fn intersect_rays4_avx(
+        cone: &Cone<f32>,
+        rays: &[&Ray<f32>; LANES],
+        used: usize,
+        t_max: [f32; LANES],
+    ) -> ConeHits4<f32> {
+        rays_kernel(cone, rays, used, t_max)
+    }
+
+    /// A cone's fields, one cone per lane or one cone in all.
+    struct ConeLanes {
+        base: [__m128; 3],
+        axis: [__m128; 3],
+        height: __m128,
+        r0: __m128,
+        slope: __m128,
+    }
+
+    /// A ray's fields and `t` range, one ray per lane or one ray in all.
+    struct RayLanes {
+        o: [__m128; 3],
+        d: [__m128; 3],
+        t_min: __m128,
+        t_max: __m128,
+    }
+
+    /// Four cones against one ray.
     #[inline(always)]
-    unsafe fn kernel(
+    unsafe fn cones_kernel(
         ray: &Ray<f32>,
         cones: &Cones4<'_, f32>,
         used: usize,
         t_max: f32,
     ) -> ConeHits4<f32> {
         let lane = |f: &dyn Fn(usize) -> f32| _mm_setr_ps(f(0), f(1), f(2), f(3));
-        let (bx, by, bz) = (
-            lane(&|i| cones[i].base.x),
-            lane(&|i| cones[i].base.y),
-            lane(&|i| cones[i].base.z),
-        );
-        let (ax, ay, az) = (
-            lane(&|i| cones[i].axis.x),
-            lane(&|i| cones[i].axis.y),
-            lane(&|i| cones[i].axis.z),
-        );
-        let height = lane(&|i| cones[i].height);
-        let r0 = lane(&|i| cones[i].r0);
-        let k = lane(&|i| cones[i].slope);
+        let c = ConeLanes {
+            base: [
+                lane(&|i| cones[i].base.x),
+                lane(&|i| cones[i].base.y),
+                lane(&|i| cones[i].base.z),
+            ],
+            axis: [
+                lane(&|i| cones[i].axis.x),
+                lane(&|i| cones[i].axis.y),
+                lane(&|i| cones[i].axis.z),
+            ],
+            height: lane(&|i| cones[i].height),
+            r0: lane(&|i| cones[i].r0),
+            slope: lane(&|i| cones[i].slope),
+        };
+        let r = RayLanes {
+            o: [
+                _mm_set1_ps(ray.o.x),
+                _mm_set1_ps(ray.o.y),
+                _mm_set1_ps(ray.o.z),
+            ],
+            d: [
+                _mm_set1_ps(ray.d.x),
+                _mm_set1_ps(ray.d.y),
+                _mm_set1_ps(ray.d.z),
+            ],
+            t_min: _mm_set1_ps(ray.t_min),
+            t_max: _mm_set1_ps(t_max),
+        };
+        finish(kernel(&c, &r), used)
+    }
+
+    /// One cone against four rays.
+    #[inline(always)]
+    unsafe fn rays_kernel(
+        cone: &Cone<f32>,
+        rays: &[&Ray<f32>; LANES],
+        used: usize,
+        t_max: [f32; LANES],
+    ) -> ConeHits4<f32> {
+        let lane = |f: &dyn Fn(usize) -> f32| _mm_setr_ps(f(0), f(1), f(2), f(3));
+        let c = ConeLanes {
+            base: [
+                _mm_set1_ps(cone.base.x),
+                _mm_set1_ps(cone.base.y),
+                _mm_set1_ps(cone.base.z),
+            ],
+            axis: [
+                _mm_set1_ps(cone.axis.x),
+                _mm_set1_ps(cone.axis.y),
+                _mm_set1_ps(cone.axis.z),
+            ],
+            height: _mm_set1_ps(cone.height),
+            r0: _mm_set1_ps(cone.r0),
+            slope: _mm_set1_ps(cone.slope),
+        };
+        let r = RayLanes {
+            o: [
+                lane(&|i| rays[i].o.x),
+                lane(&|i| rays[i].o.y),
+                lane(&|i| rays[i].o.z),
+            ],
+            d: [
+                lane(&|i| rays[i].d.x),
+                lane(&|i| rays[i].d.y),
+                lane(&|i| rays[i].d.z),
+            ],
+            t_min: lane(&|i| rays[i].t_min),
+            t_max: _mm_loadu_ps(t_max.as_ptr()),
+        };
+        finish(kernel(&c, &r), used)
+    }
+
+    /// The used lanes' answers.
+    #[inline(always)]
+    unsafe fn finish((hit, t): (__m128, __m128), used: usize) -> ConeHits4<f32> {
+        ConeHits4 {
+            mask: _mm_movemask_ps(hit) as u32 & ((1u32 << used) - 1),
+            t: store(t),
+        }
+    }
+
+    /// The scalar test's arithmetic (see [`crate::geometry::cone`]) in four lanes; each of its
+    /// early returns is a lane mask. Returns the lanes hit and their `t`.
+    #[inline(always)]
+    unsafe fn kernel(c: &ConeLanes, r: &RayLanes) -> (__m128, __m128) {
+        let [bx, by, bz] = c.base;
+        let [ax, ay, az] = c.axis;
+        let (height, r0, k) = (c.height, c.r0, c.slope);
+        let [rox, roy, roz] = r.o;
+        let [rdx, rdy, rdz] = r.d;
         let zero = _mm_setzero_ps();
         let sign = _mm_set1_ps(-0.0);
         let (add, sub, mul, div) = (_mm_add_ps, _mm_sub_ps, _mm_mul_ps, _mm_div_ps);
         let dot = |ax, ay, az, bx, by, bz| add(add(mul(ax, bx), mul(ay, by)), mul(az, bz));
-        let (rdx, rdy, rdz) = (
-            _mm_set1_ps(ray.d.x),
-            _mm_set1_ps(ray.d.y),
-            _mm_set1_ps(ray.d.z),
-        );
-        let (rox, roy, roz) = (
-            _mm_set1_ps(ray.o.x),
-            _mm_set1_ps(ray.o.y),
-            _mm_set1_ps(ray.o.z),
-        );
         // mid = base + a * (height * 1/2); shift = (mid − o)·d / |d|².
         let hh = mul(height, _mm_set1_ps(0.5));
         let mx = add(bx, mul(ax, hh));
         let my = add(by, mul(ay, hh));
         let mz = add(bz, mul(az, hh));
-        let dd = _mm_set1_ps(ray.d.length_squared());
+        let dd = dot(rdx, rdy, rdz, rdx, rdy, rdz);
         let shift = div(
             dot(sub(mx, rox), sub(my, roy), sub(mz, roz), rdx, rdy, rdz),
             dd,
@@ -191,7 +346,7 @@ mod x86 {
         let t1 = select(parallel, t_lin, t1);
         let miss = select(parallel, miss_lin, miss_quad);
         // The first root (in order) whose t is in range and whose point is within the height.
-        let (t_min, t_max) = (_mm_set1_ps(ray.t_min), _mm_set1_ps(t_max));
+        let (t_min, t_max) = (r.t_min, r.t_max);
         let accept = |tl| {
             let t = add(tl, shift);
             // Not (t < t_min or t > t_max or t <= 0): a NaN t passes here, as in the scalar
@@ -208,12 +363,10 @@ mod x86 {
             (_mm_and_ps(t_ok, z_ok), t)
         };
         let ((ok0, ta), (ok1, tb)) = (accept(t0), accept(t1));
-        let hit = _mm_andnot_ps(miss, _mm_or_ps(ok0, ok1));
-        let used_mask = (1u32 << used) - 1;
-        ConeHits4 {
-            mask: _mm_movemask_ps(hit) as u32 & used_mask,
-            t: store(select(ok0, ta, tb)),
-        }
+        (
+            _mm_andnot_ps(miss, _mm_or_ps(ok0, ok1)),
+            select(ok0, ta, tb),
+        )
     }
 }
 
@@ -244,6 +397,42 @@ mod tests {
             }
         }
         want.mask
+    }
+
+    /// [`check`] for the one-cone, four-ray kernels.
+    fn check_rays(c: &Cone<f32>, rays: &[&Ray<f32>; LANES], used: usize, t_max: [f32; 4]) -> u32 {
+        let want = intersect_rays4_lanes(c, rays, used, t_max);
+        let mut kernels = vec![intersect_rays4(c, rays, used, t_max)];
+        #[cfg(target_arch = "x86_64")]
+        {
+            kernels.push(intersect_rays4_sse2(c, rays, used, t_max));
+            if std::arch::is_x86_feature_detected!("avx") {
+                // SAFETY: the CPU has AVX.
+                kernels.push(unsafe { intersect_rays4_avx(c, rays, used, t_max) });
+            }
+        }
+        for got in kernels {
+            assert_eq!(got.mask, want.mask, "{c:?} {rays:?} used {used} t_max {t_max:?}");
+            for i in 0..LANES {
+                if want.mask & (1 << i) != 0 {
+                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "lane {i}");
+                }
+            }
+        }
+        want.mask
+    }
+
+    /// A direction from `o` that, by `aim`, runs along the cone's axis, along a generator
+    /// line (the parallel-ray branch), at the base rim, or is `d` as given.
+    fn aimed(c: &Cone<f32>, o: V3<f32>, d: V3<f32>, aim: usize) -> V3<f32> {
+        let apex = c.base + c.axis * c.height;
+        let side = c.axis.cross(V3::new(0.3, 0.5, 0.8)).normalize();
+        match aim {
+            0 => c.axis,
+            1 => apex + side * (c.r0 + c.slope * c.height) - (c.base + side * c.r0),
+            2 => c.base + side * c.r0 - o,
+            _ => d,
+        }
     }
 
     fn coord() -> impl Strategy<Value = f32> {
@@ -281,24 +470,36 @@ mod tests {
                 }));
             }
             let o = V3::from_array(o);
-            let mut d = V3::from_array(d);
-            if aim < 12 {
-                let c = cones[aim % 4];
-                let apex = c.base + c.axis * c.height;
-                let side = c.axis.cross(V3::new(0.3, 0.5, 0.8)).normalize();
-                d = match aim / 4 {
-                    // Along the axis.
-                    0 => c.axis,
-                    // Along a generator line (the parallel-ray branch).
-                    1 => apex + side * (c.r0 + c.slope * c.height) - (c.base + side * c.r0),
-                    // At the base rim.
-                    _ => c.base + side * c.r0 - o,
-                };
-            }
+            let d = aimed(&cones[aim % 4], o, V3::from_array(d), aim / 4);
             prop_assume!(d.length() > 0.0 && d.length().is_finite());
             let ray = Ray { o, d: d.normalize(), t_min: 0.0, t_max };
             let refs = [&cones[0], &cones[1], &cones[2], &cones[3]];
             check(&ray, &refs, used, t_max);
+        }
+
+        /// One random cone against four random rays, each aimed as above and with its own
+        /// `t_max`: the one-cone kernels agree lane for lane.
+        #[test]
+        fn ray_kernels_agree_on_random_rays(
+            ends in proptest::array::uniform2(proptest::array::uniform3(coord())),
+            radii in proptest::array::uniform2(prop_oneof![0.01f32..3.0, Just(1.0f32), Just(0.0f32)]),
+            o in proptest::array::uniform4(proptest::array::uniform3(coord())),
+            d in proptest::array::uniform4(proptest::array::uniform3(coord())),
+            aim in proptest::array::uniform4(0usize..5),
+            used in 1usize..=4,
+            t_max in proptest::array::uniform4(prop_oneof![Just(f32::INFINITY), 0.0f32..50.0]),
+        ) {
+            let c = Cone::new(V3::from_array(ends[0]), radii[0], V3::from_array(ends[1]), radii[1]);
+            let c = c.unwrap_or_else(|| Cone::new(V3::zero(), 1.0, V3::new(0.0, 0.0, 1.0), 0.5).unwrap());
+            let mut rays = [Ray { o: V3::zero(), d: V3::new(1.0f32, 0.0, 0.0), t_min: 0.0, t_max: 0.0 }; 4];
+            for i in 0..4 {
+                let o = V3::from_array(o[i]);
+                let d = aimed(&c, o, V3::from_array(d[i]), aim[i]);
+                prop_assume!(d.length() > 0.0 && d.length().is_finite());
+                rays[i] = Ray { o, d: d.normalize(), t_min: 0.0, t_max: t_max[i] };
+            }
+            let refs = [&rays[0], &rays[1], &rays[2], &rays[3]];
+            check_rays(&c, &refs, used, t_max);
         }
     }
 
@@ -331,6 +532,11 @@ mod tests {
                 for used in 1..=4 {
                     for t_max in [f32::INFINITY, 1.0e5, 4.0, 1.0] {
                         hits += check(&ray, &refs, used, t_max).count_ones();
+                        let rays = [&ray; 4];
+                        let t4 = [t_max, f32::INFINITY, 1.0, 4.0];
+                        for c in &c {
+                            hits += check_rays(c, &rays, used, t4).count_ones();
+                        }
                     }
                 }
             }

@@ -246,6 +246,18 @@ impl Bvh {
                 box_tests += n as u64;
                 let mut enter = slab_dispatch::enter16(&lanes, &lo, &hi, &reach_ray) & all;
                 let mut improved = false;
+                if test.closest_rays(rays, enter, prims, &mut best) {
+                    // Tested together: count and update as the loop below does.
+                    while enter != 0 {
+                        let i = enter.trailing_zeros() as usize;
+                        enter &= enter - 1;
+                        prim_tests += prims.len() as u64;
+                        let r = best[i].t + slack[i];
+                        // Only the reaches enter `reach`: an unchanged one leaves it as it was.
+                        improved |= r != reach_ray[i];
+                        reach_ray[i] = r;
+                    }
+                }
                 while enter != 0 {
                     let i = enter.trailing_zeros() as usize;
                     enter &= enter - 1;
@@ -338,6 +350,10 @@ impl Bvh {
                 let prims = &self.order[first..first + count];
                 box_tests += u64::from((all & !done).count_ones());
                 let mut open = slab_dispatch::enter16(&lanes, &lo, &hi, &reach) & all & !done;
+                if let Some(hit) = test.any_rays(rays, open, prims, &mut prim_tests) {
+                    done |= hit;
+                    open = 0;
+                }
                 while open != 0 {
                     let i = open.trailing_zeros() as usize;
                     open &= open - 1;
