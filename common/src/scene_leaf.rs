@@ -290,7 +290,6 @@ impl<R: Real> SceneLeaf<'_, R> {
         }
     }
 
-
     /// [`RayPrimTest::any_rays`] of a leaf with a cone (out of line as above).
     #[inline(never)]
     fn any_rays_cones(

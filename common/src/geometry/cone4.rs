@@ -412,7 +412,10 @@ mod tests {
             }
         }
         for got in kernels {
-            assert_eq!(got.mask, want.mask, "{c:?} {rays:?} used {used} t_max {t_max:?}");
+            assert_eq!(
+                got.mask, want.mask,
+                "{c:?} {rays:?} used {used} t_max {t_max:?}"
+            );
             for i in 0..LANES {
                 if want.mask & (1 << i) != 0 {
                     assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "lane {i}");
