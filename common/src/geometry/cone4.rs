@@ -1,10 +1,12 @@
-//! Four cones against one ray at once: [`Cone::intersect`] with one cone per SIMD lane, for
-//! BVH leaves of cones and cylinders (rings, tree, jacks). Every lane does the scalar test's IEEE
+//! Four cones against one ray, or one cone against four rays, at once: [`Cone::intersect`] with
+//! one cone per SIMD lane for BVH leaves of cones and cylinders (rings, tree, jacks), or one ray
+//! per lane for a packet's rays entering a leaf with a cone. Every lane does the scalar test's IEEE
 //! operations in the same order (no FMA, no reassociation) and takes the same branch outcomes
 //! (a ray parallel to a generator, a negative discriminant, `q == 0`, the two roots in order,
 //! the `t` and height ranges) as lane masks, so each lane's answer is bit for bit the scalar
-//! one. [`intersect4`] picks the kernel at run time like [`super::sphere4`]: AVX when the CPU
-//! has it, SSE2 otherwise, the portable lane loop ([`intersect4_lanes`]) elsewhere.
+//! one. [`intersect4`] and [`intersect_rays4`] pick the kernel at run time like
+//! [`super::sphere4`]: AVX when the CPU has it, SSE2 otherwise, the portable lane loops
+//! ([`intersect4_lanes`], [`intersect_rays4_lanes`]) elsewhere.
 
 use super::cone::Cone;
 use super::ray::Ray;

@@ -3,7 +3,8 @@
 //! (the rays must agree in direction signs and have no zero direction component, and rays whose
 //! origins spread too far for their length, [`COHERENCE`], go one by one); at a leaf each
 //! ray tests the leaf's box (all rays side by side, each with the scalar slab test's arithmetic)
-//! and then, if it enters, the leaf's primitives.
+//! and then, if it enters, the leaf's primitives — ray by ray, or the entering rays together
+//! when the primitive test can ([`RayPrimTest::closest_rays`]: cones four rays at a time).
 //!
 //! Every ray gets exactly the answer the single-ray traversal gives it. The interval test is
 //! conservative in floating point, not just in exact arithmetic: `fl(x·y)` and `fl(x − y)` are
