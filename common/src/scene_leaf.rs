@@ -1,19 +1,23 @@
 //! The scene's primitive test as the accelerators call it ([`crate::accel::RayPrimTest`]): one
 //! primitive at a time through [`Scene::intersect_prim`], except that a BVH leaf of two or more
-//! triangles, or of two or more spheres, in `f32` goes to a four-at-a-time SIMD kernel
-//! ([`crate::geometry::triangle4`], [`crate::geometry::sphere4`]), which gives each primitive
-//! exactly the scalar test's answer. A packet's rays entering such a leaf share one gather of
-//! its primitives into the kernel's lanes ([`RayPrimTest::closest_many`]). The choice of
+//! triangles, of two or more spheres, or of two or more cones in `f32` goes to a four-at-a-time
+//! SIMD kernel ([`crate::geometry::triangle4`], [`crate::geometry::sphere4`],
+//! [`crate::geometry::cone4`]), which gives each primitive exactly the scalar test's answer. A
+//! packet's rays entering a leaf of triangles or spheres share one gather of its primitives
+//! into the kernel's lanes ([`RayPrimTest::closest_many`]); those entering a leaf with a cone
+//! meet each of its cones four rays at a time ([`cone4::intersect_rays4`]). The choice of
 //! precision is by type and folds away at compile time; the kernel is chosen at run time by
 //! CPU features.
 
 use std::any::Any;
 
 use crate::accel::{OneRay, RayPrimTest};
+use crate::geometry::cone::Cone;
+use crate::geometry::cone4::{self, Cones4};
 use crate::geometry::sphere::Sphere;
 use crate::geometry::sphere4::{self, SphereLanes, Spheres4};
 use crate::geometry::triangle4::{self, TriLanes, Tris4, LANES};
-use crate::geometry::{Nearest, PreparedRay, PrimHit};
+use crate::geometry::{Nearest, PreparedRay, PrimHit, Ray};
 use crate::real::Real;
 use crate::scene::{Prim, Scene};
 
@@ -41,6 +45,19 @@ impl<'a, R: Real> SceneLeaf<'a, R> {
     #[inline(always)]
     pub fn ray<'b>(&'b mut self, pr: &'b PreparedRay<R>) -> OneRay<'b, R, Self> {
         OneRay { test: self, pr }
+    }
+
+    /// The `f32` scene when `R` is `f32`, leaves go to the kernels, two or more of a packet's
+    /// rays (`which`) enter `leaf` and it holds a cone.
+    #[inline(always)]
+    fn cone_packet(&self, which: u32, leaf: &[u32]) -> Option<&'a Scene<f32>> {
+        if which & which.wrapping_sub(1) == 0 {
+            return None;
+        }
+        let scene = self.scene_f32()?;
+        leaf.iter()
+            .any(|&p| matches!(scene.prims.get(p as usize), Some(Prim::Cone(_))))
+            .then_some(scene)
     }
 
     /// The `f32` scene and ray when `R` is `f32` and leaves go to the kernel.
@@ -72,11 +89,13 @@ enum Gathered {
 }
 
 impl Gathered {
+    /// `None` for cones (a packet meets them ray-per-lane, [`cone4::intersect_rays4`]).
     #[inline(always)]
-    fn new(leaf: &Simd<'_>) -> Self {
+    fn new(leaf: &Simd<'_>) -> Option<Self> {
         match leaf {
-            Simd::Triangles(t) => Gathered::Triangles(TriLanes::gather(t)),
-            Simd::Spheres(s) => Gathered::Spheres(SphereLanes::gather(s)),
+            Simd::Triangles(t) => Some(Gathered::Triangles(TriLanes::gather(t))),
+            Simd::Spheres(s) => Some(Gathered::Spheres(SphereLanes::gather(s))),
+            Simd::Cones(_) => None,
         }
     }
 
@@ -111,10 +130,11 @@ fn offer<R: Real>(best: &mut Nearest<R>, leaf: &[u32], mut m: u32, (t, u, v): La
     }
 }
 
-/// A leaf the SIMD kernels take: 2..=4 triangles or 2..=4 spheres.
+/// A leaf the SIMD kernels take: 2..=4 triangles, 2..=4 spheres or 2..=4 cones.
 enum Simd<'a> {
     Triangles(Tris4<'a, f32>),
     Spheres(Spheres4<'a, f32>),
+    Cones(Cones4<'a, f32>),
 }
 
 /// The kernel input of a leaf, or `None` when it is shorter, longer or mixed.
@@ -144,7 +164,46 @@ fn simd_leaf<'a>(prims: &'a [Prim<f32>], leaf: &[u32]) -> Option<Simd<'a>> {
             }
             Some(Simd::Spheres(spheres))
         }
-        Prim::Cone(_) => None,
+        Prim::Cone(first) => {
+            let mut cones: [&Cone<f32>; LANES] = [first; LANES];
+            for (slot, &p) in cones.iter_mut().zip(leaf).skip(1) {
+                let Prim::Cone(c) = prims.get(p as usize)? else {
+                    return None;
+                };
+                *slot = c;
+            }
+            Some(Simd::Cones(cones))
+        }
+    }
+}
+
+/// The rays named by the bits of `which`, in order, in groups of up to four: calls
+/// `f(indices, rays, used)` per group (unused lanes repeat the group's first ray).
+#[inline(always)]
+fn ray_groups<R: Real>(
+    rays: &[PreparedRay<R>],
+    which: u32,
+    mut f: impl FnMut(&[usize; LANES], &[&Ray<f32>; LANES], usize),
+) {
+    let mut m = which;
+    while m != 0 {
+        let first = m.trailing_zeros() as usize;
+        let Some(r0) = f32_ray(&rays[first]).map(|p| &p.ray) else {
+            return;
+        };
+        let mut idx = [first; LANES];
+        let mut group = [r0; LANES];
+        let mut used = 0;
+        while m != 0 && used < LANES {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            idx[used] = i;
+            if let Some(r) = f32_ray(&rays[i]).map(|p| &p.ray) {
+                group[used] = r;
+            }
+            used += 1;
+        }
+        f(&idx, &group, used);
     }
 }
 
@@ -158,6 +217,10 @@ fn run(pr: &PreparedRay<f32>, leaf: &Simd<'_>, used: usize, t_max: f32) -> (u32,
         }
         Simd::Spheres(spheres) => {
             let h = sphere4::intersect4(&pr.ray, spheres, used, t_max);
+            (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
+        }
+        Simd::Cones(cones) => {
+            let h = cone4::intersect4(&pr.ray, cones, used, t_max);
             (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
         }
     }
@@ -208,11 +271,14 @@ impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
         leaf: &[u32],
         best: &mut [Nearest<R>],
     ) {
+        if let Some(scene) = self.cone_packet(mask, leaf) {
+            return self.closest_many_cones(scene, rays, mask, leaf, best);
+        }
         let mut m = mask;
         if m & (m.wrapping_sub(1)) != 0 {
             // Two rays or more: gather once.
-            if let Some(simd) = self.scene_f32().and_then(|s| simd_leaf(&s.prims, leaf)) {
-                let g = Gathered::new(&simd);
+            let simd = self.scene_f32().and_then(|s| simd_leaf(&s.prims, leaf));
+            if let Some(g) = simd.as_ref().and_then(Gathered::new) {
                 while m != 0 {
                     let i = m.trailing_zeros() as usize;
                     let Some(pr32) = f32_ray(&rays[i]) else {
@@ -239,11 +305,14 @@ impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
         leaf: &[u32],
         first: &mut [usize],
     ) -> u32 {
+        if let Some(scene) = self.cone_packet(mask, leaf) {
+            return self.any_many_cones(scene, rays, mask, leaf, first);
+        }
         let mut m = mask;
         let mut blocked = 0;
         if m & (m.wrapping_sub(1)) != 0 {
-            if let Some(simd) = self.scene_f32().and_then(|s| simd_leaf(&s.prims, leaf)) {
-                let g = Gathered::new(&simd);
+            let simd = self.scene_f32().and_then(|s| simd_leaf(&s.prims, leaf));
+            if let Some(g) = simd.as_ref().and_then(Gathered::new) {
                 while m != 0 {
                     let i = m.trailing_zeros() as usize;
                     let Some(pr32) = f32_ray(&rays[i]) else {
@@ -268,5 +337,93 @@ impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
             }
         }
         blocked
+    }
+}
+
+impl<R: Real> SceneLeaf<'_, R> {
+    /// [`RayPrimTest::closest_many`] of a leaf with a cone (kept out of line: the packet
+    /// traversal of scenes without cones stays as small as it was).
+    #[inline(never)]
+    fn closest_many_cones(
+        &mut self,
+        scene: &Scene<f32>,
+        rays: &[PreparedRay<R>],
+        which: u32,
+        leaf: &[u32],
+        best: &mut [Nearest<R>],
+    ) {
+        // Primitive by primitive, each ray with its own best so far: every ray meets the
+        // leaf's primitives in order with the bounds the one-at-a-time loop gives it.
+        for &p in leaf {
+            let Some(Prim::Cone(cone)) = scene.prims.get(p as usize) else {
+                let mut m = which;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    best[i].offer(self.test(&rays[i], p, best[i].t));
+                }
+                continue;
+            };
+            ray_groups(rays, which, |idx, group, used| {
+                let t_max = idx.map(|i| best[i].t.to_f32());
+                let h = cone4::intersect_rays4(cone, group, used, t_max);
+                let mut m = h.mask;
+                while m != 0 {
+                    let l = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    best[idx[l]].offer(Some(PrimHit {
+                        t: R::from_f32(h.t[l]),
+                        prim: p,
+                        u: R::ZERO,
+                        v: R::ZERO,
+                    }));
+                }
+            });
+        }
+    }
+
+    /// [`RayPrimTest::any_many`] of a leaf with a cone (out of line as above).
+    #[inline(never)]
+    fn any_many_cones(
+        &mut self,
+        scene: &Scene<f32>,
+        rays: &[PreparedRay<R>],
+        which: u32,
+        leaf: &[u32],
+        first: &mut [usize],
+    ) -> u32 {
+        let mut hit = 0;
+        // Primitive by primitive over the rays not yet hit: each ray stops at its first hit,
+        // having been tested against the primitives up to it.
+        for (k, &p) in leaf.iter().enumerate() {
+            let open = which & !hit;
+            if open == 0 {
+                break;
+            }
+            let Some(Prim::Cone(cone)) = scene.prims.get(p as usize) else {
+                let mut m = open;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if self.test(&rays[i], p, rays[i].ray.t_max).is_some() {
+                        hit |= 1 << i;
+                        first[i] = k;
+                    }
+                }
+                continue;
+            };
+            ray_groups(rays, open, |idx, group, used| {
+                let t_max = idx.map(|i| rays[i].ray.t_max.to_f32());
+                let h = cone4::intersect_rays4(cone, group, used, t_max);
+                let mut m = h.mask;
+                while m != 0 {
+                    let l = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    hit |= 1 << idx[l];
+                    first[idx[l]] = k;
+                }
+            });
+        }
+        hit
     }
 }

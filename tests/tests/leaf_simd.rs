@@ -1,11 +1,12 @@
-//! Leaves tested four triangles or four spheres at a time (issue 18): the BVH with the SIMD
+//! Leaves tested four triangles, four spheres or four cones at a time (issue 18): the BVH with the SIMD
 //! leaf test the renderer uses (`SceneLeaf::new`) and with the portable one-at-a-time test
 //! (`SceneLeaf::scalar`, and the plain closure) gives every ray the same closest hit —
 //! primitive, `t`, `u`, `v` bit for bit —, the same occlusion answer and the same
 //! primitive-test count, one ray at a time and in packets: on the SPD scenes (triangle and
 //! sphere leaves, edge and vertex hits, the kernel's `f64` redo of zero edge functions), and on
 //! a mesh with exact integer vertices and duplicated triangles (ties decided by the primitive
-//! index). In `f64` leaves go one at a time, and the test holds there too.
+//! index), and on bundles of cones with rays along their axes, along generator lines, grazing
+//! and just missing. In `f64` leaves go one at a time, and the test holds there too.
 
 use parrt::accel::bvh::packet::PACKET;
 use parrt::accel::Accel;
@@ -270,4 +271,156 @@ fn exact_edges_vertices_and_ties_agree() {
     }
     let c = compare("integer mesh", &scene, &rays);
     assert!(c.edge_hits > 200, "{c:?}");
+}
+
+/// How many BVH leaves of `scene` hold two or more primitives, all cones (the cone kernel's
+/// leaves).
+fn cone_leaves<R: Real>(scene: &Scene<R>) -> usize {
+    use parrt::accel::bvh::wide::{is_leaf, leaf_range, EMPTY};
+    let Accel::Bvh(bvh) = Accel::build(AccelKind::Bvh, &scene.all_bounds(), DEFAULT_GRID_DENSITY)
+    else {
+        panic!("not a BVH");
+    };
+    let mut n = 0;
+    for node in &bvh.nodes {
+        for &c in node.child.iter().filter(|&&c| c != EMPTY && is_leaf(c)) {
+            let (first, count) = leaf_range(c);
+            let prims = &bvh.order[first..first + count];
+            if count >= 2
+                && prims
+                    .iter()
+                    .all(|&p| matches!(scene.prims[p as usize], Prim::Cone(_)))
+            {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+/// Rays at every cone of `scene`: down the axis and just beside it, along a generator line
+/// (the quadratic's parallel-ray branch) and just inside and outside it, grazing the side at
+/// mid-height, just beyond either end, and outward from inside.
+fn rays_at_cones(scene: &Scene<f32>) -> Vec<Ray<f32>> {
+    let mut out = Vec::new();
+    let ray = |o: V3<f32>, d: V3<f32>, t_max: f32| Ray {
+        o,
+        d: d.normalize(),
+        t_min: 0.0,
+        t_max,
+    };
+    for p in &scene.prims {
+        let Prim::Cone(c) = p else { continue };
+        let (a, h) = (c.axis, c.height);
+        let r1 = c.r0 + c.slope * h;
+        let apex = c.base + a * h;
+        let helper = if a.x.abs() < 0.5 {
+            V3::new(1.0, 0.0, 0.0)
+        } else {
+            V3::new(0.0, 1.0, 0.0)
+        };
+        let s1 = a.cross(helper).normalize();
+        let s2 = a.cross(s1);
+        let size = h + c.r0 + r1;
+        for s in [s1, s2, -s1, (s1 + s2).normalize()] {
+            // Axis and near-axis rays, from both ends.
+            for off in [0.0, 1.0e-3, 0.5] {
+                let o = c.base - a * size + s * (off * c.r0);
+                out.push(ray(o, a, f32::INFINITY));
+                out.push(ray(apex + a * size + s * (off * r1), -a, f32::INFINITY));
+            }
+            // Along a generator line, on it and a little inside and outside.
+            for scale in [1.0f32, 0.999, 1.001, 0.5, 1.5] {
+                let (p0, p1) = (c.base + s * (c.r0 * scale), apex + s * (r1 * scale));
+                let g = p1 - p0;
+                if g.length() > 0.0 {
+                    out.push(ray(p0 - g, g, f32::INFINITY));
+                    out.push(ray(p1 + g, -g, f32::INFINITY));
+                }
+            }
+            // Grazing the silhouette at mid-height, and beyond either end.
+            let tangent = a.cross(s);
+            let r_mid = c.r0 + c.slope * (h * 0.5);
+            for (z, r) in [(h * 0.5, r_mid), (-0.01 * h, c.r0), (1.01 * h, r1)] {
+                for scale in [1.0f32, 0.9999, 1.0001, 0.9] {
+                    let p = c.base + a * z + s * (r * scale);
+                    out.push(ray(p - tangent * size, tangent, f32::INFINITY));
+                    out.push(ray(p - tangent * size, tangent, size));
+                }
+            }
+            // From inside, outward and slanted.
+            let inside = c.base + a * (h * 0.5);
+            out.push(ray(inside, s, f32::INFINITY));
+            out.push(ray(inside, s + a, f32::INFINITY));
+            out.push(ray(inside, s + a, 1.0e-3));
+        }
+    }
+    out
+}
+
+/// Leaves of two to four cones (bundles of concentric cylinders, nested cones, true cones and
+/// crossing cylinders, in every orientation, one bundle far from the rest) tested four at a
+/// time give every ray the scalar test's hit bit for bit, the same occlusion answer and the
+/// same test count, including grazing, axis-parallel and generator-parallel rays and misses.
+#[test]
+fn cone_leaves_agree_with_scalar() {
+    let mut shapes = Vec::new();
+    let cone = |b: V3<f64>, r0: f64, a: V3<f64>, r1: f64| Shape::Cone {
+        base: b,
+        base_radius: r0,
+        apex: a,
+        apex_radius: r1,
+    };
+    let axes = [
+        V3::new(1.0, 0.0, 0.0),
+        V3::new(0.0, 1.0, 0.0),
+        V3::new(0.0, 0.0, 1.0),
+        V3::new(1.0, 1.0, 1.0).normalize(),
+        V3::new(0.3, -0.8, 0.5).normalize(),
+    ];
+    let centres = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(4.0, 0.0, 0.0),
+        V3::new(0.0, 4.0, 0.0),
+        V3::new(-4.0, -2.0, 1.0),
+        V3::new(2.0e4, 1.0e4, -3.0e4),
+    ];
+    for (k, &c) in centres.iter().enumerate() {
+        for (j, &a) in axes.iter().enumerate() {
+            let c = c + V3::new(0.0, 0.0, 1.5 * j as f64) * if k == 4 { 1.0 } else { 3.0 };
+            let (b, e) = (c - a, c + a);
+            // Concentric cylinders, nested cones and a true cone on one axis: one leaf.
+            shapes.push(cone(b, 0.3, e, 0.3));
+            shapes.push(cone(b, 0.25, e, 0.25));
+            shapes.push(cone(b, 0.3, e, 0.1));
+            shapes.push(cone(b, 0.2, e, 0.0));
+        }
+    }
+    let desc = SceneDescription {
+        background: V3::new(0.0, 0.0, 0.0),
+        view: View {
+            from: V3::new(2.0, -12.0, 6.0),
+            at: V3::new(0.0, 0.0, 4.0),
+            up: V3::new(0.0, 0.0, 1.0),
+            angle: 60.0,
+            hither: 0.001,
+            width: 64,
+            height: 64,
+        },
+        lights: Vec::new(),
+        materials: vec![Material::default_white()],
+        primitives: shapes
+            .into_iter()
+            .map(|shape| Primitive { shape, material: 0 })
+            .collect(),
+    };
+    let scene = Scene::<f32>::build(&desc).expect("scene");
+    assert!(cone_leaves(&scene) >= 15, "{}", cone_leaves(&scene));
+    let mut rays = eye_rays::<f32>(&desc.view, 64);
+    rays.extend(rays_at_cones(&scene));
+    let bvh = Accel::build(AccelKind::Bvh, &scene.all_bounds(), DEFAULT_GRID_DENSITY);
+    let secondary = rays_from_hits(&scene, &bvh, &rays);
+    rays.extend(secondary);
+    let c = compare("cones", &scene, &rays);
+    assert!(c.hits > 5_000 && c.occluded > 5_000, "{c:?}");
 }

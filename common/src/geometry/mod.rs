@@ -4,6 +4,7 @@
 
 pub mod aabb;
 pub mod cone;
+pub mod cone4;
 pub mod hit;
 pub mod leaf16;
 pub mod ray;
