@@ -18,9 +18,15 @@
 # told to reload); `stuck` sends its request and never reads (python3: the render starts once
 # every one has said on a FIFO that its interpreter is up, then each waits for the URL).
 #
+# CLIENT_SCHED=idle starts the clients under SCHED_IDLE (`chrt -i 0`): they run only on a core
+# the render leaves idle, as a browser on another machine takes nothing from the render's
+# cores, so what is left is what the server itself costs the render (and a page that cannot
+# keep up, which is what a slow or stuck browser is).
+#
 # Usage: bench/live_view_overhead.sh [REPS] [CLIENTS] [-- RENDER ARGS...]
 #   default render: --scene mount:8 --width 1024 --height 1024 --threads 2
-#   PARRT_BIN: target/release/parrt; KIND: read, slow or stuck; SLOW_RATE: 100k
+#   PARRT_BIN: target/release/parrt; KIND: read, slow or stuck; SLOW_RATE: 100k;
+#   CLIENT_SCHED: same (default) or idle
 set -euo pipefail
 reps=${1:-5}
 clients=${2:-10}
@@ -31,6 +37,11 @@ args=("$@")
 bin=${PARRT_BIN:-target/release/parrt}
 kind=${KIND:-read}
 case $kind in read | slow | stuck) ;; *) echo "KIND must be read, slow or stuck" >&2; exit 2 ;; esac
+case ${CLIENT_SCHED:-same} in
+    same) sched=() ;;
+    idle) sched=(chrt -i 0) ;;
+    *) echo "CLIENT_SCHED must be same or idle" >&2; exit 2 ;;
+esac
 # The stuck client: the URL from its FIFO, then the request, then nothing read until killed.
 stuck='import socket, sys, time, urllib.parse
 socket.getaddrinfo("127.0.0.1", 80)  # the resolver loaded now, not during the render
@@ -61,9 +72,9 @@ run_http() { # run_http CLIENTS
         rm -f "$T/k$i" "$T/c$i"
         mkfifo "$T/k$i"
         if [ "$kind" = stuck ]; then
-            python3 -c "$stuck" "$T/k$i" "$T/ready" > "$T/c$i" 2>/dev/null &
+            "${sched[@]}" python3 -c "$stuck" "$T/k$i" "$T/ready" > "$T/c$i" 2>/dev/null &
         else
-            curl -sN -K "$T/k$i" > "$T/c$i" 2>/dev/null &
+            "${sched[@]}" curl -sN -K "$T/k$i" > "$T/c$i" 2>/dev/null &
         fi
         cpids+=($!)
     done
@@ -138,5 +149,5 @@ echo "| render | trace s, median of $reps | ratio | fastest | ratio |"
 echo "|---|---:|---:|---:|---:|"
 echo "| no --http | $n | 1.000 | $n1 | 1.000 |"
 echo "| --http, no page | $i | $(r "$i" "$n") | $i1 | $(r "$i1" "$n1") |"
-echo "| --http, $clients SSE clients ($kind) | $w | $(r "$w" "$n") | $w1 | $(r "$w1" "$n1") |"
-echo "| $clients clients ($kind) against --http with no page | | $(r "$w" "$i") | | $(r "$w1" "$i1") |"
+echo "| --http, $clients SSE clients ($kind, ${CLIENT_SCHED:-same}) | $w | $(r "$w" "$n") | $w1 | $(r "$w1" "$n1") |"
+echo "| $clients clients ($kind, ${CLIENT_SCHED:-same}) against --http with no page | | $(r "$w" "$i") | | $(r "$w1" "$i1") |"
