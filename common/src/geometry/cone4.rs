@@ -9,6 +9,7 @@
 //! ([`intersect4_lanes`], [`intersect_rays4_lanes`]) elsewhere.
 
 use super::cone::Cone;
+use super::hits4::DistanceHits4;
 use super::ray::Ray;
 use crate::real::Real;
 
@@ -18,15 +19,6 @@ pub const LANES: usize = 4;
 /// The cones of the lanes (unused lanes repeat a used one; `used` says how many count).
 pub type Cones4<'a, R> = [&'a Cone<R>; LANES];
 
-/// The answers of the four lanes: bit `i` of `mask` is set when lane `i` is hit at `t[i]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ConeHits4<R> {
-    /// Lanes hit.
-    pub mask: u32,
-    /// Distances (valid for set bits).
-    pub t: [R; LANES],
-}
-
 /// The portable kernel: the scalar test lane by lane, in any precision.
 #[inline(always)]
 pub fn intersect4_lanes<R: Real>(
@@ -34,18 +26,8 @@ pub fn intersect4_lanes<R: Real>(
     cones: &Cones4<'_, R>,
     used: usize,
     t_max: R,
-) -> ConeHits4<R> {
-    let mut h = ConeHits4 {
-        mask: 0,
-        t: [R::ZERO; LANES],
-    };
-    for (i, c) in cones.iter().take(used).enumerate() {
-        if let Some(t) = c.intersect(ray, t_max) {
-            h.mask |= 1 << i;
-            h.t[i] = t;
-        }
-    }
-    h
+) -> DistanceHits4<R> {
+    DistanceHits4::from_tests(cones.iter().take(used).map(|c| c.intersect(ray, t_max)))
 }
 
 /// The `f32` test of `used` (1..=4) cones, with the fastest kernel this CPU runs.
@@ -55,7 +37,7 @@ pub fn intersect4(
     cones: &Cones4<'_, f32>,
     used: usize,
     t_max: f32,
-) -> ConeHits4<f32> {
+) -> DistanceHits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx") {
@@ -76,18 +58,13 @@ pub fn intersect_rays4_lanes<R: Real>(
     rays: &[&Ray<R>; LANES],
     used: usize,
     t_max: [R; LANES],
-) -> ConeHits4<R> {
-    let mut h = ConeHits4 {
-        mask: 0,
-        t: [R::ZERO; LANES],
-    };
-    for (i, r) in rays.iter().take(used).enumerate() {
-        if let Some(t) = cone.intersect(r, t_max[i]) {
-            h.mask |= 1 << i;
-            h.t[i] = t;
-        }
-    }
-    h
+) -> DistanceHits4<R> {
+    DistanceHits4::from_tests(
+        rays.iter()
+            .zip(t_max)
+            .take(used)
+            .map(|(r, t)| cone.intersect(r, t)),
+    )
 }
 
 /// One `f32` cone against `used` (1..=4) rays (a packet's rays entering a leaf), with the
@@ -98,7 +75,7 @@ pub fn intersect_rays4(
     rays: &[&Ray<f32>; LANES],
     used: usize,
     t_max: [f32; LANES],
-) -> ConeHits4<f32> {
+) -> DistanceHits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx") {
@@ -116,7 +93,7 @@ pub use x86::{intersect4_avx, intersect4_sse2, intersect_rays4_avx, intersect_ra
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{ConeHits4, Cones4, LANES};
+    use super::{Cones4, DistanceHits4, LANES};
     use crate::geometry::cone::Cone;
     use crate::geometry::ray::Ray;
     use crate::geometry::sse4::{select, store};
@@ -130,7 +107,7 @@ mod x86 {
         cones: &Cones4<'_, f32>,
         used: usize,
         t_max: f32,
-    ) -> ConeHits4<f32> {
+    ) -> DistanceHits4<f32> {
         // SAFETY: SSE2 is part of the x86-64 baseline.
         unsafe { cones_kernel(ray, cones, used, t_max) }
     }
@@ -146,7 +123,7 @@ mod x86 {
         cones: &Cones4<'_, f32>,
         used: usize,
         t_max: f32,
-    ) -> ConeHits4<f32> {
+    ) -> DistanceHits4<f32> {
         cones_kernel(ray, cones, used, t_max)
     }
 
@@ -157,7 +134,7 @@ mod x86 {
         rays: &[&Ray<f32>; LANES],
         used: usize,
         t_max: [f32; LANES],
-    ) -> ConeHits4<f32> {
+    ) -> DistanceHits4<f32> {
         // SAFETY: SSE2 is part of the x86-64 baseline.
         unsafe { rays_kernel(cone, rays, used, t_max) }
     }
@@ -173,7 +150,7 @@ mod x86 {
         rays: &[&Ray<f32>; LANES],
         used: usize,
         t_max: [f32; LANES],
-    ) -> ConeHits4<f32> {
+    ) -> DistanceHits4<f32> {
         rays_kernel(cone, rays, used, t_max)
     }
 
@@ -201,7 +178,7 @@ mod x86 {
         cones: &Cones4<'_, f32>,
         used: usize,
         t_max: f32,
-    ) -> ConeHits4<f32> {
+    ) -> DistanceHits4<f32> {
         let lane = |f: &dyn Fn(usize) -> f32| _mm_setr_ps(f(0), f(1), f(2), f(3));
         let c = ConeLanes {
             base: [
@@ -242,7 +219,7 @@ mod x86 {
         rays: &[&Ray<f32>; LANES],
         used: usize,
         t_max: [f32; LANES],
-    ) -> ConeHits4<f32> {
+    ) -> DistanceHits4<f32> {
         let lane = |f: &dyn Fn(usize) -> f32| _mm_setr_ps(f(0), f(1), f(2), f(3));
         let c = ConeLanes {
             base: [
@@ -278,8 +255,8 @@ mod x86 {
 
     /// The used lanes' answers.
     #[inline(always)]
-    unsafe fn finish((hit, t): (__m128, __m128), used: usize) -> ConeHits4<f32> {
-        ConeHits4 {
+    unsafe fn finish((hit, t): (__m128, __m128), used: usize) -> DistanceHits4<f32> {
+        DistanceHits4 {
             mask: _mm_movemask_ps(hit) as u32 & ((1u32 << used) - 1),
             t: store(t),
         }

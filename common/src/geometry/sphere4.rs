@@ -6,6 +6,7 @@
 //! [`SphereLanes`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
 //! that enter the leaf share one gather ([`intersect4_gathered`]).
 
+use super::hits4::DistanceHits4;
 use super::ray::Ray;
 use super::sphere::Sphere;
 use crate::real::Real;
@@ -44,15 +45,6 @@ impl SphereLanes {
     }
 }
 
-/// The answers of the four lanes: bit `i` of `mask` is set when lane `i` is hit at `t[i]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SphereHits4<R> {
-    /// Lanes hit.
-    pub mask: u32,
-    /// Distances (valid for set bits).
-    pub t: [R; LANES],
-}
-
 /// The portable kernel: the scalar test lane by lane, in any precision.
 #[inline(always)]
 pub fn intersect4_lanes<R: Real>(
@@ -60,18 +52,8 @@ pub fn intersect4_lanes<R: Real>(
     spheres: &Spheres4<'_, R>,
     used: usize,
     t_max: R,
-) -> SphereHits4<R> {
-    let mut h = SphereHits4 {
-        mask: 0,
-        t: [R::ZERO; LANES],
-    };
-    for (i, s) in spheres.iter().take(used).enumerate() {
-        if let Some(t) = s.intersect(ray, t_max) {
-            h.mask |= 1 << i;
-            h.t[i] = t;
-        }
-    }
-    h
+) -> DistanceHits4<R> {
+    DistanceHits4::from_tests(spheres.iter().take(used).map(|s| s.intersect(ray, t_max)))
 }
 
 /// The `f32` test of `used` (1..=4) spheres, with the fastest kernel this CPU runs.
@@ -81,7 +63,7 @@ pub fn intersect4(
     spheres: &Spheres4<'_, f32>,
     used: usize,
     t_max: f32,
-) -> SphereHits4<f32> {
+) -> DistanceHits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx") {
@@ -101,7 +83,7 @@ pub fn intersect4_gathered(
     spheres: &SphereLanes,
     used: usize,
     t_max: f32,
-) -> SphereHits4<f32> {
+) -> DistanceHits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx") {
@@ -125,7 +107,7 @@ pub use x86::{gathered_avx, gathered_sse2, intersect4_avx, intersect4_sse2};
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{SphereHits4, SphereLanes, Spheres4, LANES};
+    use super::{DistanceHits4, SphereLanes, Spheres4, LANES};
     use crate::geometry::ray::Ray;
     use crate::geometry::sse4::{select, store};
     use std::arch::x86_64::*;
@@ -137,7 +119,7 @@ mod x86 {
         spheres: &Spheres4<'_, f32>,
         used: usize,
         t_max: f32,
-    ) -> SphereHits4<f32> {
+    ) -> DistanceHits4<f32> {
         // SAFETY: SSE2 is part of the x86-64 baseline.
         unsafe { kernel(ray, spheres, used, t_max) }
     }
@@ -153,7 +135,7 @@ mod x86 {
         spheres: &Spheres4<'_, f32>,
         used: usize,
         t_max: f32,
-    ) -> SphereHits4<f32> {
+    ) -> DistanceHits4<f32> {
         kernel(ray, spheres, used, t_max)
     }
 
@@ -164,7 +146,7 @@ mod x86 {
         spheres: &SphereLanes,
         used: usize,
         t_max: f32,
-    ) -> SphereHits4<f32> {
+    ) -> DistanceHits4<f32> {
         // SAFETY: SSE2 is part of the x86-64 baseline.
         unsafe { kernel(ray, spheres, used, t_max) }
     }
@@ -180,7 +162,7 @@ mod x86 {
         spheres: &SphereLanes,
         used: usize,
         t_max: f32,
-    ) -> SphereHits4<f32> {
+    ) -> DistanceHits4<f32> {
         kernel(ray, spheres, used, t_max)
     }
 
@@ -223,7 +205,7 @@ mod x86 {
         spheres: &S,
         used: usize,
         t_max: f32,
-    ) -> SphereHits4<f32> {
+    ) -> DistanceHits4<f32> {
         let [cx, cy, cz, r] = spheres.lanes();
         let zero = _mm_setzero_ps();
         let sign = _mm_set1_ps(-0.0);
@@ -248,7 +230,7 @@ mod x86 {
         // Outside and heading away.
         let mut reject = _mm_and_ps(_mm_cmpgt_ps(c, zero), _mm_cmpgt_ps(b, zero));
         if _mm_movemask_ps(reject) as u32 & used_mask == used_mask {
-            return SphereHits4 {
+            return DistanceHits4 {
                 mask: 0,
                 t: [0.0; LANES],
             };
@@ -279,7 +261,7 @@ mod x86 {
         let (ok0, ok1) = (ok(t0), ok(t1));
         let t = select(ok0, t0, t1);
         let hit = _mm_andnot_ps(reject, _mm_or_ps(ok0, ok1));
-        SphereHits4 {
+        DistanceHits4 {
             mask: _mm_movemask_ps(hit) as u32 & used_mask,
             t: store(t),
         }
