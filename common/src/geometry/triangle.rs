@@ -42,6 +42,14 @@ pub fn intersect_triangle<R: Real>(
     }
 }
 
+/// The three edge functions of the sheared vertices `[ax, ay, bx, by, cx, cy]` in double
+/// precision: what the test decides with when one of them is exactly 0 in its own precision
+/// (the SIMD kernels redo such lanes with this too).
+#[inline(always)]
+pub fn edges_f64([ax, ay, bx, by, cx, cy]: [f64; 6]) -> [f64; 3] {
+    [bx * cy - by * cx, cx * ay - cy * ax, ax * by - ay * bx]
+}
+
 /// The test in the ray's frame given by the axes `kx`, `ky`, `kz` (inlined with constants).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -72,17 +80,8 @@ fn sheared<R: Real>(
     let mut e2 = ax * by - ay * bx;
     if e0 == R::ZERO || e1 == R::ZERO || e2 == R::ZERO {
         // Exactly on an edge in this precision: decide in double precision.
-        let (ax, ay, bx, by, cx, cy) = (
-            ax.to_f64(),
-            ay.to_f64(),
-            bx.to_f64(),
-            by.to_f64(),
-            cx.to_f64(),
-            cy.to_f64(),
-        );
-        e0 = R::from_f64(bx * cy - by * cx);
-        e1 = R::from_f64(cx * ay - cy * ax);
-        e2 = R::from_f64(ax * by - ay * bx);
+        let [f0, f1, f2] = edges_f64([ax, ay, bx, by, cx, cy].map(R::to_f64));
+        (e0, e1, e2) = (R::from_f64(f0), R::from_f64(f1), R::from_f64(f2));
     }
     if (e0 < R::ZERO || e1 < R::ZERO || e2 < R::ZERO)
         && (e0 > R::ZERO || e1 > R::ZERO || e2 > R::ZERO)

@@ -143,6 +143,7 @@ mod x86 {
     use super::{Hits4, TriLanes, Tris4, LANES};
     use crate::geometry::ray::PreparedRay;
     use crate::geometry::sse4::{select, store};
+    use crate::geometry::triangle::edges_f64;
     use crate::real::Real;
     use std::arch::x86_64::*;
 
@@ -319,17 +320,9 @@ mod x86 {
             let (mut f0, mut f1, mut f2) = (store(e0), store(e1), store(e2));
             for i in 0..LANES {
                 if redo & (1 << i) != 0 {
-                    let (ax, ay, bx, by, cx, cy) = (
-                        f64::from(ax_[i]),
-                        f64::from(ay_[i]),
-                        f64::from(bx_[i]),
-                        f64::from(by_[i]),
-                        f64::from(cx_[i]),
-                        f64::from(cy_[i]),
-                    );
-                    f0[i] = (bx * cy - by * cx) as f32;
-                    f1[i] = (cx * ay - cy * ax) as f32;
-                    f2[i] = (ax * by - ay * bx) as f32;
+                    let v = [ax_[i], ay_[i], bx_[i], by_[i], cx_[i], cy_[i]].map(f64::from);
+                    let [g0, g1, g2] = edges_f64(v);
+                    (f0[i], f1[i], f2[i]) = (g0 as f32, g1 as f32, g2 as f32);
                 }
             }
             e0 = _mm_loadu_ps(f0.as_ptr());
