@@ -62,32 +62,32 @@ impl<R: Real> Frustum<R> {
             neg: first.neg,
             t_min: first.ray.t_min,
         };
+        // One pass without early exits (a packet is rejected rarely): the bounds, whether
+        // every ray can be bounded, and the shortest ray.
+        let mut ok = true;
+        let mut shortest = R::INFINITY;
         for r in rays {
-            if r.neg != f.neg || !r.ray.t_min.is_finite() {
-                return None;
-            }
+            ok &= (r.neg == f.neg) & r.ray.t_min.is_finite();
             let (ro, ri) = (o(r), inv(r));
             for a in 0..3 {
-                if !ro[a].is_finite() || !ri[a].is_finite() {
-                    return None;
-                }
+                ok &= ro[a].is_finite() & ri[a].is_finite();
                 f.o_lo[a] = f.o_lo[a].min(ro[a]);
                 f.o_hi[a] = f.o_hi[a].max(ro[a]);
                 f.inv_lo[a] = f.inv_lo[a].min(ri[a]);
                 f.inv_hi[a] = f.inv_hi[a].max(ri[a]);
             }
             f.t_min = f.t_min.min(r.ray.t_min);
+            shortest = shortest.min(r.ray.t_max);
+        }
+        if !ok {
+            return None;
         }
         // Rays whose origins spread widely compared with their length (shadow rays from both
         // sides of a silhouette) make loose bounds that let the packet into far more nodes
         // than any of its rays: those go one by one.
         let mut spread = R::ZERO;
-        let mut shortest = R::INFINITY;
         for a in 0..3 {
             spread = spread.max(f.o_hi[a] - f.o_lo[a]);
-        }
-        for r in rays {
-            shortest = shortest.min(r.ray.t_max);
         }
         if spread > R::from_f64(COHERENCE) * shortest {
             return None;
