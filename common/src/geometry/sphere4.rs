@@ -66,11 +66,7 @@ pub fn intersect4(
 ) -> DistanceHits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above).
-            return unsafe { x86::intersect4_avx(ray, spheres, used, t_max) };
-        }
-        x86::intersect4_sse2(ray, spheres, used, t_max)
+        x86::dispatch(ray, spheres, used, t_max)
     }
     #[cfg(not(target_arch = "x86_64"))]
     intersect4_lanes(ray, spheres, used, t_max)
@@ -86,11 +82,7 @@ pub fn intersect4_gathered(
 ) -> DistanceHits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above).
-            return unsafe { x86::gathered_avx(ray, spheres, used, t_max) };
-        }
-        x86::gathered_sse2(ray, spheres, used, t_max)
+        x86::dispatch(ray, spheres, used, t_max)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -103,7 +95,7 @@ pub fn intersect4_gathered(
 }
 
 #[cfg(target_arch = "x86_64")]
-pub use x86::{gathered_avx, gathered_sse2, intersect4_avx, intersect4_sse2};
+pub use x86::{avx, sse2};
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
@@ -112,16 +104,12 @@ mod x86 {
     use crate::geometry::sse4::{select, store};
     use std::arch::x86_64::*;
 
-    /// The SSE2 kernel (every x86-64 CPU has SSE2).
+    /// The SSE2 kernel (every x86-64 CPU has SSE2), on four spheres or lanes gathered
+    /// once.
     #[inline(never)]
-    pub fn intersect4_sse2(
-        ray: &Ray<f32>,
-        spheres: &Spheres4<'_, f32>,
-        used: usize,
-        t_max: f32,
-    ) -> DistanceHits4<f32> {
+    pub fn sse2<S: Source>(ray: &Ray<f32>, src: &S, used: usize, t_max: f32) -> DistanceHits4<f32> {
         // SAFETY: SSE2 is part of the x86-64 baseline.
-        unsafe { kernel(ray, spheres, used, t_max) }
+        unsafe { kernel(ray, src, used, t_max) }
     }
 
     /// The same kernel compiled for AVX (VEX encodings; no FMA: the scalar test has none).
@@ -130,40 +118,28 @@ mod x86 {
     /// The CPU must support AVX.
     #[target_feature(enable = "avx")]
     #[inline(never)]
-    pub unsafe fn intersect4_avx(
+    pub unsafe fn avx<S: Source>(
         ray: &Ray<f32>,
-        spheres: &Spheres4<'_, f32>,
+        src: &S,
         used: usize,
         t_max: f32,
     ) -> DistanceHits4<f32> {
-        kernel(ray, spheres, used, t_max)
+        kernel(ray, src, used, t_max)
     }
 
-    /// The SSE2 kernel on gathered lanes.
-    #[inline(never)]
-    pub fn gathered_sse2(
+    /// The fastest of the two this CPU runs.
+    #[inline(always)]
+    pub fn dispatch<S: Source>(
         ray: &Ray<f32>,
-        spheres: &SphereLanes,
+        src: &S,
         used: usize,
         t_max: f32,
     ) -> DistanceHits4<f32> {
-        // SAFETY: SSE2 is part of the x86-64 baseline.
-        unsafe { kernel(ray, spheres, used, t_max) }
-    }
-
-    /// The AVX kernel on gathered lanes.
-    ///
-    /// # Safety
-    /// The CPU must support AVX.
-    #[target_feature(enable = "avx")]
-    #[inline(never)]
-    pub unsafe fn gathered_avx(
-        ray: &Ray<f32>,
-        spheres: &SphereLanes,
-        used: usize,
-        t_max: f32,
-    ) -> DistanceHits4<f32> {
-        kernel(ray, spheres, used, t_max)
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            return unsafe { avx(ray, src, used, t_max) };
+        }
+        sse2(ray, src, used, t_max)
     }
 
     /// Where the kernel reads the spheres from: gathered from four spheres on the spot, or
@@ -284,13 +260,13 @@ mod tests {
         ];
         #[cfg(target_arch = "x86_64")]
         {
-            kernels.push(intersect4_sse2(ray, s, used, t_max));
-            kernels.push(gathered_sse2(ray, &lanes, used, t_max));
+            kernels.push(sse2(ray, s, used, t_max));
+            kernels.push(sse2(ray, &lanes, used, t_max));
             if std::arch::is_x86_feature_detected!("avx") {
                 // SAFETY: the CPU has AVX.
-                kernels.push(unsafe { intersect4_avx(ray, s, used, t_max) });
+                kernels.push(unsafe { avx(ray, s, used, t_max) });
                 // SAFETY: as above.
-                kernels.push(unsafe { gathered_avx(ray, &lanes, used, t_max) });
+                kernels.push(unsafe { avx(ray, &lanes, used, t_max) });
             }
         }
         for got in kernels {

@@ -102,11 +102,7 @@ pub fn intersect4(
 ) -> Hits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above).
-            return unsafe { x86::intersect4_avx(pr, tris, used, t_max) };
-        }
-        x86::intersect4_sse2(pr, tris, used, t_max)
+        x86::dispatch(pr, tris, used, t_max)
     }
     #[cfg(not(target_arch = "x86_64"))]
     intersect4_lanes(pr, tris, used, t_max)
@@ -122,11 +118,7 @@ pub fn intersect4_gathered(
 ) -> Hits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above).
-            return unsafe { x86::gathered_avx(pr, tris, used, t_max) };
-        }
-        x86::gathered_sse2(pr, tris, used, t_max)
+        x86::dispatch(pr, tris, used, t_max)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -136,7 +128,7 @@ pub fn intersect4_gathered(
 }
 
 #[cfg(target_arch = "x86_64")]
-pub use x86::{gathered_avx, gathered_sse2, intersect4_avx, intersect4_sse2};
+pub use x86::{avx, sse2};
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
@@ -147,16 +139,12 @@ mod x86 {
     use crate::real::Real;
     use std::arch::x86_64::*;
 
-    /// The SSE2 kernel (every x86-64 CPU has SSE2).
+    /// The SSE2 kernel (every x86-64 CPU has SSE2), on four triangles or lanes gathered
+    /// once.
     #[inline(never)]
-    pub fn intersect4_sse2(
-        pr: &PreparedRay<f32>,
-        tris: &Tris4<'_, f32>,
-        used: usize,
-        t_max: f32,
-    ) -> Hits4<f32> {
+    pub fn sse2<S: Source>(pr: &PreparedRay<f32>, src: &S, used: usize, t_max: f32) -> Hits4<f32> {
         // SAFETY: SSE2 is part of the x86-64 baseline.
-        unsafe { permuted(pr, tris, used, t_max) }
+        unsafe { permuted(pr, src, used, t_max) }
     }
 
     /// The same kernel compiled for AVX (VEX encodings; no FMA: the scalar test has none).
@@ -165,40 +153,28 @@ mod x86 {
     /// The CPU must support AVX.
     #[target_feature(enable = "avx")]
     #[inline(never)]
-    pub unsafe fn intersect4_avx(
+    pub unsafe fn avx<S: Source>(
         pr: &PreparedRay<f32>,
-        tris: &Tris4<'_, f32>,
+        src: &S,
         used: usize,
         t_max: f32,
     ) -> Hits4<f32> {
-        permuted(pr, tris, used, t_max)
+        permuted(pr, src, used, t_max)
     }
 
-    /// The SSE2 kernel on gathered lanes.
-    #[inline(never)]
-    pub fn gathered_sse2(
+    /// The fastest of the two this CPU runs.
+    #[inline(always)]
+    pub fn dispatch<S: Source>(
         pr: &PreparedRay<f32>,
-        tris: &TriLanes,
+        src: &S,
         used: usize,
         t_max: f32,
     ) -> Hits4<f32> {
-        // SAFETY: SSE2 is part of the x86-64 baseline.
-        unsafe { permuted(pr, tris, used, t_max) }
-    }
-
-    /// The AVX kernel on gathered lanes.
-    ///
-    /// # Safety
-    /// The CPU must support AVX.
-    #[target_feature(enable = "avx")]
-    #[inline(never)]
-    pub unsafe fn gathered_avx(
-        pr: &PreparedRay<f32>,
-        tris: &TriLanes,
-        used: usize,
-        t_max: f32,
-    ) -> Hits4<f32> {
-        permuted(pr, tris, used, t_max)
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            return unsafe { avx(pr, src, used, t_max) };
+        }
+        sse2(pr, src, used, t_max)
     }
 
     /// Where the kernel reads the triangles' components from: gathered from four triangles
@@ -451,13 +427,13 @@ mod tests {
         ];
         #[cfg(target_arch = "x86_64")]
         {
-            kernels.push(intersect4_sse2(r, tris, used, t_max));
-            kernels.push(gathered_sse2(r, &lanes, used, t_max));
+            kernels.push(sse2(r, tris, used, t_max));
+            kernels.push(sse2(r, &lanes, used, t_max));
             if std::arch::is_x86_feature_detected!("avx") {
                 // SAFETY: the CPU has AVX.
-                kernels.push(unsafe { intersect4_avx(r, tris, used, t_max) });
+                kernels.push(unsafe { avx(r, tris, used, t_max) });
                 // SAFETY: as above.
-                kernels.push(unsafe { gathered_avx(r, &lanes, used, t_max) });
+                kernels.push(unsafe { avx(r, &lanes, used, t_max) });
             }
         }
         for got in kernels {
