@@ -12,9 +12,7 @@
 use std::any::Any;
 
 use crate::accel::{OneRay, RayPrimTest};
-use crate::geometry::cone::Cone;
 use crate::geometry::cone4::{self, Cones4};
-use crate::geometry::sphere::Sphere;
 use crate::geometry::sphere4::{self, SphereLanes, Spheres4};
 use crate::geometry::triangle4::{self, TriLanes, Tris4, LANES};
 use crate::geometry::{Nearest, PreparedRay, PrimHit, Ray};
@@ -144,37 +142,38 @@ fn simd_leaf<'a>(prims: &'a [Prim<f32>], leaf: &[u32]) -> Option<Simd<'a>> {
         return None;
     }
     match prims.get(leaf[0] as usize)? {
-        Prim::Triangle(first) => {
-            let mut tris = [first; LANES];
-            for (slot, &p) in tris.iter_mut().zip(leaf).skip(1) {
-                let Prim::Triangle(v) = prims.get(p as usize)? else {
-                    return None;
-                };
-                *slot = v;
-            }
-            Some(Simd::Triangles(tris))
-        }
-        Prim::Sphere(first) => {
-            let mut spheres: [&Sphere<f32>; LANES] = [first; LANES];
-            for (slot, &p) in spheres.iter_mut().zip(leaf).skip(1) {
-                let Prim::Sphere(s) = prims.get(p as usize)? else {
-                    return None;
-                };
-                *slot = s;
-            }
-            Some(Simd::Spheres(spheres))
-        }
-        Prim::Cone(first) => {
-            let mut cones: [&Cone<f32>; LANES] = [first; LANES];
-            for (slot, &p) in cones.iter_mut().zip(leaf).skip(1) {
-                let Prim::Cone(c) = prims.get(p as usize)? else {
-                    return None;
-                };
-                *slot = c;
-            }
-            Some(Simd::Cones(cones))
-        }
+        Prim::Triangle(first) => all_like(first, prims, leaf, |p| match p {
+            Prim::Triangle(v) => Some(v),
+            _ => None,
+        })
+        .map(Simd::Triangles),
+        Prim::Sphere(first) => all_like(first, prims, leaf, |p| match p {
+            Prim::Sphere(s) => Some(s),
+            _ => None,
+        })
+        .map(Simd::Spheres),
+        Prim::Cone(first) => all_like(first, prims, leaf, |p| match p {
+            Prim::Cone(c) => Some(c),
+            _ => None,
+        })
+        .map(Simd::Cones),
     }
+}
+
+/// The lanes of a leaf whose first primitive is `first`, when `kind` takes every one of its
+/// primitives (unused lanes repeat the first).
+#[inline(always)]
+fn all_like<'a, T>(
+    first: &'a T,
+    prims: &'a [Prim<f32>],
+    leaf: &[u32],
+    kind: impl Fn(&'a Prim<f32>) -> Option<&'a T>,
+) -> Option<[&'a T; LANES]> {
+    let mut lanes = [first; LANES];
+    for (slot, &p) in lanes.iter_mut().zip(leaf).skip(1) {
+        *slot = kind(prims.get(p as usize)?)?;
+    }
+    Some(lanes)
 }
 
 /// The rays named by the bits of `which`, in order, in groups of up to four: calls
