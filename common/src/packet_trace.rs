@@ -57,17 +57,10 @@ impl<R: Real> Integrator<R> {
     }
 
     /// Radiance along up to [`PACKET`] eye rays, into `out`: the same colours as
-    /// [`Integrator::trace`] gives each (depth 1, weight 1). `blocked` is scratch space (one
-    /// mask of rays per light), kept by the caller so nothing is allocated per packet.
-    pub fn trace_eye_packet(
-        &self,
-        rays: &[Ray<R>],
-        out: &mut [V3<R>],
-        blocked: &mut Vec<u16>,
-        stats: &mut RayStats,
-    ) {
+    /// [`Integrator::trace`] gives each (depth 1, weight 1).
+    pub fn trace_eye_packet(&self, rays: &[Ray<R>], out: &mut [V3<R>], stats: &mut RayStats) {
         let weights = [R::ONE; PACKET];
-        self.trace_packet(rays, 1, &weights, RayKind::Eye, out, blocked, stats);
+        self.trace_packet(rays, 1, &weights, RayKind::Eye, out, stats);
     }
 
     /// Radiance along up to [`PACKET`] rays of one kind at `depth`, ray `i` with path weight
@@ -83,7 +76,6 @@ impl<R: Real> Integrator<R> {
         weights: &[R],
         kind: RayKind,
         out: &mut [V3<R>],
-        blocked: &mut Vec<u16>,
         stats: &mut RayStats,
     ) {
         let n = rays.len();
@@ -113,37 +105,40 @@ impl<R: Real> Integrator<R> {
                 lits[i] = Some(self.lit(&rays[i], h));
             }
         }
-        // Shadow rays light by light: bit i of blocked[light] says ray i's is blocked.
-        blocked.clear();
-        blocked.resize(self.scene.lights.len(), 0);
-        for (li, mask) in blocked.iter_mut().enumerate() {
+        // Direct light, light by light: each light's shadow rays go as one packet, and each
+        // ray's colour gets the terms in direct()'s order (ambient, then the lights in turn).
+        for i in 0..n {
+            out[i] = match &lits[i] {
+                None => self.scene.background,
+                Some(lit) => self.ambient(lit),
+            };
+        }
+        for li in 0..self.scene.lights.len() {
             let mut shadow = [prs[0]; PACKET];
             let mut owner = [0usize; PACKET];
+            let mut toward = [(R::ZERO, R::ZERO); PACKET];
             let mut k = 0;
             for (i, lit) in lits[..n].iter().enumerate() {
-                if let Some((r, _, _)) = lit.as_ref().and_then(|l| self.shadow_ray(l, li)) {
+                if let Some((r, n_dot_l_raw, dist)) =
+                    lit.as_ref().and_then(|l| self.shadow_ray(l, li))
+                {
                     shadow[k] = PreparedRay::new(r);
                     owner[k] = i;
+                    toward[k] = (n_dot_l_raw, dist);
                     k += 1;
                 }
             }
             let mut occ = [false; PACKET];
             self.occluded_packet(&shadow[..k], &mut occ[..k], stats);
+            stats.shadow_rays += k as u64;
             for j in 0..k {
                 if occ[j] {
-                    *mask |= 1 << owner[j];
+                    stats.shadow_hits += 1;
+                } else if let Some(lit) = &lits[owner[j]] {
+                    let (n_dot_l_raw, dist) = toward[j];
+                    out[owner[j]] += self.from_light(&rays[owner[j]], lit, li, n_dot_l_raw, dist);
                 }
             }
-        }
-        // Direct light first, for every ray (the same sum shade() starts with), so `blocked`
-        // is free for the packets below.
-        for i in 0..n {
-            out[i] = match &lits[i] {
-                None => self.scene.background,
-                Some(lit) => {
-                    self.direct(&rays[i], lit, stats, |li, _, _| blocked[li] & (1 << i) != 0)
-                }
-            };
         }
         if depth >= self.opts.max_depth {
             return;
@@ -193,7 +188,6 @@ impl<R: Real> Integrator<R> {
                     &next_w[..k],
                     kind,
                     &mut colors[..k],
-                    blocked,
                     stats,
                 );
             } else {

@@ -284,7 +284,6 @@ impl<R: Real> Core<R> {
             out.resize(tile.pixel_count(), [0.0; 3]);
             let mut rays = [self.camera.ray(R::HALF, R::HALF); PACKET];
             let mut colors = [V3::zero(); PACKET];
-            let mut blocked = Vec::with_capacity(self.integrator.scene.lights.len());
             for (bx, by, bw, bh) in tile.blocks() {
                 let mut n = 0;
                 for y in by..by + bh {
@@ -295,7 +294,7 @@ impl<R: Real> Core<R> {
                     }
                 }
                 self.integrator
-                    .trace_eye_packet(&rays[..n], &mut colors[..n], &mut blocked, stats);
+                    .trace_eye_packet(&rays[..n], &mut colors[..n], stats);
                 let mut k = 0;
                 for y in by..by + bh {
                     for x in bx..bx + bw {

@@ -209,10 +209,8 @@ impl<R: Real> Integrator<R> {
     where
         O: FnMut(usize, &Ray<R>, &mut RayStats) -> bool,
     {
-        let (s, m, ns) = (&lit.s, lit.m, lit.ns);
-        let view = -ray.d;
-        let mut color = m.color * (self.scene.ambient * m.kd);
-        for (li, light) in self.scene.lights.iter().enumerate() {
+        let mut color = self.ambient(lit);
+        for li in 0..self.scene.lights.len() {
             let Some((shadow, n_dot_l_raw, dist)) = self.shadow_ray(lit, li) else {
                 continue;
             };
@@ -221,19 +219,41 @@ impl<R: Real> Integrator<R> {
                 stats.shadow_hits += 1;
                 continue;
             }
-            let l = (light.position - s.p) / dist;
-            let n_dot_l = n_dot_l_raw / dist;
-            let mut c = m.color * (m.kd * n_dot_l);
-            if m.ks > R::ZERO {
-                let r = ns * (R::TWO * n_dot_l) - l;
-                let rv = r.dot(view);
-                if rv > R::ZERO {
-                    c += V3::splat(m.ks * rv.powf(m.shine));
-                }
-            }
-            color += c.mul_elem(light.intensity);
+            color += self.from_light(ray, lit, li, n_dot_l_raw, dist);
         }
         color
+    }
+
+    /// The ambient term of a lit hit, the first of [`Self::direct`]'s sum.
+    #[inline]
+    pub fn ambient(&self, lit: &Lit<R>) -> V3<R> {
+        lit.m.color * (self.scene.ambient * lit.m.kd)
+    }
+
+    /// Diffuse and highlight from light `light` whose shadow ray ([`Self::shadow_ray`], which
+    /// gave `n_dot_l_raw` and `dist`) is free: the term [`Self::direct`] adds for it.
+    #[inline]
+    pub fn from_light(
+        &self,
+        ray: &Ray<R>,
+        lit: &Lit<R>,
+        light: usize,
+        n_dot_l_raw: R,
+        dist: R,
+    ) -> V3<R> {
+        let (s, m, ns) = (&lit.s, lit.m, lit.ns);
+        let light = &self.scene.lights[light];
+        let l = (light.position - s.p) / dist;
+        let n_dot_l = n_dot_l_raw / dist;
+        let mut c = m.color * (m.kd * n_dot_l);
+        if m.ks > R::ZERO {
+            let r = ns * (R::TWO * n_dot_l) - l;
+            let rv = r.dot(-ray.d);
+            if rv > R::ZERO {
+                c += V3::splat(m.ks * rv.powf(m.shine));
+            }
+        }
+        c.mul_elem(light.intensity)
     }
 
     /// The reflection and refraction rays a lit hit at `depth` spawns, each with the weight its

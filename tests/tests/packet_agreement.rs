@@ -357,7 +357,6 @@ fn secondary_packets_match<R: Real>(name: &str, w: u32, h: u32, max_depth: u32) 
         panic!("BVH expected");
     };
     let mut stats = RayStats::default();
-    let mut blocked = Vec::new();
     let mut coherent = 0;
     for by in (0..h).step_by(4) {
         for bx in (0..w).step_by(4) {
@@ -398,7 +397,7 @@ fn secondary_packets_match<R: Real>(name: &str, w: u32, h: u32, max_depth: u32) 
                     coherent += 1;
                 }
                 let mut got = vec![V3::zero(); rays.len()];
-                integ.trace_packet(&rays, 2, &weights, kind, &mut got, &mut blocked, &mut stats);
+                integ.trace_packet(&rays, 2, &weights, kind, &mut got, &mut stats);
                 for (i, r) in rays.iter().enumerate() {
                     let want = integ.trace(r, 2, weights[i], kind, &mut stats);
                     let bits = |c: V3<R>| [c.x, c.y, c.z].map(|v| v.to_f64().to_bits());
