@@ -23,6 +23,11 @@
 # cores, so what is left is what the server itself costs the render (and a page that cannot
 # keep up, which is what a slow or stuck browser is).
 #
+# The three renders of a round run back to back, in an order that turns from round to round,
+# so each round also gives paired ratios (its render with clients over its render without, and
+# so on), which drifts in the machine's speed over the run do not move: the script prints their
+# median with a 95 % bootstrap interval.
+#
 # Usage: bench/live_view_overhead.sh [REPS] [CLIENTS] [-- RENDER ARGS...]
 #   default render: --scene mount:8 --width 1024 --height 1024 --threads 2
 #   PARRT_BIN: target/release/parrt; KIND: read, slow or stuck; SLOW_RATE: 100k;
@@ -132,9 +137,15 @@ run_http() { # run_http CLIENTS
 median() { sort -g | awk '{a[NR]=$1} END {print (NR%2 ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2)}'; }
 : > "$T/none"; : > "$T/idle"; : > "$T/watched"; : > "$T/cpu0"; : > "$T/cpu$clients"; : > "$T/bytes"
 for r in $(seq 1 "$reps"); do
-    run_plain >> "$T/none"
-    run_http 0 >> "$T/idle"
-    run_http "$clients" >> "$T/watched"
+    # Each round starts with a different one of the three, so none of them always follows the
+    # same other (a render's speed can depend on what ran just before it).
+    for k in 0 1 2; do
+        case $(((r + k) % 3)) in
+            0) run_plain >> "$T/none" ;;
+            1) run_http 0 >> "$T/idle" ;;
+            2) run_http "$clients" >> "$T/watched" ;;
+        esac
+    done
     echo "round $r: none $(tail -1 "$T/none") s, --http $(tail -1 "$T/idle") s, $clients clients $(tail -1 "$T/watched") s" >&2
 done
 mn() { sort -g | head -1; }
@@ -151,3 +162,19 @@ echo "| no --http | $n | 1.000 | $n1 | 1.000 |"
 echo "| --http, no page | $i | $(r "$i" "$n") | $i1 | $(r "$i1" "$n1") |"
 echo "| --http, $clients SSE clients ($kind, ${CLIENT_SCHED:-same}) | $w | $(r "$w" "$n") | $w1 | $(r "$w1" "$n1") |"
 echo "| $clients clients ($kind, ${CLIENT_SCHED:-same}) against --http with no page | | $(r "$w" "$i") | | $(r "$w1" "$i1") |"
+echo
+echo "Paired by round (each round's renders back to back): median ratio [95 % bootstrap interval of the median] over $reps rounds"
+python3 - "$T/none" "$T/idle" "$T/watched" "$clients clients ($kind, ${CLIENT_SCHED:-same})" <<'PY'
+import random, statistics, sys
+none, idle, watched = ([float(x) for x in open(f)] for f in sys.argv[1:4])
+def show(label, a, b):
+    r = [y / x for x, y in zip(a, b)]
+    rng = random.Random(1)
+    meds = sorted(statistics.median(rng.choices(r, k=len(r))) for _ in range(2000))
+    print(f"| {label} | {statistics.median(r):.3f} [{meds[49]:.3f}, {meds[1949]:.3f}] |")
+print("| ratio | paired median [95 % interval] |")
+print("|---|---:|")
+show("--http, no page / no --http", none, idle)
+show(f"{sys.argv[4]} / no --http", none, watched)
+show(f"{sys.argv[4]} / --http, no page", idle, watched)
+PY
