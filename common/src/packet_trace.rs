@@ -113,10 +113,12 @@ impl<R: Real> Integrator<R> {
                 Some(lit) => self.ambient(lit),
             };
         }
+        // Made once for all the lights: every light's packet overwrites what it uses.
+        let mut shadow = [prs[0]; PACKET];
+        let mut owner = [0usize; PACKET];
+        let mut toward = [(R::ZERO, R::ZERO); PACKET];
+        let mut occ = [false; PACKET];
         for li in 0..self.scene.lights.len() {
-            let mut shadow = [prs[0]; PACKET];
-            let mut owner = [0usize; PACKET];
-            let mut toward = [(R::ZERO, R::ZERO); PACKET];
             let mut k = 0;
             for (i, lit) in lits[..n].iter().enumerate() {
                 if let Some((r, n_dot_l_raw, dist)) =
@@ -128,7 +130,6 @@ impl<R: Real> Integrator<R> {
                     k += 1;
                 }
             }
-            let mut occ = [false; PACKET];
             self.occluded_packet(&shadow[..k], &mut occ[..k], stats);
             stats.shadow_rays += k as u64;
             for j in 0..k {
