@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Two parrt builds side by side on SPD scenes (issue 18): the CPU seconds of a full render
+# (one thread, 512×512, depth 5, as bench/peers.sh renders), the two builds interleaved run by
+# run, and whether their images are the same bytes. Prints per scene the medians, the median of
+# the per-run ratios new/old (runs paired back to back, so drifts of the machine's speed
+# cancel) and the ratio of the fastest runs.
+#
+#   usage: bench/ab_render.sh OLD_BINARY NEW_BINARY [scene ...]   (names in ../shared/spd)
+#   env:   RUNS (default 5), SHARED (default: ../shared beside the repository)
+#
+# For the least noise run it alone under `chrt -r 1` (root), e.g. copy the build before a
+# change to /tmp/parrt-old, rebuild, then
+#   chrt -r 1 bench/ab_render.sh /tmp/parrt-old target/release/parrt balls-4 tree-11
+set -euo pipefail
+[ $# -ge 2 ] || { sed -n '2,13p' "$0" >&2; exit 2; }
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+SHARED=${SHARED:-$(cd "$REPO/../shared" && pwd)}
+OLD=$1 NEW=$2
+shift 2
+[ $# -gt 0 ] || set -- mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5 jacks-4
+RUNS=${RUNS:-5}
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+
+# CPU seconds (user + system) of one run, from wait4's rusage.
+cpu() {
+    python3 - "$@" <<'PY'
+import os, sys
+pid = os.fork()
+if pid == 0:
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 1)
+    os.dup2(null, 2)
+    os.execvp(sys.argv[1], sys.argv[1:])
+_, status, usage = os.wait4(pid, 0)
+if os.waitstatus_to_exitcode(status) != 0:
+    sys.exit(1)
+print("%.4f" % (usage.ru_utime + usage.ru_stime))
+PY
+}
+render() { cpu "$1" render "$SHARED/spd/$2.nff" --threads 1 --width 512 --height 512 --max-depth 5 -o "$3"; }
+
+echo "| scene | old s (median) | new s (median) | new / old, paired median | fastest new / fastest old | image |"
+echo "|---|---:|---:|---:|---:|---|"
+for s in "$@"; do
+    : > "$T/old"
+    : > "$T/new"
+    for _ in $(seq "$RUNS"); do
+        render "$OLD" "$s" "$T/old.png" >> "$T/old"
+        render "$NEW" "$s" "$T/new.png" >> "$T/new"
+    done
+    same=$(cmp -s "$T/old.png" "$T/new.png" && echo same || echo DIFFERENT)
+    python3 - "$s" "$T/old" "$T/new" "$same" <<'PY'
+import statistics as st, sys
+name, old, new, same = sys.argv[1], *(list(map(float, open(f))) for f in sys.argv[2:4]), sys.argv[4]
+pairs = [b / a for a, b in zip(old, new)]
+print(f"| {name} | {st.median(old):.4f} | {st.median(new):.4f} | {st.median(pairs):.3f} | "
+      f"{min(new) / min(old):.3f} | {same} |")
+PY
+done
