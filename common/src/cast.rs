@@ -79,6 +79,10 @@ pub fn cast_tile<R: Real>(
     let mut rays = [PreparedRay::new(eye(tile.x, tile.y)); PACKET];
     let mut hits = [None; PACKET];
     let mut surfaces = [None; PACKET];
+    // Made once: every light's packet overwrites what it uses (occluded_packet writes every
+    // answer).
+    let mut shadow = rays;
+    let mut occ = [false; PACKET];
     for (bx, by, bw, bh) in tile.blocks() {
         let mut n = 0;
         for y in by..by + bh {
@@ -93,7 +97,6 @@ pub fn cast_tile<R: Real>(
             surfaces[i] = hits[i].map(|h| integrator.scene.surface(&rays[i].ray, &h));
         }
         for light in 0..lights {
-            let mut shadow = [rays[0]; PACKET];
             let mut k = 0;
             for i in 0..n {
                 let Some(s) = &surfaces[i] else { continue };
@@ -102,7 +105,6 @@ pub fn cast_tile<R: Real>(
                     k += 1;
                 }
             }
-            let mut occ = [false; PACKET];
             integrator.occluded_packet(&shadow[..k], &mut occ[..k], stats);
             stats.shadow_rays += k as u64;
             stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;
