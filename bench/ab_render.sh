@@ -22,22 +22,8 @@ RUNS=${RUNS:-5}
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 
-# CPU seconds (user + system) of one run, from wait4's rusage.
-cpu() {
-    python3 - "$@" <<'PY'
-import os, sys
-pid = os.fork()
-if pid == 0:
-    null = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(null, 1)
-    os.dup2(null, 2)
-    os.execvp(sys.argv[1], sys.argv[1:])
-_, status, usage = os.wait4(pid, 0)
-if os.waitstatus_to_exitcode(status) != 0:
-    sys.exit(1)
-print("%.4f" % (usage.ru_utime + usage.ru_stime))
-PY
-}
+# CPU seconds (user + system) of one run (bench/cpu_seconds.py).
+cpu() { python3 "$REPO/bench/cpu_seconds.py" "$@"; }
 render() { cpu "$1" render "$SHARED/spd/$2.nff" --threads 1 --width 512 --height 512 --max-depth 5 -o "$3"; }
 
 echo "| scene | old s (median) | new s (median) | new / old, paired median | fastest new / fastest old | image |"

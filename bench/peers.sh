@@ -37,23 +37,8 @@ if [ $# -eq 0 ]; then
     set -- mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5 jacks-4
 fi
 
-# CPU seconds (user + system) of one run of a command, from wait4's rusage (microseconds; GNU
-# time's %U/%S round to 10 ms, which is a third of the smallest scene's render).
-cpu() {
-    python3 - "$@" <<'PY' || { echo "failed: $*" >&2; return 1; }
-import os, sys
-pid = os.fork()
-if pid == 0:
-    null = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(null, 1)
-    os.dup2(null, 2)
-    os.execvp(sys.argv[1], sys.argv[1:])
-_, status, usage = os.wait4(pid, 0)
-if os.waitstatus_to_exitcode(status) != 0:
-    sys.exit(1)
-print("%.4f" % (usage.ru_utime + usage.ru_stime))
-PY
-}
+# CPU seconds (user + system) of one run of a command (bench/cpu_seconds.py).
+cpu() { python3 "$REPO/bench/cpu_seconds.py" "$@" || { echo "failed: $*" >&2; return 1; }; }
 # Wall seconds of one run of a command (for the 2-thread efficiency, where CPU time says nothing).
 wall() {
     python3 - "$@" <<'PY' || { echo "failed: $*" >&2; return 1; }
