@@ -22,8 +22,11 @@ pub const PACKET_DEPTH: u32 = 8;
 /// still goes as a packet. `parrt render` CPU time on the SPD scenes, A/B against one-by-one
 /// secondary rays, at 0.05, 0.15, 0.3 and no limit: 0.15 gained 5–20 % on mount, gears,
 /// teapot, shells and lattice and lost at most 2 % elsewhere; without a limit jacks lost 12 %
-/// (reflections off its curved arms share direction signs but fan out).
-pub const SECONDARY_SPREAD: f64 = 0.15;
+/// (reflections off its curved arms share direction signs but fan out). Measured again once a
+/// packet's rays tested leaves together (`bench/ab_render.sh`, 0.08, 0.15, 0.25, 0.35, 0.5 and
+/// 2): 0.35-0.5 is best; 0.35 against 0.15, 7 runs: shells 0.93, teapot 0.97, gears and mount
+/// 0.975, nothing slower; 0.08 costs mount 10 %, no limit costs jacks 12 % and balls 4 %.
+pub const SECONDARY_SPREAD: f64 = 0.35;
 
 /// Whether secondary rays point closely enough the same way to be traced as a packet
 /// ([`SECONDARY_SPREAD`]).
