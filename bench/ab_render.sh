@@ -9,8 +9,8 @@
 #   env:   RUNS (default 5), SHARED (default: ../shared beside the repository)
 #
 # For the least noise run it alone under `chrt -r 1` (root), e.g. copy the build before a
-# change to /tmp/parrt-old, rebuild, then
-#   chrt -r 1 bench/ab_render.sh /tmp/parrt-old target/release/parrt balls-4 tree-11
+# change to target/parrt-before, rebuild, then
+#   chrt -r 1 bench/ab_render.sh target/parrt-before target/release/parrt balls-4 tree-11
 set -euo pipefail
 [ $# -ge 2 ] || { sed -n '2,13p' "$0" >&2; exit 2; }
 REPO=$(cd "$(dirname "$0")/.." && pwd)
