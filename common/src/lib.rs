@@ -21,6 +21,7 @@
 
 pub mod accel;
 pub mod batch;
+pub mod bits;
 pub mod camera;
 pub mod cast;
 pub mod description;

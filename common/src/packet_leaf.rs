@@ -4,6 +4,7 @@
 //! at once, a ray per lane ([`crate::geometry::leaf16`]). The packet's rays are put into lanes
 //! once, when the first such leaf needs them; every ray gets exactly the one-ray test's answer.
 
+use crate::bits::SetBits;
 use std::any::{Any, TypeId};
 
 use crate::accel::RayPrimTest;
@@ -151,18 +152,12 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
                     // beyond the best so far never beats it, so offering each ray its hits in
                     // leaf order picks what the one-at-a-time loop picks.
                     let mut t_max = [0.0f32; LANES];
-                    let mut m = mask;
-                    while m != 0 {
-                        let i = m.trailing_zeros() as usize;
-                        m &= m - 1;
+                    for i in SetBits(mask) {
                         t_max[i] = best[i].t.to_f32();
                     }
                     for &p in leaf {
                         let h = run(scene, r32, lanes, p, mask, &t_max);
-                        let mut m = h.mask;
-                        while m != 0 {
-                            let i = m.trailing_zeros() as usize;
-                            m &= m - 1;
+                        for i in SetBits(h.mask) {
                             best[i].offer(Some(PrimHit {
                                 t: R::from_f32(h.t[i]),
                                 prim: p,
@@ -196,10 +191,7 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
                     let (mut open, mut blocked) = (mask, 0);
                     for (j, &p) in leaf.iter().enumerate() {
                         let new = run(scene, r32, lanes, p, open, &t_max).mask & open;
-                        let mut m = new;
-                        while m != 0 {
-                            let i = m.trailing_zeros() as usize;
-                            m &= m - 1;
+                        for i in SetBits(new) {
                             first[i] = j;
                         }
                         blocked |= new;

@@ -9,6 +9,7 @@
 //! precision is by type and folds away at compile time; the kernel is chosen at run time by
 //! CPU features.
 
+use crate::bits::SetBits;
 use std::any::Any;
 
 use crate::accel::{OneRay, RayPrimTest};
@@ -115,10 +116,8 @@ impl Gathered {
 
 /// Offers lane hits `m` of `leaf` to `best`, in lane order.
 #[inline(always)]
-fn offer<R: Real>(best: &mut Nearest<R>, leaf: &[u32], mut m: u32, (t, u, v): Lanes) {
-    while m != 0 {
-        let i = m.trailing_zeros() as usize;
-        m &= m - 1;
+fn offer<R: Real>(best: &mut Nearest<R>, leaf: &[u32], m: u32, (t, u, v): Lanes) {
+    for i in SetBits(m) {
         best.offer(Some(PrimHit {
             t: R::from_f32(t[i]),
             prim: leaf[i],
@@ -289,9 +288,7 @@ impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
                 }
             }
         }
-        while m != 0 {
-            let i = m.trailing_zeros() as usize;
-            m &= m - 1;
+        for i in SetBits(m) {
             self.closest(&rays[i], leaf, &mut best[i]);
         }
     }
@@ -326,9 +323,7 @@ impl<R: Real> RayPrimTest<R> for SceneLeaf<'_, R> {
                 }
             }
         }
-        while m != 0 {
-            let i = m.trailing_zeros() as usize;
-            m &= m - 1;
+        for i in SetBits(m) {
             let pr = &rays[i];
             if let Some(k) = self.any(pr, leaf, pr.ray.t_max) {
                 first[i] = k;
@@ -355,10 +350,7 @@ impl<R: Real> SceneLeaf<'_, R> {
         // leaf's primitives in order with the bounds the one-at-a-time loop gives it.
         for &p in leaf {
             let Some(Prim::Cone(cone)) = scene.prims.get(p as usize) else {
-                let mut m = which;
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize;
-                    m &= m - 1;
+                for i in SetBits(which) {
                     best[i].offer(self.test(&rays[i], p, best[i].t));
                 }
                 continue;
@@ -366,10 +358,7 @@ impl<R: Real> SceneLeaf<'_, R> {
             ray_groups(rays, which, |idx, group, used| {
                 let t_max = idx.map(|i| best[i].t.to_f32());
                 let h = cone4::intersect_rays4(cone, group, used, t_max);
-                let mut m = h.mask;
-                while m != 0 {
-                    let l = m.trailing_zeros() as usize;
-                    m &= m - 1;
+                for l in SetBits(h.mask) {
                     best[idx[l]].offer(Some(PrimHit {
                         t: R::from_f32(h.t[l]),
                         prim: p,
@@ -400,10 +389,7 @@ impl<R: Real> SceneLeaf<'_, R> {
                 break;
             }
             let Some(Prim::Cone(cone)) = scene.prims.get(p as usize) else {
-                let mut m = open;
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize;
-                    m &= m - 1;
+                for i in SetBits(open) {
                     if self.test(&rays[i], p, rays[i].ray.t_max).is_some() {
                         hit |= 1 << i;
                         first[i] = k;
@@ -414,10 +400,7 @@ impl<R: Real> SceneLeaf<'_, R> {
             ray_groups(rays, open, |idx, group, used| {
                 let t_max = idx.map(|i| rays[i].ray.t_max.to_f32());
                 let h = cone4::intersect_rays4(cone, group, used, t_max);
-                let mut m = h.mask;
-                while m != 0 {
-                    let l = m.trailing_zeros() as usize;
-                    m &= m - 1;
+                for l in SetBits(h.mask) {
                     hit |= 1 << idx[l];
                     first[idx[l]] = k;
                 }

@@ -11,6 +11,7 @@
 //! (a hit beyond the best so far never beats it, so testing all of a leaf with the bound it was
 //! entered with gives the same nearest hit); [`PrimTest::any`] names the first one hit.
 
+use crate::bits::SetBits;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 
@@ -72,10 +73,7 @@ pub trait RayPrimTest<R: Real> {
         prims: &[u32],
         best: &mut [Nearest<R>],
     ) {
-        let mut m = mask;
-        while m != 0 {
-            let i = m.trailing_zeros() as usize;
-            m &= m - 1;
+        for i in SetBits(mask) {
             self.closest(&rays[i], prims, &mut best[i]);
         }
     }
@@ -92,10 +90,7 @@ pub trait RayPrimTest<R: Real> {
         first: &mut [usize],
     ) -> u32 {
         let mut hit = 0;
-        let mut m = mask;
-        while m != 0 {
-            let i = m.trailing_zeros() as usize;
-            m &= m - 1;
+        for i in SetBits(mask) {
             let pr = &rays[i];
             if let Some(k) = self.any(pr, prims, pr.ray.t_max) {
                 first[i] = k;

@@ -19,6 +19,7 @@ use super::traverse::Stack;
 use super::wide::{is_leaf, leaf_range, ChildRef};
 use super::Bvh;
 use crate::accel::prim_test::{OneRay, RayPrimTest};
+use crate::bits::SetBits;
 use crate::geometry::slab16::RayLanes;
 use crate::geometry::slab4::Box4;
 use crate::geometry::slab_dispatch;
@@ -146,10 +147,7 @@ fn lane_box(b: &Box4, i: usize) -> ([f32; 3], [f32; 3]) {
 fn sorted_lanes<R: Real>(mask: u32, t: &[R; 4]) -> ([(R, usize); 4], usize) {
     let mut hits = [(R::ZERO, 0); 4];
     let mut k = 0;
-    let mut m = mask;
-    while m != 0 {
-        let i = m.trailing_zeros() as usize;
-        m &= m - 1;
+    for i in SetBits(mask) {
         let e = (t[i], i);
         let mut j = k;
         while j > 0 && e.0 < hits[j - 1].0 {
@@ -253,10 +251,7 @@ impl Bvh {
                 let before = best.map(|b| b.t);
                 test.closest_many(rays, enter, prims, &mut best);
                 let mut improved = false;
-                let mut m = enter;
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize;
-                    m &= m - 1;
+                for i in SetBits(enter) {
                     improved |= best[i].t != before[i];
                     reach_ray[i] = best[i].t + slack[i];
                 }
@@ -329,10 +324,7 @@ impl Bvh {
             let node = &self.nodes[cur as usize];
             box_tests += u64::from(node.used);
             let (mask, _) = frustum.test4(&node.bounds, reach_max);
-            let mut mask = mask & node.lanes();
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
+            for lane in SetBits(mask & node.lanes()) {
                 let c = node.child[lane];
                 if !is_leaf(c) {
                     stack.push(c, R::ZERO);
@@ -350,10 +342,7 @@ impl Bvh {
                 let blocked = test.any_many(rays, open, prims, &mut first);
                 // Counted as the one-at-a-time loop counts: up to the first hit.
                 prim_tests += u64::from((open & !blocked).count_ones()) * prims.len() as u64;
-                let mut m = blocked;
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize;
-                    m &= m - 1;
+                for i in SetBits(blocked) {
                     prim_tests += first[i] as u64 + 1;
                 }
                 done |= blocked;

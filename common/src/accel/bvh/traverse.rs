@@ -12,6 +12,7 @@ use super::build::STACK_SIZE;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
 use crate::accel::prim_test::PrimTest;
+use crate::bits::SetBits;
 use crate::geometry::slab4::SlabRay;
 use crate::geometry::slab_dispatch;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
@@ -66,10 +67,7 @@ fn sorted_hits<R: Real>(
 ) -> ([(R, ChildRef); 4], usize) {
     let mut hits = [(R::ZERO, 0); 4];
     let mut k = 0;
-    let mut m = mask;
-    while m != 0 {
-        let i = m.trailing_zeros() as usize;
-        m &= m - 1;
+    for i in SetBits(mask) {
         let e = (t[i], child[i]);
         let mut j = k;
         while j > 0 && e.0 < hits[j - 1].0 {
