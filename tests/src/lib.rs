@@ -29,3 +29,23 @@ pub use deliveries::Deliveries;
 pub mod dist;
 pub use dist::*;
 pub mod spd;
+
+/// A test scene of `shapes` seen through `view`: black background, no lights, every shape in
+/// one white material (what the hit-agreement tests need, which never shade).
+pub fn scene_of(
+    shapes: Vec<parrt::description::Shape>,
+    view: parrt::description::View,
+) -> parrt::description::SceneDescription {
+    use parrt::description::{Material, Primitive, SceneDescription};
+    use parrt::vec3::V3;
+    SceneDescription {
+        background: V3::new(0.0, 0.0, 0.0),
+        view,
+        lights: Vec::new(),
+        materials: vec![Material::default_white()],
+        primitives: shapes
+            .into_iter()
+            .map(|shape| Primitive { shape, material: 0 })
+            .collect(),
+    }
+}

@@ -6,7 +6,7 @@
 
 use parrt::accel::Accel;
 use parrt::camera::Camera;
-use parrt::description::{Material, Primitive, SceneDescription, Shape, View};
+use parrt::description::{SceneDescription, Shape, View};
 use parrt::geometry::{Aabb, PreparedRay, PrimHit, Ray};
 use parrt::real::Real;
 use parrt::render::Renderer;
@@ -14,6 +14,7 @@ use parrt::settings::{AccelKind, Precision, RenderSettings, DEFAULT_GRID_DENSITY
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
+use parrt_tests::scene_of;
 use parrt_tests::spd::{load, Trio, TrioStats, SMALL_SCENES};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -300,9 +301,9 @@ fn goldsmith_salmon_agrees_with_brute_force() {
 // ---- seeded random scenes ----
 
 fn describe(primitives: Vec<Shape>, from: Rv) -> SceneDescription {
-    SceneDescription {
-        background: v(0.0, 0.0, 0.0),
-        view: View {
+    scene_of(
+        primitives,
+        View {
             from,
             at: v(0.0, 0.0, 0.0),
             up: v(0.0, 0.0, 1.0),
@@ -311,13 +312,7 @@ fn describe(primitives: Vec<Shape>, from: Rv) -> SceneDescription {
             width: 64,
             height: 64,
         },
-        lights: Vec::new(),
-        materials: vec![Material::default_white()],
-        primitives: primitives
-            .into_iter()
-            .map(|shape| Primitive { shape, material: 0 })
-            .collect(),
-    }
+    )
 }
 
 /// A jittered height-field mesh (every inner edge shared by two triangles, every inner vertex by

@@ -5,11 +5,12 @@
 //! tested at most once per ray (mailbox), and the walk counts its cells.
 
 use parrt::accel::{Accel, Grid};
-use parrt::description::{Material, Primitive, SceneDescription, Shape, View};
+use parrt::description::{SceneDescription, Shape, View};
 use parrt::geometry::{PreparedRay, Ray};
 use parrt::real::Real;
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
+use parrt_tests::scene_of;
 use parrt_tests::spd::Trio;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -21,9 +22,9 @@ fn v(x: f64, y: f64, z: f64) -> Rv {
 }
 
 fn describe(primitives: Vec<Shape>) -> SceneDescription {
-    SceneDescription {
-        background: v(0.0, 0.0, 0.0),
-        view: View {
+    scene_of(
+        primitives,
+        View {
             from: v(3.0, -4.0, 2.0),
             at: v(0.0, 0.0, 0.0),
             up: v(0.0, 0.0, 1.0),
@@ -32,13 +33,7 @@ fn describe(primitives: Vec<Shape>) -> SceneDescription {
             width: 32,
             height: 32,
         },
-        lights: Vec::new(),
-        materials: vec![Material::default_white()],
-        primitives: primitives
-            .into_iter()
-            .map(|shape| Primitive { shape, material: 0 })
-            .collect(),
-    }
+    )
 }
 
 fn tri(a: Rv, b: Rv, c: Rv) -> Shape {

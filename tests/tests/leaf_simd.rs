@@ -11,7 +11,7 @@
 use parrt::accel::bvh::packet::PACKET;
 use parrt::accel::Accel;
 use parrt::camera::Camera;
-use parrt::description::{Material, Primitive, SceneDescription, Shape, View};
+use parrt::description::{SceneDescription, Shape, View};
 use parrt::geometry::{PreparedRay, Ray};
 use parrt::real::Real;
 use parrt::scene::{Prim, Scene};
@@ -19,6 +19,7 @@ use parrt::scene_leaf::SceneLeaf;
 use parrt::settings::{AccelKind, DEFAULT_GRID_DENSITY};
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
+use parrt_tests::scene_of;
 use parrt_tests::spd::{key, load, SMALL_SCENES};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -228,9 +229,9 @@ fn exact_edges_vertices_and_ties_agree() {
             }
         }
     }
-    let desc = SceneDescription {
-        background: V3::new(0.0, 0.0, 0.0),
-        view: View {
+    let desc = scene_of(
+        shapes,
+        View {
             from: V3::new(4.0, 4.0, 10.0),
             at: V3::new(4.0, 4.0, 0.0),
             up: V3::new(0.0, 1.0, 0.0),
@@ -239,13 +240,7 @@ fn exact_edges_vertices_and_ties_agree() {
             width: 64,
             height: 64,
         },
-        lights: Vec::new(),
-        materials: vec![Material::default_white()],
-        primitives: shapes
-            .into_iter()
-            .map(|shape| Primitive { shape, material: 0 })
-            .collect(),
-    };
+    );
     let scene = Scene::<f32>::build(&desc).expect("scene");
     let mut rays = Vec::new();
     // Straight down and slanted onto every half-integer point: vertices, edges, diagonals,
@@ -396,9 +391,9 @@ fn cone_leaves_agree_with_scalar() {
             shapes.push(cone(b, 0.2, e, 0.0));
         }
     }
-    let desc = SceneDescription {
-        background: V3::new(0.0, 0.0, 0.0),
-        view: View {
+    let desc = scene_of(
+        shapes,
+        View {
             from: V3::new(2.0, -12.0, 6.0),
             at: V3::new(0.0, 0.0, 4.0),
             up: V3::new(0.0, 0.0, 1.0),
@@ -407,13 +402,7 @@ fn cone_leaves_agree_with_scalar() {
             width: 64,
             height: 64,
         },
-        lights: Vec::new(),
-        materials: vec![Material::default_white()],
-        primitives: shapes
-            .into_iter()
-            .map(|shape| Primitive { shape, material: 0 })
-            .collect(),
-    };
+    );
     let scene = Scene::<f32>::build(&desc).expect("scene");
     assert!(cone_leaves(&scene) >= 15, "{}", cone_leaves(&scene));
     let mut rays = eye_rays::<f32>(&desc.view, 64);

@@ -9,13 +9,14 @@
 //! that miss, ranges ending before or exactly at a hit, and full, partial and single-ray masks.
 
 use parrt::accel::RayPrimTest;
-use parrt::description::{Material, Primitive, SceneDescription, Shape, View};
+use parrt::description::{Shape, View};
 use parrt::geometry::{Nearest, PreparedRay, Ray};
 use parrt::packet_leaf::PacketLeaf;
 use parrt::real::Real;
 use parrt::scene::{Prim, Scene};
 use parrt::scene_leaf::SceneLeaf;
 use parrt::vec3::V3;
+use parrt_tests::scene_of;
 use parrt_tests::spd::{key, load};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -298,9 +299,9 @@ fn packet_leaves_agree_on_exact_edges_vertices_and_ties() {
             }
         }
     }
-    let desc = SceneDescription {
-        background: V3::new(0.0, 0.0, 0.0),
-        view: View {
+    let desc = scene_of(
+        shapes,
+        View {
             from: V3::new(2.0, 2.0, 10.0),
             at: V3::new(2.0, 2.0, 0.0),
             up: V3::new(0.0, 1.0, 0.0),
@@ -309,13 +310,7 @@ fn packet_leaves_agree_on_exact_edges_vertices_and_ties() {
             width: 64,
             height: 64,
         },
-        lights: Vec::new(),
-        materials: vec![Material::default_white()],
-        primitives: shapes
-            .into_iter()
-            .map(|shape| Primitive { shape, material: 0 })
-            .collect(),
-    };
+    );
     let scene = Scene::<f32>::build(&desc).expect("scene");
     let mut rng = StdRng::seed_from_u64(18);
     let mut c = Covered::default();
