@@ -5,7 +5,7 @@
 //! (12 bytes a pixel). Either way the pixels are one byte blob, copied in and out without a
 //! per-value encoding step.
 
-use crate::film::{to_u8, unit, Rgb};
+use crate::film::{to_u8_into, unit, Rgb};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -80,7 +80,10 @@ impl TilePixels {
                     bytes.extend_from_slice(&v.to_le_bytes());
                 }
             }
-            PixelFormat::Rgb8 => bytes.extend(pixels.iter().flatten().map(|&v| to_u8(v))),
+            PixelFormat::Rgb8 => {
+                bytes.resize(pixels.len() * 3, 0);
+                to_u8_into(&mut bytes, pixels.as_flattened());
+            }
         }
         TilePixels { format, bytes }
     }
@@ -153,6 +156,7 @@ impl TilePixels {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::film::to_u8;
 
     #[test]
     fn every_byte_survives_the_round_trip_through_the_film() {
