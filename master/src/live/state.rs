@@ -8,7 +8,7 @@
 use super::limits::{EVENT_BACKLOG, KEPT_FAULTS};
 use crate::distributed::observer::Observer;
 use crate::distributed::scheduler::WorkerId;
-use parrt::film::{to_u8, Rgb};
+use parrt::film::{to_u8_into, Rgb};
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
 use serde::Serialize;
@@ -437,9 +437,7 @@ impl LiveState {
                     f.rgb.get_mut(at..at + w * 3),
                     pixels.get(y * w..(y + 1) * w),
                 ) {
-                    for (d, p) in dst.chunks_exact_mut(3).zip(src) {
-                        d.copy_from_slice(&[to_u8(p[0]), to_u8(p[1]), to_u8(p[2])]);
-                    }
+                    to_u8_into(dst, src.as_flattened());
                 }
             }
             // Which tile landed, for the server to encode (only while a page is open).
