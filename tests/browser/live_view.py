@@ -39,7 +39,9 @@ pixels to the right of its place. Either must make this test fail.
 Environment: LIVE_VIEW_SIZE (image side, default 768), LIVE_VIEW_WORK (seconds of one-thread
 work the render is sized to from a calibration render, default 20; it runs on two one-thread
 workers), LIVE_VIEW_SPP (samples per pixel, instead of the calibration), LIVE_VIEW_SHOTS (keep
-the screenshots there: mid-render.png, mid-render-later.png, finished.png).
+the screenshots there: mid-render.png, mid-render-later.png, finished.png), LIVE_VIEW_FULL_RATE
+(passed as --http-full-rate, in megapixels a second: set low, the tiles come as block means,
+which the mid-render checks then also accept, and must see; the end must still be exact).
 """
 
 import base64
@@ -252,24 +254,54 @@ def drawn(rgb, w, tile):
     return not any(all(r == u * tw for r in rows) for u in UNDRAWN)
 
 
-def compare(rgb, final, w, h):
+def block_means(final, w, tile, s):
+    """The tile of `final` (w wide) as the page draws it sent at scale s: each pixel the mean of
+    its s x s block (aligned to the tile's corner, cut at its edges), rounded half up."""
+    x, y, tw, th = tile
+    out = []
+    for j in range(th):
+        by = j // s * s
+        rows = range(y + by, y + min(by + s, th))
+        row = []
+        for i in range(tw):
+            bx = i // s * s
+            cols = range(x + bx, x + min(bx + s, tw))
+            n = len(rows) * len(cols)
+            for c in range(3):
+                v = sum(final[(yy * w + xx) * 3 + c] for yy in rows for xx in cols)
+                row.append((v + n // 2) // n)
+        out.append(bytes(row))
+    return out
+
+
+def compare(rgb, final, w, h, scales=(1,)):
     """(tiles drawn and equal to the PNG's within TOLERANCE, tiles not drawn, tiles wrong,
-    the largest channel difference in a drawn tile)."""
-    good = undrawn = wrong = worst = 0
+    the largest channel difference in a drawn tile, tiles drawn as block means): a drawn tile
+    is right if it equals the PNG's, or (for a scale s > 1 in `scales`) the PNG's s x s block
+    means, within TOLERANCE."""
+    good = undrawn = wrong = worst = coarse = 0
     for x, y, tw, th in tiles_of(w, h):
         rows = [((y + j) * w + x) * 3 for j in range(th)]
         mine = [rgb[o:o + tw * 3] for o in rows]
         if not drawn(rgb, w, (x, y, tw, th)):
             undrawn += 1
             continue
-        theirs = [final[o:o + tw * 3] for o in rows]
-        d = 0 if mine == theirs else max(abs(a - b) for m, t in zip(mine, theirs) for a, b in zip(m, t))
+        best = None
+        for s in scales:
+            theirs = [final[o:o + tw * 3] for o in rows] if s == 1 else block_means(final, w, (x, y, tw, th), s)
+            d = 0 if mine == theirs else max(abs(a - b) for m, t in zip(mine, theirs) for a, b in zip(m, t))
+            if best is None or d < best[0]:
+                best = (d, s)
+            if d == 0:
+                break
+        d, s = best
         worst = max(worst, d)
         if d <= TOLERANCE:
             good += 1
+            coarse += s > 1
         else:
             wrong += 1
-    return good, undrawn, wrong, worst
+    return good, undrawn, wrong, worst, coarse
 
 
 def image_box(shot):
@@ -327,6 +359,7 @@ def main():
     size = int(os.environ.get("LIVE_VIEW_SIZE", "768"))
     work = float(os.environ.get("LIVE_VIEW_WORK", "20"))
     shots = os.environ.get("LIVE_VIEW_SHOTS")
+    rate = os.environ.get("LIVE_VIEW_FULL_RATE", "")
     broken = os.environ.get("LIVE_VIEW_BREAK", "")
     if broken and broken not in BREAKS:
         raise Fail("LIVE_VIEW_BREAK=%s: one of %s" % (broken, ", ".join(BREAKS)))
@@ -347,8 +380,9 @@ def main():
         spp = min(max(round(work * 96 * 96 / (size * size * t)), 1), 256)
         say("calibration: %.4f s a sample for 96x96; %d samples per pixel" % (t, int(spp)))
     spp = int(spp)
-    say("image %dx%d, %d spp, %d-pixel tiles, %d one-thread workers%s"
-        % (size, size, spp, TILE, WORKERS, ", page broken: " + broken if broken else ""))
+    say("image %dx%d, %d spp, %d-pixel tiles, %d one-thread workers%s%s"
+        % (size, size, spp, TILE, WORKERS, ", page broken: " + broken if broken else "",
+           ", --http-full-rate " + rate if rate else ""))
     total = len(tiles_of(size, size))
     out_png = tmp + "/out.png"
 
@@ -370,7 +404,8 @@ def main():
             render = Render(parrt, ["--scene", "mount:4", "--width", str(size), "--height", str(size),
                                     "--spp", str(spp), "--tile", str(TILE), "--workers", str(WORKERS),
                                     "--threads", "1", "--http", "127.0.0.1:0", "--http-linger", "300",
-                                    "-o", out_png], tmp + "/render.err")
+                                    "-o", out_png] + (["--http-full-rate", rate] if rate else []),
+                            tmp + "/render.err")
 
             def url():
                 if render.proc.poll() is not None:
@@ -452,16 +487,19 @@ def main():
                 render.end()
 
     failures = []
+    mid_scales = (1, 2, 4, 8) if rate else (1,)
+    coarse_seen = 0
     shown = min(size, round(0.55 * WINDOW[0]))  # the page caps the image at 55 % of the window
     counts = []
     for name, c in (("capture 1 (mid-render)", first), ("capture 2 (mid-render)", second)):
         p = c.page
-        good, undrawn, wrong, worst = compare(c.rgb, final, size, size)
+        good, undrawn, wrong, worst, coarse = compare(c.rgb, final, size, size, mid_scales)
         n, blank, bw, bh, _ = shot_stats(c.shot)
         counts.append((good, blank))
-        print("%s: canvas %dx%d: %d tiles drawn, %d not, %d wrong (largest difference %d); "
-              "screenshot: image box %dx%d, %d/%d pixels not drawn"
-              % (name, p["width"], p["height"], good, undrawn, wrong, worst, bw, bh, blank, n))
+        coarse_seen += coarse
+        print("%s: canvas %dx%d: %d tiles drawn (%d as block means), %d not, %d wrong (largest "
+              "difference %d); screenshot: image box %dx%d, %d/%d pixels not drawn"
+              % (name, p["width"], p["height"], good, coarse, undrawn, wrong, worst, bw, bh, blank, n))
         check(p["state"] == "rendering" and 0 < p["done"] < p["total"] == total,
               "%s: the page says rendering, tiles between none and all" % name, failures)
         check(p["workers"] == WORKERS, "%s: one row per worker" % name, failures)
@@ -469,12 +507,15 @@ def main():
               "%s: the image box is on the page at about its size" % name, failures)
         check(0 < good < total and 0.02 * n < blank < 0.98 * n,
               "%s: part of the image is drawn, part is not (canvas and screenshot)" % name, failures)
-        check(wrong == 0, "%s: every tile drawn equals the PNG parrt wrote" % name, failures)
+        check(wrong == 0, "%s: every tile drawn equals the PNG parrt wrote%s"
+              % (name, " (or its block means)" if rate else ""), failures)
     held = [t for t in tiles_of(size, size) if not drawn(frame_at_first, size, t)]
     lost = [t for t in tiles_of(size, size) if drawn(frame_at_first, size, t) and not drawn(second.rgb, size, t)]
     print("tiles the server had at capture 1: %d; of them not drawn on the page at capture 2: %d %s"
           % (total - len(held), len(lost), [(x // TILE, y // TILE) for x, y, _, _ in lost[:12]]))
     check(not lost, "every tile the server had at capture 1 is drawn on the page at capture 2", failures)
+    if rate:
+        check(coarse_seen > 0, "mid-render, tiles are drawn as block means (the preview)", failures)
     print("between captures 1 and 2 (%.1f s): %d tiles events, %d reload events, %d loads of image.png"
           % (second.t1 - first.t0, n_tiles, n_reloads, n_loads))
     check(n_tiles > 0 and n_reloads == 0 and n_loads == 0,
@@ -483,7 +524,7 @@ def main():
           "more of the image is drawn at capture 2 than at 1 (canvas tiles %d -> %d, screenshot "
           "pixels not drawn %d -> %d)" % (counts[0][0], counts[1][0], counts[0][1], counts[1][1]), failures)
     p = end.page
-    good, undrawn, wrong, worst = compare(end.rgb, final, size, size)
+    good, undrawn, wrong, worst, _ = compare(end.rgb, final, size, size)
     n, blank, bw, bh, mean = shot_stats(end.shot)
     want = mean_rgb(final)
     print("capture 3 (end): canvas %dx%d: %d tiles equal the PNG, %d not drawn, %d wrong (largest "

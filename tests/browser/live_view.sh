@@ -9,7 +9,11 @@
 # (tests/tests/live_view.rs).
 #
 #   usage: tests/browser/live_view.sh [PARRT_BINARY]     (default: target/debug/parrt)
-#   LIVE_VIEW_SHOTS=DIR keeps the screenshots there (docs/live-view/ holds the committed ones).
+# It runs twice: with the default --http-full-rate (every tile drawn at full resolution) and
+# with --http-full-rate LIVE_VIEW_PREVIEW_RATE (default 0.02 megapixels a second, under the
+# render's pace: mid-render tiles come as block means, which must equal the PNG's).
+#   LIVE_VIEW_SHOTS=DIR keeps the screenshots there, the preview pass's in DIR/preview
+#   (docs/live-view/ holds the committed ones).
 #   LIVE_VIEW_BREAK=tiles|offset breaks the page's drawing of tiles: the test must then fail.
 # Needs root and apt (or chromium already installed); without them it prints why and exits 0.
 set -euo pipefail
@@ -36,14 +40,24 @@ if [ -z "$CHROME" ]; then
     [ -n "$CHROME" ] || skip "chromium installed no chromium command"
 fi
 
+# Two passes: tiles at full resolution (the default rate: this render lands far under it), then
+# with --http-full-rate low enough that mid-render tiles come as block means (the preview).
 T=$(mktemp -d /tmp/parrt-live-view.XXXXXX)
 trap 'rm -rf "$T"' EXIT
-# The driver ends Chromium and parrt itself on every path; `timeout` is the last resort.
-rc=0
-PYTHONDONTWRITEBYTECODE=1 timeout -k 10 300 python3 "$HERE/live_view.py" "$CHROME" "$BIN" "$T" || rc=$?
-if [ $rc != 0 ]; then
-    for f in render.err chrome.log; do
-        [ -s "$T/$f" ] && { echo "--- $f (last lines)" >&2; grep -v dbus "$T/$f" | tail -n 20 >&2; }
-    done
-    fail "the page did not show what it should (exit $rc)"
-fi
+for pass in full preview; do
+    mkdir -p "$T/$pass"
+    rate=
+    [ $pass = preview ] && rate=${LIVE_VIEW_PREVIEW_RATE:-0.02}
+    shots=${LIVE_VIEW_SHOTS:+$LIVE_VIEW_SHOTS${rate:+/preview}}
+    say "pass: $pass"
+    # The driver ends Chromium and parrt itself on every path; `timeout` is the last resort.
+    rc=0
+    PYTHONDONTWRITEBYTECODE=1 LIVE_VIEW_FULL_RATE=$rate LIVE_VIEW_SHOTS=$shots \
+        timeout -k 10 300 python3 "$HERE/live_view.py" "$CHROME" "$BIN" "$T/$pass" || rc=$?
+    if [ $rc != 0 ]; then
+        for f in render.err chrome.log; do
+            [ -s "$T/$pass/$f" ] && { echo "--- $f (last lines)" >&2; grep -v dbus "$T/$pass/$f" | tail -n 20 >&2; }
+        done
+        fail "the page did not show what it should in the $pass pass (exit $rc)"
+    fi
+done

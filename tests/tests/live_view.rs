@@ -311,6 +311,9 @@ fn bad_http_flags_are_usage_errors() {
         &["--http", "not an address"][..],
         &["--http", "127.0.0.1:0", "--http-linger", "-1"][..],
         &["--http-linger", "5"][..],
+        &["--http", "127.0.0.1:0", "--http-full-rate", "0"][..],
+        &["--http", "127.0.0.1:0", "--http-full-rate", "nan"][..],
+        &["--http-full-rate", "2"][..],
     ] {
         let out = Command::new(EXE)
             .args([
@@ -361,6 +364,31 @@ fn unbase64(s: &str) -> Vec<u8> {
 
 #[test]
 fn tiles_events_carry_the_written_pixels() {
+    // 12 288 pixels in about half a second: far under the full rate, every tile at full
+    // resolution.
+    let scales = tiles_events_against_the_written_image(&[]);
+    assert_eq!(scales.keys().copied().collect::<Vec<_>>(), [1]);
+}
+
+#[test]
+fn tiles_landing_faster_than_the_full_rate_carry_block_means() {
+    // 100 pixels a second at full resolution, 10 a 100-ms tick: one 16 × 16 tile (256 pixels)
+    // is already 16 at scale 4, so every tile goes at scale 8 (4 at a late tick), as block
+    // means.
+    let scales = tiles_events_against_the_written_image(&["--http-full-rate", "0.0001"]);
+    assert!(
+        !scales.contains_key(&1) && !scales.is_empty(),
+        "every tile coarse: {scales:?}"
+    );
+}
+
+/// Renders balls:2 at 128 × 96 on two workers with `--http` and `extra`, reads the event stream
+/// from before the first tile to the end, and checks every tile of every `tiles` event against
+/// the written PNG: the same pixels at scale 1, the means of the PNG's `s` × `s` blocks (cut at
+/// the tile's edges, rounded half up) at scale `s`. Returns how many tiles went at each scale.
+fn tiles_events_against_the_written_image(
+    extra: &[&str],
+) -> std::collections::BTreeMap<u32, usize> {
     let dir = tempfile::tempdir().unwrap();
     // Two workers: the stream is open while they start, before the first tile lands. Their
     // 48 tiles take at least 40 ms each on 4 threads: the render lasts half a second after
@@ -368,18 +396,16 @@ fn tiles_events_carry_the_written_pixels() {
     let job = [
         "--scene", "balls:2", "--width", "128", "--height", "96", "--tile", "16", "--spp", "4",
     ];
-    let r = start_render(
-        dir.path(),
-        &job,
-        &["--workers", "2", "--http", "127.0.0.1:0"],
-        Some(40),
-    );
+    let mut flags = vec!["--workers", "2", "--http", "127.0.0.1:0"];
+    flags.extend_from_slice(extra);
+    let r = start_render(dir.path(), &job, &flags, Some(40));
     let ev = events_until_done(&r.dial, "", Duration::from_secs(60));
     assert!(ev.contains("event: done"), "the stream reports the end");
     let ev = dechunk(&ev);
     r.written();
     let png = image::open(dir.path().join("out.png")).unwrap().to_rgb8();
     let mut seen = std::collections::BTreeSet::new();
+    let mut scales = std::collections::BTreeMap::new();
     let mut first_state = None;
     for e in ev.split("\n\n") {
         let mut lines = e.lines();
@@ -407,20 +433,37 @@ fn tiles_events_carry_the_written_pixels() {
                 .split(',')
                 .map(|n| n.parse().expect("a number"))
                 .collect();
-            let [x, y, w, h, sx, sy] = p[..] else {
-                panic!("x,y,w,h,sx,sy: {line}");
+            let (x, y, w, h, sx, sy, s) = match p[..] {
+                [x, y, w, h, sx, sy] => (x, y, w, h, sx, sy, 1),
+                [x, y, w, h, sx, sy, s] if s > 1 => (x, y, w, h, sx, sy, s),
+                _ => panic!("x,y,w,h,sx,sy[,scale]: {line}"),
             };
+            let (cw, ch) = (w.div_ceil(s), h.div_ceil(s));
             assert!(
-                sx + w <= sheet.width() && sy + h <= sheet.height(),
+                sx + cw <= sheet.width() && sy + ch <= sheet.height(),
                 "tile at {x},{y} is on the sheet"
             );
-            let tile = image::imageops::crop_imm(&sheet, sx, sy, w, h).to_image();
-            let want = image::imageops::crop_imm(&png, x, y, w, h).to_image();
+            let tile = image::imageops::crop_imm(&sheet, sx, sy, cw, ch).to_image();
+            let want = image::RgbImage::from_fn(cw, ch, |bx, by| {
+                let (x0, y0) = (x + bx * s, y + by * s);
+                let (x1, y1) = ((x0 + s).min(x + w), (y0 + s).min(y + h));
+                let n = (x1 - x0) * (y1 - y0);
+                let mut sum = [0u32; 3];
+                for py in y0..y1 {
+                    for px in x0..x1 {
+                        for (c, v) in png.get_pixel(px, py).0.iter().enumerate() {
+                            sum[c] += u32::from(*v);
+                        }
+                    }
+                }
+                image::Rgb(sum.map(|v| ((v + n / 2) / n) as u8))
+            });
             assert!(
                 tile == want,
-                "tile at {x},{y} differs from the written image"
+                "tile at {x},{y} (scale {s}) differs from the written image"
             );
             seen.insert((x, y));
+            *scales.entry(s).or_insert(0) += 1;
         }
     }
     assert!(
@@ -431,4 +474,5 @@ fn tiles_events_carry_the_written_pixels() {
     if first_state.as_deref() == Some("starting") {
         assert_eq!(seen.len(), 8 * 6, "open from the start, every tile is sent");
     }
+    scales
 }

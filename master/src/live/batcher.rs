@@ -3,9 +3,15 @@
 //! once, the same bytes sent to every page; more events for very many tiles), and the status,
 //! when it changed and was last sent at least [`STATUS_EVERY`] ago, one `status` (`done` once
 //! the render ended). With no page open it sleeps.
+//!
+//! Tiles go at full resolution while they land at up to the full rate (`--http-full-rate`,
+//! pixels a second); a tick whose tiles came faster sends them averaged over 2×2, 4×4 or 8×8
+//! blocks, the least coarse that brings them under the rate ([`preview_scale`]). What watching
+//! costs is so bounded by the rate, not by how fast the render runs; the page gets the whole
+//! image at full resolution when the render ends.
 
 use super::encode::{event, tiles_events, Scratch};
-use super::limits::{PUSH_EVERY, STATUS_EVERY};
+use super::limits::{MAX_PREVIEW_SCALE, PUSH_EVERY, STATUS_EVERY};
 use super::state::{LiveState, Phase};
 use std::sync::Arc;
 use tokio::time::Instant;
@@ -15,18 +21,25 @@ pub struct Batcher {
     state: Arc<LiveState>,
     sent_version: Option<u64>,
     status_at: Option<Instant>,
+    /// Pixels a second sent at full resolution.
+    full_rate: f64,
+    /// The last tick while a page was open (`None` after none was).
+    ticked: Option<Instant>,
     /// The landed tiles' pixels and the encoder's memory, kept from tick to tick.
     rgb: Vec<u8>,
     scratch: Scratch,
 }
 
 impl Batcher {
-    /// A batcher of `state`'s events.
-    pub fn new(state: Arc<LiveState>) -> Self {
+    /// A batcher of `state`'s events, sending tiles at full resolution up to `full_rate`
+    /// pixels a second.
+    pub fn new(state: Arc<LiveState>, full_rate: f64) -> Self {
         Batcher {
             state,
             sent_version: None,
             status_at: None,
+            full_rate,
+            ticked: None,
             rgb: Vec::new(),
             scratch: Scratch::default(),
         }
@@ -51,12 +64,20 @@ impl Batcher {
         let landed = self.state.take_landed(&mut self.rgb);
         if !self.state.watched() {
             self.sent_version = None;
+            self.ticked = None;
             return;
         }
+        let since = self
+            .ticked
+            .map_or(PUSH_EVERY, |t| now.duration_since(t))
+            .max(PUSH_EVERY);
+        self.ticked = Some(now);
         if landed.overflow {
             self.state.send(event("reload", "overflow"));
         } else {
-            for e in tiles_events(&landed.tiles, &self.rgb, &mut self.scratch) {
+            let pixels = landed.tiles.iter().map(|t| t.pixel_count()).sum();
+            let scale = preview_scale(pixels, since, self.full_rate);
+            for e in tiles_events(&landed.tiles, &self.rgb, scale, &mut self.scratch) {
                 self.state.send(e);
             }
         }
@@ -70,6 +91,18 @@ impl Batcher {
             self.state.send(status_event(&self.state));
         }
     }
+}
+
+/// The scale a tick sends `pixels` landed over `since` at: 1 (full resolution) when they came
+/// at up to `full_rate` pixels a second, else the least of 2, 4, … [`MAX_PREVIEW_SCALE`]
+/// that brings their `pixels / scale²` under it (the largest when none does).
+pub fn preview_scale(pixels: usize, since: std::time::Duration, full_rate: f64) -> u32 {
+    let budget = full_rate * since.as_secs_f64();
+    let mut scale = 1;
+    while scale < MAX_PREVIEW_SCALE && pixels as f64 > budget * f64::from(scale * scale) {
+        scale *= 2;
+    }
+    scale
 }
 
 /// The status as an event: `status`, or `done` once the render ended.
@@ -114,7 +147,7 @@ mod tests {
     fn one_tiles_event_per_tick_the_same_bytes_for_every_page() {
         let s = state();
         let (mut a, mut b) = (s.subscribe(), s.subscribe());
-        let mut batcher = Batcher::new(s.clone());
+        let mut batcher = Batcher::new(s.clone(), 1e6);
         let t0 = Instant::now();
         let list = parrt::tile::tiles(4, 2, 2);
         s.tile_done(0, &list[1], &[[1.0, 0.0, 0.0]; 4], 1);
@@ -125,7 +158,7 @@ mod tests {
         let tiles = crate::live::encode::tests::decode_tiles(&ta);
         let got: Vec<_> = tiles
             .iter()
-            .map(|(t, px)| ((t.x, t.y, t.w, t.h), &px[..]))
+            .map(|(t, _, px)| ((t.x, t.y, t.w, t.h), &px[..]))
             .collect();
         let (red, blue) = ([255, 0, 0].repeat(4), [0, 0, 255].repeat(4));
         assert_eq!(got, [((2, 0, 2, 2), &red[..]), ((0, 0, 2, 2), &blue[..])]);
@@ -142,10 +175,66 @@ mod tests {
     }
 
     #[test]
+    fn preview_scale_is_the_least_that_brings_the_tiles_under_the_full_rate() {
+        let tick = Duration::from_millis(100);
+        // At 1 Mpx/s, 100 000 pixels a tick go at full resolution, 4 × as many at 2, ...
+        for (pixels, since, want) in [
+            (0, tick, 1),
+            (100_000, tick, 1),
+            (100_001, tick, 2),
+            (400_000, tick, 2),
+            (400_001, tick, 4),
+            (1_600_001, tick, 8),
+            (usize::MAX, tick, MAX_PREVIEW_SCALE),
+            (400_000, 4 * tick, 1),
+        ] {
+            assert_eq!(
+                preview_scale(pixels, since, 1e6),
+                want,
+                "{pixels} in {since:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn tiles_that_land_too_fast_go_as_block_means() {
+        let s = state();
+        let mut rx = s.subscribe();
+        // 20 pixels a second at full resolution, 2 a tick: the two 2 × 2 tiles (8 pixels) go
+        // as one mean each (8 / 2² = 2).
+        let mut batcher = Batcher::new(s.clone(), 20.0);
+        let list = parrt::tile::tiles(4, 2, 2);
+        let one_red = [[1.0, 0.0, 0.0], [0.0; 3], [0.0; 3], [0.0; 3]];
+        s.tile_done(0, &list[0], &one_red, 1);
+        s.tile_done(0, &list[1], &[[0.0, 0.0, 1.0]; 4], 1);
+        let t0 = Instant::now();
+        batcher.tick(t0);
+        let tiles = crate::live::encode::tests::decode_tiles(&rx.try_recv().unwrap());
+        let got: Vec<_> = tiles
+            .iter()
+            .map(|(t, scale, px)| ((t.x, t.y, t.w, t.h), *scale, &px[..]))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                ((0, 0, 2, 2), 2, &[64, 0, 0][..]),
+                ((2, 0, 2, 2), 2, &[0, 0, 255][..])
+            ]
+        );
+        // One tile over four ticks' time: under the rate, at full resolution.
+        s.tile_done(0, &list[0], &one_red, 1);
+        while rx.try_recv().is_ok() {}
+        batcher.tick(t0 + Duration::from_millis(400));
+        let tiles = crate::live::encode::tests::decode_tiles(&rx.try_recv().unwrap());
+        assert_eq!(tiles.len(), 1);
+        assert_eq!((tiles[0].1, &tiles[0].2[..3]), (1, &[255, 0, 0][..]));
+    }
+
+    #[test]
     fn more_tiles_than_noted_make_the_pages_reload() {
         let s = state();
         let mut rx = s.subscribe();
-        let mut batcher = Batcher::new(s.clone());
+        let mut batcher = Batcher::new(s.clone(), 1e6);
         let tile = parrt::tile::tiles(4, 2, 2)[0];
         for _ in 0..3 {
             s.tile_done(0, &tile, &[[0.0; 3]; 4], 1);
@@ -160,7 +249,7 @@ mod tests {
     #[test]
     fn with_no_page_open_nothing_is_made() {
         let s = state();
-        let mut batcher = Batcher::new(s.clone());
+        let mut batcher = Batcher::new(s.clone(), 1e6);
         let tile = parrt::tile::tiles(4, 2, 2)[0];
         s.tile_done(0, &tile, &[[0.0; 3]; 4], 1);
         batcher.tick(Instant::now());

@@ -40,6 +40,7 @@ pub fn event(name: &str, data: &str) -> Bytes {
 pub struct Scratch {
     sheet: Vec<u8>,
     png: Vec<u8>,
+    coarse: Vec<u8>,
 }
 
 /// Where a tile sits on its event's sheet.
@@ -50,102 +51,176 @@ struct Placed {
 }
 
 /// The `tiles` events of `tiles` (whose 8-bit RGB pixels `rgb` holds row by row, one tile after
-/// the other, in `tiles` order): each event's first line is a PNG in base64 of a sheet of its
-/// tiles laid in rows, left to right in landing order, then a line `x,y,w,h,sx,sy` per tile:
-/// where it goes in the image and where it is on the sheet. A sheet is about square and at
-/// most [`SHEET_SIDE`] pixels a side (unless one tile is bigger); a larger batch is sent as
-/// several events. One PNG per sheet, fast compression. Square sheets instead of the tiles
-/// one under the other, on mount-8 at 1024² in 32-pixel tiles: 4.5 → 3.6 ms to encode a
-/// frame's batches and 8 % fewer bytes (the rows are ten times longer).
-pub fn tiles_events(tiles: &[Tile], rgb: &[u8], scratch: &mut Scratch) -> Vec<Bytes> {
-    sheets(tiles, rgb, scratch, SHEET_SIDE)
+/// the other, in `tiles` order), each tile sent at full resolution (`scale` 1) or averaged over
+/// blocks of `scale` × `scale` pixels (see [`coarsen`]): each event's first line is a PNG in
+/// base64 of a sheet of its tiles laid in rows, left to right in landing order, then a line
+/// `x,y,w,h,sx,sy` per tile (`x,y,w,h,sx,sy,scale` when `scale` > 1): where it goes in the image
+/// and where it is on the sheet, where it is `ceil(w / scale)` × `ceil(h / scale)`. A sheet is
+/// about square and at most [`SHEET_SIDE`] pixels a side (unless one tile is bigger); a larger
+/// batch is sent as several events. One PNG per sheet, fast compression. Square sheets instead
+/// of the tiles one under the other, on mount-8 at 1024² in 32-pixel tiles: 4.5 → 3.6 ms to
+/// encode a frame's batches and 8 % fewer bytes (the rows are ten times longer).
+pub fn tiles_events(tiles: &[Tile], rgb: &[u8], scale: u32, scratch: &mut Scratch) -> Vec<Bytes> {
+    sheets(tiles, rgb, scale, scratch, SHEET_SIDE)
 }
 
 /// [`tiles_events`] on sheets at most `side` pixels a side.
-fn sheets(tiles: &[Tile], rgb: &[u8], scratch: &mut Scratch, side: u32) -> Vec<Bytes> {
+fn sheets(tiles: &[Tile], rgb: &[u8], scale: u32, scratch: &mut Scratch, side: u32) -> Vec<Bytes> {
+    let scale = scale.max(1);
+    let mut coarse = std::mem::take(&mut scratch.coarse);
+    let rgb = if scale > 1 {
+        coarsen(tiles, rgb, scale, &mut coarse);
+        &coarse[..]
+    } else {
+        rgb
+    };
+    let sizes: Vec<(u32, u32)> = tiles
+        .iter()
+        .map(|t| (t.w.div_ceil(scale), t.h.div_ceil(scale)))
+        .collect();
     let mut events = Vec::new();
     let (mut first, mut at) = (0, 0);
     while first < tiles.len() {
-        let (end, width, height, places) = layout(&tiles[first..], side);
-        let chunk = &tiles[first..first + end];
-        let bytes: usize = chunk.iter().map(|t| t.pixel_count() * 3).sum();
+        let (end, width, height, places) = layout(&sizes[first..], side);
+        let range = first..first + end;
+        let bytes: usize = sizes[range.clone()]
+            .iter()
+            .map(|&(w, h)| w as usize * h as usize * 3)
+            .sum();
         let Some(px) = rgb.get(at..at + bytes) else {
             break;
         };
-        if let Some(e) = sheet_event(chunk, px, &places, width, height, scratch) {
+        let sheet = Sheet {
+            width,
+            height,
+            scale,
+            places: &places,
+            sizes: &sizes[range.clone()],
+        };
+        if let Some(e) = sheet.event(&tiles[range], px, scratch) {
             events.push(e);
         }
         (first, at) = (first + end, at + bytes);
     }
+    scratch.coarse = coarse;
     events
 }
 
-/// The first sheet of `tiles` (at least one tile): how many tiles it holds, its width and
-/// height, and where each of them sits. Rows ("shelves") as wide as the square root of the
-/// tiles' area (at least the widest tile, at most `max_side`), each as tall as its tallest
-/// tile; the sheet ends before a tile that would take it past `max_side` rows.
-fn layout(tiles: &[Tile], max_side: u32) -> (usize, u32, u32, Vec<Placed>) {
-    let area: u64 = tiles.iter().map(|t| t.pixel_count() as u64).sum();
-    let widest = tiles.iter().map(|t| t.w).max().unwrap_or(0);
+/// Replaces `out` with each tile's pixels (as [`tiles_events`] takes them) averaged over blocks
+/// of `s` × `s` pixels aligned to the tile's corner, fewer at its right and bottom edges, each
+/// channel's mean rounded half up: a tile `ceil(w / s)` × `ceil(h / s)`. Stops at a tile `rgb`
+/// does not hold.
+pub fn coarsen(tiles: &[Tile], rgb: &[u8], s: u32, out: &mut Vec<u8>) {
+    out.clear();
+    let s = s.max(1) as usize;
+    let mut columns: Vec<u32> = Vec::new();
+    let mut at = 0;
+    for t in tiles {
+        let (w, h) = (t.w as usize, t.h as usize);
+        let Some(px) = rgb.get(at..at + w * h * 3) else {
+            return;
+        };
+        at += w * h * 3;
+        for top in (0..h).step_by(s) {
+            let rows = (h - top).min(s);
+            // The block row's columns summed down (a loop the compiler vectorizes), then
+            // each block's columns summed across.
+            columns.clear();
+            columns.resize(w * 3, 0);
+            for row in px[top * w * 3..(top + rows) * w * 3].chunks_exact(w * 3) {
+                for (c, &v) in columns.iter_mut().zip(row) {
+                    *c += u32::from(v);
+                }
+            }
+            for block in columns.chunks(s * 3) {
+                let n = (rows * block.len() / 3) as u32;
+                for c in 0..3 {
+                    let v: u32 = block[c..].iter().step_by(3).sum();
+                    out.push(((v + n / 2) / n) as u8);
+                }
+            }
+        }
+    }
+}
+
+/// The first sheet of tiles of `sizes` (width and height on the sheet, at least one tile): how
+/// many tiles it holds, its width and height, and where each of them sits. Rows ("shelves") as
+/// wide as the square root of the tiles' area (at least the widest tile, at most `max_side`),
+/// each as tall as its tallest tile; the sheet ends before a tile that would take it past
+/// `max_side` rows.
+fn layout(sizes: &[(u32, u32)], max_side: u32) -> (usize, u32, u32, Vec<Placed>) {
+    let area: u64 = sizes
+        .iter()
+        .map(|&(w, h)| u64::from(w) * u64::from(h))
+        .sum();
+    let widest = sizes.iter().map(|&(w, _)| w).max().unwrap_or(0);
     let side = ((area as f64).sqrt().ceil() as u32).min(max_side);
     let row_width = side.max(widest);
     let (mut x, mut y, mut shelf, mut width) = (0u32, 0u32, 0u32, 0u32);
-    let mut places = Vec::with_capacity(tiles.len());
-    for t in tiles {
-        if x > 0 && x + t.w > row_width {
+    let mut places = Vec::with_capacity(sizes.len());
+    for &(w, h) in sizes {
+        if x > 0 && x + w > row_width {
             (x, y, shelf) = (0, y + shelf, 0);
         }
-        if !places.is_empty() && y + t.h.max(shelf) > max_side {
+        if !places.is_empty() && y + h.max(shelf) > max_side {
             break;
         }
         places.push(Placed { sx: x, sy: y });
-        x += t.w;
-        shelf = shelf.max(t.h);
+        x += w;
+        shelf = shelf.max(h);
         width = width.max(x);
     }
     (places.len(), width, y + shelf, places)
 }
 
-/// One `tiles` event of `tiles` (pixels `rgb`) placed at `places` on a `width` × `height`
-/// sheet; `None` if the PNG cannot be made (not for tiles of an image's own size: the page
-/// gets them with the final image).
-fn sheet_event(
-    tiles: &[Tile],
-    rgb: &[u8],
-    places: &[Placed],
+/// One sheet of a batch: its size, the scale its tiles are sent at, and where each of its
+/// tiles sits and how big it is there.
+struct Sheet<'a> {
     width: u32,
     height: u32,
-    scratch: &mut Scratch,
-) -> Option<Bytes> {
-    let row = width as usize * 3;
-    let sheet = &mut scratch.sheet;
-    sheet.clear();
-    sheet.resize(row * height as usize, 0);
-    let mut src = 0;
-    for (t, p) in tiles.iter().zip(places) {
-        let n = t.w as usize * 3;
-        let mut dst = p.sy as usize * row + p.sx as usize * 3;
-        for _ in 0..t.h {
-            sheet[dst..dst + n].copy_from_slice(rgb.get(src..src + n)?);
-            (src, dst) = (src + n, dst + row);
+    scale: u32,
+    places: &'a [Placed],
+    sizes: &'a [(u32, u32)],
+}
+
+impl Sheet<'_> {
+    /// The `tiles` event of `tiles` (pixels `rgb`, at the sheet's scale); `None` if the PNG
+    /// cannot be made (not for tiles of an image's own size: the page gets them with the final
+    /// image).
+    fn event(&self, tiles: &[Tile], rgb: &[u8], scratch: &mut Scratch) -> Option<Bytes> {
+        let row = self.width as usize * 3;
+        let sheet = &mut scratch.sheet;
+        sheet.clear();
+        sheet.resize(row * self.height as usize, 0);
+        let mut src = 0;
+        for (&(w, h), p) in self.sizes.iter().zip(self.places) {
+            let n = w as usize * 3;
+            let mut dst = p.sy as usize * row + p.sx as usize * 3;
+            for _ in 0..h {
+                sheet[dst..dst + n].copy_from_slice(rgb.get(src..src + n)?);
+                (src, dst) = (src + n, dst + row);
+            }
         }
+        let png = &mut scratch.png;
+        png.clear();
+        png_into(sheet, self.width, self.height, png).ok()?;
+        let mut out = String::with_capacity(32 + png.len().div_ceil(3) * 4 + tiles.len() * 32);
+        out.push_str("event: tiles\ndata: ");
+        base64_into(png, &mut out);
+        for (t, p) in tiles.iter().zip(self.places) {
+            use std::fmt::Write;
+            let _ = write!(
+                out,
+                "\ndata: {},{},{},{},{},{}",
+                t.x, t.y, t.w, t.h, p.sx, p.sy
+            );
+            if self.scale > 1 {
+                let _ = write!(out, ",{}", self.scale);
+            }
+        }
+        out.push_str("\n\n");
+        Some(Bytes::from(out))
     }
-    let png = &mut scratch.png;
-    png.clear();
-    png_into(sheet, width, height, png).ok()?;
-    let mut out = String::with_capacity(32 + png.len().div_ceil(3) * 4 + tiles.len() * 32);
-    out.push_str("event: tiles\ndata: ");
-    base64_into(png, &mut out);
-    for (t, p) in tiles.iter().zip(places) {
-        use std::fmt::Write;
-        let _ = write!(
-            out,
-            "\ndata: {},{},{},{},{},{}",
-            t.x, t.y, t.w, t.h, p.sx, p.sy
-        );
-    }
-    out.push_str("\n\n");
-    Some(Bytes::from(out))
 }
 
 /// Appends a PNG of `w` × `h` 8-bit RGB pixels to `out`.
@@ -179,8 +254,9 @@ pub(crate) mod tests {
         out
     }
 
-    /// The tiles an event carries: each one's rectangle and pixels, cut from the sheet.
-    pub fn decode_tiles(event: &[u8]) -> Vec<(Tile, Vec<u8>)> {
+    /// The tiles an event carries: each one's rectangle in the image, its scale and its pixels
+    /// as sent, cut from the sheet.
+    pub fn decode_tiles(event: &[u8]) -> Vec<(Tile, u32, Vec<u8>)> {
         let text = std::str::from_utf8(event).expect("text");
         let mut lines = text.lines();
         assert_eq!(lines.next(), Some("event: tiles"));
@@ -200,17 +276,20 @@ pub(crate) mod tests {
                 .split(',')
                 .map(|n| n.parse().expect("a number"))
                 .collect();
-            let [x, y, w, h, sx, sy] = v[..] else {
-                panic!("x,y,w,h,sx,sy: {line}");
+            let (x, y, w, h, sx, sy, scale) = match v[..] {
+                [x, y, w, h, sx, sy] => (x, y, w, h, sx, sy, 1),
+                [x, y, w, h, sx, sy, s] if s > 1 => (x, y, w, h, sx, sy, s),
+                _ => panic!("x,y,w,h,sx,sy[,scale]: {line}"),
             };
+            let (cw, ch) = (w.div_ceil(scale), h.div_ceil(scale));
             assert!(
-                sx + w <= sheet.width() && sy + h <= sheet.height(),
+                sx + cw <= sheet.width() && sy + ch <= sheet.height(),
                 "on the sheet"
             );
-            let px = image::imageops::crop_imm(&sheet, sx, sy, w, h).to_image();
-            covered += w * h;
+            let px = image::imageops::crop_imm(&sheet, sx, sy, cw, ch).to_image();
+            covered += cw * ch;
             let tile = Tile { id: 0, x, y, w, h };
-            out.push((tile, px.into_raw()));
+            out.push((tile, scale, px.into_raw()));
         }
         assert!(covered <= sheet.width() * sheet.height());
         out
@@ -241,7 +320,7 @@ pub(crate) mod tests {
                     rgb.extend_from_slice(&img[at..at + t.w as usize * 3]);
                 }
             }
-            let events = super::sheets(&list, &rgb, &mut Scratch::default(), side);
+            let events = super::sheets(&list, &rgb, 1, &mut Scratch::default(), side);
             assert_eq!(
                 events.len(),
                 sheets,
@@ -258,14 +337,60 @@ pub(crate) mod tests {
                     "{side}-px sheets"
                 );
             }
-            let got: Vec<(Tile, Vec<u8>)> = events.iter().flat_map(|e| decode_tiles(e)).collect();
+            let got: Vec<(Tile, u32, Vec<u8>)> =
+                events.iter().flat_map(|e| decode_tiles(e)).collect();
             assert_eq!(got.len(), list.len());
             let mut at = 0;
-            for ((t, px), want) in got.iter().zip(&list) {
+            for ((t, scale, px), want) in got.iter().zip(&list) {
                 assert_eq!((t.x, t.y, t.w, t.h), (want.x, want.y, want.w, want.h));
+                assert_eq!(*scale, 1);
                 let n = want.pixel_count() * 3;
                 assert_eq!(px[..], rgb[at..at + n], "tile at {},{}", t.x, t.y);
                 at += n;
+            }
+        }
+    }
+
+    /// Tiles sent at scale `s`: each sheet tile is the block means of the tile's pixels, blocks
+    /// cut short at the right and bottom edges, means rounded half up.
+    #[test]
+    fn coarse_tiles_carry_block_means() {
+        // A 7 × 5 image in tiles of 4: widths 4 and 3, heights 4 and 1.
+        let (w, h) = (7usize, 5usize);
+        let img: Vec<u8> = (0..w * h * 3).map(|i| (i * 37 % 256) as u8).collect();
+        let list = parrt::tile::tiles(w as u32, h as u32, 4);
+        let mut rgb = Vec::new();
+        for t in &list {
+            for y in t.y..t.y + t.h {
+                let at = (y as usize * w + t.x as usize) * 3;
+                rgb.extend_from_slice(&img[at..at + t.w as usize * 3]);
+            }
+        }
+        for s in [2u32, 4, 8] {
+            let events = super::sheets(&list, &rgb, s, &mut Scratch::default(), SHEET_SIDE);
+            let got: Vec<_> = events.iter().flat_map(|e| decode_tiles(e)).collect();
+            assert_eq!(got.len(), list.len());
+            for ((t, scale, px), want) in got.iter().zip(&list) {
+                assert_eq!(
+                    (t.x, t.y, t.w, t.h, *scale),
+                    (want.x, want.y, want.w, want.h, s)
+                );
+                let mut mean = Vec::new();
+                for by in (t.y..t.y + t.h).step_by(s as usize) {
+                    for bx in (t.x..t.x + t.w).step_by(s as usize) {
+                        let (ys, xs) = (by..(by + s).min(t.y + t.h), bx..(bx + s).min(t.x + t.w));
+                        let n = (ys.len() * xs.len()) as u32;
+                        for c in 0..3 {
+                            let sum: u32 = ys
+                                .clone()
+                                .flat_map(|y| xs.clone().map(move |x| (y, x)))
+                                .map(|(y, x)| u32::from(img[(y as usize * w + x as usize) * 3 + c]))
+                                .sum();
+                            mean.push(((sum + n / 2) / n) as u8);
+                        }
+                    }
+                }
+                assert_eq!(*px, mean, "tile at {},{} at scale {s}", t.x, t.y);
             }
         }
     }

@@ -16,6 +16,15 @@ pub const PUSH_EVERY: Duration = Duration::from_millis(100);
 /// tile is bigger; a bigger batch is sent as several events. Far under what browsers decode.
 pub const SHEET_SIDE: u32 = 4096;
 
+/// Pixels a second sent to the pages at full resolution unless `--http-full-rate` says
+/// otherwise: a render of 2 megapixels that takes 4 s or more is shown at full resolution as
+/// it runs; faster ones as a preview (the measurements behind it: `docs/live-view.md`).
+pub const FULL_RATE: f64 = 0.5e6;
+
+/// The coarsest preview: tiles landing too fast for the full rate are sent averaged over
+/// blocks of at most this many pixels a side.
+pub const MAX_PREVIEW_SCALE: u32 = 8;
+
 /// How often the open pages are sent the status (when it changed).
 pub const STATUS_EVERY: Duration = Duration::from_millis(250);
 

@@ -12,7 +12,8 @@
 //!   reloads).
 //! - [`auth`]: who may see it: anyone on loopback, only holders of the token elsewhere.
 //! - [`limits`]: the server's limits.
-//! - [`encode`]: the bytes of the events (a batch of tiles as one PNG, in base64).
+//! - [`encode`]: the bytes of the events (a batch of tiles as one PNG, in base64, at full
+//!   resolution or averaged over blocks when tiles land faster than `--http-full-rate`).
 //! - `page.html`: the page (HTML and plain JavaScript, served as it is).
 
 pub mod auth;
@@ -39,6 +40,12 @@ pub struct LiveArgs {
     /// (Ctrl-C ends it sooner).
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, requires = "http")]
     pub http_linger: f64,
+    /// With --http: send tiles to the page at full resolution while they land at up to this
+    /// many megapixels a second; tiles landing faster are sent averaged over 2×2, 4×4 or 8×8
+    /// blocks, so that watching costs the render little however fast it runs. The image at
+    /// the end (and image.png) is always full resolution.
+    #[arg(long, value_name = "MPIXELS", default_value_t = limits::FULL_RATE / 1e6, requires = "http")]
+    pub http_full_rate: f64,
 }
 
 /// A live view serving one render: its state (to feed) and its server.
@@ -66,6 +73,12 @@ impl Live {
                 limits::MAX_LINGER.as_secs()
             )));
         }
+        let rate = args.http_full_rate;
+        if !rate.is_finite() || rate <= 0.0 || rate > 1e6 {
+            return Err(input_error(anyhow::anyhow!(
+                "--http-full-rate {rate}: must be more than 0 and at most 1000000 megapixels a second"
+            )));
+        }
         let addr = http
             .to_socket_addrs()
             .ok()
@@ -85,7 +98,7 @@ impl Live {
             None => None,
         };
         let state = std::sync::Arc::new(LiveState::empty());
-        let view = LiveView::start(&addr.to_string(), state.clone(), token)?;
+        let view = LiveView::start(&addr.to_string(), state.clone(), token, rate * 1e6)?;
         eprintln!("parrt: live view at {}", view.url());
         Ok(Some(Live {
             state,

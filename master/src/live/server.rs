@@ -51,9 +51,15 @@ pub struct LiveView {
 }
 
 impl LiveView {
-    /// Binds `addr` and serves `state` from a thread of its own. `token` is required from
-    /// clients when `addr` is not loopback (an error without one).
-    pub fn start(addr: &str, state: Arc<LiveState>, token: Option<&[u8]>) -> anyhow::Result<Self> {
+    /// Binds `addr` and serves `state` from a thread of its own, tiles at full resolution up
+    /// to `full_rate` pixels a second. `token` is required from clients when `addr` is not
+    /// loopback (an error without one).
+    pub fn start(
+        addr: &str,
+        state: Arc<LiveState>,
+        token: Option<&[u8]>,
+        full_rate: f64,
+    ) -> anyhow::Result<Self> {
         let listener = std::net::TcpListener::bind(addr)
             .with_context(|| format!("--http {addr}: cannot listen"))?;
         let bound = listener.local_addr().context("--http: no local address")?;
@@ -108,7 +114,7 @@ impl LiveView {
                             return;
                         }
                     };
-                    tokio::spawn(Batcher::new(app.state.clone()).run());
+                    tokio::spawn(Batcher::new(app.state.clone(), full_rate).run());
                     let router = Router::new()
                         .route("/", get(page))
                         .route("/status", get(status))
