@@ -31,7 +31,8 @@
 # Usage: bench/live_view_overhead.sh [REPS] [CLIENTS] [-- RENDER ARGS...]
 #   default render: --scene mount:8 --width 1024 --height 1024 --threads 2
 #   PARRT_BIN: target/release/parrt; KIND: read, slow or stuck; SLOW_RATE: 100k;
-#   CLIENT_SCHED: same (default) or idle
+#   CLIENT_SCHED: same (default) or idle; HTTP_ARGS: more flags for the --http renders, e.g.
+#   "--http-full-rate 0.5"
 set -euo pipefail
 reps=${1:-5}
 clients=${2:-10}
@@ -40,6 +41,7 @@ shift 2 || true
 args=("$@")
 [ ${#args[@]} -gt 0 ] || args=(--scene mount:8 --width 1024 --height 1024 --threads 2)
 bin=${PARRT_BIN:-target/release/parrt}
+read -r -a http_args <<< "${HTTP_ARGS:-}"
 kind=${KIND:-read}
 case $kind in read | slow | stuck) ;; *) echo "KIND must be read, slow or stuck" >&2; exit 2 ;; esac
 case ${CLIENT_SCHED:-same} in
@@ -87,7 +89,7 @@ run_http() { # run_http CLIENTS
     exec 4<&-
     rm -f "$T/errpipe"; mkfifo "$T/errpipe"
     "$bin" render "${args[@]}" -o "$T/o.png" --stats-json "$T/s.json" \
-        --http 127.0.0.1:0 --http-linger 1 2>"$T/errpipe" &
+        --http 127.0.0.1:0 --http-linger 1 "${http_args[@]}" 2>"$T/errpipe" &
     local pid=$! url= c0=0 line
     # The address as soon as it is printed (blocking reads of a FIFO, no polling).
     exec 3<"$T/errpipe"
