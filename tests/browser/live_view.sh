@@ -10,7 +10,7 @@
 #
 #   usage: tests/browser/live_view.sh [PARRT_BINARY]     (default: target/debug/parrt)
 # It runs twice: with the default --http-full-rate (every tile drawn at full resolution) and
-# with --http-full-rate LIVE_VIEW_PREVIEW_RATE (default 0.02 megapixels a second, under the
+# with --http-full-rate LIVE_VIEW_PREVIEW_RATE (default 0.005 megapixels a second, far under the
 # render's pace: mid-render tiles come as block means, which must equal the PNG's).
 #   LIVE_VIEW_SHOTS=DIR keeps the screenshots there, the preview pass's in DIR/preview
 #   (docs/live-view/ holds the committed ones).
@@ -47,7 +47,7 @@ trap 'rm -rf "$T"' EXIT
 for pass in full preview; do
     mkdir -p "$T/$pass"
     rate=
-    [ $pass = preview ] && rate=${LIVE_VIEW_PREVIEW_RATE:-0.02}
+    [ $pass = preview ] && rate=${LIVE_VIEW_PREVIEW_RATE:-0.005}
     shots=${LIVE_VIEW_SHOTS:+$LIVE_VIEW_SHOTS${rate:+/preview}}
     say "pass: $pass"
     # The driver ends Chromium and parrt itself on every path; `timeout` is the last resort.
