@@ -213,8 +213,9 @@ mod tests {
 
     /// Rays aimed at points near the surface, just inside and just outside it, from near and
     /// far, at cylinders and cones small and large, in f32 and f64: the quick miss test never
-    /// turns away a ray the full test hits (it only saves work), and it does turn most far
-    /// misses away.
+    /// turns away a ray the full test hits (it only saves work), and it does turn misses away
+    /// (over a thousand of each precision's 20 000 rays; most of the other misses pass the
+    /// axis within the radius beyond an end, or meet a long cone's wide margin).
     #[test]
     fn the_quick_miss_test_never_changes_a_result() {
         use rand::{Rng, SeedableRng};
@@ -259,8 +260,8 @@ mod tests {
                     target + v(rng, away)
                 } else {
                     // Across the axis, so the line's closest approach to it is at the target.
-                    let across = (u * -phi.sin() + w * phi.cos()) * phi.cos().signum()
-                        + c64.axis * rng.gen_range(-2.0..2.0);
+                    let across =
+                        u * -phi.sin() + w * phi.cos() + c64.axis * rng.gen_range(-2.0..2.0);
                     target - across.normalize() * away
                 };
                 let to = |p: V3<f64>| V3::new(R::from_f64(p.x), R::from_f64(p.y), R::from_f64(p.z));
