@@ -1,6 +1,7 @@
 //! Open truncated cones and cylinders (no caps). The quadratic is solved in a frame moved to the
 //! ray's closest approach to the cone's centre, so distant rays keep their precision; hit points
-//! are re-projected onto the surface.
+//! are re-projected onto the surface. Rays whose line passes the axis well outside the largest
+//! radius are turned away first, without a division or a square root.
 
 use super::ray::Ray;
 use crate::real::Real;
