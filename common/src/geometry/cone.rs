@@ -265,14 +265,17 @@ mod tests {
                         u * -phi.sin() + w * phi.cos() + c64.axis * rng.gen_range(-2.0..2.0);
                     target - across.normalize() * away
                 };
-                let to = |p: V3<f64>| V3::new(R::from_f64(p.x), R::from_f64(p.y), R::from_f64(p.z));
-                let Some(c) = Cone::new(to(base), R::from_f64(r0), to(apex), R::from_f64(r1))
-                else {
+                let Some(c) = Cone::new(
+                    V3::from_f64(base),
+                    R::from_f64(r0),
+                    V3::from_f64(apex),
+                    R::from_f64(r1),
+                ) else {
                     continue;
                 };
                 let ray = Ray {
-                    o: to(o),
-                    d: to((target - o).normalize()),
+                    o: V3::from_f64(o),
+                    d: V3::from_f64((target - o).normalize()),
                     t_min: R::ZERO,
                     t_max: R::from_f64(f64::INFINITY),
                 };
