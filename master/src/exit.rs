@@ -31,7 +31,7 @@ pub fn code_for(e: &anyhow::Error) -> u8 {
 
 /// A distributed render's error for the command line: bad input (a wrong checkpoint, a listen
 /// address that does not resolve, ...) exits 2, anything else 1.
-pub fn dist_error(e: crate::distributed::DistError) -> anyhow::Error {
+pub fn dist_error(e: parrt_runtime::DistError) -> anyhow::Error {
     if e.is_bad_input() {
         input_error(e)
     } else {

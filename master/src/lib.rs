@@ -4,11 +4,12 @@
 //! - [`cli`]: argument definitions and dispatch; `main.rs` only calls [`cli::main`].
 //! - [`commands`]: one module per subcommand (`render`, `info`, `scene`, `master`, `worker`,
 //!   `cluster`, `bench`).
-//! - [`distributed`]: the master side of distributed rendering (server, scheduler, workers).
+//! - the master side of distributed rendering is the `parrt_runtime` crate (`master/runtime`);
+//!   [`distributed`] names it here.
+//! - [`progress`]: the one progress bar (an observer of the runtime, fed by the SMP path).
 //! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
 //! - [`plot`]: charts (SVG and PNG) for the studies.
 //! - [`timeline`]: per-tile timelines of renders (`--timeline`) and their plots.
-//! - [`cpu_time`]: thread and process CPU clocks (benchmarks, the master's own cost).
 //! - [`live`]: the live view in a browser (`--http`).
 //! - [`exit`]: how errors map to exit codes (2 bad input or usage, 1 anything else).
 #![deny(missing_docs)]
@@ -16,9 +17,10 @@
 pub mod accuracy;
 pub mod cli;
 pub mod commands;
-pub mod cpu_time;
-pub mod distributed;
+pub use parrt_runtime as distributed;
+pub use parrt_runtime::cpu_time;
 pub mod exit;
 pub mod live;
 pub mod plot;
+pub mod progress;
 pub mod timeline;

@@ -5,8 +5,8 @@
 use parrt::film::Rgb;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
-use parrt_master::distributed::observer::{Observer, Observers};
-use parrt_master::distributed::scheduler::WorkerId;
+use parrt_runtime::observer::{Observer, Observers};
+use parrt_runtime::scheduler::WorkerId;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

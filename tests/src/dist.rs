@@ -9,7 +9,7 @@ use parrt::settings::RenderSettings;
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt::stats::RayStats;
 use parrt::vec3::Vec3d;
-use parrt_master::distributed::{DistOptions, DistResult, Master};
+use parrt_runtime::{DistResult, Master, MasterConfig};
 use parrt_worker::session::SessionSummary;
 use parrt_worker::{WorkerError, WorkerOptions};
 use std::net::SocketAddr;
@@ -149,15 +149,13 @@ pub fn assert_same_bits(a: &Film, b: &Film, what: &str) {
 }
 
 /// Test-friendly master options: loopback, a free port, the test token, no progress bar.
-pub fn test_options(tile: u32) -> DistOptions {
-    DistOptions {
-        tile,
-        listen: "127.0.0.1:0".into(),
-        token: Some(token()),
-        wait_workers: Duration::from_secs(20),
-        progress: false,
-        ..DistOptions::default()
-    }
+pub fn test_options(tile: u32) -> MasterConfig {
+    let mut c = MasterConfig::default();
+    c.schedule.tile = tile;
+    c.schedule.wait_workers = Duration::from_secs(20);
+    c.net.listen = "127.0.0.1:0".into();
+    c.net.token = Some(token());
+    c
 }
 
 /// A master running in a task of the current runtime.
@@ -165,7 +163,7 @@ pub struct RunningMaster {
     /// Where it listens.
     pub addr: SocketAddr,
     /// Its result.
-    pub handle: JoinHandle<Result<DistResult, parrt_master::distributed::DistError>>,
+    pub handle: JoinHandle<Result<DistResult, parrt_runtime::DistError>>,
     /// Cancels it (as Ctrl-C would).
     pub cancel: CancellationToken,
 }
@@ -174,9 +172,9 @@ pub struct RunningMaster {
 pub async fn start_master(
     desc: &SceneDescription,
     settings: &RenderSettings,
-    opts: &DistOptions,
+    opts: &MasterConfig,
 ) -> RunningMaster {
-    let master = Master::bind(opts, opts.token.clone().unwrap_or_else(token))
+    let master = Master::bind(opts, opts.net.token.clone().unwrap_or_else(token))
         .await
         .expect("bind loopback");
     let addr = master.local_addr();

@@ -7,7 +7,7 @@
 
 use parrt::protocol::PixelFormat;
 use parrt::tile::tiles;
-use parrt_master::distributed::checkpoint::{scan_records, Scan, HEADER_LEN};
+use parrt_runtime::checkpoint::{scan_records, Scan, HEADER_LEN};
 use parrt_tests::{spawn_worker_process, ChildGuard, TEST_TOKEN};
 use parrt_worker::options::TILE_DELAY_ENV;
 use rand::Rng;

@@ -4,7 +4,7 @@
 //! Worker processes use the `PARRT_WORKER_TILE_DELAY_MS` test hook so "mid-job" is certain.
 
 use parrt::protocol::{Connection, Message, PROTOCOL_VERSION};
-use parrt_master::distributed::{DistOptions, DistResult};
+use parrt_runtime::{DistResult, MasterConfig};
 use parrt_tests::*;
 use std::sync::Arc;
 use std::time::Duration;
@@ -22,7 +22,7 @@ async fn finish(m: RunningMaster) -> DistResult {
         .expect("the render succeeds")
 }
 
-fn report_of(r: &DistResult, pid: u32) -> &parrt_master::distributed::WorkerReport {
+fn report_of(r: &DistResult, pid: u32) -> &parrt_runtime::WorkerReport {
     let suffix = format!("-{pid}");
     r.per_worker
         .iter()
@@ -32,13 +32,10 @@ fn report_of(r: &DistResult, pid: u32) -> &parrt_master::distributed::WorkerRepo
 
 /// `opts` for a job both worker processes take part in from the start (neither can finish it
 /// alone before the other has joined), watched for the tiles each delivers.
-fn two_workers_watched(opts: DistOptions) -> (DistOptions, Arc<Deliveries>) {
+fn two_workers_watched(mut opts: MasterConfig) -> (MasterConfig, Arc<Deliveries>) {
     let seen = Deliveries::new();
-    let opts = DistOptions {
-        min_workers: 2,
-        observers: seen.observers(),
-        ..opts
-    };
+    opts.schedule.min_workers = 2;
+    opts.observers = seen.observers();
     (opts, seen)
 }
 
@@ -78,9 +75,9 @@ async fn stopped_worker_tiles_move_after_the_deadline() {
     let settings = settings_for(&desc);
     let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
     let mut opts = test_options(8);
-    opts.tile_deadline = Duration::from_millis(400);
-    opts.heartbeat_timeout = Duration::from_secs(60); // so only the deadline can move tiles
-    opts.backups = false;
+    opts.schedule.tile_deadline = Duration::from_millis(400);
+    opts.net.heartbeat_timeout = Duration::from_secs(60); // so only the deadline can move tiles
+    opts.schedule.backups = false;
     let (opts, seen) = two_workers_watched(opts);
     let m = start_master(&desc, &settings, &opts).await;
     let stopped = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
@@ -104,11 +101,11 @@ async fn stopped_worker_is_dropped_after_missed_heartbeats() {
     let settings = settings_for(&desc);
     let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
     let mut opts = test_options(8);
-    opts.tile_deadline = Duration::from_secs(60); // so only the heartbeat timeout can act
-                                                  // Three of the workers' 1 s heartbeats: a healthy worker waiting for tiles (before the
-                                                  // start, or for the stopped one's) is not dropped for a heartbeat a loaded machine delays.
-    opts.heartbeat_timeout = Duration::from_secs(3);
-    opts.backups = false;
+    opts.schedule.tile_deadline = Duration::from_secs(60); // so only the heartbeat timeout can act
+                                                           // Three of the workers' 1 s heartbeats: a healthy worker waiting for tiles (before the
+                                                           // start, or for the stopped one's) is not dropped for a heartbeat a loaded machine delays.
+    opts.net.heartbeat_timeout = Duration::from_secs(3);
+    opts.schedule.backups = false;
     let (opts, seen) = two_workers_watched(opts);
     let m = start_master(&desc, &settings, &opts).await;
     let stopped = spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(40), TEST_TOKEN);
@@ -132,7 +129,7 @@ async fn worker_joining_late_gets_tiles() {
     let settings = settings_for(&desc);
     let (reference, _) = smp_reference(&desc, &settings, 8);
     let seen = Deliveries::new();
-    let opts = DistOptions {
+    let opts = MasterConfig {
         observers: seen.observers(),
         ..test_options(8)
     };
@@ -163,11 +160,11 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     let settings = settings_for(&desc);
     let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
     let mut opts = test_options(8);
-    opts.max_failures = 1;
-    opts.handshake_timeout = Duration::from_millis(500);
+    opts.schedule.max_failures = 1;
+    opts.net.handshake_timeout = Duration::from_millis(500);
     // The good worker and the liar below: the render cannot start, let alone end, before the
     // liar has its job, however slowly the bad peers before it are handled.
-    opts.min_workers = 2;
+    opts.schedule.min_workers = 2;
     let m = start_master(&desc, &settings, &opts).await;
     // A peer that connects and says nothing holds no slot for long.
     let mut mute = TcpStream::connect(m.addr).await.unwrap();
@@ -421,11 +418,11 @@ async fn interrupted_worker_disconnects_and_its_tiles_are_requeued() {
 #[derive(Debug)]
 enum LocalFailure {
     Job(String),
-    Dist(parrt_master::distributed::DistError),
+    Dist(parrt_runtime::DistError),
 }
 
-impl From<parrt_master::distributed::DistError> for LocalFailure {
-    fn from(e: parrt_master::distributed::DistError) -> Self {
+impl From<parrt_runtime::DistError> for LocalFailure {
+    fn from(e: parrt_runtime::DistError) -> Self {
         LocalFailure::Dist(e)
     }
 }
@@ -438,26 +435,21 @@ fn spawned_workers_that_cannot_build_the_job_end_with_the_jobs_own_error() {
     let mut desc = test_scene(32, 32);
     desc.primitives[0].material = 9;
     let settings = settings_for(&desc);
-    let opts = parrt_master::distributed::DistOptions {
-        workers_to_spawn: 2,
-        threads_per_worker: 1,
-        worker_exe: Some(EXE.into()),
-        token: None,
-        min_workers: 2,
-        // Far beyond the bound below: a master that waits for the workers that refused the
-        // job waits this long, a working one ends as soon as they have refused.
-        wait_workers: Duration::from_secs(60),
-        ..test_options(16)
-    };
+    let mut opts = test_options(16);
+    opts.spawn.count = 2;
+    opts.spawn.threads = 1;
+    opts.spawn.command.exe = Some(EXE.into());
+    opts.net.token = None;
+    opts.schedule.min_workers = 2;
+    // Far beyond the bound below: a master that waits for the workers that refused the
+    // job waits this long, a working one ends as soon as they have refused.
+    opts.schedule.wait_workers = Duration::from_secs(60);
     let t0 = std::time::Instant::now();
-    let r = parrt_master::distributed::render_distributed_prepared(
-        &opts,
-        &mut |_| Ok(()),
-        || Ok::<_, LocalFailure>((desc, settings)),
-        Some(Box::new(|d, s| {
+    let job =
+        parrt_runtime::Job::prepared(|| Ok::<_, LocalFailure>((desc, settings))).check(|d, s| {
             parrt::render::validate_job(d, s).map_err(|e| LocalFailure::Job(e.to_string()))
-        })),
-    );
+        });
+    let r = parrt_runtime::run(&opts, job, &mut |_| Ok(None), None);
     match r {
         Err(LocalFailure::Job(msg)) => assert!(msg.contains("uses material 9"), "{msg}"),
         Err(LocalFailure::Dist(e)) => panic!("expected the job's error, got: {e}"),

@@ -18,10 +18,8 @@ async fn matches_smp_for_workers_threads_and_tile_sizes() {
             for threads in 1..=2 {
                 let what = format!("{workers} workers × {threads} threads, tile {tile}");
                 // Every worker takes part: none arrives after a small job is already done.
-                let opts = parrt_master::distributed::DistOptions {
-                    min_workers: workers,
-                    ..test_options(tile)
-                };
+                let mut opts = test_options(tile);
+                opts.schedule.min_workers = workers;
                 let m = start_master(&desc, &settings, &opts).await;
                 let ws: Vec<_> = (0..workers)
                     .map(|i| start_worker(worker_options(m.addr, threads, &format!("w{i}"))))
@@ -68,14 +66,11 @@ async fn worker_processes_from_the_cli_executable_match_smp() {
     let desc = test_scene(96, 80);
     let settings = settings_for(&desc);
     let (reference, ref_stats) = smp_reference(&desc, &settings, 13);
-    let opts = parrt_master::distributed::DistOptions {
-        min_workers: 2,
-        ..test_options(13)
-    };
+    let mut opts = test_options(13);
+    opts.schedule.min_workers = 2;
     let m = start_master(&desc, &settings, &opts).await;
     let _workers =
-        parrt_master::distributed::spawn::spawn_workers_from(EXE.as_ref(), 2, 2, m.addr, &token())
-            .unwrap();
+        parrt_runtime::spawn::spawn_workers_from(EXE.as_ref(), 2, 2, m.addr, &token()).unwrap();
     let r = tokio::time::timeout(Duration::from_secs(60), m.handle)
         .await
         .expect("render finishes")
@@ -102,20 +97,26 @@ fn render_distributed_spawns_its_own_workers_and_matches_smp() {
     let desc = test_scene(80, 64);
     let settings = settings_for(&desc);
     let (reference, ref_stats) = smp_reference(&desc, &settings, 16);
-    let opts = parrt_master::distributed::DistOptions {
-        workers_to_spawn: 3,
-        threads_per_worker: 1,
-        worker_exe: Some(EXE.into()),
-        token: None, // generated, and handed to the children through their environment
-        min_workers: 3,
-        ..test_options(16)
-    };
-    let listened = std::sync::Mutex::new(None);
-    let r = parrt_master::distributed::render_distributed(&desc, &settings, &opts, &|a| {
-        *listened.lock().unwrap() = Some(a);
-    })
-    .unwrap();
-    assert!(listened.lock().unwrap().unwrap().ip().is_loopback());
+    let mut opts = test_options(16);
+    opts.spawn.count = 3;
+    opts.spawn.threads = 1;
+    opts.spawn.command.exe = Some(EXE.into());
+    opts.net.token = None; // generated, and handed to the children through their environment
+    opts.schedule.min_workers = 3;
+    let mut listened = None;
+    let job = parrt_runtime::Job::<parrt_runtime::DistError>::ready(desc.clone(), settings.clone());
+    let r = parrt_runtime::run(
+        &opts,
+        job,
+        &mut |a| {
+            listened = Some(a);
+            Ok(None)
+        },
+        None,
+    )
+    .unwrap()
+    .result;
+    assert!(listened.unwrap().ip().is_loopback());
     assert_same_bits(
         &r.film,
         &reference,
@@ -223,12 +224,10 @@ async fn rgb8_pixels_write_the_smp_png_with_a_quarter_of_the_bytes() {
     let (reference, ref_stats) = smp_reference(&desc, &settings, 16);
     let mut received = Vec::new();
     for format in [PixelFormat::F32, PixelFormat::Rgb8] {
-        let opts = parrt_master::distributed::DistOptions {
-            min_workers: 2,
-            backups: false,
-            pixel_format: format,
-            ..test_options(16)
-        };
+        let mut opts = test_options(16);
+        opts.schedule.min_workers = 2;
+        opts.schedule.backups = false;
+        opts.schedule.pixel_format = format;
         let m = start_master(&desc, &settings, &opts).await;
         let _ws: Vec<_> = (0..2)
             .map(|i| start_worker(worker_options(m.addr, 1, &format!("w{i}"))))

@@ -46,9 +46,9 @@ async fn jobs_back_to_back_with_workers_killed_at_random() {
     let (mut kills, mut requeued) = (0u32, 0u64);
     for job in 0..n {
         let mut opts = test_options(8);
-        opts.min_workers = 1;
-        opts.tile_deadline = Duration::from_secs(3);
-        opts.heartbeat_timeout = Duration::from_secs(3);
+        opts.schedule.min_workers = 1;
+        opts.schedule.tile_deadline = Duration::from_secs(3);
+        opts.net.heartbeat_timeout = Duration::from_secs(3);
         let m = start_master(&desc, &settings, &opts).await;
         let mut workers: Vec<ChildGuard> = (0..2)
             .map(|_| spawn_worker_process(EXE.as_ref(), m.addr, 1, Some(4), TEST_TOKEN))

@@ -236,7 +236,7 @@ async fn stalled_handshakes_do_not_turn_a_worker_away() {
     let settings = settings_for(&desc);
     let (reference, _) = smp_reference(&desc, &settings, 8);
     let mut opts = test_options(8);
-    opts.handshake_timeout = Duration::from_secs(60);
+    opts.net.handshake_timeout = Duration::from_secs(60);
     let m = start_master(&desc, &settings, &opts).await;
     let mut stalled = Vec::new();
     for _ in 0..1030 {
@@ -594,9 +594,9 @@ async fn master_takes_a_slow_result() {
     let mut opts = test_options(256);
     // Short enough that the trickle outlasts it; long enough that a stall of this test, run
     // beside others that load the machine, does not read as a silent worker.
-    opts.heartbeat_timeout = Duration::from_secs(3);
-    opts.wait_workers = Duration::from_secs(8);
-    opts.backups = false;
+    opts.net.heartbeat_timeout = Duration::from_secs(3);
+    opts.schedule.wait_workers = Duration::from_secs(8);
+    opts.schedule.backups = false;
     let m = start_master(&desc, &settings, &opts).await;
     let mut c = authenticate(m.addr, "slow", 1).await;
     let Some(Message::Job(j)) = c.read().await.unwrap() else {
@@ -645,7 +645,7 @@ async fn master_takes_a_slow_result() {
     }
     let trickled = began.elapsed();
     assert!(
-        trickled > opts.heartbeat_timeout,
+        trickled > opts.net.heartbeat_timeout,
         "the result took {trickled:?}, not longer than the timeout: nothing was tested"
     );
     let r = m.handle.await.unwrap().expect("the slow result was taken");

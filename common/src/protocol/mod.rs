@@ -51,6 +51,13 @@ pub mod message;
 pub mod pixels;
 
 pub use auth::{AuthError, Token};
+
+/// The environment variable that carries the shared token to a worker (and a master): how a
+/// master hands it to the workers it starts without putting it on a command line.
+pub const TOKEN_ENV: &str = "PARRT_TOKEN";
+
+/// The environment variable of a worker's log filter (`warn`, `info`, …).
+pub const LOG_ENV: &str = "PARRT_LOG";
 pub use codec::{Encoded, MessageCodec, ProtocolError, WireCounters};
 pub use connection::Connection;
 pub use limits::{DEFAULT_MAX_FRAME, HANDSHAKE_MAX_FRAME};

@@ -9,13 +9,13 @@ use super::master::{check_listen, print_summary};
 use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
 use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
-use crate::distributed::launcher::{self, Rank};
-use crate::distributed::rendezvous::{self, Rendezvous};
-use crate::distributed::{render_distributed_announced, DistOptions};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
 use parrt::protocol::Token;
+use parrt_runtime::launcher::{self, Rank};
+use parrt_runtime::rendezvous::{self, Rendezvous};
+use parrt_runtime::{Job, MasterConfig};
 use parrt_worker::cli::{init_logging, TokenArgs, WorkerArgs};
 use rand::Rng;
 use std::net::SocketAddr;
@@ -191,49 +191,62 @@ fn run_master(
             tile_size: args.tile,
         },
     );
-    let opts = DistOptions {
+    let mut config = MasterConfig {
         observers: watch.observers(),
-        tile: args.tile,
-        listen: args.listen.clone(),
-        token: Some(token),
-        min_workers: rank.size - 1,
-        wait_workers,
-        pixel_format: crate::distributed::pixel_format_for(&args.output),
-        checkpoint: args.checkpoint.clone(),
-        resume: args.resume,
-        await_all_workers: true,
-        ..DistOptions::default()
+        checkpoint: args
+            .checkpoint
+            .clone()
+            .map(|path| parrt_runtime::CheckpointAt {
+                path,
+                resume: args.resume,
+            }),
+        ..MasterConfig::default()
     };
+    config.schedule.tile = args.tile;
+    config.schedule.min_workers = rank.size - 1;
+    config.schedule.wait_workers = wait_workers;
+    config.schedule.pixel_format = parrt_runtime::pixel_format_for(&args.output);
+    config.schedule.await_all_workers = true;
+    config.net.listen = args.listen.clone();
+    config.net.token = Some(token);
+    let (w, h) = (settings.width, settings.height);
+    let ready = Job::<parrt_runtime::DistError>::ready(desc, settings);
     let mut published = None;
-    let result = render_distributed_announced(&desc, &settings, &opts, &mut |bound| {
-        let r = Rendezvous {
-            version: rendezvous::VERSION,
-            job: job.to_string(),
-            size: rank.size,
-            address: advertised(args, bound),
-            token: token_text.clone(),
-            pid: std::process::id(),
-            host: rendezvous::host_name(),
-            created: rendezvous::now_unix(),
-        };
-        let p = rendezvous::publish(&args.rendezvous, &r, timeout)?;
-        eprintln!(
+    let result = parrt_runtime::run(
+        &config,
+        ready,
+        &mut |bound| {
+            let r = Rendezvous {
+                version: rendezvous::VERSION,
+                job: job.to_string(),
+                size: rank.size,
+                address: advertised(args, bound),
+                token: token_text.clone(),
+                pid: std::process::id(),
+                host: rendezvous::host_name(),
+                created: rendezvous::now_unix(),
+            };
+            let p = rendezvous::publish(&args.rendezvous, &r, timeout)?;
+            eprintln!(
             "parrt cluster: rank 0 of {} ({}, job {job}) is the master on {bound}, published as {} in {}; {label} at {}x{}",
             rank.size,
             rank.launcher,
             r.address,
             p.path().display(),
-            settings.width,
-            settings.height
+            w,
+            h
         );
-        published = Some(p);
-        Ok(())
-    });
+            published = Some(p);
+            Ok(None)
+        },
+        None,
+    );
     // The rendezvous file goes as soon as the render ends, whatever its outcome.
     drop(published);
     let result = result
         .map_err(crate::exit::dist_error)
-        .context("distributed render failed")?;
+        .context("distributed render failed")?
+        .result;
     result
         .film
         .save(&args.output)

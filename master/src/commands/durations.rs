@@ -4,8 +4,8 @@
 //! overflow. The ceiling is the protocol's ([`parrt::protocol::limits::MAX_FLAG_SECONDS`]), the
 //! one the worker's `--dial-timeout` is held to; this adds a floor per flag.
 
-use crate::distributed::DEFAULT_HEARTBEAT;
 use crate::exit::input_error;
+use parrt_runtime::options::DEFAULT_HEARTBEAT;
 use std::time::Duration;
 
 /// The longest any duration flag may be: one week. Far beyond any sensible wait, and small

@@ -5,12 +5,12 @@ use super::durations::{seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, M
 use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
 use super::render::RenderFlags;
 use super::scene_input::{LimitArgs, SceneSpec};
-use crate::distributed::{render_distributed, DistOptions, DistResult, DEFAULT_LISTEN};
 use crate::exit::input_error;
 use crate::live::state::JobInfo;
 use anyhow::Context;
 use clap::Args;
 use parrt::description::SceneDescription;
+use parrt_runtime::{DistResult, Job, MasterConfig, DEFAULT_LISTEN};
 use parrt_worker::cli::{init_logging, TokenArgs, UsageError};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -187,31 +187,42 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
             tile_size: args.tile,
         },
     );
-    let opts = DistOptions {
-        tile: args.tile,
-        listen: args.listen.clone(),
-        token: Some(token),
+    let mut config = MasterConfig {
         observers: watch.observers(),
-        min_workers: args.min_workers.max(1),
-        wait_workers,
-        tile_deadline,
-        heartbeat_timeout,
-        window: args.window,
-        max_batch: args.max_batch.max(1),
-        backups: !args.no_backups,
-        pixel_format: crate::distributed::pixel_format_for(&args.output),
-        checkpoint: args.checkpoint.clone(),
-        resume: args.resume,
-        ..DistOptions::default()
+        checkpoint: args
+            .checkpoint
+            .clone()
+            .map(|path| parrt_runtime::CheckpointAt {
+                path,
+                resume: args.resume,
+            }),
+        ..MasterConfig::default()
     };
-    let result = render_distributed(&desc, &settings, &opts, &|addr| {
-        eprintln!(
-            "parrt master: listening on {addr}; {label} at {}x{}, tiles of {} px",
-            settings.width, settings.height, opts.tile
-        );
-    })
+    let s = &mut config.schedule;
+    s.tile = args.tile;
+    s.min_workers = args.min_workers.max(1);
+    s.wait_workers = wait_workers;
+    s.tile_deadline = tile_deadline;
+    s.window = args.window;
+    s.max_batch = args.max_batch.max(1);
+    s.backups = !args.no_backups;
+    s.pixel_format = parrt_runtime::pixel_format_for(&args.output);
+    config.net.listen = args.listen.clone();
+    config.net.token = Some(token);
+    config.net.heartbeat_timeout = heartbeat_timeout;
+    let (w, h, tile) = (settings.width, settings.height, args.tile);
+    let result = parrt_runtime::run(
+        &config,
+        Job::<parrt_runtime::DistError>::ready(desc, settings),
+        &mut |addr| {
+            eprintln!("parrt master: listening on {addr}; {label} at {w}x{h}, tiles of {tile} px");
+            Ok(None)
+        },
+        None,
+    )
     .map_err(crate::exit::dist_error)
-    .context("distributed render failed")?;
+    .context("distributed render failed")?
+    .result;
     result
         .film
         .save(&args.output)
@@ -259,7 +270,7 @@ impl Watch {
     }
 
     /// The observers to give the render.
-    pub fn observers(&self) -> crate::distributed::observer::Observers {
+    pub fn observers(&self) -> parrt_runtime::observer::Observers {
         super::render::watchers(
             &self.timeline.as_ref().map(|t| t.1.clone()),
             self.live.as_ref(),

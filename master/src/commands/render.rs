@@ -7,7 +7,6 @@ use super::scene_input::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use indicatif::{ProgressBar, ProgressStyle};
 use parrt::description::SceneDescription;
 use parrt::precision::Choice;
 use parrt::render::Renderer;
@@ -15,10 +14,8 @@ use parrt::settings::{AccelKind, Precision, RenderSettings};
 use parrt::smp::{render_smp_with, Executor, SmpOptions};
 use parrt::stats::RayStats;
 use serde_json::json;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Acceleration structure choices.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -322,21 +319,6 @@ impl RenderReport {
     }
 }
 
-/// A progress bar on stderr that is hidden unless both stdout and stderr are terminals.
-pub fn progress_bar(tiles: u64) -> ProgressBar {
-    if !(std::io::stdout().is_terminal() && std::io::stderr().is_terminal()) {
-        return ProgressBar::hidden();
-    }
-    let pb = ProgressBar::new(tiles);
-    pb.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} tiles  {msg}  ETA {eta}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    pb
-}
-
 /// What one way of rendering produced, for the common reporting.
 struct Outcome {
     film: parrt::film::Film,
@@ -389,9 +371,9 @@ fn render_here(
         tile: args.tile,
         executor: args.executor.executor(),
     };
-    let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len() as u64;
-    let pb = progress_bar(tiles);
-    let rays = AtomicU64::new(0);
+    let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len();
+    let pb = crate::progress::Progress::new(true);
+    pb.set_total(tiles);
     if let Some(l) = live {
         l.state.set_job(live_job(spec, settings, args.tile, "smp"));
         for t in 0..threads {
@@ -400,13 +382,9 @@ fn render_here(
         }
         l.state.start();
     }
-    let started = std::time::Instant::now();
     let result = render_smp_with(&renderer, &opts, &|done| {
         let st = done.stats;
-        let total = rays.fetch_add(st.total_rays(), Ordering::Relaxed) + st.total_rays();
-        let secs = started.elapsed().as_secs_f64().max(1e-9);
-        pb.set_message(format!("{:.2} Mrays/s", total as f64 / secs / 1e6));
-        pb.inc(1);
+        pb.tile_done(st.total_rays());
         if let Some(l) = live {
             let thread = u64::from(done.span.thread);
             l.state
@@ -421,7 +399,7 @@ fn render_here(
         let job = timeline_job(&label, settings, args.tile);
         crate::timeline::Timeline::from_smp(&job, threads, &result.tile_spans, result.trace_s)
     });
-    pb.finish_and_clear();
+    pb.finish();
     let info = renderer.build_info();
     let a = &info.accel;
     Ok(Outcome {
@@ -489,7 +467,7 @@ fn render_through_workers(
     n: usize,
     live: Option<&crate::live::Live>,
 ) -> anyhow::Result<(Outcome, f64, RenderSettings, Choice)> {
-    use crate::distributed::{render_distributed_prepared, DistError, DistOptions, JobCheck};
+    use parrt_runtime::{DistError, Job, MasterConfig};
     /// A failure of the distributed render or of preparing its job.
     enum Failed {
         Dist(DistError),
@@ -518,7 +496,7 @@ fn render_through_workers(
     };
     // The workers each refuse a scene they cannot build; if they all did, the check says why,
     // once, as bad input. A render that succeeds needs no check (every worker built the job).
-    let check: JobCheck<Failed> = Box::new(|desc, settings| {
+    let job = Job::prepared(prepare).check(|desc, settings| {
         parrt::render::validate_job(desc, settings).map_err(|e| Failed::Job(input_error(e)))
     });
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
@@ -527,25 +505,29 @@ fn render_through_workers(
         .timeline
         .as_ref()
         .map(|_| std::sync::Arc::new(crate::timeline::Recorder::new()));
-    let opts = DistOptions {
-        workers_to_spawn: n,
-        threads_per_worker: threads,
-        tile: args.tile,
-        min_workers: n,
-        pixel_format: crate::distributed::pixel_format_for(&args.output),
-        checkpoint: args.checkpoint.clone(),
-        resume: args.resume,
+    let mut config = MasterConfig {
         observers: watchers(&recorder, live),
-        ..DistOptions::default()
+        ..MasterConfig::default()
     };
-    let (r, _, settings) =
-        match render_distributed_prepared(&opts, &mut |_| Ok(()), prepare, Some(check)) {
-            Ok(done) => done,
-            Err(Failed::Job(e)) => return Err(e),
-            Err(Failed::Dist(e)) => {
-                return Err(crate::exit::dist_error(e).context("distributed render failed"))
-            }
-        };
+    config.spawn.count = n;
+    config.spawn.threads = threads;
+    config.schedule.tile = args.tile;
+    config.schedule.min_workers = n;
+    config.schedule.pixel_format = parrt_runtime::pixel_format_for(&args.output);
+    config.checkpoint = args
+        .checkpoint
+        .clone()
+        .map(|path| parrt_runtime::CheckpointAt {
+            path,
+            resume: args.resume,
+        });
+    let (r, settings) = match parrt_runtime::run(&config, job, &mut |_| Ok(None), None) {
+        Ok(done) => (done.result, done.settings),
+        Err(Failed::Job(e)) => return Err(e),
+        Err(Failed::Dist(e)) => {
+            return Err(crate::exit::dist_error(e).context("distributed render failed"))
+        }
+    };
     if let Some(c) = &args.checkpoint {
         eprintln!(
             "parrt: checkpoint {}: {} tiles restored, {} bad records dropped",
@@ -614,19 +596,21 @@ fn render_through_workers(
     Ok((outcome, parse_s.get(), settings, choice))
 }
 
-/// The observers of a distributed render: the timeline's recorder and the live view, if asked.
+/// The observers of a distributed render: the progress bar (drawn only on a terminal), the
+/// timeline's recorder and the live view, if asked.
 pub fn watchers(
     recorder: &Option<std::sync::Arc<crate::timeline::Recorder>>,
     live: Option<&crate::live::Live>,
-) -> crate::distributed::observer::Observers {
-    let mut v: Vec<std::sync::Arc<dyn crate::distributed::observer::Observer>> = Vec::new();
+) -> parrt_runtime::observer::Observers {
+    let mut v: Vec<std::sync::Arc<dyn parrt_runtime::observer::Observer>> =
+        vec![std::sync::Arc::new(crate::progress::Progress::new(true))];
     if let Some(r) = recorder {
         v.push(r.clone());
     }
     if let Some(l) = live {
         v.push(l.observer());
     }
-    crate::distributed::observer::Observers(v)
+    parrt_runtime::observer::Observers(v)
 }
 
 /// Loads the scene and the settings the flags make of it, checking the image's size: the

@@ -307,6 +307,7 @@ mod tests {
                 backups: true,
                 max_batch: 1,
                 pixel_format: PixelFormat::F32,
+                rules: Default::default(),
             },
         );
         let rec = Arc::new(Recorder::new());

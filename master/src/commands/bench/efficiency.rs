@@ -133,25 +133,27 @@ fn run_distributed(
     n: usize,
     tile: u32,
     recorder: Option<std::sync::Arc<crate::timeline::Recorder>>,
-) -> anyhow::Result<crate::distributed::DistResult> {
-    use crate::distributed::{render_distributed, DistOptions};
-    let opts = DistOptions {
-        workers_to_spawn: n,
-        threads_per_worker: 1,
-        tile,
-        min_workers: n,
-        progress: false,
-        // As `parrt render --workers N -o out.png` runs: 8-bit pixels on the wire.
-        pixel_format: parrt::protocol::PixelFormat::Rgb8,
-        observers: crate::distributed::observer::Observers(
+) -> anyhow::Result<parrt_runtime::DistResult> {
+    use parrt_runtime::{Job, MasterConfig};
+    let mut config = MasterConfig {
+        observers: parrt_runtime::observer::Observers(
             recorder
                 .into_iter()
-                .map(|r| r as std::sync::Arc<dyn crate::distributed::observer::Observer>)
+                .map(|r| r as std::sync::Arc<dyn parrt_runtime::observer::Observer>)
                 .collect(),
         ),
-        ..DistOptions::default()
+        ..MasterConfig::default()
     };
-    render_distributed(desc, settings, &opts, &|_| {}).context("distributed run failed")
+    config.spawn.count = n;
+    config.spawn.threads = 1;
+    config.schedule.tile = tile;
+    config.schedule.min_workers = n;
+    // As `parrt render --workers N -o out.png` runs: 8-bit pixels on the wire.
+    config.schedule.pixel_format = parrt::protocol::PixelFormat::Rgb8;
+    let job = Job::<parrt_runtime::DistError>::ready(desc.clone(), settings.clone());
+    parrt_runtime::run(&config, job, &mut |_| Ok(None), None)
+        .map(|done| done.result)
+        .context("distributed run failed")
 }
 
 /// The run drawn as a timeline: the most threads, at a 32-pixel tile if measured (the

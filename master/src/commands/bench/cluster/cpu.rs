@@ -96,6 +96,26 @@ fn machine_ticks() -> u64 {
     v.iter().take(8).sum::<u64>() - v.get(3).copied().unwrap_or(0) - v.get(4).copied().unwrap_or(0)
 }
 
+/// This process's children, from each thread's `/proc/self/task/*/children` (empty where the
+/// kernel does not list them).
+fn child_pids() -> Vec<u32> {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return Vec::new();
+    };
+    let mut pids: Vec<u32> = tasks
+        .flatten()
+        .filter_map(|t| std::fs::read_to_string(t.path().join("children")).ok())
+        .flat_map(|s| {
+            s.split_whitespace()
+                .filter_map(|p| p.parse().ok())
+                .collect::<Vec<u32>>()
+        })
+        .collect();
+    pids.sort_unstable();
+    pids.dedup();
+    pids
+}
+
 fn sample(children: &[u32], master: &[std::path::PathBuf], tick: f64) -> CpuSample {
     let this = stat_ticks("/proc/self/stat");
     let own: u64 = this
@@ -120,8 +140,9 @@ pub struct CpuSampler {
 }
 
 impl CpuSampler {
-    /// Starts sampling this process and `children` (process ids).
-    pub fn start(children: Vec<u32>) -> CpuSampler {
+    /// Starts sampling this process and its child processes (relisted as they come: the
+    /// runtime starts the workers after the sampler).
+    pub fn start() -> CpuSampler {
         let samples = Arc::new(Mutex::new(Vec::new()));
         let stop = Arc::new(AtomicBool::new(false));
         let (s2, stop2) = (samples.clone(), stop.clone());
@@ -130,10 +151,12 @@ impl CpuSampler {
             .name("cpu-sampler".into())
             .spawn(move || {
                 let mut master = Vec::new();
+                let mut children = Vec::new();
                 let mut listed: Option<Instant> = None;
                 while !stop2.load(Ordering::Relaxed) {
                     if listed.is_none_or(|t| t.elapsed() >= RELIST) {
                         master = master_threads();
+                        children = child_pids();
                         listed = Some(Instant::now());
                     }
                     let v = (Instant::now(), sample(&children, &master, tick));
@@ -182,7 +205,7 @@ mod tests {
 
     #[test]
     fn own_cpu_grows_while_this_process_works() {
-        let s = CpuSampler::start(Vec::new());
+        let s = CpuSampler::start();
         let t0 = Instant::now();
         let mut x = 0u64;
         while t0.elapsed() < Duration::from_millis(200) {

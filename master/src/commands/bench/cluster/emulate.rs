@@ -1,17 +1,17 @@
-//! One emulated-cluster render: a real [`Master`] on 127.0.0.1, the emulated LAN
-//! ([`super::link::Relay`]) in front of it, and N real worker processes replaying a recorded
-//! render through it. Bounded in time (the run is cancelled, and the workers told to shut down,
+//! One emulated-cluster render: the master as `parrt master` runs it (the runtime's one entry
+//! point, on 127.0.0.1), the emulated LAN ([`super::link::Relay`]) in front of it, and N real
+//! worker processes, started by the runtime's spawn code, replaying a recorded render through
+//! it. Bounded in time (the run is cancelled, and the workers told to shut down,
 //! when it overruns) and the worker processes are killed and reaped on every path.
 
 use super::cpu::{CpuSampler, MASTER_THREAD};
 use super::link::{LinkParams, Relay};
-use crate::distributed::{generate_token, DistOptions, Master};
 use anyhow::Context;
 use parrt::description::SceneDescription;
 use parrt::film::Film;
 use parrt::settings::RenderSettings;
+use parrt_runtime::{generate_token, DistError, Job, MasterConfig, Spawn, WorkerCommand};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -45,7 +45,7 @@ pub struct EmulatedRun {
     /// The whole run (start-up included) must end within this.
     pub timeout: Duration,
     /// Told what happens to workers and tiles (the timeline).
-    pub observers: crate::distributed::observer::Observers,
+    pub observers: parrt_runtime::observer::Observers,
 }
 
 /// What a run measured.
@@ -80,117 +80,107 @@ pub struct Measured {
     pub tile_seconds: Vec<f64>,
 }
 
-/// Worker processes, killed and reaped on drop.
-struct Children(Vec<Child>);
-
-impl Drop for Children {
-    fn drop(&mut self) {
-        for c in &mut self.0 {
-            let _ = c.kill();
-        }
-        for c in &mut self.0 {
-            let _ = c.wait();
-        }
-    }
-}
-
-/// Runs one emulated-cluster render of `desc` (which the replay must have been recorded from).
+/// Runs one emulated-cluster render of `desc` (which the replay must have been recorded from)
+/// through the runtime's one entry point, as `parrt master` runs: its current-thread runtime
+/// on a thread of its own (named [`MASTER_THREAD`], so its CPU can be read apart from the
+/// relay's), its spawn code starting the replaying workers, which dial the relay.
 pub fn run(
     desc: &SceneDescription,
     settings: &RenderSettings,
     run: &EmulatedRun,
 ) -> anyhow::Result<Measured> {
-    let token = generate_token();
-    let opts = DistOptions {
-        workers_to_spawn: 0,
-        threads_per_worker: run.threads,
-        tile: run.tile,
-        listen: "127.0.0.1:0".into(),
-        token: Some(token.clone()),
-        min_workers: run.workers,
-        wait_workers: run.timeout,
-        window: run.window,
-        max_batch: run.max_batch,
-        pixel_format: run.pixel_format,
-        // Many processes share few cores here: no tile is late, no worker silent, before the
-        // run's own timeout says so.
-        tile_deadline: run.timeout,
-        heartbeat_timeout: run.timeout.min(Duration::from_secs(120)),
-        handshake_timeout: Duration::from_secs(60),
-        progress: false,
+    let mut config = MasterConfig {
         observers: run.observers.clone(),
-        ..DistOptions::default()
+        ..MasterConfig::default()
     };
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .thread_name(MASTER_THREAD)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?;
-    let master = rt
-        .block_on(Master::bind(&opts, token.clone()))
-        .context("cannot start the master")?;
-    let relay = Relay::start(master.local_addr(), run.link).context("cannot start the relay")?;
-    let token_text = String::from_utf8_lossy(token.as_bytes()).into_owned();
-    let mut children = Children(Vec::with_capacity(run.workers));
-    for i in 0..run.workers {
-        let mut cmd = Command::new(&run.worker_exe);
-        cmd.args(&run.worker_prefix)
-            .arg("--connect")
-            .arg(relay.addr().to_string())
-            .arg("--threads")
-            .arg(run.threads.to_string())
-            .arg("--name")
-            .arg(format!("cluster-{i}"))
-            .arg("--dial-timeout")
-            .arg("60")
-            .arg("--replay")
-            .arg(&run.replay)
-            .arg("--cost-scale")
-            .arg(run.cost_scale.to_string())
-            .env(parrt_worker::cli::TOKEN_ENV, &token_text)
-            .env(parrt_worker::cli::LOG_ENV, "error")
-            .stdin(Stdio::null())
-            .stdout(Stdio::null());
-        let child = cmd
-            .spawn()
-            .with_context(|| format!("cannot start worker {}", run.worker_exe.display()))?;
-        children.0.push(child);
-    }
-    let sampler = CpuSampler::start(children.0.iter().map(|c| c.id()).collect());
+    let s = &mut config.schedule;
+    s.tile = run.tile;
+    s.min_workers = run.workers;
+    s.wait_workers = run.timeout;
+    s.window = run.window;
+    s.max_batch = run.max_batch;
+    s.pixel_format = run.pixel_format;
+    // Many processes share few cores here: no tile is late, no worker silent, before the
+    // run's own timeout says so.
+    s.tile_deadline = run.timeout;
+    config.net.token = Some(generate_token());
+    config.net.heartbeat_timeout = run.timeout.min(Duration::from_secs(120));
+    config.net.handshake_timeout = Duration::from_secs(60);
+    config.spawn = Spawn {
+        count: run.workers,
+        threads: run.threads,
+        command: WorkerCommand {
+            exe: Some(run.worker_exe.clone()),
+            prefix: run.worker_prefix.clone(),
+            extra: vec![
+                "--dial-timeout".into(),
+                "60".into(),
+                "--replay".into(),
+                run.replay.display().to_string(),
+                "--cost-scale".into(),
+                run.cost_scale.to_string(),
+            ],
+            name_prefix: "cluster".into(),
+            log: "error".into(),
+        },
+    };
+    let link = run.link;
+    let limit = run.timeout;
+    let (desc, settings) = (desc.clone(), settings.clone());
+    let sampler = CpuSampler::start();
     let cancel = CancellationToken::new();
     let timed_out = Arc::new(AtomicBool::new(false));
-    let result = rt.block_on(async {
-        // Overrunning the time limit, or Ctrl-C, cancels the render: the workers are told
-        // to shut down, and dropping `children` kills whatever is left.
+    // Overrunning the time limit cancels the render: the workers are told to shut down, and
+    // the runtime kills whatever is left.
+    let timer = {
         let (stop, late) = (cancel.clone(), timed_out.clone());
-        let limit = run.timeout;
-        let timer = tokio::spawn(async move {
-            tokio::select! {
-                _ = tokio::time::sleep(limit) => late.store(true, Ordering::Relaxed),
-                r = tokio::signal::ctrl_c() => if r.is_err() { return },
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let t = std::thread::spawn(move || {
+            if rx.recv_timeout(limit).is_err() {
+                late.store(true, Ordering::Relaxed);
+                stop.cancel();
             }
-            stop.cancel();
         });
-        let r = master.render(desc, settings, cancel.clone()).await;
-        timer.abort();
-        r
-    });
-    let ended = Instant::now();
-    let r = result.map_err(|e| {
-        if timed_out.load(Ordering::Relaxed) {
-            anyhow::anyhow!("the run did not finish within {:?}", run.timeout)
-        } else {
-            anyhow::Error::new(e)
-        }
-    })?;
+        (tx, t)
+    };
+    let master = std::thread::Builder::new()
+        .name(MASTER_THREAD.into())
+        .spawn(move || {
+            let mut relay = None;
+            let r = parrt_runtime::run(
+                &config,
+                Job::<DistError>::ready(desc, settings),
+                &mut |bound| {
+                    let r = Relay::start(bound, link).map_err(DistError::Runtime)?;
+                    let at = r.addr();
+                    relay = Some(r);
+                    Ok(Some(at))
+                },
+                Some(cancel),
+            );
+            let ended = Instant::now();
+            drop(relay);
+            (r, ended)
+        })
+        .context("cannot start the master's thread")?;
+    let joined = master.join();
+    let _ = timer.0.send(());
+    let _ = timer.1.join();
+    let (result, ended) = joined.map_err(|_| anyhow::anyhow!("the master's thread panicked"))?;
+    let r = result
+        .map_err(|e| {
+            if timed_out.load(Ordering::Relaxed) {
+                anyhow::anyhow!("the run did not finish within {:?}", run.timeout)
+            } else {
+                anyhow::Error::new(e)
+            }
+        })?
+        .result;
     let started = ended
         .checked_sub(Duration::from_secs_f64(r.trace_s))
         .unwrap_or(ended);
     let cpu = sampler.between(started, ended);
     drop(sampler);
-    drop(relay);
-    drop(children);
     Ok(Measured {
         trace_s: r.trace_s,
         tiles: r.tiles,

@@ -13,10 +13,11 @@ use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
     Connection, Encoded, Message, ProtocolError, Token, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
-use rand::RngCore;
+use rand::{RngCore, SeedableRng};
+use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::net::TcpStream;
+use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::sync::mpsc::{self, UnboundedSender};
 use tokio::time::{interval, sleep_until, timeout, Instant, MissedTickBehavior};
 use tokio_util::sync::CancellationToken;
@@ -41,6 +42,9 @@ pub struct ConnContext {
     pub heartbeat: Duration,
     /// A worker silent this long is gone.
     pub heartbeat_timeout: Duration,
+    /// Seeds each connection's nonce with this and its id (`None`: the operating system's
+    /// randomness). Only the deterministic simulation sets it.
+    pub seed: Option<u64>,
 }
 
 /// Why a handshake did not produce a worker.
@@ -53,22 +57,22 @@ enum Handshake {
 
 /// Serves one peer from accept to close. `stop` ends it (telling the worker Shutdown). `slot`
 /// is the peer's place in the handshake budget, given back as soon as the handshake ends.
-pub async fn serve(
-    stream: TcpStream,
+#[allow(clippy::too_many_arguments)]
+pub async fn serve<S: AsyncRead + AsyncWrite + Unpin + Send>(
+    stream: S,
+    peer: SocketAddr,
     id: WorkerId,
     ctx: Arc<ConnContext>,
     events: UnboundedSender<Event>,
     stop: CancellationToken,
     slot: HandshakeSlot,
 ) {
-    let peer = stream
-        .peer_addr()
-        .map_or_else(|_| "?".to_string(), |a| a.to_string());
-    let _ = stream.set_nodelay(true);
+    let peer = peer.to_string();
     let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
     let hs = tokio::select! {
+        biased;
         _ = stop.cancelled() => return,
-        r = timeout(ctx.handshake_timeout, handshake(&mut conn, &ctx)) => match r {
+        r = timeout(ctx.handshake_timeout, handshake(&mut conn, &ctx, id)) => match r {
             Ok(h) => h,
             Err(_) => Handshake::Refused(format!("handshake not finished within {:?}", ctx.handshake_timeout)),
         },
@@ -97,7 +101,10 @@ pub async fn serve(
 }
 
 /// Sends Refused (best effort, briefly) and returns the refusal.
-async fn refuse(conn: &mut Connection, reason: String) -> Handshake {
+async fn refuse<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
+    reason: String,
+) -> Handshake {
     let reason = limits::capped_reason(reason);
     let _ = conn
         .write(&Message::Refused {
@@ -107,7 +114,11 @@ async fn refuse(conn: &mut Connection, reason: String) -> Handshake {
     Handshake::Refused(reason)
 }
 
-async fn handshake(conn: &mut Connection, ctx: &ConnContext) -> Handshake {
+async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
+    ctx: &ConnContext,
+    id: WorkerId,
+) -> Handshake {
     let (name, threads, worker_nonce) = match conn.read().await {
         Ok(Some(Message::Hello {
             version,
@@ -143,7 +154,13 @@ async fn handshake(conn: &mut Connection, ctx: &ConnContext) -> Handshake {
         Err(e) => return Handshake::Refused(bad_bytes(e)),
     };
     let mut nonce = [0u8; NONCE_LEN];
-    rand::thread_rng().fill_bytes(&mut nonce);
+    match ctx.seed {
+        Some(seed) => {
+            rand::rngs::StdRng::seed_from_u64(seed ^ id.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+                .fill_bytes(&mut nonce)
+        }
+        None => rand::thread_rng().fill_bytes(&mut nonce),
+    }
     let proof = ctx.token.master_proof(&worker_nonce, &nonce);
     if let Err(e) = conn.write(&Message::Challenge { nonce, proof }).await {
         return Handshake::Refused(format!("cannot send challenge: {e}"));
@@ -172,7 +189,11 @@ fn bad_bytes(e: ProtocolError) -> String {
 }
 
 /// Writes `msg`, giving up (with the reason) when the worker does not take it within `limit`.
-async fn write_within(conn: &mut Connection, msg: &Message, limit: Duration) -> Result<(), String> {
+async fn write_within<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
+    msg: &Message,
+    limit: Duration,
+) -> Result<(), String> {
     match timeout(limit, conn.write(msg)).await {
         Ok(Ok(())) => Ok(()),
         Ok(Err(e)) => Err(format!("write failed: {e}")),
@@ -182,7 +203,7 @@ async fn write_within(conn: &mut Connection, msg: &Message, limit: Duration) -> 
 
 /// After Shutdown: reads and discards until the worker closes (at most [`DRAIN_TIMEOUT`]), so
 /// it reads our Shutdown before we close rather than meeting a reset mid-write.
-async fn drain(conn: &mut Connection) {
+async fn drain<S: AsyncRead + AsyncWrite + Unpin>(conn: &mut Connection<S>) {
     let _ = timeout(DRAIN_TIMEOUT, async {
         while let Ok(Some(_)) = conn.read().await {}
     })
@@ -193,8 +214,8 @@ async fn drain(conn: &mut Connection) {
 pub const DRAIN_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// Relays between socket and scheduler until either side ends; returns why.
-async fn relay(
-    conn: &mut Connection,
+async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
     id: WorkerId,
     ctx: &ConnContext,
     events: &UnboundedSender<Event>,
@@ -214,11 +235,18 @@ async fn relay(
         // Any bytes from the worker count as life (a big result may take a while), but each
         // frame must still arrive at the floor rate.
         let alive_until = conn.alive_until(limit);
+        // In this order (not at random), so a run replays exactly under the simulation.
         tokio::select! {
+            biased;
             _ = stop.cancelled() => {
                 let _ = timeout(limit, conn.write(&Message::Shutdown)).await;
                 drain(conn).await;
                 return "master finished".into();
+            }
+            _ = beat.tick() => {
+                if let Err(e) = write_within(conn, &Message::Heartbeat, limit).await {
+                    return e;
+                }
             }
             out = inbox.recv() => match out {
                 Some(msg) => {
@@ -238,23 +266,6 @@ async fn relay(
                     return "dropped by the scheduler".into();
                 }
             },
-            _ = beat.tick() => {
-                if let Err(e) = write_within(conn, &Message::Heartbeat, limit).await {
-                    return e;
-                }
-            }
-            _ = sleep_until(alive_until) => {
-                let now = Instant::now();
-                if now < conn.alive_until(limit) {
-                    continue;
-                }
-                return match conn.pending_frame() {
-                    Some((_, len)) => format!(
-                        "a {len}-byte frame arriving slower than {} bytes/s", limits::MIN_FRAME_RATE
-                    ),
-                    None => format!("no heartbeat for {limit:?}"),
-                };
-            }
             read = conn.read() => {
                 let msg = match read {
                     Err(e) => return format!("connection error: {e}"),
@@ -283,6 +294,18 @@ async fn relay(
                 if events.send(ev).is_err() {
                     return "scheduler finished".into();
                 }
+            }
+            _ = sleep_until(alive_until) => {
+                let now = Instant::now();
+                if now < conn.alive_until(limit) {
+                    continue;
+                }
+                return match conn.pending_frame() {
+                    Some((_, len)) => format!(
+                        "a {len}-byte frame arriving slower than {} bytes/s", limits::MIN_FRAME_RATE
+                    ),
+                    None => format!("no heartbeat for {limit:?}"),
+                };
             }
         }
     }

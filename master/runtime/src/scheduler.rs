@@ -12,6 +12,8 @@
 //! of the queue; a worker that keeps failing is dropped; when the queue is empty, an idle worker
 //! gets backup copies of tiles still in flight elsewhere.
 
+use crate::lifecycle::Lifecycle;
+pub use crate::lifecycle::{Rules, Step, Verdict};
 use parrt::film::Film;
 use parrt::film::Rgb;
 use parrt::protocol::{Message, PixelFormat, TilePixels, WireCounters};
@@ -19,7 +21,7 @@ use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
 use parrt::window::Window;
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::mpsc::UnboundedSender;
@@ -115,6 +117,8 @@ pub struct SchedOptions {
     pub max_batch: usize,
     /// The pixel format the job asked results to use.
     pub pixel_format: PixelFormat,
+    /// When to stop waiting for workers ([`crate::lifecycle`]).
+    pub rules: Rules,
 }
 
 /// A tile the scheduler accepted, as it came: what a checkpoint records and gives back.
@@ -151,7 +155,7 @@ struct Slot {
     counters: Arc<WireCounters>,
     ready_at: Option<Instant>,
     joined_at: Instant,
-    inflight: HashMap<u32, Assignment>,
+    inflight: BTreeMap<u32, Assignment>,
     failures: u32,
     tiles: u64,
     render_s: f64,
@@ -248,6 +252,8 @@ pub struct Scheduler {
     accepted: Option<Vec<AcceptedTile>>,
     /// Who is told what happens (timeline, live view).
     observers: super::observer::Observers,
+    /// The job's phase: waiting for workers, tracing, done.
+    life: Lifecycle,
 }
 
 impl Scheduler {
@@ -286,7 +292,31 @@ impl Scheduler {
             faults: FaultCounts::default(),
             accepted: None,
             observers: Default::default(),
+            life: Lifecycle::new(opts.rules, Instant::now()),
         }
+    }
+
+    /// What the run loop does next ([`crate::lifecycle`]): stop, hand out tiles, wait, or
+    /// give up. On the first step with enough workers, observers are told the trace began.
+    pub fn step(&mut self, now: Instant) -> Step {
+        let departures = self.departures_count();
+        let step = self
+            .life
+            .step(now, self.is_done(), self.ready_workers(), departures);
+        if step == (Step::Run { started: true }) {
+            info!(
+                workers = self.ready_workers(),
+                tiles = self.tiles.len(),
+                "starting"
+            );
+            self.observers.each(|o| o.started(now));
+        }
+        step
+    }
+
+    /// When tiles were first handed out (`None` while waiting for workers).
+    pub fn started(&self) -> Option<Instant> {
+        self.life.started()
     }
 
     /// Tells `observers` what happens from now on.
@@ -417,7 +447,7 @@ impl Scheduler {
                         counters,
                         ready_at: None,
                         joined_at: now,
-                        inflight: HashMap::new(),
+                        inflight: BTreeMap::new(),
                         failures: 0,
                         tiles: 0,
                         render_s: 0.0,
@@ -923,6 +953,7 @@ mod tests {
                 backups: true,
                 max_batch: 1,
                 pixel_format: PixelFormat::F32,
+                rules: Rules::default(),
             },
         )
     }
@@ -1094,6 +1125,7 @@ mod tests {
                 backups: true,
                 max_batch: 1,
                 pixel_format: PixelFormat::F32,
+                rules: Rules::default(),
             },
         );
         let t0 = Instant::now();
@@ -1199,6 +1231,7 @@ mod tests {
                 backups: false,
                 max_batch: 8,
                 pixel_format: PixelFormat::F32,
+                rules: Rules::default(),
             },
         );
         let mut rx = join(&mut s, 1, 1);

@@ -81,6 +81,9 @@ pub enum CheckpointError {
         /// The cause.
         source: std::io::Error,
     },
+    /// The thread writing the checkpoint ended without saying why.
+    #[error("the checkpoint writer stopped")]
+    WriterGone,
 }
 
 impl CheckpointError {
@@ -88,7 +91,7 @@ impl CheckpointError {
     pub fn is_bad_input(&self) -> bool {
         !matches!(
             self,
-            CheckpointError::Io { .. } | CheckpointError::Encode(_)
+            CheckpointError::Io { .. } | CheckpointError::Encode(_) | CheckpointError::WriterGone
         )
     }
 }

@@ -38,6 +38,9 @@ pub trait Observer: Send + Sync {
     fn requeued(&self, tile_id: u32) {}
     /// A worker left or was dropped; its tiles are requeued next.
     fn left(&self, id: WorkerId, reason: &str) {}
+    /// Once per turn of the master's loop: tiles done of `total`, and each working
+    /// worker's recent tiles per second (the progress bar draws these).
+    fn progress(&self, done: usize, total: usize, workers: &[(String, f64)]) {}
     /// The render ended (`complete`: every tile is in the image).
     fn finished(&self, complete: bool, now: Instant) {}
 }

@@ -1,8 +1,10 @@
-//! Local worker processes for `parrt render --workers N`: N copies of this executable started
-//! as `<exe> worker --connect ADDR --threads T`, with the token in their environment (never on
-//! the command line, where `ps` would show it). Dropping the handle kills them.
+//! Local worker processes: `parrt render --workers N` starts N copies of this executable as
+//! `<exe> worker --connect ADDR --threads T`, the emulated cluster N replaying workers; both
+//! through [`spawn_workers`] and a [`WorkerCommand`]. The token travels in their environment
+//! (never on the command line, where `ps` would show it). Dropping the handle kills them.
 
-use parrt::protocol::Token;
+use crate::options::WorkerCommand;
+use parrt::protocol::{Token, LOG_ENV, TOKEN_ENV};
 use std::net::SocketAddr;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -68,15 +70,46 @@ fn reap(children: &Mutex<Vec<Child>>) {
     }
 }
 
-/// Starts `n` workers of `threads` threads each from this executable, dialling `addr`.
-pub fn spawn_local_workers(
+/// Starts `n` workers of `threads` threads each from `cmd`, dialling `addr`.
+pub fn spawn_workers(
+    cmd: &WorkerCommand,
     n: usize,
     threads: usize,
     addr: SocketAddr,
     token: &Token,
 ) -> Result<LocalWorkers, SpawnError> {
-    let exe = std::env::current_exe().map_err(SpawnError::CurrentExe)?;
-    spawn_workers_from(&exe, n, threads, addr, token)
+    let exe = match &cmd.exe {
+        Some(e) => e.clone(),
+        None => std::env::current_exe().map_err(SpawnError::CurrentExe)?,
+    };
+    let mut workers = LocalWorkers {
+        children: Vec::with_capacity(n),
+    };
+    let token = String::from_utf8_lossy(token.as_bytes()).into_owned();
+    for index in 0..n {
+        let mut c = Command::new(&exe);
+        c.args(&cmd.prefix)
+            .arg("--connect")
+            .arg(addr.to_string())
+            .arg("--threads")
+            .arg(threads.max(1).to_string())
+            .arg("--name")
+            .arg(format!("{}-{index}", cmd.name_prefix))
+            .args(&cmd.extra)
+            .env(TOKEN_ENV, &token)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null());
+        if std::env::var_os(LOG_ENV).is_none() {
+            c.env(LOG_ENV, &cmd.log);
+        }
+        let child = c.spawn().map_err(|source| SpawnError::Start {
+            index,
+            exe: exe.display().to_string(),
+            source,
+        })?;
+        workers.children.push(child);
+    }
+    Ok(workers)
 }
 
 /// Starts `n` workers from executable `exe` (which must accept `worker --connect ...`).
@@ -87,33 +120,11 @@ pub fn spawn_workers_from(
     addr: SocketAddr,
     token: &Token,
 ) -> Result<LocalWorkers, SpawnError> {
-    let mut workers = LocalWorkers {
-        children: Vec::with_capacity(n),
+    let cmd = WorkerCommand {
+        exe: Some(exe.to_path_buf()),
+        ..WorkerCommand::default()
     };
-    let token = String::from_utf8_lossy(token.as_bytes()).into_owned();
-    for index in 0..n {
-        let mut cmd = Command::new(exe);
-        cmd.arg("worker")
-            .arg("--connect")
-            .arg(addr.to_string())
-            .arg("--threads")
-            .arg(threads.max(1).to_string())
-            .arg("--name")
-            .arg(format!("local-{index}"))
-            .env(parrt_worker::cli::TOKEN_ENV, &token)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null());
-        if std::env::var_os(parrt_worker::cli::LOG_ENV).is_none() {
-            cmd.env(parrt_worker::cli::LOG_ENV, "warn");
-        }
-        let child = cmd.spawn().map_err(|source| SpawnError::Start {
-            index,
-            exe: exe.display().to_string(),
-            source,
-        })?;
-        workers.children.push(child);
-    }
-    Ok(workers)
+    spawn_workers(&cmd, n, threads, addr, token)
 }
 
 #[cfg(test)]

@@ -1,0 +1,339 @@
+//! # parrt-runtime
+//!
+//! The master side of a distributed render (DESIGN §8), as a library: the scheduler, the
+//! connections, the checkpoint, local worker processes and the cluster launchers' rendezvous.
+//! It knows no command line, plotting or HTTP, and decides no exit codes: errors are typed
+//! ([`DistError`], with [`DistError::is_bad_input`]) and watchers plug in as
+//! [`observer::Observer`]s. Network and clock are seams ([`net::Listener`], [`clock::Clock`]),
+//! so the same code runs over TCP and under the deterministic simulation.
+//!
+//! ## Layout
+//! - [`run`] (this file): the one entry point: listen, start local workers, render, stop.
+//! - [`options`]: what a master is told, split by concern ([`MasterConfig`]).
+//! - [`server`]: the accept loop and the run loop ([`server::Master`], the async API).
+//! - [`connection`]: one task per peer: handshake, then relaying between socket and scheduler.
+//! - [`scheduler`]: the job's state and rules (windows, deadlines, first result wins,
+//!   backups); no I/O, tested alone on a paused clock.
+//! - [`lifecycle`]: the job's phases: when to stop waiting for workers, which failure to say.
+//! - [`checkpoint`]: the file format of accepted tiles and its lifecycle; [`sink`]: where
+//!   accepted tiles go while the loop runs (a background writer, never the loop's thread).
+//! - [`observer`]: watchers told what happens to workers and tiles (progress, timeline, live view).
+//! - [`spawn`]: local worker processes.
+//! - [`refusals`]: the bounded record of refused handshakes.
+//! - [`launcher`]: rank, size and job id from `srun`/`mpirun`/`mpiexec`'s environment.
+//! - [`rendezvous`]: the file through which the ranks of `parrt cluster` meet.
+//! - [`net`], [`clock`]: the seams; [`cpu_time`]: CPU clocks; [`error`]: what goes wrong.
+//!
+//! ## Example
+//! ```no_run
+//! use parrt_runtime::{run, Job, MasterConfig};
+//! let desc = parrt_scenes_stub();
+//! let settings = parrt::settings::RenderSettings::new(64, 64);
+//! let mut config = MasterConfig::default();
+//! config.spawn.count = 2; // two local worker processes of this executable
+//! config.spawn.threads = 1;
+//! let done = run(&config, Job::<parrt_runtime::DistError>::ready(desc, settings), &mut |_| Ok(None), None)?;
+//! println!("{} tiles, {:.3} s", done.result.tiles, done.result.trace_s);
+//! # fn parrt_scenes_stub() -> parrt::description::SceneDescription { unimplemented!() }
+//! # Ok::<(), parrt_runtime::DistError>(())
+//! ```
+#![deny(missing_docs)]
+
+pub mod checkpoint;
+pub mod clock;
+pub mod connection;
+pub mod cpu_time;
+pub mod error;
+pub mod launcher;
+pub mod lifecycle;
+pub mod net;
+pub mod observer;
+pub mod options;
+pub mod refusals;
+pub mod rendezvous;
+pub mod scheduler;
+pub mod server;
+pub mod sink;
+pub mod spawn;
+
+pub use error::DistError;
+pub use options::{CheckpointAt, MasterConfig, Net, Schedule, Spawn, WorkerCommand};
+pub use scheduler::{FaultCounts, WorkerReport};
+pub use server::{Master, Writer};
+pub use spawn::{spawn_workers, LocalWorkers};
+
+use parrt::description::SceneDescription;
+use parrt::film::Film;
+use parrt::protocol::{PixelFormat, Token};
+use parrt::settings::RenderSettings;
+use parrt::stats::RayStats;
+pub use parrt::window::Window;
+use rand::Rng;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use tokio_util::sync::CancellationToken;
+
+/// The default address of `parrt master`: loopback only; any other must be asked for.
+pub const DEFAULT_LISTEN: &str = "127.0.0.1:7878";
+
+/// What a distributed render produced.
+#[derive(Debug)]
+pub struct DistResult {
+    /// The image (equal to the SMP film).
+    pub film: Film,
+    /// Ray statistics merged from the winning result of each tile.
+    pub stats: RayStats,
+    /// Seconds each tile took on the worker that delivered it, by tile id.
+    pub tile_seconds: Vec<f64>,
+    /// Wall time from the first tile handed out to the last one received.
+    pub trace_s: f64,
+    /// CPU seconds the master process spent over the same span (all its threads): receiving,
+    /// decoding and checking results, filling the film, scheduling, heartbeats.
+    pub master_cpu_s: f64,
+    /// Every worker that took part.
+    pub per_worker: Vec<WorkerReport>,
+    /// Bytes sent to authenticated workers (frames with prefixes).
+    pub bytes_sent: u64,
+    /// Bytes received from authenticated workers.
+    pub bytes_received: u64,
+    /// Mean seconds to get the scene to a worker (job sent → Ready, minus its build).
+    pub scene_transfer_s: f64,
+    /// Faults met and handled.
+    pub faults: FaultCounts,
+    /// Tiles in the image.
+    pub tiles: usize,
+    /// Tiles taken from the checkpoint rather than rendered.
+    pub restored_tiles: usize,
+    /// Checkpoint records not trusted on resume (bad checksum, not a tile of this job).
+    pub checkpoint_bad_records: usize,
+}
+
+impl DistResult {
+    /// The master's CPU microseconds per tile delivered.
+    pub fn master_cpu_per_tile_us(&self) -> f64 {
+        self.master_cpu_s * 1e6 / self.tiles.max(1) as f64
+    }
+
+    /// The master's CPU milliseconds per megabyte (10⁶ bytes) received from workers.
+    pub fn master_cpu_per_mb_ms(&self) -> f64 {
+        if self.bytes_received == 0 {
+            0.0
+        } else {
+            self.master_cpu_s * 1e3 / (self.bytes_received as f64 / 1e6)
+        }
+    }
+}
+
+/// The pixel format workers should send for an image written to `output`: 8-bit for PNG and
+/// PPM (all those files keep), exact f32 for EXR or an unknown extension.
+pub fn pixel_format_for(output: &std::path::Path) -> PixelFormat {
+    match parrt::film::ImageFormat::from_path(output) {
+        Ok(parrt::film::ImageFormat::Png | parrt::film::ImageFormat::Ppm) => PixelFormat::Rgb8,
+        _ => PixelFormat::F32,
+    }
+}
+
+/// A random 32-character hex token, for workers this process starts itself.
+pub fn generate_token() -> Token {
+    let mut rng = rand::thread_rng();
+    let text: String = (0..32)
+        .map(|_| char::from_digit(rng.gen_range(0..16), 16).unwrap_or('0'))
+        .collect();
+    Token::new(&text).expect("a 32-character token is not empty")
+}
+
+/// The address local workers should dial for a master bound at `addr` (an unspecified
+/// address such as 0.0.0.0 becomes loopback).
+pub fn dial_address(addr: SocketAddr) -> SocketAddr {
+    if addr.ip().is_unspecified() {
+        let ip = match addr.ip() {
+            IpAddr::V4(_) => IpAddr::V4(Ipv4Addr::LOCALHOST),
+            IpAddr::V6(_) => IpAddr::V6(std::net::Ipv6Addr::LOCALHOST),
+        };
+        SocketAddr::new(ip, addr.port())
+    } else {
+        addr
+    }
+}
+
+/// A check of the job, run only if the render fails ([`Job::check`]).
+pub type JobCheck<'a, E> =
+    Box<dyn FnOnce(&SceneDescription, &RenderSettings) -> Result<(), E> + 'a>;
+
+/// The job of a run: ready, or prepared (parsed, checked) while local workers start.
+pub struct Job<'a, E> {
+    prepare: Box<dyn FnOnce() -> Result<(SceneDescription, RenderSettings), E> + 'a>,
+    check: Option<JobCheck<'a, E>>,
+}
+
+impl<'a, E> Job<'a, E> {
+    /// A job already in hand.
+    pub fn ready(desc: SceneDescription, settings: RenderSettings) -> Self
+    where
+        E: 'a,
+    {
+        Job {
+            prepare: Box::new(move || Ok((desc, settings))),
+            check: None,
+        }
+    }
+
+    /// A job made by `prepare` (parse the scene, check it), run while the local workers start
+    /// up, so process start, connection and handshake overlap the parse instead of following
+    /// it. With a checkpoint the job is prepared first (the checkpoint is checked against it
+    /// before anything listens).
+    pub fn prepared(
+        prepare: impl FnOnce() -> Result<(SceneDescription, RenderSettings), E> + 'a,
+    ) -> Self {
+        Job {
+            prepare: Box::new(prepare),
+            check: None,
+        }
+    }
+
+    /// Checks the job only if the render fails: each worker builds the job itself and refuses
+    /// one it cannot build, so a render that succeeds needs no check, and one that fails
+    /// because of the job gets the check's error (bad input) instead of the workers'
+    /// departures.
+    pub fn check(
+        mut self,
+        check: impl FnOnce(&SceneDescription, &RenderSettings) -> Result<(), E> + 'a,
+    ) -> Self {
+        self.check = Some(Box::new(check));
+        self
+    }
+}
+
+/// What [`run`] gives back: the render and the job it rendered.
+#[derive(Debug)]
+pub struct Rendered {
+    /// The render.
+    pub result: DistResult,
+    /// The scene.
+    pub desc: SceneDescription,
+    /// The settings.
+    pub settings: RenderSettings,
+}
+
+/// The one entry point of a distributed render (`render --workers`, `master`, `cluster` and
+/// the emulated cluster all come here): opens the checkpoint if asked, binds
+/// `config.net.listen`, calls `on_listen` with the bound address, starts
+/// `config.spawn.count` local workers (dialling the address `on_listen` returns, or the bound
+/// one), prepares the job, serves tiles until the image is complete, and stops the workers.
+/// Runs on a current-thread tokio runtime of its own on the calling thread; must not be
+/// called from inside one. Ctrl-C, or `cancel` when given, cancels cleanly
+/// ([`DistError::Interrupted`]). `on_listen` may fail (then nothing is rendered) and may keep
+/// state until the render ends (`parrt cluster` publishes its rendezvous file there).
+pub fn run<E: From<DistError>>(
+    config: &MasterConfig,
+    job: Job<'_, E>,
+    on_listen: &mut dyn FnMut(SocketAddr) -> Result<Option<SocketAddr>, DistError>,
+    cancel: Option<CancellationToken>,
+) -> Result<Rendered, E> {
+    if config.spawn.count > options::MAX_SPAWNED_WORKERS {
+        return Err(DistError::TooManyWorkers {
+            asked: config.spawn.count,
+            max: options::MAX_SPAWNED_WORKERS,
+        }
+        .into());
+    }
+    let token = config.net.token.clone().unwrap_or_else(generate_token);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(DistError::Runtime)?;
+    let Job { prepare, check } = job;
+    let mut prepare = Some(prepare);
+    // Called once on either path below; a second call would be a bug here, not bad input.
+    let mut prepare_once = || (prepare.take().expect("the job is prepared once"))();
+    let mut ready = None;
+    // The checkpoint is opened (and a wrong one refused) before anything listens.
+    let opened = match &config.checkpoint {
+        Some(at) => {
+            let (desc, settings) = prepare_once()?;
+            let o = open_checkpoint(&at.path, at.resume, &desc, &settings, &config.schedule)?;
+            ready = Some((desc, settings));
+            Some(o)
+        }
+        None => None,
+    };
+    rt.block_on(async {
+        let mut master = Master::bind(config, token.clone()).await?;
+        if let Some(o) = opened {
+            master.set_checkpoint(o, Writer::Background);
+        }
+        let addr = master.local_addr();
+        let dial = on_listen(addr)?.unwrap_or_else(|| dial_address(addr));
+        let _children = if config.spawn.count > 0 {
+            let s = &config.spawn;
+            Some(
+                spawn_workers(&s.command, s.count, s.threads, dial, &token)
+                    .map_err(DistError::from)?,
+            )
+        } else {
+            None
+        };
+        // Workers dial and wait in the listen backlog while the job is prepared.
+        let (desc, settings) = match ready {
+            Some(j) => j,
+            None => prepare_once()?,
+        };
+        let cancel = cancel.unwrap_or_default();
+        let on_signal = cancel.clone();
+        let signal = tokio::spawn(async move {
+            if tokio::signal::ctrl_c().await.is_ok() {
+                on_signal.cancel();
+            }
+        });
+        let result = master.render(&desc, &settings, cancel).await;
+        signal.abort();
+        if result.is_err() {
+            if let Some(check) = check {
+                // A job the workers could not build is the input's fault: say so, once.
+                check(&desc, &settings)?;
+            }
+        }
+        Ok(Rendered {
+            result: result?,
+            desc,
+            settings,
+        })
+    })
+}
+
+/// Opens (or creates) the checkpoint of this job, refusing one of another job.
+fn open_checkpoint(
+    path: &std::path::Path,
+    resume: bool,
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    schedule: &options::Schedule,
+) -> Result<checkpoint::Opened, DistError> {
+    let key = checkpoint::JobKey::new(desc, settings, schedule.tile, schedule.pixel_format)?;
+    let list = parrt::tile::tiles(settings.width, settings.height, schedule.tile.max(1));
+    let o = checkpoint::open(path, &key, &list, resume)?;
+    if !o.created {
+        tracing::info!(
+            checkpoint = %path.display(),
+            tiles = o.scan.tiles.len(),
+            bad_records = o.scan.bad_records,
+            cut_bytes = o.scan.cut_bytes,
+            "resuming"
+        );
+    }
+    Ok(o)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn too_many_local_workers_are_refused_before_anything_starts() {
+        let mut config = MasterConfig::default();
+        config.spawn.count = options::MAX_SPAWNED_WORKERS + 1;
+        let job = Job::<DistError>::prepared(|| panic!("nothing is prepared"));
+        let e = run(&config, job, &mut |_| panic!("nothing listens"), None).unwrap_err();
+        assert!(matches!(e, DistError::TooManyWorkers { .. }), "{e}");
+        assert!(e.is_bad_input());
+    }
+}

@@ -1,0 +1,508 @@
+//! The master's server: takes peers from a [`Listener`] (each served by a task from
+//! [`super::connection`], at most `max_connections` at once, of which at most
+//! [`MAX_HANDSHAKING`] still handshaking and [`MAX_HANDSHAKING_PER_PEER`] of those from one
+//! address, so peers that stall their handshake never hold an authenticated worker's slot),
+//! and runs the loop that moves events into the scheduler and accepted tiles into the sink
+//! until the scheduler says stop; then it tells every worker to shut down and waits for the
+//! tasks to end (a `CancellationToken` broadcast and a `TaskTracker`, as in mini-redis's
+//! shutdown). Every decision is the scheduler's ([`Scheduler::step`]); this loop only moves
+//! events, bytes and time.
+
+use super::checkpoint::Opened;
+use super::clock::SharedClock;
+use super::connection::{self, ConnContext};
+use super::net::{Listener, TcpListener};
+use super::options::MasterConfig;
+use super::scheduler::{AcceptedTile, Event, SchedOptions, Scheduler, Step, Verdict, WorkerId};
+use super::sink::{BackgroundWriter, TileSink, WRITER_QUEUE};
+use super::{DistError, DistResult};
+use parrt::description::SceneDescription;
+use parrt::protocol::limits::{
+    frame_allowance, worker_frame_limit, MAX_HANDSHAKING, MAX_HANDSHAKING_PER_PEER,
+};
+use parrt::protocol::{Encoded, JobSpec, Message, Token};
+use parrt::settings::RenderSettings;
+use parrt::tile::tiles;
+use rand::{Rng, SeedableRng};
+use std::collections::HashMap;
+use std::net::{IpAddr, SocketAddr};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use tokio::sync::{mpsc, OwnedSemaphorePermit, Semaphore};
+use tokio::time::{interval, timeout, Instant, MissedTickBehavior};
+use tokio_util::sync::CancellationToken;
+use tokio_util::task::TaskTracker;
+use tracing::{debug, info, warn};
+
+/// How often the loop looks at deadlines when no event comes.
+pub const TICK: Duration = Duration::from_millis(100);
+
+/// How long shutdown waits for connection tasks to end.
+pub const SHUTDOWN_WAIT: Duration = Duration::from_secs(5);
+
+/// How a checkpoint is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Writer {
+    /// On a thread of its own behind a bounded queue (real runs: a slow disk never stalls
+    /// the loop).
+    Background,
+    /// On the loop's own thread (the deterministic simulation: what a crash leaves is the
+    /// same on every replay).
+    Inline,
+}
+
+/// Where accepted tiles go, with what an earlier run left.
+struct SinkState {
+    sink: Box<dyn TileSink>,
+    /// Whether closing may block (a background writer's join), so runs off the loop.
+    blocking_close: bool,
+    restored: Vec<AcceptedTile>,
+    bad_records: usize,
+}
+
+/// A bound master, ready to render one job.
+pub struct Master<L: Listener = TcpListener> {
+    listener: L,
+    addr: SocketAddr,
+    token: Token,
+    config: MasterConfig,
+    clock: SharedClock,
+    sink: Option<SinkState>,
+}
+
+impl Master<TcpListener> {
+    /// Binds `config.net.listen` over TCP.
+    pub async fn bind(config: &MasterConfig, token: Token) -> Result<Self, DistError> {
+        let listener = TcpListener::bind(&config.net.listen)
+            .await
+            .map_err(|source| DistError::Bind {
+                addr: config.net.listen.clone(),
+                source,
+            })?;
+        Master::with_listener(listener, config, token)
+    }
+}
+
+impl<L: Listener> Master<L> {
+    /// A master taking peers from `listener` (the network seam: TCP, or simulated TCP).
+    pub fn with_listener(
+        listener: L,
+        config: &MasterConfig,
+        token: Token,
+    ) -> Result<Self, DistError> {
+        let addr = listener.local_addr().map_err(|source| DistError::Bind {
+            addr: config.net.listen.clone(),
+            source,
+        })?;
+        Ok(Master {
+            listener,
+            addr,
+            token,
+            config: config.clone(),
+            clock: super::clock::system(),
+            sink: None,
+        })
+    }
+
+    /// Reads the master's CPU time from `clock` (the clock seam).
+    pub fn set_clock(&mut self, clock: SharedClock) {
+        self.clock = clock;
+    }
+
+    /// Records accepted tiles in the checkpoint `c`, written as `writer` says, and starts
+    /// from the tiles it already holds.
+    pub fn set_checkpoint(&mut self, c: Opened, writer: Writer) {
+        let inner: Box<dyn TileSink> = Box::new(c.checkpoint);
+        let sink: Box<dyn TileSink> = match writer {
+            Writer::Inline => inner,
+            Writer::Background => match BackgroundWriter::start(inner, WRITER_QUEUE) {
+                Ok(w) => Box::new(w),
+                Err((inner, e)) => {
+                    warn!(error = %e, "no thread for the checkpoint writer; writing inline");
+                    inner
+                }
+            },
+        };
+        self.set_sink(sink, c.scan.tiles, c.scan.bad_records);
+        if let Some(s) = &mut self.sink {
+            s.blocking_close = writer == Writer::Background;
+        }
+    }
+
+    /// Sends accepted tiles to `sink`, starting from `restored` (tiles an earlier run
+    /// accepted; `bad_records` of its records were not trusted).
+    pub fn set_sink(
+        &mut self,
+        sink: Box<dyn TileSink>,
+        restored: Vec<AcceptedTile>,
+        bad_records: usize,
+    ) {
+        self.sink = Some(SinkState {
+            sink,
+            blocking_close: false,
+            restored,
+            bad_records,
+        });
+    }
+
+    /// The address actually bound (the port chosen when asked for `:0`).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// Renders `desc` with `settings` on whatever workers connect. `cancel` aborts (Ctrl-C):
+    /// workers are told Shutdown and the error is [`DistError::Interrupted`].
+    pub async fn render(
+        self,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+        cancel: CancellationToken,
+    ) -> Result<DistResult, DistError> {
+        let Master {
+            listener,
+            token,
+            config,
+            clock,
+            sink,
+            ..
+        } = self;
+        let (sched_opts, net) = (&config.schedule, &config.net);
+        if worker_frame_limit(sched_opts.tile) > net.max_frame {
+            return Err(DistError::TileTooLarge {
+                tile: sched_opts.tile,
+                max_frame: net.max_frame,
+            });
+        }
+        let mut rng = match config.seed {
+            Some(s) => rand::rngs::StdRng::seed_from_u64(s),
+            None => rand::rngs::StdRng::from_entropy(),
+        };
+        let job_id = rng.gen::<u64>();
+        let list = tiles(settings.width, settings.height, sched_opts.tile);
+        let n_tiles = list.len();
+        // With a token of its own making only the workers it started can join.
+        let closed_to =
+            (net.token.is_none() && config.spawn.count > 0).then_some(config.spawn.count);
+        let mut sched = Scheduler::new(
+            job_id,
+            settings,
+            desc.lights.len(),
+            list,
+            SchedOptions {
+                window: sched_opts.window,
+                tile_deadline: sched_opts.tile_deadline,
+                max_failures: sched_opts.max_failures,
+                backups: sched_opts.backups,
+                max_batch: sched_opts
+                    .max_batch
+                    .clamp(1, parrt::protocol::limits::MAX_BATCH),
+                pixel_format: sched_opts.pixel_format,
+                rules: super::lifecycle::Rules {
+                    min_workers: sched_opts.min_workers,
+                    wait_workers: sched_opts.wait_workers,
+                    await_all_workers: sched_opts.await_all_workers,
+                    closed_to,
+                },
+            },
+        );
+        let observers = config.observers.clone();
+        sched.set_observers(observers.clone());
+        let (mut sink, blocking_close, restored_tiles, checkpoint_bad_records) = match sink {
+            Some(s) => {
+                sched.keep_accepted();
+                let restored = sched.restore(s.restored);
+                (Some(s.sink), s.blocking_close, restored, s.bad_records)
+            }
+            None => (None, false, 0, 0),
+        };
+        let job = Message::Job(Box::new(JobSpec {
+            job_id,
+            scene: desc.clone(),
+            settings: settings.clone(),
+            tile_size: sched_opts.tile,
+            pixel_format: sched_opts.pixel_format,
+        }));
+        // Encoded once, for every worker (and to size the time allowed for sending it).
+        let job = Encoded::new(&job).map_err(DistError::EncodeJob)?;
+        let job_bytes = job.len();
+        if job_bytes > net.max_frame {
+            return Err(DistError::JobTooLarge {
+                bytes: job_bytes,
+                max_frame: net.max_frame,
+            });
+        }
+        let ctx = Arc::new(ConnContext {
+            job,
+            token,
+            max_frame: net.max_frame,
+            max_receive: worker_frame_limit(sched_opts.tile).min(net.max_frame),
+            job_write_timeout: net.heartbeat_timeout + frame_allowance(job_bytes),
+            handshake_timeout: net.handshake_timeout,
+            heartbeat: net.heartbeat,
+            heartbeat_timeout: net.heartbeat_timeout,
+            seed: config.seed.map(|_| rng.gen()),
+        });
+        let (events_tx, mut events) = mpsc::unbounded_channel::<Event>();
+        let stop = CancellationToken::new();
+        let tracker = TaskTracker::new();
+        tracker.spawn(accept_loop(
+            listener,
+            ctx,
+            events_tx,
+            stop.clone(),
+            tracker.clone(),
+            net.max_connections,
+        ));
+
+        let mut tick = interval(TICK);
+        tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
+        let mut cpu_at_start = 0.0;
+        let outcome: Result<(), DistError> = loop {
+            let now = Instant::now();
+            match sched.step(now) {
+                Step::Done => break Ok(()),
+                Step::Fail(v) => break Err(failure(v, &sched, n_tiles)),
+                Step::Run { started } => {
+                    if started {
+                        cpu_at_start = clock.cpu_s();
+                    }
+                    sched.fill(now);
+                }
+                Step::Wait => {}
+            }
+            if !observers.is_empty() {
+                let (done, total) = sched.progress();
+                let rates = sched.throughput(now);
+                observers.each(|o| o.progress(done, total, &rates));
+            }
+            // Polled in this order (not at random), so a run replays exactly under the
+            // simulation; deadlines come before events, so a busy master still checks them.
+            tokio::select! {
+                biased;
+                _ = cancel.cancelled() => break Err(DistError::Interrupted),
+                _ = tick.tick() => sched.expire(Instant::now()),
+                ev = events.recv() => match ev {
+                    Some(ev) => {
+                        // Take every event already waiting before handing out tiles again:
+                        // a batch's results arrive together and are answered together.
+                        let now = Instant::now();
+                        sched.handle(ev, now);
+                        while let Ok(ev) = events.try_recv() {
+                            sched.handle(ev, now);
+                        }
+                    }
+                    None => break Err(DistError::AcceptFailed),
+                },
+            }
+            if let Some(s) = &mut sink {
+                if let Err(e) = s.take(sched.take_accepted()) {
+                    break Err(e.into());
+                }
+            }
+        };
+        let started = sched.started();
+        let trace_s = started.map_or(0.0, |s| s.elapsed().as_secs_f64());
+        let master_cpu_s = if started.is_some() {
+            clock.cpu_s() - cpu_at_start
+        } else {
+            0.0
+        };
+        let complete = sched.is_done();
+        observers.each(|o| o.finished(complete, Instant::now()));
+
+        // Shutdown: the scheduler closes every outbox after a Shutdown; the stop signal ends
+        // the accept loop and any handshake still running; then wait for the tasks.
+        let finished = sched.finish();
+        stop.cancel();
+        tracker.close();
+        let closing = async {
+            if timeout(SHUTDOWN_WAIT, tracker.wait()).await.is_err() {
+                warn!("some connections did not close within {SHUTDOWN_WAIT:?}");
+            }
+        };
+        // The sink finishes on a blocking thread while the workers are told goodbye.
+        let sink_closed = async {
+            match sink {
+                Some(s) if blocking_close => {
+                    match tokio::task::spawn_blocking(move || s.close()).await {
+                        Ok(r) => r,
+                        Err(_) => Err(super::checkpoint::CheckpointError::WriterGone),
+                    }
+                }
+                Some(s) => s.close(),
+                None => Ok(()),
+            }
+        };
+        let ((), closed) = tokio::join!(closing, sink_closed);
+        if let Err(e) = closed {
+            warn!(error = %e, "cannot finish the checkpoint");
+        }
+        // Late events (Gone of the last workers) are of no interest now.
+        drop(events);
+        outcome?;
+        let bytes_sent = finished.reports.iter().map(|r| r.bytes_sent).sum();
+        let bytes_received = finished.reports.iter().map(|r| r.bytes_received).sum();
+        let transfers: Vec<f64> = finished
+            .reports
+            .iter()
+            .filter(|r| r.build_s > 0.0 || r.scene_transfer_s > 0.0)
+            .map(|r| r.scene_transfer_s)
+            .collect();
+        let scene_transfer_s = if transfers.is_empty() {
+            0.0
+        } else {
+            transfers.iter().sum::<f64>() / transfers.len() as f64
+        };
+        Ok(DistResult {
+            film: finished.film,
+            stats: finished.stats,
+            tile_seconds: finished.tile_seconds,
+            trace_s,
+            master_cpu_s,
+            per_worker: finished.reports,
+            bytes_sent,
+            bytes_received,
+            scene_transfer_s,
+            faults: finished.faults,
+            tiles: n_tiles,
+            restored_tiles,
+            checkpoint_bad_records,
+        })
+    }
+}
+
+/// The error for the scheduler's verdict.
+fn failure(v: Verdict, sched: &Scheduler, total: usize) -> DistError {
+    match v {
+        Verdict::NoWorkers {
+            waited,
+            wanted,
+            ready,
+        } => DistError::NoWorkers {
+            waited,
+            wanted,
+            ready,
+            failed: sched.departures(),
+        },
+        Verdict::AllWorkersLost { waited } => DistError::AllWorkersLost {
+            waited,
+            done: sched.progress().0,
+            total,
+        },
+    }
+}
+
+/// A peer's place in the handshake budget (overall and per address); given back on drop.
+#[derive(Debug)]
+pub struct HandshakeSlot {
+    _permit: OwnedSemaphorePermit,
+    ip: IpAddr,
+    per_peer: Arc<Mutex<HashMap<IpAddr, usize>>>,
+}
+
+impl Drop for HandshakeSlot {
+    fn drop(&mut self) {
+        let mut map = self.per_peer.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(n) = map.get_mut(&self.ip) {
+            *n -= 1;
+            if *n == 0 {
+                map.remove(&self.ip);
+            }
+        }
+    }
+}
+
+/// The connection budgets: every connection holds a slot of `total`; one still handshaking
+/// also holds a [`HandshakeSlot`].
+struct Admission {
+    total: Arc<Semaphore>,
+    handshaking: Arc<Semaphore>,
+    per_peer: Arc<Mutex<HashMap<IpAddr, usize>>>,
+}
+
+impl Admission {
+    fn new(max_connections: usize) -> Self {
+        let max = max_connections.max(1);
+        Admission {
+            total: Arc::new(Semaphore::new(max)),
+            handshaking: Arc::new(Semaphore::new(MAX_HANDSHAKING.min(max.div_ceil(2)))),
+            per_peer: Arc::default(),
+        }
+    }
+
+    /// Slots for a new peer from `ip`, or why there is none.
+    fn admit(&self, ip: IpAddr) -> Result<(OwnedSemaphorePermit, HandshakeSlot), &'static str> {
+        let mut map = self.per_peer.lock().unwrap_or_else(|e| e.into_inner());
+        let n = map.entry(ip).or_insert(0);
+        if *n >= MAX_HANDSHAKING_PER_PEER {
+            return Err("too many handshakes from this address");
+        }
+        let Ok(permit) = self.handshaking.clone().try_acquire_owned() else {
+            return Err("too many handshakes at once");
+        };
+        let Ok(total) = self.total.clone().try_acquire_owned() else {
+            return Err("too many connections");
+        };
+        *n += 1;
+        let slot = HandshakeSlot {
+            _permit: permit,
+            ip,
+            per_peer: self.per_peer.clone(),
+        };
+        Ok((total, slot))
+    }
+}
+
+async fn accept_loop<L: Listener>(
+    mut listener: L,
+    ctx: Arc<ConnContext>,
+    events: mpsc::UnboundedSender<Event>,
+    stop: CancellationToken,
+    tracker: TaskTracker,
+    max_connections: usize,
+) {
+    let admission = Admission::new(max_connections);
+    let mut next_id: WorkerId = 1;
+    // Turned-away peers are logged at WARN at most once a second.
+    let mut last_warn: Option<Instant> = None;
+    let mut turned_away = 0u64;
+    loop {
+        let accepted = tokio::select! {
+            biased;
+            _ = stop.cancelled() => return,
+            a = listener.accept() => a,
+        };
+        let (stream, peer) = match accepted {
+            Ok(a) => a,
+            Err(e) => {
+                // Usually a transient resource shortage (EMFILE): back off briefly.
+                warn!(error = %e, "accept failed");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+                continue;
+            }
+        };
+        let (permit, slot) = match admission.admit(peer.ip()) {
+            Ok(a) => a,
+            Err(why) => {
+                turned_away += 1;
+                let now = Instant::now();
+                // INFO, not WARN: many honest workers arriving at once (`render --workers 40`)
+                // meet these budgets too, and simply retry.
+                if last_warn.is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1)) {
+                    info!(%peer, max_connections, turned_away, "{why}; closing this one");
+                    last_warn = Some(now);
+                } else {
+                    debug!(%peer, "{why}; closing this one");
+                }
+                continue;
+            }
+        };
+        let id = next_id;
+        next_id += 1;
+        let (ctx, events, stop) = (ctx.clone(), events.clone(), stop.clone());
+        tracker.spawn(async move {
+            connection::serve(stream, peer, id, ctx, events, stop, slot).await;
+            drop(permit);
+        });
+    }
+}
