@@ -8,6 +8,7 @@
 //!
 //! ## Layout
 //! - [`options`]: what a worker is told (address, threads, token, timeouts, test hooks).
+//! - [`net`]: the network seam, how a connection is opened (TCP, or a simulated stream).
 //! - [`dial`]: connecting with bounded exponential backoff.
 //! - [`session`]: handshake and the message loop with one master.
 //! - [`tiles`]: the bridge from the async loop to the rayon pool.
@@ -30,6 +31,7 @@
 pub mod cli;
 pub mod dial;
 pub mod error;
+pub mod net;
 pub mod options;
 pub mod replay;
 pub mod session;
