@@ -267,3 +267,72 @@ impl Execute for InlineExec {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
+    use parrt::protocol::{PixelFormat, Token};
+    use parrt::render::Renderer;
+    use parrt::settings::RenderSettings;
+    use parrt::tile::tiles;
+    use parrt::vec3::Vec3d;
+    use std::sync::atomic::AtomicBool;
+
+    fn job() -> JobHandle {
+        let desc = SceneDescription {
+            background: Vec3d::new(0.1, 0.2, 0.3),
+            view: View {
+                from: Vec3d::new(0.0, 0.0, 5.0),
+                at: Vec3d::zero(),
+                up: Vec3d::new(0.0, 1.0, 0.0),
+                angle: 40.0,
+                hither: 0.01,
+                width: 8,
+                height: 8,
+            },
+            lights: vec![Light {
+                position: Vec3d::new(1.0, 2.0, 3.0),
+                color: None,
+            }],
+            materials: vec![Material::default_white()],
+            primitives: vec![Primitive {
+                shape: Shape::Sphere {
+                    center: Vec3d::zero(),
+                    radius: 1.0,
+                },
+                material: 0,
+            }],
+        };
+        JobHandle {
+            job_id: 1,
+            renderer: Arc::new(Renderer::new(&desc, &RenderSettings::new(8, 8)).unwrap()),
+            cancelled: Arc::new(AtomicBool::new(false)),
+            pixel_format: PixelFormat::Rgb8,
+        }
+    }
+
+    /// A cancelled job's queued tiles are skipped, as on the pool; the tile already running
+    /// still finishes and is delivered; a batch whose tiles were all skipped sends nothing.
+    #[tokio::test(start_paused = true)]
+    async fn cancel_skips_queued_tiles() {
+        let mut exec = InlineExec::constant(Duration::from_millis(100));
+        let mut opts = WorkerOptions::new("sim:1", Token::new("t").unwrap());
+        opts.threads = 1;
+        exec.start(&opts);
+        let job = job();
+        let list = tiles(8, 8, 4);
+        let t0 = Instant::now();
+        exec.submit(&job, list.iter().map(|t| (*t, 1)).collect());
+        job.cancelled.store(true, Ordering::Relaxed);
+        let Ok(ExecEvent::Results(msgs)) = exec.next().await else {
+            panic!("expected results");
+        };
+        assert_eq!(t0.elapsed(), Duration::from_millis(100));
+        assert_eq!(msgs.len(), 1);
+        assert!(matches!(msgs[0], Message::TileResult { tile_id: 0, .. }));
+        exec.submit(&job, vec![(list[1], 2)]);
+        let waited = tokio::time::timeout(Duration::from_secs(10), exec.next()).await;
+        assert!(waited.is_err(), "a skipped batch delivered something");
+    }
+}
