@@ -1,9 +1,11 @@
 //! Dialling the master: retry with exponential backoff (doubling, capped) until a connection is
 //! made, the time budget is spent, or we are told to stop. Workers may start before the master.
 //! A handshake cut short (the master's connection table full, the master restarting) is retried
-//! within the same budget; a refusal never is.
+//! within the same budget; a refusal never is. What a connection is (TCP, or a simulated or
+//! in-memory stream) comes from a [`Dial`]; this file only decides when to try again.
 
 use crate::error::WorkerError;
+use crate::net::{Dial, TcpDial};
 use crate::options::WorkerOptions;
 use std::time::Duration;
 use tokio::net::TcpStream;
@@ -26,18 +28,27 @@ pub async fn dial(
 /// cut short (a full connection table, a master restarting) both wait the next backoff delay
 /// and count against [`WorkerOptions::dial_timeout`].
 #[derive(Debug)]
-pub struct Dialer<'a> {
+pub struct Dialer<'a, D = TcpDial> {
     opts: &'a WorkerOptions,
+    dial: &'a D,
     start: Instant,
     delay: Duration,
     attempts: u32,
 }
 
-impl<'a> Dialer<'a> {
-    /// A fresh budget, starting now.
+impl<'a> Dialer<'a, TcpDial> {
+    /// A fresh budget for TCP, starting now.
     pub fn new(opts: &'a WorkerOptions) -> Self {
+        Dialer::with(opts, &TcpDial)
+    }
+}
+
+impl<'a, D: Dial> Dialer<'a, D> {
+    /// A fresh budget, starting now, connecting through `dial`.
+    pub fn with(opts: &'a WorkerOptions, dial: &'a D) -> Self {
         Dialer {
             opts,
+            dial,
             start: Instant::now(),
             delay: opts.initial_backoff,
             attempts: 0,
@@ -53,16 +64,13 @@ impl<'a> Dialer<'a> {
     pub async fn connect(
         &mut self,
         stop: &CancellationToken,
-    ) -> Result<Option<TcpStream>, WorkerError> {
+    ) -> Result<Option<D::Stream>, WorkerError> {
         loop {
             self.attempts += 1;
             let err = tokio::select! {
                 _ = stop.cancelled() => return Ok(None),
-                r = TcpStream::connect(&self.opts.connect) => match r {
-                    Ok(s) => {
-                        let _ = s.set_nodelay(true);
-                        return Ok(Some(s));
-                    }
+                r = self.dial.connect(&self.opts.connect) => match r {
+                    Ok(s) => return Ok(Some(s)),
                     Err(e) => e,
                 },
             };

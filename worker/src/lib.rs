@@ -8,8 +8,12 @@
 //!
 //! ## Layout
 //! - [`options`]: what a worker is told (address, threads, token, timeouts, test hooks).
+//! - [`net`]: the network seam, how a connection is opened (TCP, or a simulated stream).
 //! - [`dial`]: connecting with bounded exponential backoff.
-//! - [`session`]: handshake and the message loop with one master.
+//! - [`session`]: handshake and the message loop with one master ([`session::run`] for the
+//!   real worker, [`session::run_with`] for a simulation or a test).
+//! - [`exec`]: the execution seam, where builds and tiles run (the rayon pool, or inline in
+//!   simulated time).
 //! - [`tiles`]: the bridge from the async loop to the rayon pool.
 //! - [`replay`]: replaying a recorded render instead of tracing (a bench aid).
 //! - [`cli`]: `parrt worker` / `parrt-worker` arguments and entry point (both binaries call it).
@@ -30,6 +34,8 @@
 pub mod cli;
 pub mod dial;
 pub mod error;
+pub mod exec;
+pub mod net;
 pub mod options;
 pub mod replay;
 pub mod session;

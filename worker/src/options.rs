@@ -37,6 +37,10 @@ pub struct WorkerOptions {
     pub max_frame: usize,
     /// Sleep before each tile (testing aid, see [`TILE_DELAY_ENV`]).
     pub tile_delay: Option<Duration>,
+    /// Seed of the handshake nonces (simulation aid): `None` (the default) draws them from the
+    /// thread's cryptographic generator; `Some` from a generator seeded with it, so a simulated
+    /// run replays exactly. Never set it for a worker on a real network.
+    pub nonce_seed: Option<u64>,
 }
 
 impl WorkerOptions {
@@ -57,7 +61,15 @@ impl WorkerOptions {
             master_timeout: Duration::from_secs(30),
             max_frame: DEFAULT_MAX_FRAME,
             tile_delay: tile_delay_from_env(),
+            nonce_seed: None,
         }
+    }
+
+    /// Render threads: [`WorkerOptions::threads`] kept within 1 ..=
+    /// [`parrt::protocol::limits::MAX_THREADS`]. What Hello announces and the pool is built with.
+    pub fn render_threads(&self) -> usize {
+        self.threads
+            .clamp(1, parrt::protocol::limits::MAX_THREADS as usize)
     }
 }
 

@@ -241,6 +241,17 @@ impl Replay {
     /// after the call (the calling thread sleeps, as it would have been busy tracing).
     pub fn play(&self, tile: &Tile, out: &mut Vec<Rgb>) -> Result<(), ReplayError> {
         let start = Instant::now();
+        let due = start + self.cost(tile)?;
+        self.pixels(tile, out)?;
+        let now = Instant::now();
+        if due > now {
+            std::thread::sleep(due - now);
+        }
+        Ok(())
+    }
+
+    /// The recording's index of `tile`, or why it has none.
+    fn index(&self, tile: &Tile) -> Result<usize, ReplayError> {
         let i = tile.id as usize;
         if self.tiles.get(i) != Some(tile) {
             return Err(ReplayError::Mismatch {
@@ -254,13 +265,20 @@ impl Replay {
                 tile: self.tile,
             });
         }
-        self.read_pixels(i, out)?;
-        let due = start + Duration::from_secs_f64(self.costs[i] * self.scale);
-        let now = Instant::now();
-        if due > now {
-            std::thread::sleep(due - now);
-        }
-        Ok(())
+        Ok(i)
+    }
+
+    /// `tile`'s recorded pixels into `out`, at once (no sleeping): for a simulated worker,
+    /// which spends the cost in virtual time instead (`exec::InlineExec::replaying`).
+    pub fn pixels(&self, tile: &Tile, out: &mut Vec<Rgb>) -> Result<(), ReplayError> {
+        let i = self.index(tile)?;
+        self.read_pixels(i, out)
+    }
+
+    /// How long `tile` lasts when replayed: its recorded one-thread cost × the scale.
+    pub fn cost(&self, tile: &Tile) -> Result<Duration, ReplayError> {
+        let i = self.index(tile)?;
+        Ok(Duration::from_secs_f64(self.costs[i] * self.scale))
     }
 }
 

@@ -1,29 +1,31 @@
 //! One worker session: dial, handshake (Hello with our nonce → Challenge with the master's
 //! proof, checked before we answer → Auth → Welcome), then the message loop. A handshake cut
 //! short is retried within the dial budget; a refusal or a master that cannot prove the token
-//! ends the session at once. The loop owns the connection; the rayon pool and renderer builds
-//! are made on blocking threads and tiles run on the pool, all reporting back through channels,
-//! so heartbeats never wait. Every write is bounded by the master timeout. It ends on Shutdown,
-//! when the master goes away, or when told to stop (Ctrl-C): then it takes no more tiles and
-//! disconnects.
+//! ends the session at once. The loop owns the connection; renderer builds and tiles go to an
+//! executor ([`crate::exec`]) that reports back as one more branch of the loop, so heartbeats
+//! never wait. Every write is bounded by the master timeout. It ends on Shutdown, when the
+//! master goes away, or when told to stop (Ctrl-C): then it takes no more tiles and
+//! disconnects. [`run`] is the real worker (TCP, a rayon pool); [`run_with`] takes the network
+//! and the executor as arguments, so a simulation runs this same code.
 
 use crate::dial::Dialer;
 use crate::error::WorkerError;
+use crate::exec::{ExecEvent, Execute, RayonExec};
+use crate::net::{Dial, TcpDial};
 use crate::options::WorkerOptions;
-use crate::tiles::{JobHandle, TileRenderer, UNSENT_RESULTS};
-use parrt::protocol::limits::{self, MASTER_FRAME_AFTER_JOB, MAX_THREADS};
+use crate::tiles::JobHandle;
+use parrt::protocol::limits::{self, MASTER_FRAME_AFTER_JOB};
 use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
     Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
-use parrt::render::Renderer;
 use parrt::tile::Tile;
-use rand::RngCore;
+use rand::rngs::StdRng;
+use rand::{RngCore, SeedableRng};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::net::TcpStream;
-use tokio::sync::mpsc;
+use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::time::{interval, sleep_until, timeout, Instant, MissedTickBehavior};
 use tokio_util::sync::CancellationToken;
 use tracing::{info, warn};
@@ -62,30 +64,65 @@ struct CurrentJob {
     waiting: Vec<Vec<(Tile, u32)>>,
 }
 
-/// A finished renderer build.
-struct Built {
-    job_id: u64,
-    result: Result<Renderer, String>,
-    seconds: f64,
+/// Where handshake nonces come from: fresh from the thread's cryptographic generator, or (a
+/// simulation aid, [`WorkerOptions::nonce_seed`]) a seeded one, the same run after run.
+enum Nonces {
+    Thread,
+    Seeded(Box<StdRng>),
 }
 
-/// Dials the master, authenticates and serves it until the session ends.
+impl Nonces {
+    fn new(opts: &WorkerOptions) -> Self {
+        match opts.nonce_seed {
+            Some(seed) => Nonces::Seeded(Box::new(StdRng::seed_from_u64(seed))),
+            None => Nonces::Thread,
+        }
+    }
+
+    /// A fresh nonce (one per connection attempt).
+    fn next(&mut self) -> [u8; NONCE_LEN] {
+        let mut n = [0u8; NONCE_LEN];
+        match self {
+            // Asked for each time: a ThreadRng may not be kept across an await of a Send future.
+            Nonces::Thread => rand::thread_rng().fill_bytes(&mut n),
+            Nonces::Seeded(rng) => rng.fill_bytes(&mut n),
+        }
+        n
+    }
+}
+
+/// Dials the master over TCP, authenticates and serves it until the session ends, rendering
+/// on a rayon pool of [`WorkerOptions::threads`]: the real worker.
 pub async fn run(
     opts: &WorkerOptions,
     stop: CancellationToken,
+) -> Result<SessionSummary, WorkerError> {
+    run_with(opts, stop, &TcpDial, RayonExec::new()).await
+}
+
+/// [`run`] with the network and the executor given: connects through `dial` (every attempt of
+/// the dial budget), and builds renderers and renders tiles with `exec`. A simulation passes
+/// its simulated streams and an [`crate::exec::InlineExec`]; everything else (backoff,
+/// handshake, limits, the message loop, logs) is the real worker's.
+pub async fn run_with<D: Dial, E: Execute>(
+    opts: &WorkerOptions,
+    stop: CancellationToken,
+    dial: &D,
+    mut exec: E,
 ) -> Result<SessionSummary, WorkerError> {
     let stopped = SessionSummary {
         end: SessionEnd::Stopped,
         jobs: 0,
         tiles_rendered: 0,
     };
-    let mut dialer = Dialer::new(opts);
+    let mut nonces = Nonces::new(opts);
+    let mut dialer = Dialer::with(opts, dial);
     let mut conn = loop {
         let Some(stream) = dialer.connect(&stop).await? else {
             return Ok(stopped);
         };
         let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
-        match handshake(&mut conn, opts).await {
+        match handshake(&mut conn, opts, nonces.next()).await {
             Ok(()) => break conn,
             Err(e) if e.is_cut_handshake() => {
                 if !dialer.retry_after(e, &stop).await? {
@@ -102,7 +139,7 @@ pub async fn run(
         jobs: 0,
         tiles_rendered: 0,
     };
-    summary.end = match serve(conn, opts, stop, &mut summary).await {
+    summary.end = match serve(conn, opts, stop, &mut summary, &mut exec).await {
         Ok(end) => end,
         // The master closing its end while we write is the master going away, not a fault.
         Err(WorkerError::Protocol(ProtocolError::Io(e))) if is_disconnect(&e) => {
@@ -123,8 +160,8 @@ fn is_disconnect(e: &std::io::Error) -> bool {
 }
 
 /// Writes `msg`, giving up when the master takes nothing for `limit`.
-async fn write_within(
-    conn: &mut Connection<TcpStream>,
+async fn write_within<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
     msg: &Message,
     limit: Duration,
 ) -> Result<(), WorkerError> {
@@ -132,8 +169,8 @@ async fn write_within(
 }
 
 /// Writes several messages with one flush, bounded by `limit` like [`write_within`].
-async fn write_all_within(
-    conn: &mut Connection<TcpStream>,
+async fn write_all_within<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
     msgs: &[Message],
     limit: Duration,
 ) -> Result<(), WorkerError> {
@@ -143,8 +180,8 @@ async fn write_all_within(
     }
 }
 
-async fn read_in_handshake(
-    conn: &mut Connection<TcpStream>,
+async fn read_in_handshake<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
     opts: &WorkerOptions,
 ) -> Result<Message, WorkerError> {
     match timeout(opts.handshake_timeout, conn.read()).await {
@@ -153,16 +190,15 @@ async fn read_in_handshake(
     }
 }
 
-async fn handshake(
-    conn: &mut Connection<TcpStream>,
+async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
     opts: &WorkerOptions,
+    ours: [u8; NONCE_LEN],
 ) -> Result<(), WorkerError> {
-    let mut ours = [0u8; NONCE_LEN];
-    rand::thread_rng().fill_bytes(&mut ours);
     let hello = Message::Hello {
         version: PROTOCOL_VERSION,
         name: opts.name.clone(),
-        threads: threads(opts) as u32,
+        threads: opts.render_threads() as u32,
         nonce: ours,
     };
     write_within(conn, &hello, opts.handshake_timeout).await?;
@@ -199,31 +235,15 @@ async fn handshake(
     }
 }
 
-/// Render threads: the option, kept within 1 ..= [`MAX_THREADS`].
-fn threads(opts: &WorkerOptions) -> usize {
-    opts.threads.clamp(1, MAX_THREADS as usize)
-}
-
 /// The message loop of an authenticated session.
-async fn serve(
-    mut conn: Connection<TcpStream>,
+async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
+    mut conn: Connection<S>,
     opts: &WorkerOptions,
     stop: CancellationToken,
     summary: &mut SessionSummary,
+    exec: &mut E,
 ) -> Result<SessionEnd, WorkerError> {
-    let threads = threads(opts);
-    // Starting thousands of threads takes seconds: never on the runtime's thread, so the loop
-    // keeps reading and beating meanwhile.
-    let mut pool_build = tokio::task::spawn_blocking(move || {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .thread_name(|i| format!("parrt-render-{i}"))
-            .build()
-    });
-    let (out_tx, mut out_rx) = mpsc::channel::<Vec<Message>>(UNSENT_RESULTS);
-    let mut out_tx = Some(out_tx);
-    let (built_tx, mut built_rx) = mpsc::unbounded_channel::<Built>();
-    let mut renderer: Option<TileRenderer> = None;
+    exec.start(opts);
     let mut job: Option<CurrentJob> = None;
     let mut beat = interval(opts.heartbeat);
     beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
@@ -243,23 +263,6 @@ async fn serve(
                 finish(&job);
                 info!("stopping: disconnecting from the master");
                 return Ok(SessionEnd::Stopped);
-            }
-            built = &mut pool_build, if renderer.is_none() => {
-                let pool = match built {
-                    Ok(Ok(pool)) => pool,
-                    Ok(Err(source)) => return Err(WorkerError::Pool { threads, source }),
-                    Err(e) => return Err(WorkerError::PoolTask(e.to_string())),
-                };
-                let Some(tx) = out_tx.take() else { continue };
-                let r = TileRenderer::new(pool, tx, opts.tile_delay);
-                if let Some(j) = job.as_mut() {
-                    if let Some(h) = &j.handle {
-                        for batch in j.waiting.drain(..) {
-                            r.submit(h, batch);
-                        }
-                    }
-                }
-                renderer = Some(r);
             }
             _ = sleep_until(alive_until) => {
                 if Instant::now() < conn.alive_until(limit) {
@@ -287,13 +290,13 @@ async fn serve(
                         conn.set_max_receive(MASTER_FRAME_AFTER_JOB.min(opts.max_frame));
                         finish(&job);
                         summary.jobs += 1;
-                        job = Some(start_build(*spec, built_tx.clone()));
+                        job = Some(start_build(*spec, exec));
                     }
                     Message::Assign { job_id, tile, attempt } => {
-                        take_tiles(&mut conn, opts, renderer.as_ref(), job.as_mut(), job_id, vec![(tile, attempt)]).await?;
+                        take_tiles(&mut conn, opts, exec, job.as_mut(), job_id, vec![(tile, attempt)]).await?;
                     }
                     Message::AssignBatch { job_id, tiles } => {
-                        take_tiles(&mut conn, opts, renderer.as_ref(), job.as_mut(), job_id, tiles).await?;
+                        take_tiles(&mut conn, opts, exec, job.as_mut(), job_id, tiles).await?;
                     }
                     Message::Cancel { job_id } => {
                         if job.as_ref().is_some_and(|j| j.spec_id == job_id) {
@@ -317,43 +320,43 @@ async fn serve(
                     }
                 }
             }
-            Some(b) = built_rx.recv() => {
-                let Some(j) = job.as_mut().filter(|j| j.spec_id == b.job_id) else { continue };
-                match b.result {
-                    Ok(r) => {
-                        info!(job = b.job_id, build_s = b.seconds, "renderer built");
-                        let handle = JobHandle {
-                            job_id: b.job_id,
-                            renderer: Arc::new(r),
-                            cancelled: j.cancelled.clone(),
-                            pixel_format: j.pixel_format,
-                        };
-                        write_within(&mut conn, &Message::Ready { job_id: b.job_id, build_s: b.seconds }, limit).await?;
-                        if let Some(r) = &renderer {
+            event = exec.next() => match event? {
+                ExecEvent::Built(b) => {
+                    let Some(j) = job.as_mut().filter(|j| j.spec_id == b.job_id) else { continue };
+                    match b.result {
+                        Ok(r) => {
+                            info!(job = b.job_id, build_s = b.seconds, "renderer built");
+                            let handle = JobHandle {
+                                job_id: b.job_id,
+                                renderer: Arc::new(r),
+                                cancelled: j.cancelled.clone(),
+                                pixel_format: j.pixel_format,
+                            };
+                            write_within(&mut conn, &Message::Ready { job_id: b.job_id, build_s: b.seconds }, limit).await?;
                             for batch in j.waiting.drain(..) {
-                                r.submit(&handle, batch);
+                                exec.submit(&handle, batch);
                             }
+                            j.handle = Some(handle);
                         }
-                        j.handle = Some(handle);
-                    }
-                    Err(reason) => {
-                        warn!(job = b.job_id, %reason, "cannot build the job");
-                        let reason = limits::capped_reason(format!("cannot build job {}: {reason}", b.job_id));
-                        write_within(&mut conn, &Message::Error { reason }, limit).await?;
-                        job = None;
+                        Err(reason) => {
+                            warn!(job = b.job_id, %reason, "cannot build the job");
+                            let reason = limits::capped_reason(format!("cannot build job {}: {reason}", b.job_id));
+                            write_within(&mut conn, &Message::Error { reason }, limit).await?;
+                            job = None;
+                        }
                     }
                 }
-            }
-            Some(msgs) = out_rx.recv() => {
-                summary.tiles_rendered += msgs
-                    .iter()
-                    .filter(|m| matches!(m, Message::TileResult { .. }))
-                    .count() as u64;
-                if let Err(e) = write_all_within(&mut conn, &msgs, limit).await {
-                    finish(&job);
-                    return Err(e);
+                ExecEvent::Results(msgs) => {
+                    summary.tiles_rendered += msgs
+                        .iter()
+                        .filter(|m| matches!(m, Message::TileResult { .. }))
+                        .count() as u64;
+                    if let Err(e) = write_all_within(&mut conn, &msgs, limit).await {
+                        finish(&job);
+                        return Err(e);
+                    }
                 }
-            }
+            },
             _ = beat.tick() => write_within(&mut conn, &Message::Heartbeat, limit).await?,
         }
     }
@@ -361,10 +364,10 @@ async fn serve(
 
 /// Checks an assignment of `tiles` for job `job_id` and queues the valid ones as one batch
 /// (their results go back together); each invalid tile is answered with an Error.
-async fn take_tiles(
-    conn: &mut Connection<TcpStream>,
+async fn take_tiles<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
+    conn: &mut Connection<S>,
     opts: &WorkerOptions,
-    renderer: Option<&TileRenderer>,
+    exec: &mut E,
     job: Option<&mut CurrentJob>,
     job_id: u64,
     tiles: Vec<(Tile, u32)>,
@@ -403,9 +406,9 @@ async fn take_tiles(
         }
     }
     if !batch.is_empty() {
-        match (&j.handle, renderer) {
-            (Some(h), Some(r)) => r.submit(h, batch),
-            _ => j.waiting.push(batch),
+        match &j.handle {
+            Some(h) => exec.submit(h, batch),
+            None => j.waiting.push(batch),
         }
     }
     Ok(())
@@ -418,8 +421,9 @@ fn tile_fits(t: &Tile, width: u32, height: u32) -> bool {
         && t.y.checked_add(t.h).is_some_and(|b| b <= height)
 }
 
-/// Builds the job's renderer on a blocking thread (never on the runtime's workers).
-fn start_build(spec: JobSpec, done: mpsc::UnboundedSender<Built>) -> CurrentJob {
+/// Has `exec` build the job's renderer (the rayon executor: on a blocking thread, never on the
+/// runtime's workers).
+fn start_build<E: Execute>(spec: JobSpec, exec: &mut E) -> CurrentJob {
     let job = CurrentJob {
         spec_id: spec.job_id,
         width: spec.settings.width,
@@ -429,16 +433,6 @@ fn start_build(spec: JobSpec, done: mpsc::UnboundedSender<Built>) -> CurrentJob 
         handle: None,
         waiting: Vec::new(),
     };
-    tokio::task::spawn_blocking(move || {
-        let t0 = std::time::Instant::now();
-        let result = std::panic::catch_unwind(|| Renderer::new(&spec.scene, &spec.settings))
-            .map_err(|_| "building the renderer panicked".to_string())
-            .and_then(|r| r.map_err(|e| e.to_string()));
-        let _ = done.send(Built {
-            job_id: spec.job_id,
-            result,
-            seconds: t0.elapsed().as_secs_f64(),
-        });
-    });
+    exec.build(spec);
     job
 }

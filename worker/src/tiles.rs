@@ -2,8 +2,10 @@
 //! to rayon with `ThreadPool::spawn`, rendered there, and the batch's results come back together
 //! on a bounded channel of [`UNSENT_RESULTS`] batches, so the loop wakes and writes once per
 //! batch; when the master stops taking results, render threads wait instead of piling up
-//! pixels. Never renders on the runtime.
+//! pixels. Never renders on the runtime. How one tile becomes its result message is shared
+//! with the inline executor ([`crate::exec::InlineExec`]).
 
+use parrt::film::Rgb;
 use parrt::protocol::{Message, PixelFormat, TilePixels};
 use parrt::render::Renderer;
 use parrt::stats::RayStats;
@@ -92,24 +94,45 @@ impl TileRenderer {
     }
 }
 
-/// Renders one tile into its result message (an Error if rendering panicked).
-fn render_one(job: &JobHandle, tile: Tile, attempt: u32) -> Message {
-    let t0 = Instant::now();
-    let rendered = std::panic::catch_unwind(AssertUnwindSafe(|| {
-        let mut pixels = Vec::with_capacity(tile.pixel_count());
-        let mut stats = RayStats::default();
-        // A replaying worker (bench aid, `--replay`) returns recorded pixels instead; its
-        // statistics are only the eye rays the tile casts (the master checks those).
-        match crate::replay::installed() {
-            Some(r) => {
-                r.play(&tile, &mut pixels).map_err(|e| e.to_string())?;
-                stats.eye_rays = RayStats::expected_eye_rays(&tile, job.renderer.settings());
-            }
-            None => job.renderer.render_tile(&tile, &mut pixels, &mut stats),
+/// What tracing one tile gave: its pixels and ray statistics, or why it could not be traced.
+pub(crate) type Traced = Result<(Vec<Rgb>, RayStats), String>;
+
+/// Pixels of a tile from elsewhere than tracing (see [`Source::Given`]).
+pub(crate) type GivenPixels<'a> = dyn Fn(&Tile, &mut Vec<Rgb>) -> Result<(), String> + 'a;
+
+/// Where a tile's pixels come from.
+pub(crate) enum Source<'a> {
+    /// The job's renderer traces them.
+    Render,
+    /// A recording gives them (bench and simulation aid); the statistics are only the eye rays
+    /// the tile casts (the master checks those).
+    Given(&'a GivenPixels<'a>),
+}
+
+/// Traces `tile` of `job` from `source`. May panic if the renderer does: callers catch it.
+pub(crate) fn trace(job: &JobHandle, tile: &Tile, source: Source<'_>) -> Traced {
+    let mut pixels = Vec::with_capacity(tile.pixel_count());
+    let mut stats = RayStats::default();
+    match source {
+        Source::Given(f) => {
+            f(tile, &mut pixels)?;
+            stats.eye_rays = RayStats::expected_eye_rays(tile, job.renderer.settings());
         }
-        Ok::<_, String>((pixels, stats))
-    }));
-    match rendered {
+        Source::Render => job.renderer.render_tile(tile, &mut pixels, &mut stats),
+    }
+    Ok((pixels, stats))
+}
+
+/// The message answering one tile: its result, or an Error when tracing failed or panicked.
+/// `seconds` is asked for once the pixels are encoded (the time the tile took, as reported).
+pub(crate) fn result_message(
+    job: &JobHandle,
+    tile: &Tile,
+    attempt: u32,
+    traced: std::thread::Result<Traced>,
+    seconds: impl FnOnce() -> f64,
+) -> Message {
+    match traced {
         Ok(Err(reason)) => Message::Error { reason },
         Ok(Ok((pixels, stats))) => Message::TileResult {
             job_id: job.job_id,
@@ -117,12 +140,28 @@ fn render_one(job: &JobHandle, tile: Tile, attempt: u32) -> Message {
             attempt,
             pixels: TilePixels::encode(&pixels, job.pixel_format),
             stats,
-            seconds: t0.elapsed().as_secs_f64(),
+            seconds: seconds(),
         },
         Err(_) => Message::Error {
             reason: format!("rendering tile {} panicked", tile.id),
         },
     }
+}
+
+/// Renders one tile into its result message (an Error if rendering panicked).
+fn render_one(job: &JobHandle, tile: Tile, attempt: u32) -> Message {
+    let t0 = Instant::now();
+    let traced = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        // A replaying worker (bench aid, `--replay`) returns recorded pixels instead.
+        match crate::replay::installed() {
+            Some(r) => {
+                let play = |t: &Tile, out: &mut Vec<Rgb>| r.play(t, out).map_err(|e| e.to_string());
+                trace(job, &tile, Source::Given(&play))
+            }
+            None => trace(job, &tile, Source::Render),
+        }
+    }));
+    result_message(job, &tile, attempt, traced, || t0.elapsed().as_secs_f64())
 }
 
 #[cfg(test)]
