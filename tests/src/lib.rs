@@ -27,6 +27,8 @@ pub fn spd_dir() -> PathBuf {
 pub mod deliveries;
 pub use deliveries::Deliveries;
 pub mod dist;
+/// Deterministic simulation of the distributed system (turmoil).
+pub mod sim;
 pub use dist::*;
 pub mod spd;
 

@@ -68,6 +68,7 @@ impl<'a, D: Dial> Dialer<'a, D> {
         loop {
             self.attempts += 1;
             let err = tokio::select! {
+                biased;
                 _ = stop.cancelled() => return Ok(None),
                 r = self.dial.connect(&self.opts.connect) => match r {
                     Ok(s) => return Ok(Some(s)),
@@ -123,6 +124,7 @@ impl<'a, D: Dial> Dialer<'a, D> {
     /// Sleeps the current delay and doubles it (capped); false when `stop` fired.
     async fn sleep(&mut self, stop: &CancellationToken) -> bool {
         tokio::select! {
+            biased;
             _ = stop.cancelled() => return false,
             _ = sleep(self.delay) => {}
         }

@@ -257,19 +257,15 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
         // Any bytes from the master (heartbeats included) prove it is alive; a frame must
         // still arrive at the floor rate.
         let alive_until = conn.alive_until(limit);
+        // In this order (not at random), so a session replays exactly under the simulation;
+        // silence is judged last, after any bytes waiting have been read.
         tokio::select! {
+            biased;
             _ = stop.cancelled() => {
                 // Stop taking tiles; dropping the connection tells the master to requeue ours.
                 finish(&job);
                 info!("stopping: disconnecting from the master");
                 return Ok(SessionEnd::Stopped);
-            }
-            _ = sleep_until(alive_until) => {
-                if Instant::now() < conn.alive_until(limit) {
-                    continue;
-                }
-                finish(&job);
-                return Err(WorkerError::MasterSilent(limit));
             }
             read = conn.read() => {
                 let msg = match read {
@@ -358,6 +354,13 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                 }
             },
             _ = beat.tick() => write_within(&mut conn, &Message::Heartbeat, limit).await?,
+            _ = sleep_until(alive_until) => {
+                if Instant::now() < conn.alive_until(limit) {
+                    continue;
+                }
+                finish(&job);
+                return Err(WorkerError::MasterSilent(limit));
+            }
         }
     }
 }

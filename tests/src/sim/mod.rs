@@ -1,0 +1,18 @@
+//! Deterministic simulation of the distributed system (turmoil): the real master runtime and
+//! the real worker session on simulated hosts and TCP, in virtual time, under faults drawn
+//! from a seed. Every failure replays exactly from its seed (same trace hash).
+//!
+//! - [`plan`]: the fault menu and a seed's schedule.
+//! - [`world`]: one seed's hosts, the fault driver and the invariants.
+//! - [`trace`]: the event trace (its hash) and the accepted tiles.
+//! - [`net`]: turmoil's TCP in the runtime's and the worker's network seams.
+//!
+//! The binary `sim` (`cargo run --release -p parrt-tests --bin sim -- explore --seeds N`)
+//! explores and replays; docs/simulation.md describes the world.
+
+pub mod net;
+pub mod plan;
+pub mod trace;
+pub mod world;
+
+pub use world::{run_seed, Outcome};
