@@ -15,7 +15,7 @@
 
 use super::auth::{allowed, needs_token};
 use super::batcher::{status_event, Batcher};
-use super::encode::event;
+use super::encode::{event, png_into};
 use super::limits::{KEEP_ALIVE, MAX_STREAMS};
 use super::state::LiveState;
 use anyhow::Context;
@@ -229,9 +229,7 @@ async fn png(State(app): State<App>) -> Response {
     let s = app.state.status();
     let rgb = app.state.frame();
     let mut out = Vec::new();
-    let encoded = image::codecs::png::PngEncoder::new(&mut out);
-    use image::ImageEncoder;
-    match encoded.write_image(&rgb, s.width, s.height, image::ExtendedColorType::Rgb8) {
+    match png_into(&rgb, s.width, s.height, &mut out) {
         Ok(()) => (
             [
                 (header::CONTENT_TYPE, "image/png"),
