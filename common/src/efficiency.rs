@@ -16,7 +16,8 @@ pub fn efficiency(t1: f64, n: usize, tn: f64) -> f64 {
     t1 / cost(n, tn)
 }
 
-/// The median of some timings (the upper median for an even count); NaN when empty.
+/// The median of some timings (the upper median for an even count); NaN when empty. The one
+/// median of the workspace: every study that repeats a measurement reports this.
 pub fn median(v: &[f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -234,6 +235,8 @@ mod tests {
         assert_eq!(efficiency(8.0, 4, 2.5), 0.8);
         assert_eq!(efficiency(8.0, 1, 8.0), 1.0);
         assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 3.0);
+        assert!(median(&[]).is_nan());
     }
 
     #[test]
