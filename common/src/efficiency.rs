@@ -1,5 +1,6 @@
 //! The paper's measures (DESIGN §9): cost c = n·tₙ and efficiency e = t₁/c, tables of efficiency
 //! against threads (rows) and tile sizes (columns) as Markdown and CSV, and per-tile cost files.
+//! CSV is read and written with the `csv` crate.
 
 use crate::tile::Tile;
 use std::fmt::Write as _;
@@ -16,7 +17,8 @@ pub fn efficiency(t1: f64, n: usize, tn: f64) -> f64 {
     t1 / cost(n, tn)
 }
 
-/// The median of some timings (the upper median for an even count); NaN when empty.
+/// The median of some timings (the upper median for an even count); NaN when empty. The one
+/// median of the workspace: every study that repeats a measurement reports this.
 pub fn median(v: &[f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -124,74 +126,92 @@ impl EfficiencyTable {
         s
     }
 
-    /// CSV: one line per cell: `title,threads,tile,tn_s,cost_s,efficiency,oversubscribed`.
-    pub fn to_csv(&self, header: bool) -> String {
-        let mut s = String::new();
-        if header {
-            s.push_str("table,threads,tile,tn_s,cost_s,efficiency,oversubscribed\n");
-        }
+    /// Writes one CSV record per measured cell, in the columns of [`CSV_HEADER`] (which the
+    /// caller writes once, before the first table).
+    pub fn write_csv<W: std::io::Write>(&self, out: &mut csv::Writer<W>) -> csv::Result<()> {
         for (r, n) in self.threads.iter().enumerate() {
             for (c, tile) in self.tiles.iter().enumerate() {
                 if let Some(cell) = self.cells[r][c] {
-                    let _ = writeln!(
-                        s,
-                        "\"{}\",{n},{tile},{:.6},{:.6},{:.6},{}",
-                        self.title.replace('"', "'"),
-                        cell.tn,
-                        cell.cost,
-                        cell.efficiency,
-                        *n > self.cores
-                    );
+                    out.write_record([
+                        self.title.clone(),
+                        n.to_string(),
+                        tile.to_string(),
+                        format!("{:.6}", cell.tn),
+                        format!("{:.6}", cell.cost),
+                        format!("{:.6}", cell.efficiency),
+                        (*n > self.cores).to_string(),
+                    ])?;
                 }
             }
         }
-        s
+        Ok(())
     }
 }
+
+/// The columns of an efficiency table's CSV ([`EfficiencyTable::write_csv`]).
+pub const CSV_HEADER: [&str; 7] = [
+    "table",
+    "threads",
+    "tile",
+    "tn_s",
+    "cost_s",
+    "efficiency",
+    "oversubscribed",
+];
+
+/// The columns of a per-tile cost file.
+const TILE_COSTS_HEADER: [&str; 6] = ["tile", "x", "y", "w", "h", "seconds"];
 
 /// Writes per-tile costs as CSV: `tile,x,y,w,h,seconds`.
 pub fn write_tile_costs(path: &Path, tiles: &[Tile], seconds: &[f64]) -> std::io::Result<()> {
-    let mut s = String::from("tile,x,y,w,h,seconds\n");
+    let mut out = csv::Writer::from_path(path)?;
+    out.write_record(TILE_COSTS_HEADER)?;
     for (t, secs) in tiles.iter().zip(seconds) {
-        let _ = writeln!(s, "{},{},{},{},{},{:.9}", t.id, t.x, t.y, t.w, t.h, secs);
+        out.write_record([
+            t.id.to_string(),
+            t.x.to_string(),
+            t.y.to_string(),
+            t.w.to_string(),
+            t.h.to_string(),
+            format!("{secs:.9}"),
+        ])?;
     }
-    std::fs::write(path, s)
+    out.flush()
 }
 
-/// Reads a per-tile cost file written by [`write_tile_costs`]. Errors name the line.
+/// Reads a per-tile cost file written by [`write_tile_costs`] (the header line may be left
+/// out; blank lines are skipped). Errors name the line.
 pub fn read_tile_costs(text: &str) -> Result<Vec<(Tile, f64)>, String> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
     let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if i == 0 && line.starts_with("tile,") || line.trim().is_empty() {
+    for (i, record) in reader.records().enumerate() {
+        let line = |e: &csv::Error| e.position().map_or(0, |p| p.line());
+        let f = record.map_err(|e| format!("line {}: {e}", line(&e)))?;
+        let n = f.position().map_or(0, |p| p.line());
+        if i == 0 && f.get(0) == Some(TILE_COSTS_HEADER[0]) || f.iter().all(str::is_empty) {
             continue;
         }
-        let f: Vec<&str> = line.split(',').collect();
         if f.len() != 6 {
-            return Err(format!(
-                "line {}: expected 6 fields, found {}",
-                i + 1,
-                f.len()
-            ));
+            return Err(format!("line {n}: expected 6 fields, found {}", f.len()));
         }
         let num = |k: usize| -> Result<u32, String> {
-            f[k].trim().parse().map_err(|_| {
+            f[k].parse().map_err(|_| {
                 format!(
-                    "line {}: field {} '{}' is not a whole number",
-                    i + 1,
+                    "line {n}: field {} '{}' is not a whole number",
                     k + 1,
-                    f[k]
+                    &f[k]
                 )
             })
         };
         let secs: f64 = f[5]
-            .trim()
             .parse()
-            .map_err(|_| format!("line {}: seconds '{}' is not a number", i + 1, f[5]))?;
+            .map_err(|_| format!("line {n}: seconds '{}' is not a number", &f[5]))?;
         if !secs.is_finite() || secs < 0.0 {
-            return Err(format!(
-                "line {}: seconds must be finite and non-negative",
-                i + 1
-            ));
+            return Err(format!("line {n}: seconds must be finite and non-negative"));
         }
         out.push((
             Tile {
@@ -234,6 +254,8 @@ mod tests {
         assert_eq!(efficiency(8.0, 4, 2.5), 0.8);
         assert_eq!(efficiency(8.0, 1, 8.0), 1.0);
         assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 3.0);
+        assert!(median(&[]).is_nan());
     }
 
     #[test]
@@ -248,9 +270,23 @@ mod tests {
         assert_eq!(md.lines().filter(|l| l.starts_with("| ")).count(), 4); // header + 3 rows
         assert!(md.contains("| 4 (oversubscribed) |"));
         assert!(md.contains("0.909 (5.500s)"));
-        let csv = t.to_csv(true);
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.write_record(CSV_HEADER).expect("in memory");
+        t.write_csv(&mut w).expect("in memory");
+        let csv = String::from_utf8(w.into_inner().expect("in memory")).expect("UTF-8");
         assert_eq!(csv.lines().count(), 4); // header + 3 cells
-        assert!(csv.contains(",4,64,5.000000,20.000000,0.500000,true"));
+        assert!(csv.starts_with("table,threads,tile,tn_s,cost_s,efficiency,oversubscribed\n"));
+        assert!(csv.contains("\nmount bvh smp,4,64,5.000000,20.000000,0.500000,true\n"));
+        // A title with a comma or a quote is quoted, and reads back as one field.
+        let mut q = EfficiencyTable::new("a, \"b\"", vec![1], vec![8], 2);
+        q.set(1, 8, 1.0, 1.0);
+        let mut w = csv::Writer::from_writer(Vec::new());
+        q.write_csv(&mut w).expect("in memory");
+        let text = w.into_inner().expect("in memory");
+        assert_eq!(
+            text,
+            b"\"a, \"\"b\"\"\",1,8,1.000000,1.000000,1.000000,false\n"
+        );
     }
 
     #[test]
@@ -268,7 +304,18 @@ mod tests {
         assert!((agg.iter().sum::<f64>() - secs.iter().sum::<f64>()).abs() < 1e-9);
         // Coarse tile 0 holds fine tiles (0,0),(8,0),(0,8),(8,8): ids 0, 1, 8, 9, summing to 18.
         assert!((agg[0] - 0.5 * 18.0).abs() < 1e-9);
-        assert!(read_tile_costs("tile,x,y,w,h,seconds\n1,2,3\n").is_err());
+        assert_eq!(
+            read_tile_costs("tile,x,y,w,h,seconds\n1,2,3\n"),
+            Err("line 2: expected 6 fields, found 3".into())
+        );
         assert!(read_tile_costs("1,0,0,8,8,-1\n").is_err());
+        assert_eq!(
+            read_tile_costs("0,0,0,8,8,1\n\n 1 , 8,0,8,8, 2\n2,x,0,8,8,1\n"),
+            Err("line 4: field 2 'x' is not a whole number".into())
+        );
+        assert_eq!(
+            read_tile_costs("0,0,0,8,8,\"1,5\"\n"),
+            Err("line 1: seconds '1,5' is not a number".into())
+        );
     }
 }

@@ -1,6 +1,9 @@
 //! Line and scatter charts for the studies, written as SVG and PNG with plotters. Text needs a
 //! font: DejaVu Sans from the system is registered once; without it, charts are drawn unlabelled
 //! and the Markdown tables carry the numbers.
+//!
+//! PNGs are drawn into an RGB buffer and encoded with the workspace's `image` ([`save_png`],
+//! which every plot uses): plotters' own encoder would pull in a second, older `image`.
 
 use anyhow::Context;
 use plotters::prelude::*;
@@ -179,10 +182,28 @@ where
 pub fn save_chart(chart: &Chart, svg: &Path, png: &Path) -> anyhow::Result<()> {
     draw(SVGBackend::new(svg, (800, 500)).into_drawing_area(), chart)
         .with_context(|| format!("cannot draw {}", svg.display()))?;
-    draw(
-        BitMapBackend::new(png, (800, 500)).into_drawing_area(),
-        chart,
+    save_png(png, (800, 500), |root| draw(root, chart))
+        .with_context(|| format!("cannot draw {}", png.display()))
+}
+
+/// Lets `draw` paint a `size` (width, height) bitmap, then writes it to `path` as an 8-bit RGB
+/// PNG.
+pub fn save_png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let (w, h) = size;
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    // The backend borrows the buffer until `draw` returns (and has presented it).
+    draw(BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area())?;
+    image::save_buffer_with_format(
+        path,
+        &rgb,
+        w,
+        h,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
     )
-    .with_context(|| format!("cannot draw {}", png.display()))?;
-    Ok(())
+    .with_context(|| format!("cannot write {}", path.display()))
 }

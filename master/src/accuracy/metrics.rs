@@ -1,6 +1,7 @@
 //! Image error metrics of the speed-against-error study (DESIGN §9). Both images are the linear
 //! float films, each channel clamped to [0, 1] first (what an 8-bit output could show); the
-//! metrics never look at the 8-bit PNG. Pure functions, no I/O.
+//! metrics never look at the 8-bit PNG. Pure functions, no I/O. Both studies of error use
+//! them: `bench accuracy` and `bench precision`.
 
 use parrt::film::Rgb;
 
@@ -20,8 +21,11 @@ pub struct ImageError {
 /// The threshold of [`ImageError::off`]: one step of an 8-bit channel.
 pub const ONE_STEP: f64 = 1.0 / 255.0;
 
+/// A channel as the metrics see it: clamped to [0, 1], in f64 (so that the difference of two
+/// channels is exact). NaN never reaches the film, but a metric must not propagate one: a NaN
+/// channel counts as 0, the value the 8-bit output gives it, so it is an error wherever the
+/// other image is not black there.
 fn clamp01(v: f32) -> f64 {
-    // NaN never reaches the film, but a metric must not propagate one either.
     if v.is_nan() {
         0.0
     } else {
@@ -29,8 +33,9 @@ fn clamp01(v: f32) -> f64 {
     }
 }
 
-/// Compares `img` with `reference`, pixel by pixel. Panics if the sizes differ (the study
-/// renders both at the same size; a mismatch is a bug, not bad input).
+/// Compares `img` with `reference`, pixel by pixel, each channel as `clamp01` reads it (NaN
+/// as 0). Panics if the sizes differ (the studies render both at the same size; a mismatch is
+/// a bug, not bad input).
 pub fn compare(img: &[Rgb], reference: &[Rgb]) -> ImageError {
     assert_eq!(img.len(), reference.len(), "images of different sizes");
     let mut sum_sq = 0.0;
@@ -97,5 +102,15 @@ mod tests {
         let e = compare(&a, &b);
         assert!(e.max < ONE_STEP && e.max > 0.0);
         assert_eq!(e.off, 0.0);
+    }
+
+    #[test]
+    fn a_nan_channel_counts_as_black() {
+        let a = vec![[f32::NAN, 0.0, 0.0], [f32::NAN, 0.0, 0.0]];
+        let b = vec![[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]];
+        let e = compare(&a, &b);
+        assert_eq!(e.max, 0.5);
+        assert_eq!(e.off, 0.5);
+        assert!(e.rmse.is_finite());
     }
 }

@@ -208,13 +208,7 @@ pub fn write(stem: &Path, title: &str, points: &[PlotPoint]) -> anyhow::Result<(
         text,
     )?;
     let png = stem.with_extension("png");
-    draw(
-        BitMapBackend::new(&png, (800, 600)).into_drawing_area(),
-        title,
-        points,
-        text,
-    )?;
-    Ok(())
+    crate::plot::save_png(&png, (800, 600), |root| draw(root, title, points, text))
 }
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
-//! The study's tables (Markdown and CSV) and its recommendation. Pure text: the caller writes
-//! the files.
+//! The study's tables (Markdown and CSV, the latter with the `csv` crate) and its
+//! recommendation. Pure text: the caller writes the files.
 
 use super::configs::{REF_DEPTH, REF_SPP};
 use super::metrics::ONE_STEP;
@@ -29,39 +29,55 @@ fn db(v: f64) -> String {
     }
 }
 
+/// The columns of `accuracy.csv`, which `parrt bench accuracy --replot` reads back.
+pub const CSV_HEADER: [&str; 16] = [
+    "scene",
+    "cutoff",
+    "depth",
+    "precision",
+    "spp",
+    "trace_s",
+    "rays",
+    "rmse",
+    "psnr_db",
+    "max_err",
+    "off_share",
+    "trunc_rmse",
+    "trunc_psnr_db",
+    "trunc_max_err",
+    "trunc_off_share",
+    "pareto",
+];
+
 /// The CSV of every study (header included).
-pub fn csv(studies: &[SceneStudy]) -> String {
-    let mut s = String::from(
-        "scene,cutoff,depth,precision,spp,trace_s,rays,rmse,psnr_db,max_err,off_share,\
-         trunc_rmse,trunc_psnr_db,trunc_max_err,trunc_off_share,pareto\n",
-    );
+pub fn csv(studies: &[SceneStudy]) -> anyhow::Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(CSV_HEADER)?;
     for st in studies {
         let f = front_of(st);
         for (i, r) in st.rows.iter().enumerate() {
             let c = &r.config;
-            let _ = writeln!(
-                s,
-                "{},{},{},{},{},{:.6},{},{:.7},{:.3},{:.6},{:.6},{:.7},{:.3},{:.6},{:.6},{}",
-                st.scene,
-                c.cutoff,
-                c.depth,
-                c.precision_name(),
-                c.spp,
-                r.time,
-                r.rays,
-                r.error.rmse,
-                r.error.psnr,
-                r.error.max,
-                r.error.off,
-                r.truncation.rmse,
-                r.truncation.psnr,
-                r.truncation.max,
-                r.truncation.off,
-                f.contains(&i)
-            );
+            w.write_record([
+                st.scene.clone(),
+                c.cutoff.to_string(),
+                c.depth.to_string(),
+                c.precision_name().to_string(),
+                c.spp.to_string(),
+                format!("{:.6}", r.time),
+                r.rays.to_string(),
+                format!("{:.7}", r.error.rmse),
+                format!("{:.3}", r.error.psnr),
+                format!("{:.6}", r.error.max),
+                format!("{:.6}", r.error.off),
+                format!("{:.7}", r.truncation.rmse),
+                format!("{:.3}", r.truncation.psnr),
+                format!("{:.6}", r.truncation.max),
+                format!("{:.6}", r.truncation.off),
+                f.contains(&i).to_string(),
+            ])?;
         }
     }
-    s
+    Ok(String::from_utf8(w.into_inner()?)?)
 }
 
 fn is_plain(r: &Row) -> bool {
@@ -244,8 +260,12 @@ mod tests {
         assert_eq!(cheapest_good(&a).map(|r| r.config.depth), Some(2));
         let text = markdown(std::slice::from_ref(&a), 8, 8, 1);
         assert!(text.contains("| **0.001** | **5** |"));
-        let csv = csv(&[a]);
+        let csv = csv(&[a]).expect("writes");
         assert_eq!(csv.lines().count(), 4);
+        assert!(csv.starts_with(
+            "scene,cutoff,depth,precision,spp,trace_s,rays,rmse,psnr_db,max_err,off_share,\
+             trunc_rmse,trunc_psnr_db,trunc_max_err,trunc_off_share,pareto\n"
+        ));
         assert!(csv
             .lines()
             .nth(1)

@@ -5,6 +5,7 @@
 use super::configs::{reference, Config, REF_SPP};
 use super::metrics::{compare, ImageError};
 use parrt::description::SceneDescription;
+use parrt::efficiency::median;
 use parrt::film::Film;
 use parrt::render::Renderer;
 use parrt::smp::{render_smp, Executor, SmpOptions};
@@ -72,9 +73,8 @@ fn render(
         times.push(res.trace_s);
         last = Some(res);
     }
-    times.sort_by(f64::total_cmp);
     let res = last.ok_or_else(|| anyhow::anyhow!("no render ran"))?;
-    Ok((res.film, times[times.len() / 2], res.stats.total_rays()))
+    Ok((res.film, median(&times), res.stats.total_rays()))
 }
 
 /// Measures every configuration of `grid` on one scene. `progress` receives a line per render.

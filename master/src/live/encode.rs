@@ -1,7 +1,7 @@
 //! The bytes of the server-sent events a page is sent: `tiles` events (a PNG of a batch of tiles
 //! laid side by side on a sheet, in standard base64, RFC 4648 with padding, and where each
 //! tile goes) and one-line events (`reload`, `status`, `done`). Each is made once and the same
-//! bytes go to every page.
+//! bytes go to every page. [`png_into`] also encodes the whole image for `GET /image.png`.
 
 use super::limits::SHEET_SIDE;
 use bytes::Bytes;
@@ -223,7 +223,9 @@ impl Sheet<'_> {
     }
 }
 
-/// Appends a PNG of `w` × `h` 8-bit RGB pixels to `out`.
+/// Appends a PNG of `w` × `h` 8-bit RGB pixels to `out`: the live view's one PNG encoder, for
+/// the sheets of `tiles` events and for `GET /image.png`. Fast compression: a page waits for
+/// these, and they are made while the render runs.
 pub fn png_into(rgb: &[u8], w: u32, h: u32, out: &mut Vec<u8>) -> image::ImageResult<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;

@@ -13,9 +13,9 @@
 //!
 //! Every route is behind [`super::auth`].
 
-use super::auth::{allowed, needs_token};
+use super::auth::{allowed, encode_token, needs_token};
 use super::batcher::{status_event, Batcher};
-use super::encode::event;
+use super::encode::{event, png_into};
 use super::limits::{KEEP_ALIVE, MAX_STREAMS};
 use super::state::LiveState;
 use anyhow::Context;
@@ -79,18 +79,7 @@ impl LiveView {
             ip => ip.to_string(),
         };
         let url = match &token {
-            Some(t) => format!(
-                "http://{host}:{}/?token={}",
-                bound.port(),
-                String::from_utf8_lossy(t)
-                    .bytes()
-                    .map(|b| if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
-                        (b as char).to_string()
-                    } else {
-                        format!("%{b:02X}")
-                    })
-                    .collect::<String>()
-            ),
+            Some(t) => format!("http://{host}:{}/?token={}", bound.port(), encode_token(t)),
             None => format!("http://{host}:{}/", bound.port()),
         };
         let app = App {
@@ -229,9 +218,7 @@ async fn png(State(app): State<App>) -> Response {
     let s = app.state.status();
     let rgb = app.state.frame();
     let mut out = Vec::new();
-    let encoded = image::codecs::png::PngEncoder::new(&mut out);
-    use image::ImageEncoder;
-    match encoded.write_image(&rgb, s.width, s.height, image::ExtendedColorType::Rgb8) {
+    match png_into(&rgb, s.width, s.height, &mut out) {
         Ok(()) => (
             [
                 (header::CONTENT_TYPE, "image/png"),

@@ -274,7 +274,7 @@ pub fn save(t: &Timeline, out: &Path, title: &str) -> anyhow::Result<()> {
         .map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
         Some("svg") => draw(SVGBackend::new(out, dims).into_drawing_area(), t, title),
-        Some("png") => draw(BitMapBackend::new(out, dims).into_drawing_area(), t, title),
+        Some("png") => crate::plot::save_png(out, dims, |root| draw(root, t, title)),
         _ => Err(crate::exit::input_error(anyhow::anyhow!(
             "{}: a timeline plot is written as .svg or .png",
             out.display()

@@ -67,42 +67,7 @@ fn replot(
         .machine
         .clone()
         .unwrap_or_else(super::efficiency::machine);
-    let mut scenes: Vec<(String, Vec<PlotPoint>)> = Vec::new();
-    for (n, line) in text.lines().enumerate().skip(1) {
-        let bad = || {
-            input_error(anyhow::anyhow!(
-                "{} line {}: not a row of accuracy.csv",
-                csv.display(),
-                n + 1
-            ))
-        };
-        let f: Vec<&str> = line.split(',').collect();
-        if f.len() != 16 {
-            return Err(bad());
-        }
-        let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
-        let config = Config {
-            cutoff: num(1)?,
-            depth: f[2].parse().map_err(|_| bad())?,
-            precision: if f[3] == "f64" {
-                Precision::F64
-            } else {
-                Precision::F32
-            },
-            spp: f[4].parse().map_err(|_| bad())?,
-        };
-        let point = PlotPoint {
-            time: num(5)?,
-            rmse: num(7)?,
-            series: series(&config),
-            is_default: config.is_default(),
-            on_front: f[15] == "true",
-        };
-        match scenes.iter_mut().find(|s| s.0 == f[0]) {
-            Some(s) => s.1.push(point),
-            None => scenes.push((f[0].to_string(), vec![point])),
-        }
-    }
+    let scenes = read_points(csv, &text)?;
     crate::commands::output::prepare_out_dir(&args.out)?;
     for (label, points) in &scenes {
         plot::write(
@@ -117,6 +82,59 @@ fn replot(
         args.out.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// The points of every scene in an `accuracy.csv` read from `path` (named in errors, with the
+/// line).
+fn read_points(
+    path: &std::path::Path,
+    text: &str,
+) -> anyhow::Result<Vec<(String, Vec<PlotPoint>)>> {
+    let mut scenes: Vec<(String, Vec<PlotPoint>)> = Vec::new();
+    let bad = |line: u64, what: &str| {
+        input_error(anyhow::anyhow!("{} line {line}: {what}", path.display()))
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let line_of = |e: &csv::Error| e.position().map_or(1, csv::Position::line);
+    let header = reader
+        .headers()
+        .map_err(|e| bad(line_of(&e), &e.to_string()))?;
+    if header.iter().ne(report::CSV_HEADER) {
+        return Err(bad(1, "not the header of accuracy.csv"));
+    }
+    for record in reader.records() {
+        let f = record.map_err(|e| bad(line_of(&e), &e.to_string()))?;
+        let n = f.position().map_or(0, csv::Position::line);
+        let row = || bad(n, "not a row of accuracy.csv");
+        if f.len() != report::CSV_HEADER.len() {
+            return Err(row());
+        }
+        let num = |i: usize| f[i].parse::<f64>().map_err(|_| row());
+        let config = Config {
+            cutoff: num(1)?,
+            depth: f[2].parse().map_err(|_| row())?,
+            precision: if &f[3] == "f64" {
+                Precision::F64
+            } else {
+                Precision::F32
+            },
+            spp: f[4].parse().map_err(|_| row())?,
+        };
+        let point = PlotPoint {
+            time: num(5)?,
+            rmse: num(7)?,
+            series: series(&config),
+            is_default: config.is_default(),
+            on_front: &f[15] == "true",
+        };
+        match scenes.iter_mut().find(|s| s.0 == f[0]) {
+            Some(s) => s.1.push(point),
+            None => scenes.push((f[0].to_string(), vec![point])),
+        }
+    }
+    Ok(scenes)
 }
 
 /// Parses `WxH` (both at least 1).
@@ -214,7 +232,7 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
     let md_path = args.out.join("accuracy.md");
     std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
     let csv_path = args.out.join("accuracy.csv");
-    std::fs::write(&csv_path, report::csv(&studies))
+    std::fs::write(&csv_path, report::csv(&studies)?)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     println!("{md}");
     eprintln!("parrt: wrote {}", args.out.display());
@@ -232,6 +250,62 @@ mod tests {
         for bad in ["", "256", "0x4", "ax4", "4x-1"] {
             assert!(parse_size(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn replot_reads_what_the_study_wrote_and_names_bad_lines() {
+        use crate::accuracy::metrics::ImageError;
+        use crate::accuracy::study::{Row, SceneStudy};
+        let e = ImageError {
+            rmse: 0.01,
+            psnr: 40.0,
+            max: 0.1,
+            off: 0.0,
+        };
+        let row = |cutoff, spp| Row {
+            config: Config {
+                cutoff,
+                depth: 5,
+                precision: Precision::F32,
+                spp,
+            },
+            time: 0.5,
+            rays: 10,
+            error: e,
+            truncation: e,
+        };
+        let study = SceneStudy {
+            scene: "a, \"b\"".into(),
+            reference_time: 1.0,
+            reference_rays: 100,
+            rows: vec![row(0.001, 1), row(0.01, 4)],
+        };
+        let text = report::csv(&[study]).expect("writes");
+        let path = std::path::Path::new("acc.csv");
+        let scenes = read_points(path, &text).expect("reads");
+        assert_eq!(scenes.len(), 1);
+        assert_eq!(scenes[0].0, "a, \"b\"");
+        assert_eq!(scenes[0].1.len(), 2);
+        assert_eq!(scenes[0].1[1].series, Series::FourSamples);
+        let err = |t: &str| read_points(path, t).expect_err("bad input").to_string();
+        let mut lines: Vec<&str> = text.lines().collect();
+        assert_eq!(err(""), "acc.csv line 1: not the header of accuracy.csv");
+        assert_eq!(
+            err("scene,cutoff\n"),
+            "acc.csv line 1: not the header of accuracy.csv"
+        );
+        lines.push("s,1,2");
+        assert_eq!(
+            err(&lines.join("\n")),
+            "acc.csv line 4: not a row of accuracy.csv"
+        );
+        lines.pop();
+        let broken = lines[2].replacen(",5,", ",five,", 1);
+        lines[2] = &broken;
+        assert_eq!(
+            err(&lines.join("\n")),
+            "acc.csv line 3: not a row of accuracy.csv"
+        );
     }
 
     #[test]

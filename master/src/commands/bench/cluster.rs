@@ -488,7 +488,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     let mut md = report(&args, &title, &path, &rec.costs, scale, &rows);
     md += &draw_timelines(&args, &spec.label(), &timelines)?;
     std::fs::write(args.out.join("cluster.md"), &md)?;
-    std::fs::write(args.out.join("cluster.csv"), csv(&rows))?;
+    std::fs::write(args.out.join("cluster.csv"), csv(&rows)?)?;
     plot(&args, &title, &rows)?;
     if let Some(j) = &args.json {
         std::fs::write(j, serde_json::to_string_pretty(&rows)?)
@@ -568,33 +568,48 @@ fn report(
     md
 }
 
-fn csv(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "workers,threads,tile,trace_s,efficiency,predicted,predicted_cluster,limit,binding,master_us_per_tile,emulation_cpu,machine_busy,bytes_received,identical,delivered_once,duplicates\n",
-    );
+/// `cluster.csv`: a record per run.
+fn csv(rows: &[Row]) -> anyhow::Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "workers",
+        "threads",
+        "tile",
+        "trace_s",
+        "efficiency",
+        "predicted",
+        "predicted_cluster",
+        "limit",
+        "binding",
+        "master_us_per_tile",
+        "emulation_cpu",
+        "machine_busy",
+        "bytes_received",
+        "identical",
+        "delivered_once",
+        "duplicates",
+    ])?;
     for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{:.2},{:.3},{:.3},{},{},{},{}",
-            r.workers,
-            r.threads,
-            r.tile,
-            r.trace_s,
-            r.efficiency,
-            r.predicted,
-            r.predicted_cluster,
-            r.limit,
-            r.binding,
-            r.master_us_per_tile,
-            r.emulation_cpu,
-            r.machine_busy,
-            r.bytes_received,
-            r.identical,
-            r.delivered_once,
-            r.duplicates
-        );
+        w.write_record([
+            r.workers.to_string(),
+            r.threads.to_string(),
+            r.tile.to_string(),
+            format!("{:.6}", r.trace_s),
+            format!("{:.6}", r.efficiency),
+            format!("{:.6}", r.predicted),
+            format!("{:.6}", r.predicted_cluster),
+            format!("{:.6}", r.limit),
+            r.binding.clone(),
+            format!("{:.2}", r.master_us_per_tile),
+            format!("{:.3}", r.emulation_cpu),
+            format!("{:.3}", r.machine_busy),
+            r.bytes_received.to_string(),
+            r.identical.to_string(),
+            r.delivered_once.to_string(),
+            r.duplicates.to_string(),
+        ])?;
     }
-    s
+    Ok(String::from_utf8(w.into_inner()?)?)
 }
 
 /// Draws the timeline of the run with the most workers at each thread count (and of one
@@ -685,4 +700,43 @@ fn plot(args: &ClusterArgs, title: &str, rows: &[Row]) -> anyhow::Result<()> {
         &args.out.join("cluster.svg"),
         &args.out.join("cluster.png"),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_keeps_its_columns_and_number_formats() {
+        let row = Row {
+            workers: 1,
+            threads: 1,
+            tile: 16,
+            efficiency: 0.998003,
+            predicted: 0.999993,
+            predicted_cluster: 0.999996,
+            limit: 1.0,
+            binding: "compute".into(),
+            identical: true,
+            delivered_once: true,
+            tiles: 256,
+            duplicates: 0,
+            trace_s: 128.256123,
+            master_us_per_tile: 116.28,
+            worker_overrun: 0.0,
+            predicted_as_run: 0.99,
+            emulation_cpu: 0.008,
+            machine_busy: 0.306,
+            cpu_split: [0.2, 0.3, 0.5],
+            bytes_received: 3314291,
+        };
+        assert_eq!(
+            csv(&[row]).expect("writes"),
+            "workers,threads,tile,trace_s,efficiency,predicted,predicted_cluster,limit,binding,\
+             master_us_per_tile,emulation_cpu,machine_busy,bytes_received,identical,\
+             delivered_once,duplicates\n\
+             1,1,16,128.256123,0.998003,0.999993,0.999996,1.000000,compute,116.28,0.008,0.306,\
+             3314291,true,true,0\n"
+        );
+    }
 }

@@ -209,7 +209,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let spec = scene_arg(&args.scene)?;
     crate::commands::output::prepare_out_dir(&args.out)?;
     let mut md = String::new();
-    let mut csv = String::new();
+    let mut csv = csv::Writer::from_writer(Vec::new());
+    csv.write_record(parrt::efficiency::CSV_HEADER)?;
     let _ = writeln!(
         md,
         "# Efficiency: {}\n\nMachine: {}. Command: `parrt {}`. Median of {} runs. e = t₁/(n·tₙ), \
@@ -219,7 +220,6 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
         std::env::args().skip(1).collect::<Vec<_>>().join(" "),
         args.repeat
     );
-    let mut first_csv = true;
     for &size in &args.sizes {
         let (desc, parse_s) = spec.load(&args.limits.limits())?;
         for &accel in &accels {
@@ -333,9 +333,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                     &tl,
                     &format!("{} executor, {n} threads", ex.name()),
                 )?);
-                csv.push_str(&trace.to_csv(first_csv));
-                csv.push_str(&whole.to_csv(false));
-                first_csv = false;
+                trace.write_csv(&mut csv)?;
+                whole.write_csv(&mut csv)?;
                 for &n in threads.iter().filter(|&&n| n > 1) {
                     chart_series.push(Series {
                         label: format!("{} n={n}", ex.name()),
@@ -409,9 +408,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                     md,
                     "Protocol overhead (distributed):\n\n| tile | workers | bytes on the wire per tile (scene included) | scene transfer |\n|---:|---:|---:|---:|\n{overhead}"
                 );
-                csv.push_str(&trace.to_csv(first_csv));
-                csv.push_str(&whole.to_csv(false));
-                first_csv = false;
+                trace.write_csv(&mut csv)?;
+                whole.write_csv(&mut csv)?;
                 for &n in threads.iter().filter(|&&n| n > 1) {
                     chart_series.push(Series {
                         label: format!("distributed n={n}"),
@@ -454,7 +452,7 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
         }
     }
     std::fs::write(args.out.join("efficiency.md"), &md)?;
-    std::fs::write(args.out.join("efficiency.csv"), &csv)?;
+    std::fs::write(args.out.join("efficiency.csv"), csv.into_inner()?)?;
     println!("{md}");
     eprintln!("parrt: wrote {}", args.out.display());
     Ok(ExitCode::SUCCESS)

@@ -2,11 +2,13 @@
 //! positive, negative and mixed signs) and scaled by 1e-6 … 1e6, in f32 (rebased into the
 //! camera-relative frame), f64 and auto, against the f64 render of the untransformed scene:
 //! share of pixels off by more than 1/255, the largest error, the precision auto chose, trace
-//! time. Writes precision.md, precision.csv and two plots (translation, scale) as SVG and PNG.
+//! time (the errors by [`crate::accuracy::metrics`], as the accuracy study measures them).
+//! Writes precision.md, precision.csv and two plots (translation, scale) as SVG and PNG.
 
 use super::accuracy::parse_size;
 use super::efficiency::machine;
 use super::render::scene_arg;
+use crate::accuracy::metrics::{compare, ImageError};
 use crate::commands::scene_input::LimitArgs;
 use crate::exit::input_error;
 use crate::plot::{save_chart, Chart, Series};
@@ -96,21 +98,6 @@ struct Row {
     trace_s: f64,
 }
 
-/// (share of pixels with a channel off by more than 1/255, largest channel error), clamped.
-fn compare(a: &Film, b: &Film) -> (f64, f64) {
-    let (mut off, mut worst) = (0usize, 0.0f64);
-    for (p, q) in a.pixels.iter().zip(&b.pixels) {
-        let e = (0..3)
-            .map(|c| (p[c].clamp(0.0, 1.0) - q[c].clamp(0.0, 1.0)).abs() as f64)
-            .fold(0.0, f64::max);
-        worst = worst.max(e);
-        if e > 1.0 / 255.0 {
-            off += 1;
-        }
-    }
-    (off as f64 / a.pixels.len().max(1) as f64, worst)
-}
-
 fn render(
     desc: &SceneDescription,
     s: &RenderSettings,
@@ -188,7 +175,11 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
             for mode in modes {
                 s.precision = mode;
                 let (film, used, trace_s) = render(&moved, &s, threads)?;
-                let (off, max_err) = compare(&reference, &film);
+                // Share of pixels off by more than 1/255 and the largest channel error, by the
+                // accuracy study's rule (channels clamped to [0, 1], NaN read as 0).
+                let ImageError {
+                    off, max: max_err, ..
+                } = compare(&film.pixels, &reference.pixels);
                 eprintln!(
                     "{scene} {} {:e} {}: {} off {:.4}% max {max_err:.4} trace {trace_s:.3}s",
                     place.kind,
@@ -249,31 +240,41 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
             &args.out.join(format!("{file}.png")),
         )?;
     }
-    let mut csv = String::from(
-        "scene,kind,magnitude,shift_x,shift_y,shift_z,scale,mode,used,off,max_err,trace_s\n",
-    );
+    let mut csv = csv::Writer::from_writer(Vec::new());
+    csv.write_record([
+        "scene",
+        "kind",
+        "magnitude",
+        "shift_x",
+        "shift_y",
+        "shift_z",
+        "scale",
+        "mode",
+        "used",
+        "off",
+        "max_err",
+        "trace_s",
+    ])?;
     let mut md = format!(
         "Pixels off by more than 1/255 against the untransformed scene's f64 render, largest channel \
          error, and trace seconds; {width}×{height}, {threads} threads, {machine}. `used` is what auto \
          chose.\n\n| scene | transform | f32 off | f32 max | f64 off | f64 max | auto (used) off | auto max | f32 s | f64 s | auto s |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for r in &rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{:e},{},{},{},{:e},{},{},{:.6},{:.6},{:.4}",
-            r.scene,
-            r.place.kind,
-            r.place.magnitude,
-            r.place.shift.x,
-            r.place.shift.y,
-            r.place.shift.z,
-            r.place.scale,
-            name(r.mode),
-            name(r.used),
-            r.off,
-            r.max_err,
-            r.trace_s
-        );
+        csv.write_record([
+            r.scene.clone(),
+            r.place.kind.to_string(),
+            format!("{:e}", r.place.magnitude),
+            r.place.shift.x.to_string(),
+            r.place.shift.y.to_string(),
+            r.place.shift.z.to_string(),
+            format!("{:e}", r.place.scale),
+            name(r.mode).to_string(),
+            name(r.used).to_string(),
+            format!("{:.6}", r.off),
+            format!("{:.6}", r.max_err),
+            format!("{:.4}", r.trace_s),
+        ])?;
     }
     for group in rows.chunks(modes.len()) {
         let [a, b, c] = group else { continue };
@@ -302,7 +303,7 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
     let md_path = args.out.join("precision.md");
     std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
     let csv_path = args.out.join("precision.csv");
-    std::fs::write(&csv_path, csv)
+    std::fs::write(&csv_path, csv.into_inner()?)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     println!("{md}");
     eprintln!("parrt: wrote {}", args.out.display());

@@ -5,6 +5,7 @@ use crate::commands::render::RenderFlags;
 use crate::commands::scene_input::{parse_scene_name, LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use clap::Args;
+use parrt::efficiency::median;
 use parrt::render::Renderer;
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use std::path::PathBuf;
@@ -31,11 +32,6 @@ pub struct BenchRenderArgs {
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// Resolves a bench scene argument: an existing file, else a generator name.
@@ -90,7 +86,7 @@ pub fn run(args: BenchRenderArgs) -> anyhow::Result<ExitCode> {
             trace.push(res.trace_s);
             rays = res.stats.total_rays();
         }
-        let (p, b, t) = (median(&mut parse), median(&mut build), median(&mut trace));
+        let (p, b, t) = (median(&parse), median(&build), median(&trace));
         println!(
             "| {} | {}x{} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {:.2} |",
             spec.label(),

@@ -172,9 +172,18 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
             line: true,
         })
         .collect();
-    let mut csv = String::from(
-        "workers,threads,n,tile,makespan_s,efficiency,master_utilisation,startup_s,bytes\n",
-    );
+    let mut csv = csv::Writer::from_writer(Vec::new());
+    csv.write_record([
+        "workers",
+        "threads",
+        "n",
+        "tile",
+        "makespan_s",
+        "efficiency",
+        "master_utilisation",
+        "startup_s",
+        "bytes",
+    ])?;
     for &w in &args.workers {
         let n = w * args.threads;
         let _ = write!(md, "| {w} | {n} |");
@@ -203,11 +212,17 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
             };
             let r = simulate(&costs, &px, &p);
             let _ = write!(md, " {:.3} ({:.4}s) |", r.efficiency, r.makespan);
-            let _ = writeln!(
-                csv,
-                "{w},{},{n},{tile},{:.6},{:.6},{:.4},{:.6},{:.0}",
-                args.threads, r.makespan, r.efficiency, r.master_utilisation, r.startup_s, r.bytes
-            );
+            csv.write_record([
+                w.to_string(),
+                args.threads.to_string(),
+                n.to_string(),
+                tile.to_string(),
+                format!("{:.6}", r.makespan),
+                format!("{:.6}", r.efficiency),
+                format!("{:.4}", r.master_utilisation),
+                format!("{:.6}", r.startup_s),
+                format!("{:.0}", r.bytes),
+            ])?;
             series[i].points.push((n as f64, r.efficiency));
             if best.as_ref().is_none_or(|(e, _)| r.efficiency > *e) {
                 let note = limit_note(&p, &r, &costs, tile);
@@ -243,7 +258,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
     )?;
     let _ = writeln!(md, "\n![simulate](simulate.png)");
     std::fs::write(args.out.join("simulate.md"), &md)?;
-    std::fs::write(args.out.join("simulate.csv"), &csv)?;
+    std::fs::write(args.out.join("simulate.csv"), csv.into_inner()?)?;
     println!("{md}");
     Ok(ExitCode::SUCCESS)
 }
