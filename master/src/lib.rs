@@ -4,8 +4,7 @@
 //! - [`cli`]: argument definitions and dispatch; `main.rs` only calls [`cli::main`].
 //! - [`commands`]: one module per subcommand (`render`, `info`, `scene`, `master`, `worker`,
 //!   `cluster`, `bench`).
-//! - the master side of distributed rendering is the `parrt_runtime` crate (`master/runtime`);
-//!   [`distributed`] names it here.
+//! - the master side of distributed rendering is the `parrt_runtime` crate (`master/runtime`).
 //! - [`progress`]: the one progress bar (an observer of the runtime, fed by the SMP path).
 //! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
 //! - [`plot`]: charts (SVG and PNG) for the studies.
@@ -17,8 +16,6 @@
 pub mod accuracy;
 pub mod cli;
 pub mod commands;
-pub use parrt_runtime as distributed;
-pub use parrt_runtime::cpu_time;
 pub mod exit;
 pub mod live;
 pub mod plot;

@@ -1,8 +1,8 @@
 //! `parrt cluster`: one command for every rank of a job started by `srun -n N`, `mpirun -np N`
 //! or `mpiexec -n N`. Rank 0 becomes the master and publishes its address and a fresh token in
 //! a rendezvous file; the other ranks read it and render as workers. Arguments and dispatch
-//! only: the environment is read by [`crate::distributed::launcher`], the file protocol is
-//! [`crate::distributed::rendezvous`], the render is [`crate::distributed`]'s.
+//! only: the environment is read by [`parrt_runtime::launcher`], the file protocol is
+//! [`parrt_runtime::rendezvous`], the render is [`crate::distributed`]'s.
 
 use super::durations::{seconds_flag, MAX_FLAG_DURATION};
 use super::master::{check_listen, print_summary};

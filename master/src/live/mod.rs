@@ -92,7 +92,7 @@ impl Live {
         let token = match token {
             Some(t) => Some(t),
             None if auth::needs_token(&addr) => {
-                made = crate::distributed::generate_token();
+                made = parrt_runtime::generate_token();
                 Some(made.as_bytes())
             }
             None => None,
@@ -108,7 +108,7 @@ impl Live {
     }
 
     /// The state as an observer of a distributed render.
-    pub fn observer(&self) -> std::sync::Arc<dyn crate::distributed::observer::Observer> {
+    pub fn observer(&self) -> std::sync::Arc<dyn parrt_runtime::observer::Observer> {
         self.state.clone()
     }
 

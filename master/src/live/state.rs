@@ -6,11 +6,11 @@
 //! and sends to every page on [`LiveState::subscribe`]'s channel).
 
 use super::limits::{EVENT_BACKLOG, KEPT_FAULTS};
-use crate::distributed::observer::Observer;
-use crate::distributed::scheduler::WorkerId;
 use parrt::film::{to_u8_into, Rgb};
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
+use parrt_runtime::observer::Observer;
+use parrt_runtime::scheduler::WorkerId;
 use serde::Serialize;
 use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};

@@ -2,11 +2,11 @@
 //! [`Observer`]): assignment and arrival of every result, and the faults on the way.
 
 use super::{Attempt, EventKind, Job, Row, TileRecord, Timeline, TimelineEvent};
-use crate::distributed::observer::Observer;
-use crate::distributed::scheduler::WorkerId;
 use parrt::film::Rgb;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
+use parrt_runtime::observer::Observer;
+use parrt_runtime::scheduler::WorkerId;
 use std::collections::HashMap;
 use std::sync::Mutex;
 use tokio::time::Instant;
@@ -228,11 +228,11 @@ impl Observer for Recorder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::distributed::observer::Observers;
-    use crate::distributed::scheduler::{Event, SchedOptions, Scheduler};
     use parrt::protocol::{Message, PixelFormat, TilePixels};
     use parrt::settings::RenderSettings;
     use parrt::tile::tiles;
+    use parrt_runtime::observer::Observers;
+    use parrt_runtime::scheduler::{Event, SchedOptions, Scheduler};
     use std::sync::Arc;
     use std::time::Duration;
     use tokio::sync::mpsc::{unbounded_channel, UnboundedReceiver};

@@ -64,7 +64,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
         let tiles = parrt::tile::tiles(w, h, 32);
         let mut frames = 0u64;
         let t0 = Instant::now();
-        let c0 = crate::cpu_time::thread_cpu_s();
+        let c0 = parrt_runtime::cpu_time::thread_cpu_s();
         let per_frame = loop {
             let mut st = RayStats::default();
             for t in &tiles {
@@ -76,7 +76,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
             }
         };
         let secs = t0.elapsed().as_secs_f64();
-        let cpu = crate::cpu_time::thread_cpu_s() - c0;
+        let cpu = parrt_runtime::cpu_time::thread_cpu_s() - c0;
         let rays = per_frame.eye_rays + per_frame.shadow_rays;
         println!(
             "| {} | {} | {:.4} | {} | {} | {} | {} | {:.2} | {:.2} |",

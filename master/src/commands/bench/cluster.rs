@@ -372,7 +372,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                     worker_exe: worker_exe.clone(),
                     worker_prefix: prefix.clone(),
                     timeout: Duration::from_secs_f64(args.run_timeout),
-                    observers: crate::distributed::observer::Observers(vec![recorder.clone()]),
+                    observers: parrt_runtime::observer::Observers(vec![recorder.clone()]),
                 },
             )
             .with_context(|| format!("{workers} workers × {threads} threads"))?;
