@@ -22,6 +22,7 @@
 //! - [`refusals`]: the bounded record of refused handshakes.
 //! - [`launcher`]: rank, size and job id from `srun`/`mpirun`/`mpiexec`'s environment.
 //! - [`rendezvous`]: the file through which the ranks of `parrt cluster` meet.
+//! - [`mutation`]: planted bugs (feature `mutations`) that the simulation must catch.
 //! - [`net`], [`clock`]: the seams; [`cpu_time`]: CPU clocks; [`error`]: what goes wrong.
 //!
 //! ## Example
@@ -46,6 +47,7 @@ pub mod cpu_time;
 pub mod error;
 pub mod launcher;
 pub mod lifecycle;
+pub mod mutation;
 pub mod net;
 pub mod observer;
 pub mod options;

@@ -116,7 +116,14 @@ impl Lifecycle {
         let since = *self.waiting_since.get_or_insert(now);
         let waited = now.duration_since(since);
         let nobody_else = self.rules.closed_to.is_some_and(|n| departures >= n);
-        if !nobody_else && waited <= self.rules.wait_workers {
+        let patience = if crate::mutation::is(crate::mutation::Mutation::GiveUpAtOnce)
+            && self.started.is_some()
+        {
+            Duration::ZERO
+        } else {
+            self.rules.wait_workers
+        };
+        if !nobody_else && waited <= patience {
             return Step::Wait;
         }
         Step::Fail(if self.started.is_none() {

@@ -14,6 +14,7 @@
 
 use crate::lifecycle::Lifecycle;
 pub use crate::lifecycle::{Rules, Step, Verdict};
+use crate::mutation::{self, Mutation};
 use parrt::film::Film;
 use parrt::film::Rgb;
 use parrt::protocol::{Message, PixelFormat, TilePixels, WireCounters};
@@ -589,7 +590,7 @@ impl Scheduler {
         seconds: f64,
     ) -> bool {
         let tile = self.tiles[t];
-        if self.state[t] == TileState::Done {
+        if self.state[t] == TileState::Done && !mutation::is(Mutation::AcceptDuplicates) {
             self.faults.duplicate_results += 1;
             debug!(worker = id, tile_id = t, "duplicate result ignored");
             return false;
@@ -616,6 +617,13 @@ impl Scheduler {
         self.stats += stats;
         self.tile_seconds[t] = seconds;
         self.done += 1;
+        if mutation::is(Mutation::MarkNeighbourDone)
+            && self.state.get(t + 1) == Some(&TileState::Queued)
+        {
+            self.state[t + 1] = TileState::Done;
+            self.queue.retain(|&q| q as usize != t + 1);
+            self.done += 1;
+        }
         true
     }
 
@@ -651,6 +659,9 @@ impl Scheduler {
         };
         self.observers.each(|o| o.left(id, &reason));
         let mut held: Vec<u32> = w.inflight.keys().copied().collect();
+        if mutation::is(Mutation::ForgetDeadWorkersTiles) {
+            held.clear();
+        }
         self.requeue_all(&mut held);
         self.gone.push(report(&w, Some(reason)));
     }

@@ -3,11 +3,12 @@
 //! only if none failed); `replay <seed>` runs one seed, prints its events' summary and last
 //! `trace <hex hash>`.
 
-use parrt_tests::sim::run_seed;
+use parrt_tests::sim::{run_seed, run_seed_with};
 use std::process::ExitCode;
 use std::time::Instant;
 
-const USAGE: &str = "usage: sim explore --seeds N [--first S] | sim replay <seed>";
+const USAGE: &str =
+    "usage: sim explore --seeds N [--first S] | sim replay <seed> | sim mutants [--seeds N]";
 
 fn number(args: &[String], flag: &str) -> Result<Option<u64>, String> {
     match args.iter().position(|a| a == flag) {
@@ -51,6 +52,34 @@ fn main() -> ExitCode {
                 );
                 println!("explored {n} seeds, {failed} failed");
                 Ok(if failed == 0 {
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::FAILURE
+                })
+            }
+            Some("mutants") => {
+                // Each planted bug must be caught within N seeds.
+                let n = number(&args, "--seeds")?.unwrap_or(1_000);
+                let mut missed = 0;
+                println!("| planted bug | caught by seed | seeds run | invariant |");
+                println!("|---|---:|---:|---|");
+                for m in parrt_runtime::mutation::Mutation::ALL {
+                    let caught = (0..n).find_map(|seed| {
+                        let o = run_seed_with(seed, Some(m));
+                        o.failures.first().map(|f| (seed, f.clone()))
+                    });
+                    match caught {
+                        Some((seed, f)) => {
+                            let what = f.split(':').next().unwrap_or("").to_string();
+                            println!("| {m:?} | {seed} | {} | {what} |", seed + 1)
+                        }
+                        None => {
+                            missed += 1;
+                            println!("| {m:?} | not caught | {n} | |")
+                        }
+                    }
+                }
+                Ok(if missed == 0 {
                     ExitCode::SUCCESS
                 } else {
                     ExitCode::FAILURE

@@ -15,4 +15,4 @@ pub mod plan;
 pub mod trace;
 pub mod world;
 
-pub use world::{run_seed, Outcome};
+pub use world::{run_seed, run_seed_with, Outcome};

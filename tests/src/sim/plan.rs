@@ -23,9 +23,10 @@ pub enum Hostile {
 pub enum Fault {
     /// Worker `w` crashes; restarts after `back` if given.
     Crash { w: usize, back: Option<Duration> },
-    /// Messages between the master and worker `w` are held (a stalled link or process) for
-    /// `d`, then released.
-    Hold { w: usize, d: Duration },
+    /// Messages between the master and worker `w` are held (a stalled link or process, as
+    /// after SIGSTOP): released after `d` if given, else never (the worker is stuck for good
+    /// while its connection stays open).
+    Hold { w: usize, d: Option<Duration> },
     /// The link to worker `w` is cut; repaired after `heal` if given.
     Partition { w: usize, heal: Option<Duration> },
     /// The link to worker `w` gets `latency` for `d`.
@@ -93,7 +94,7 @@ impl Plan {
                 },
                 2 => Fault::Hold {
                     w,
-                    d: ms(&mut r, 100, 8_000),
+                    d: r.gen_bool(0.8).then(|| ms(&mut r, 100, 8_000)),
                 },
                 3 => Fault::Partition {
                     w,
@@ -137,6 +138,7 @@ impl Plan {
                 !self.faults.iter().any(|(_, f)| match f {
                     Fault::Crash { w: x, back: None } => *x == w,
                     Fault::Partition { w: x, heal: None } => *x == w,
+                    Fault::Hold { w: x, d: None } => *x == w,
                     _ => false,
                 })
             })
@@ -150,7 +152,8 @@ impl Plan {
             .map(|(t, f)| {
                 *t + match f {
                     Fault::Crash { back, .. } => back.unwrap_or_default(),
-                    Fault::Hold { d, .. } | Fault::Latency { d, .. } => *d,
+                    Fault::Hold { d, .. } => d.unwrap_or_default(),
+                    Fault::Latency { d, .. } => *d,
                     Fault::Partition { heal, .. } => heal.unwrap_or_default(),
                     Fault::MasterCrash { back } => *back,
                     Fault::Hostile(_) => Duration::ZERO,

@@ -14,6 +14,7 @@ use parrt::film::Film;
 use parrt::protocol::{Connection, Message, PixelFormat, TilePixels, Token, PROTOCOL_VERSION};
 use parrt::settings::RenderSettings;
 use parrt_runtime::checkpoint::{self, JobKey};
+use parrt_runtime::mutation::Mutation;
 use parrt_runtime::{DistError, DistResult, Master, MasterConfig, Writer};
 use parrt_worker::exec::InlineExec;
 use parrt_worker::session::SessionEnd;
@@ -286,8 +287,20 @@ async fn impossible_results(addr: String, seed: u64) -> turmoil::Result {
 
 /// Runs seed `seed` and checks its invariants.
 pub fn run_seed(seed: u64) -> Outcome {
+    run_seed_with(seed, None)
+}
+
+/// Runs seed `seed` with `mutation` planted in the runtime (a bug the invariants must catch).
+pub fn run_seed_with(seed: u64, mutation: Option<Mutation>) -> Outcome {
     count_panics();
     PANICS.with(|p| p.set(0));
+    parrt_runtime::mutation::plant(mutation);
+    let o = run_planted(seed);
+    parrt_runtime::mutation::plant(None);
+    o
+}
+
+fn run_planted(seed: u64) -> Outcome {
     let plan = Plan::draw(seed);
     let trace = Trace::default();
     let mut failures = Vec::new();
@@ -318,6 +331,9 @@ pub fn run_seed(seed: u64) -> Outcome {
         .simulation_duration(bound + Duration::from_secs(60))
         .min_message_latency(Duration::from_micros(100))
         .max_message_latency(Duration::from_millis(2))
+        // Segments a connection buffers: as a real socket holds hours of heartbeats, so a
+        // stuck peer is found by the heartbeat check, not by a full buffer first.
+        .tcp_capacity(1 << 16)
         .build();
     sim.host("master", move || host.clone().run());
     for i in 0..plan.workers {
@@ -347,7 +363,9 @@ pub fn run_seed(seed: u64) -> Outcome {
             }
             Fault::Hold { w: i, d } => {
                 actions.push((*at, Action::Hold(w(*i))));
-                actions.push((*at + *d, Action::Release(w(*i))));
+                if let Some(d) = d {
+                    actions.push((*at + *d, Action::Release(w(*i))));
+                }
             }
             Fault::Partition { w: i, heal } => {
                 actions.push((*at, Action::Partition(w(*i))));
