@@ -6,12 +6,14 @@
 //! - [`world`]: one seed's hosts, the fault driver and the invariants.
 //! - [`trace`]: the event trace (its hash) and the accepted tiles.
 //! - [`net`]: turmoil's TCP in the runtime's and the worker's network seams.
+//! - [`scale`]: fault-free runs of many workers over a recorded render, in virtual time.
 //!
 //! The binary `sim` (`cargo run --release -p parrt-tests --bin sim -- explore --seeds N`)
 //! explores and replays; docs/simulation.md describes the world.
 
 pub mod net;
 pub mod plan;
+pub mod scale;
 pub mod trace;
 pub mod world;
 

@@ -1,0 +1,368 @@
+//! Scale in virtual time: the real master and N real worker sessions on simulated hosts,
+//! replaying a recorded render (each tile's recorded one-thread cost, scaled to the frame's
+//! work, and its recorded pixels) with no faults, so a 512-core cluster runs on one core of
+//! this machine. What a network and a master cost is charged in virtual time where the bytes
+//! arrive at the master ([`Paced`]): each worker's link and the master's link at their
+//! bandwidth, then the master's CPU per byte received (measured on real runs), one byte after
+//! another as a single-threaded master handles them. Beside each run, the analytic simulator
+//! (`parrt::simulate`) predicts the same configuration.
+
+use super::net::SimDial;
+use parrt::description::SceneDescription;
+use parrt::film::Film;
+use parrt::protocol::{PixelFormat, Token};
+use parrt::render::Renderer;
+use parrt::settings::RenderSettings;
+use parrt::simulate::{simulate, SimParams};
+use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt_runtime::{DistResult, Master, MasterConfig};
+use parrt_worker::exec::InlineExec;
+use parrt_worker::replay::{self, Replay};
+use parrt_worker::WorkerOptions;
+use serde::Serialize;
+use std::future::Future;
+use std::io;
+use std::net::SocketAddr;
+use std::path::Path;
+use std::pin::Pin;
+use std::sync::{Arc, Mutex};
+use std::task::{ready, Context, Poll};
+use std::time::{Duration, UNIX_EPOCH};
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use tokio::time::{sleep_until, Instant, Sleep};
+use tokio_util::sync::CancellationToken;
+
+/// One configuration to run.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Worker hosts.
+    pub workers: usize,
+    /// Threads of each.
+    pub threads: usize,
+    /// One-core seconds of the whole frame (the recording's costs are scaled to it).
+    pub work_s: f64,
+    /// Bandwidth of each worker's link and of the master's, bits per second.
+    pub link_bps: f64,
+    /// One-way latency.
+    pub latency: Duration,
+    /// The master's CPU per byte received, seconds.
+    pub master_s_per_byte: f64,
+    /// Most tiles in one assignment.
+    pub max_batch: usize,
+}
+
+/// What one configuration gave.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    /// Worker hosts.
+    pub workers: usize,
+    /// Threads per worker.
+    pub threads: usize,
+    /// One-core seconds of the frame.
+    pub work_s: f64,
+    /// Link bandwidth, Gbit/s.
+    pub link_gbit: f64,
+    /// Measured in virtual time: t₁ / (n · trace time).
+    pub efficiency: f64,
+    /// The analytic simulator's efficiency for the same configuration.
+    pub predicted: f64,
+    /// The assembled image equals the recorded one, bit for bit.
+    pub identical: bool,
+    /// Virtual seconds from the first tile handed out to the last result.
+    pub trace_s: f64,
+    /// Real seconds the simulation took.
+    pub wall_s: f64,
+}
+
+/// Records (or reuses) a one-thread render of `desc` at `settings`, tile `tile`, in `path`.
+pub fn record(
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    tile: u32,
+    path: &Path,
+) -> anyhow::Result<()> {
+    if path.exists() {
+        return Ok(());
+    }
+    let renderer = Renderer::new(desc, settings)?;
+    let r = render_smp(
+        &renderer,
+        &SmpOptions {
+            threads: 1,
+            tile,
+            executor: Executor::Queue,
+        },
+        &|_, _| {},
+    );
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    replay::write(path, tile, &r.tile_seconds, &r.film)?;
+    Ok(())
+}
+
+/// Runs `c` over the recording at `path` in virtual time.
+pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
+    let probe = Replay::open(path, 1.0)?;
+    let t1: f64 = probe.costs.iter().sum();
+    let scale = c.work_s / t1.max(1e-12);
+    let replay = Arc::new(Replay::open(path, scale)?);
+    let want = replay.film()?;
+    let (width, height, tile) = (replay.width, replay.height, replay.tile);
+    let costs: Vec<f64> = replay.costs.iter().map(|x| x * scale).collect();
+    let pixels: Vec<u64> = replay
+        .tiles
+        .iter()
+        .map(|t| t.pixel_count() as u64)
+        .collect();
+    // The job: any scene will do (workers replay, never trace); its size goes to each worker.
+    let desc = crate::dist::test_scene(width, height);
+    let settings = RenderSettings::new(width, height);
+    let token = Token::new("scale")?;
+    let mut config = MasterConfig {
+        seed: Some(1),
+        ..MasterConfig::default()
+    };
+    config.schedule.tile = tile;
+    config.schedule.min_workers = c.workers;
+    config.schedule.max_batch = c.max_batch;
+    config.schedule.pixel_format = PixelFormat::Rgb8;
+    config.schedule.wait_workers = Duration::from_secs(3_600);
+    config.schedule.tile_deadline = Duration::from_secs(86_400);
+    config.net.token = Some(token.clone());
+    config.net.heartbeat_timeout = Duration::from_secs(3_600);
+    config.net.handshake_timeout = Duration::from_secs(600);
+    config.net.max_connections = c.workers + 16;
+    let result: Arc<Mutex<Option<DistResult>>> = Arc::default();
+    let link_bytes_per_s = c.link_bps / 8.0;
+    let master_gate = Arc::new(Mutex::new(Gate::default()));
+    let mut sim = turmoil::Builder::new()
+        .rng_seed(1)
+        .epoch(UNIX_EPOCH + Duration::from_secs(1_700_000_000))
+        .simulation_duration(Duration::from_secs(1_000_000))
+        // Time moves in steps of 20 µs: a 1 ms step would round every message of a 3 ms tile
+        // up to whole milliseconds.
+        .tick_duration(Duration::from_micros(20))
+        .min_message_latency(c.latency)
+        .max_message_latency(c.latency)
+        .tcp_capacity(1 << 16)
+        .build();
+    {
+        let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
+        let (config, token, gate) = (config.clone(), token.clone(), master_gate.clone());
+        let per_byte = 1.0 / link_bytes_per_s + c.master_s_per_byte;
+        let worker_link = 1.0 / link_bytes_per_s;
+        sim.host("master", move || {
+            let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
+            let (config, token, gate) = (config.clone(), token.clone(), gate.clone());
+            async move {
+                let l = turmoil::net::TcpListener::bind(("0.0.0.0", 7878)).await?;
+                let listener = PacedListener {
+                    inner: l,
+                    master: gate,
+                    per_byte,
+                    worker_link,
+                };
+                let m = Master::with_listener(listener, &config, token)?;
+                let r = m.render(&desc, &settings, CancellationToken::new()).await?;
+                *result.lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
+                Ok(())
+            }
+        });
+    }
+    for i in 0..c.workers {
+        let (replay, token, threads) = (replay.clone(), token.clone(), c.threads);
+        sim.host(format!("w{i}"), move || {
+            let (replay, token) = (replay.clone(), token.clone());
+            async move {
+                let mut o = WorkerOptions::new("master:7878", token);
+                o.name = format!("w{i}");
+                o.threads = threads;
+                o.tile_delay = None;
+                o.nonce_seed = Some(i as u64);
+                o.dial_timeout = Duration::from_secs(3_600);
+                o.master_timeout = Duration::from_secs(3_600);
+                let exec = InlineExec::replaying(replay);
+                let _ =
+                    parrt_worker::session::run_with(&o, CancellationToken::new(), &SimDial, exec)
+                        .await;
+                Ok(())
+            }
+        });
+    }
+    let t0 = std::time::Instant::now();
+    loop {
+        if result.lock().unwrap_or_else(|p| p.into_inner()).is_some() {
+            break;
+        }
+        sim.step().map_err(|e| anyhow::anyhow!("simulation: {e}"))?;
+    }
+    let wall_s = t0.elapsed().as_secs_f64();
+    let r = result
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .take()
+        .ok_or_else(|| anyhow::anyhow!("no result"))?;
+    let n = c.workers * c.threads;
+    let efficiency = c.work_s / (n as f64 * r.trace_s.max(1e-12));
+    let mean = c.work_s / costs.len().max(1) as f64;
+    let window = parrt::window::Window::default().assignments(
+        c.threads,
+        Some(2.0 * c.latency.as_secs_f64()),
+        mean,
+    );
+    let p = SimParams {
+        window,
+        max_batch: c.max_batch,
+        latency_s: c.latency.as_secs_f64(),
+        bandwidth_bps: link_bytes_per_s,
+        master_link_bps: link_bytes_per_s,
+        master_per_tile_s: c.master_s_per_byte * 3.0 * (tile * tile) as f64,
+        result_bytes_per_pixel: 3.0,
+        message_bytes: 64.0,
+        ..SimParams::ideal(c.workers, c.threads)
+    };
+    let predicted = simulate(&costs, &pixels, &p).efficiency;
+    Ok(Row {
+        workers: c.workers,
+        threads: c.threads,
+        work_s: c.work_s,
+        link_gbit: c.link_bps / 1e9,
+        efficiency,
+        predicted,
+        identical: same_bytes(&r.film, &want),
+        trace_s: r.trace_s,
+        wall_s,
+    })
+}
+
+fn same_bytes(a: &Film, b: &Film) -> bool {
+    a.width == b.width && a.height == b.height && a.to_rgb8() == b.to_rgb8()
+}
+
+/// When the master side is next free: its link, then its CPU, one byte after another.
+#[derive(Default)]
+struct Gate {
+    free: Option<Instant>,
+}
+
+impl Gate {
+    /// Reserves `secs` after `from` (or after the last reservation, if later); returns the end.
+    fn reserve(&mut self, from: Instant, secs: f64) -> Instant {
+        let start = self.free.map_or(from, |f| f.max(from));
+        let end = start + Duration::from_secs_f64(secs.max(0.0));
+        self.free = Some(end);
+        end
+    }
+}
+
+/// The master's listener whose streams deliver bytes as the links and the master's CPU allow.
+struct PacedListener {
+    inner: turmoil::net::TcpListener,
+    master: Arc<Mutex<Gate>>,
+    per_byte: f64,
+    worker_link: f64,
+}
+
+impl parrt_runtime::net::Listener for PacedListener {
+    type Stream = Paced;
+
+    async fn accept(&mut self) -> io::Result<(Paced, SocketAddr)> {
+        let (s, a) = self.inner.accept().await?;
+        Ok((
+            Paced {
+                inner: s,
+                link: Gate::default(),
+                master: self.master.clone(),
+                per_byte: self.per_byte,
+                worker_link: self.worker_link,
+                held: Vec::new(),
+                pos: 0,
+                wait: None,
+            },
+            a,
+        ))
+    }
+
+    fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.inner.local_addr()
+    }
+}
+
+/// A master-side stream: bytes read cross the worker's link, then the master's link and CPU.
+pub struct Paced {
+    inner: turmoil::net::TcpStream,
+    link: Gate,
+    master: Arc<Mutex<Gate>>,
+    per_byte: f64,
+    worker_link: f64,
+    held: Vec<u8>,
+    pos: usize,
+    wait: Option<Pin<Box<Sleep>>>,
+}
+
+impl AsyncRead for Paced {
+    fn poll_read(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<io::Result<()>> {
+        let me = self.get_mut();
+        loop {
+            if me.pos < me.held.len() {
+                if let Some(w) = &mut me.wait {
+                    ready!(w.as_mut().poll(cx));
+                    me.wait = None;
+                }
+                let n = (me.held.len() - me.pos).min(buf.remaining());
+                buf.put_slice(&me.held[me.pos..me.pos + n]);
+                me.pos += n;
+                return Poll::Ready(Ok(()));
+            }
+            me.held.resize(64 * 1024, 0);
+            let mut rb = ReadBuf::new(&mut me.held);
+            match Pin::new(&mut me.inner).poll_read(cx, &mut rb) {
+                Poll::Pending => {
+                    me.held.clear();
+                    me.pos = 0;
+                    return Poll::Pending;
+                }
+                Poll::Ready(Err(e)) => {
+                    me.held.clear();
+                    return Poll::Ready(Err(e));
+                }
+                Poll::Ready(Ok(())) => {}
+            }
+            let n = rb.filled().len();
+            me.held.truncate(n);
+            me.pos = 0;
+            if n == 0 {
+                return Poll::Ready(Ok(()));
+            }
+            let now = Instant::now();
+            let crossed = me.link.reserve(now, n as f64 * me.worker_link);
+            let handled = me
+                .master
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .reserve(crossed, n as f64 * me.per_byte);
+            me.wait = Some(Box::pin(sleep_until(handled)));
+        }
+    }
+}
+
+impl AsyncWrite for Paced {
+    fn poll_write(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.get_mut().inner).poll_write(cx, buf)
+    }
+    fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.get_mut().inner).poll_flush(cx)
+    }
+    fn poll_shutdown(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.get_mut().inner).poll_shutdown(cx)
+    }
+}
