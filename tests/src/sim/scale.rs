@@ -62,8 +62,10 @@ pub struct Row {
     pub work_s: f64,
     /// Link bandwidth, Gbit/s.
     pub link_gbit: f64,
-    /// Measured in virtual time: t₁ / (n · trace time).
+    /// Measured in virtual time: t₁ / (n · trace time), t₁ the tiles' costs as simulated.
     pub efficiency: f64,
+    /// How much tokio's millisecond timers lengthened the frame's work (spent / asked − 1).
+    pub rounding: f64,
     /// The analytic simulator's efficiency for the same configuration.
     pub predicted: f64,
     /// The assembled image equals the recorded one, bit for bit.
@@ -109,7 +111,17 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let replay = Arc::new(Replay::open(path, scale)?);
     let want = replay.film()?;
     let (width, height, tile) = (replay.width, replay.height, replay.tile);
-    let costs: Vec<f64> = replay.costs.iter().map(|x| x * scale).collect();
+    // What each tile really lasts in the simulation: tokio's timers run in whole
+    // milliseconds, so a replayed tile ends at the next millisecond. Both the measured
+    // efficiency and the model take these costs, so they compare like with like; a frame of
+    // tiles far shorter than a millisecond cannot be simulated faithfully (the JSON says how
+    // much rounding added: `rounding`).
+    let costs: Vec<f64> = replay
+        .costs
+        .iter()
+        .map(|x| (x * scale * 1e3).ceil() / 1e3)
+        .collect();
+    let spent: f64 = costs.iter().sum();
     let pixels: Vec<u64> = replay
         .tiles
         .iter()
@@ -140,9 +152,9 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         .rng_seed(1)
         .epoch(UNIX_EPOCH + Duration::from_secs(1_700_000_000))
         .simulation_duration(Duration::from_secs(1_000_000))
-        // Time moves in steps of 20 µs: a 1 ms step would round every message of a 3 ms tile
-        // up to whole milliseconds.
-        .tick_duration(Duration::from_micros(20))
+        // Time moves in steps of half the latency (at least 10 µs): a coarser step would
+        // round every message up to whole steps.
+        .tick_duration((c.latency / 2).max(Duration::from_micros(10)))
         .min_message_latency(c.latency)
         .max_message_latency(c.latency)
         .tcp_capacity(1 << 16)
@@ -204,8 +216,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         .take()
         .ok_or_else(|| anyhow::anyhow!("no result"))?;
     let n = c.workers * c.threads;
-    let efficiency = c.work_s / (n as f64 * r.trace_s.max(1e-12));
-    let mean = c.work_s / costs.len().max(1) as f64;
+    let efficiency = spent / (n as f64 * r.trace_s.max(1e-12));
+    let mean = spent / costs.len().max(1) as f64;
     let window = parrt::window::Window::default().assignments(
         c.threads,
         Some(2.0 * c.latency.as_secs_f64()),
@@ -229,6 +241,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         work_s: c.work_s,
         link_gbit: c.link_bps / 1e9,
         efficiency,
+        rounding: spent / c.work_s - 1.0,
         predicted,
         identical: same_bytes(&r.film, &want),
         trace_s: r.trace_s,
