@@ -4,6 +4,8 @@
 //! - [`cli`]: argument definitions and dispatch; `main.rs` only calls [`cli::main`].
 //! - [`commands`]: one module per subcommand (`render`, `info`, `scene`, `master`, `worker`,
 //!   `cluster`, `bench`).
+//! - [`cli_args`]: the flags and arguments several commands share (scene, render settings,
+//!   limits, durations, sizes, outputs), each parsed and checked once.
 //! - the master side of distributed rendering is the `parrt_runtime` crate (`master/runtime`).
 //! - [`progress`]: the one progress bar (an observer of the runtime, fed by the SMP path).
 //! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
@@ -15,6 +17,7 @@
 
 pub mod accuracy;
 pub mod cli;
+pub mod cli_args;
 pub mod commands;
 pub mod exit;
 pub mod live;

@@ -4,11 +4,11 @@
 //! only: the environment is read by [`parrt_runtime::launcher`], the file protocol is
 //! [`parrt_runtime::rendezvous`], the render is [`crate::distributed`]'s.
 
-use super::durations::{seconds_flag, MAX_FLAG_DURATION};
-use super::master::{check_listen, print_summary};
-use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
-use super::render::RenderFlags;
-use super::scene_input::{LimitArgs, SceneSpec};
+use super::master::print_summary;
+use crate::cli_args::durations::{seconds_flag, MAX_FLAG_DURATION};
+use crate::cli_args::listen::check_listen;
+use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
@@ -26,7 +26,8 @@ use std::time::Duration;
 /// Arguments of `parrt cluster` (the same for every rank).
 #[derive(Debug, Args)]
 pub struct ClusterArgs {
-    /// The NFF scene to render (read by rank 0 only; workers receive it over TCP).
+    /// The NFF scene to render, or parrt's JSON form if it ends in .json (read by rank 0 only;
+    /// workers receive it over TCP).
     pub file: Option<PathBuf>,
     /// A generated scene, NAME or NAME:SIZE.
     #[arg(long, value_name = "NAME[:SIZE]")]
@@ -169,7 +170,7 @@ fn run_master(
     // A leftover file is refused before the scene is even read.
     rendezvous::check_free(&args.rendezvous, job, timeout)
         .map_err(|e| input_error(anyhow::Error::new(e)))?;
-    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
+    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref(), None)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     let label = spec.label();
     let settings = args.render.settings(&desc)?;

@@ -1,10 +1,12 @@
 //! `parrt master`: loads a scene, listens for workers, hands them tiles, writes the image.
 //! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
-use super::durations::{seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE};
-use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
-use super::render::RenderFlags;
-use super::scene_input::{LimitArgs, SceneSpec};
+use crate::cli_args::durations::{
+    seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE,
+};
+use crate::cli_args::listen::check_listen;
+use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use crate::live::state::JobInfo;
 use anyhow::Context;
@@ -19,7 +21,8 @@ use std::time::Duration;
 /// Arguments of `parrt master`.
 #[derive(Debug, Args)]
 pub struct MasterArgs {
-    /// The NFF scene to render (or --scene NAME[:SIZE], or --scene-json FILE).
+    /// The NFF scene to render, or parrt's JSON form if it ends in .json (or --scene
+    /// NAME[:SIZE], or --scene-json FILE).
     pub file: Option<PathBuf>,
     /// A generated scene, NAME or NAME:SIZE.
     #[arg(long, value_name = "NAME[:SIZE]", conflicts_with = "scene_json")]
@@ -93,33 +96,15 @@ pub struct MasterArgs {
     pub limits: LimitArgs,
 }
 
+/// The scene: a file, `--scene` or `--scene-json`, and its label for messages.
 fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
-    if let Some(p) = &args.scene_json {
-        let bytes = args.limits.read_file(p)?;
-        let desc = serde_json::from_slice(&bytes)
-            .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", p.display())))?;
-        return Ok((desc, p.display().to_string()));
-    }
-    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
+    let spec = SceneSpec::from_args(
+        args.file.clone(),
+        args.scene.as_deref(),
+        args.scene_json.clone(),
+    )?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     Ok((desc, spec.label()))
-}
-
-/// Checks that `--listen` is an address that can be resolved (bad input otherwise); whether it
-/// can be bound (a port in use) is found when binding, and is not the user's typo.
-pub fn check_listen(listen: &str) -> anyhow::Result<()> {
-    use std::net::ToSocketAddrs;
-    let mut addrs = listen.to_socket_addrs().map_err(|e| {
-        input_error(anyhow::anyhow!(
-            "--listen {listen}: not an address to listen on ({e}); use HOST:PORT, e.g. {DEFAULT_LISTEN}"
-        ))
-    })?;
-    if addrs.next().is_none() {
-        return Err(input_error(anyhow::anyhow!(
-            "--listen {listen}: resolves to no address"
-        )));
-    }
-    Ok(())
 }
 
 /// Runs `parrt master`. Everything the user gave is checked before listening: flags, outputs,

@@ -2,12 +2,9 @@
 
 pub mod bench;
 pub mod cluster;
-pub mod durations;
 pub mod info;
 pub mod master;
-pub mod output;
 pub mod plot_timeline;
 pub mod render;
 pub mod scene;
-pub mod scene_input;
 pub mod worker;

@@ -33,7 +33,7 @@ pub fn run(args: PlotTimelineArgs) -> anyhow::Result<ExitCode> {
             args.output.display()
         )));
     }
-    super::output::check_file_output(&args.output)?;
+    crate::cli_args::output::check_file_output(&args.output)?;
     let t = Timeline::read(&args.file)?;
     let title = args.title.unwrap_or_else(|| plot::title(&t));
     plot::save(&t, &args.output, &title)?;

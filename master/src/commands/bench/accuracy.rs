@@ -3,12 +3,12 @@
 //! the tables (Markdown, CSV) and Pareto plots (SVG, PNG) to an output directory. The pieces live
 //! in [`crate::accuracy`]; this file only parses arguments and writes files.
 
-use super::render::scene_arg;
 use crate::accuracy::configs::{grid, Config};
 use crate::accuracy::plot::{self, PlotPoint, Series};
 use crate::accuracy::report;
 use crate::accuracy::study::{self, StudyOptions};
-use crate::commands::scene_input::LimitArgs;
+use crate::cli_args::size::parse_size;
+use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
@@ -68,7 +68,7 @@ fn replot(
         .clone()
         .unwrap_or_else(super::efficiency::machine);
     let scenes = read_points(csv, &text)?;
-    crate::commands::output::prepare_out_dir(&args.out)?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
     for (label, points) in &scenes {
         plot::write(
             &args.out.join(format!("pareto-{}", stem(label))),
@@ -137,18 +137,6 @@ fn read_points(
     Ok(scenes)
 }
 
-/// Parses `WxH` (both at least 1).
-pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
-    let bad = || input_error(anyhow::anyhow!("--size {s}: expected WxH, e.g. 256x256"));
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 {
-        return Err(bad());
-    }
-    Ok((w, h))
-}
-
 fn series(c: &Config) -> Series {
     if c.spp > 1 {
         Series::FourSamples
@@ -199,9 +187,9 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
     let specs = args
         .scenes
         .iter()
-        .map(|s| scene_arg(s))
+        .map(|s| SceneSpec::parse(s))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    crate::commands::output::prepare_out_dir(&args.out)?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
     let configs = grid(args.full);
     let mut studies = Vec::new();
     for spec in &specs {
@@ -242,15 +230,6 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn sizes_parse_and_bad_ones_are_rejected() {
-        assert_eq!(parse_size("256x128").ok(), Some((256, 128)));
-        assert_eq!(parse_size("64X64").ok(), Some((64, 64)));
-        for bad in ["", "256", "0x4", "ax4", "4x-1"] {
-            assert!(parse_size(bad).is_err(), "{bad}");
-        }
-    }
 
     #[test]
     fn replot_reads_what_the_study_wrote_and_names_bad_lines() {

@@ -9,9 +9,8 @@ pub mod cpu;
 pub mod emulate;
 pub mod link;
 
+use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::commands::bench::efficiency::machine;
-use crate::commands::bench::render::scene_arg;
-use crate::commands::scene_input::LimitArgs;
 use crate::exit::input_error;
 use crate::plot::{save_chart, Chart, Series};
 use anyhow::Context;
@@ -291,7 +290,7 @@ fn limit(
 /// Runs `parrt bench cluster`.
 pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     check(&args)?;
-    let spec = scene_arg(&args.scene)?;
+    let spec = SceneSpec::parse(&args.scene)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     let mut settings = RenderSettings::new(args.size, args.size);
     settings.spp = args.spp;

@@ -4,9 +4,7 @@
 //! tracing phase and of the whole render) as Markdown and CSV, plots like its Figures 2 and 3,
 //! and a check of the schedule simulator against the measured runs.
 
-use crate::commands::bench::render::scene_arg;
-use crate::commands::render::{AccelArg, ExecutorArg};
-use crate::commands::scene_input::LimitArgs;
+use crate::cli_args::{AccelArg, ExecutorArg, LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use crate::plot::{save_chart, Chart, Series};
 use anyhow::Context;
@@ -206,8 +204,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     }
     let accels: Vec<AccelKind> = args.accel.iter().map(|a| a.kind()).collect();
     let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
-    let spec = scene_arg(&args.scene)?;
-    crate::commands::output::prepare_out_dir(&args.out)?;
+    let spec = SceneSpec::parse(&args.scene)?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
     let mut md = String::new();
     let mut csv = csv::Writer::from_writer(Vec::new());
     csv.write_record(parrt::efficiency::CSV_HEADER)?;
