@@ -8,6 +8,7 @@
 //!   limits, durations, sizes, outputs), each parsed and checked once.
 //! - the master side of distributed rendering is the `parrt_runtime` crate (`master/runtime`).
 //! - [`progress`]: the one progress bar (an observer of the runtime, fed by the SMP path).
+//! - [`machine`]: what machine a measurement ran on.
 //! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
 //! - [`plot`]: charts (SVG and PNG) for the studies.
 //! - [`timeline`]: per-tile timelines of renders (`--timeline`) and their plots.
@@ -21,6 +22,7 @@ pub mod cli_args;
 pub mod commands;
 pub mod exit;
 pub mod live;
+pub mod machine;
 pub mod plot;
 pub mod progress;
 pub mod timeline;

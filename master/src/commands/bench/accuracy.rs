@@ -63,10 +63,7 @@ fn replot(
 ) -> anyhow::Result<ExitCode> {
     let text =
         std::fs::read_to_string(csv).with_context(|| format!("cannot read {}", csv.display()))?;
-    let machine = args
-        .machine
-        .clone()
-        .unwrap_or_else(super::efficiency::machine);
+    let machine = args.machine.clone().unwrap_or_else(crate::machine::machine);
     let scenes = read_points(csv, &text)?;
     crate::cli_args::output::prepare_out_dir(&args.out)?;
     for (label, points) in &scenes {
@@ -211,7 +208,7 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
             .collect();
         plot::write(
             &args.out.join(format!("pareto-{label}")),
-            &pareto_title(&label, width, height, &super::efficiency::machine()),
+            &pareto_title(&label, width, height, &crate::machine::machine()),
             &points,
         )?;
         studies.push(st);

@@ -10,8 +10,8 @@ pub mod emulate;
 pub mod link;
 
 use crate::cli_args::{LimitArgs, SceneSpec};
-use crate::commands::bench::efficiency::machine;
 use crate::exit::input_error;
+use crate::machine::machine;
 use crate::plot::{save_chart, Chart, Series};
 use anyhow::Context;
 use clap::Args;
@@ -645,10 +645,10 @@ fn draw_timelines(
             let stem = format!("timeline-{workers}x{threads}");
             // The data behind the plot, for whoever wants to look closer.
             tl.write(&args.out.join(format!("{stem}.json")))?;
-            md += &super::efficiency::draw_timeline(
+            md += &crate::timeline::plot::save_figure(
+                &tl,
                 &args.out,
                 &stem,
-                &tl,
                 &format!("{workers} emulated workers × {threads} threads, replayed"),
             )?;
         }

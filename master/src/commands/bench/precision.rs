@@ -5,11 +5,11 @@
 //! time (the errors by [`crate::accuracy::metrics`], as the accuracy study measures them).
 //! Writes precision.md, precision.csv and two plots (translation, scale) as SVG and PNG.
 
-use super::efficiency::machine;
 use crate::accuracy::metrics::{compare, ImageError};
 use crate::cli_args::size::parse_size;
 use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
+use crate::machine::machine;
 use crate::plot::{save_chart, Chart, Series};
 use anyhow::Context;
 use clap::Args;

@@ -243,7 +243,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
             args.threads,
             args.latency_ms,
             args.bandwidth_mbps,
-            super::efficiency::machine()
+            crate::machine::machine()
         ),
         x_label: "render threads n (workers × threads)".into(),
         y_label: "efficiency t₁/(n·tₙ) (1 = ideal)".into(),
