@@ -7,7 +7,9 @@
 //! - [`cli_args`]: the flags and arguments several commands share (scene, render settings,
 //!   limits, durations, sizes, outputs), each parsed and checked once.
 //! - the master side of distributed rendering is the `parrt_runtime` crate (`master/runtime`).
-//! - [`progress`]: the one progress bar (an observer of the runtime, fed by the SMP path).
+//! - [`progress`]: the one progress bar, an observer of every render.
+//! - [`observed_smp`]: an SMP render reported to the same observers as a distributed one (its
+//!   threads as workers), so every watcher has one input.
 //! - [`machine`]: what machine a measurement ran on.
 //! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
 //! - [`plot`]: charts (SVG and PNG) for the studies.
@@ -23,6 +25,7 @@ pub mod commands;
 pub mod exit;
 pub mod live;
 pub mod machine;
+pub mod observed_smp;
 pub mod plot;
 pub mod progress;
 pub mod timeline;

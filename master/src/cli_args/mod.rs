@@ -11,10 +11,12 @@
 //! - [`size`]: `--size WxH`.
 //! - [`output`]: the outputs a command writes, checked before any work.
 //! - [`listen`]: `--listen ADDR`.
+//! - [`live`]: the live view's flags (`--http`, ...).
 
 pub mod durations;
 pub mod limits;
 pub mod listen;
+pub mod live;
 pub mod output;
 pub mod render_flags;
 pub mod scene_arg;

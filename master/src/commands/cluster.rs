@@ -4,7 +4,8 @@
 //! only: the environment is read by [`parrt_runtime::launcher`], the file protocol is
 //! [`parrt_runtime::rendezvous`], the render is [`crate::distributed`]'s.
 
-use super::master::print_summary;
+use super::report::print_summary;
+use super::watch::{start_live, Watch};
 use crate::cli_args::durations::{seconds_flag, MAX_FLAG_DURATION};
 use crate::cli_args::listen::check_listen;
 use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
@@ -77,7 +78,7 @@ pub struct ClusterArgs {
     pub timeline: Option<PathBuf>,
     /// Live view in a browser (off loopback: the master's token is required).
     #[command(flatten)]
-    pub live: crate::live::LiveArgs,
+    pub live: crate::cli_args::live::LiveArgs,
     /// Render settings (the same flags as `parrt render`, so the same bits).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -180,8 +181,8 @@ fn run_master(
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
     let (token_text, token) = fresh_token()?;
-    let live = crate::live::Live::start(&args.live, Some(token.as_bytes()))?;
-    let watch = super::master::Watch::new(
+    let live = start_live(&args.live, Some(token.as_bytes()))?;
+    let watch = Watch::new(
         args.timeline.as_deref(),
         live,
         crate::live::state::JobInfo {

@@ -1,4 +1,7 @@
-//! One module per subcommand; each exposes an `Args` struct and `run(args)`.
+//! One module per subcommand; each exposes an `Args` struct and `run(args)`. Two modules are
+//! shared by the commands that render, and import no command: [`watch`] (the observers the
+//! flags ask for) and [`report`] (what a finished render prints). The flags several commands
+//! take are [`crate::cli_args`]'s.
 
 pub mod bench;
 pub mod cluster;
@@ -6,5 +9,7 @@ pub mod info;
 pub mod master;
 pub mod plot_timeline;
 pub mod render;
+pub mod report;
 pub mod scene;
+pub mod watch;
 pub mod worker;

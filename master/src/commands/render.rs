@@ -2,15 +2,18 @@
 //! image on this machine's cores (or through local workers with `--workers`), with a progress
 //! bar on a terminal and the ray statistics of DESIGN §9 on request.
 
+use super::report::RenderReport;
+use super::watch::{start_live, watchers};
 use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
 use crate::cli_args::{ExecutorArg, LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
+use crate::observed_smp::render_smp_observed;
 use anyhow::Context;
 use clap::Args;
 use parrt::precision::Choice;
 use parrt::render::Renderer;
 use parrt::settings::RenderSettings;
-use parrt::smp::{render_smp_with, SmpOptions};
+use parrt::smp::SmpOptions;
 use parrt::stats::RayStats;
 use serde_json::json;
 use std::path::PathBuf;
@@ -71,115 +74,13 @@ pub struct RenderArgs {
     pub timeline: Option<PathBuf>,
     /// Live view in a browser.
     #[command(flatten)]
-    pub live: crate::live::LiveArgs,
+    pub live: crate::cli_args::live::LiveArgs,
     /// Render settings.
     #[command(flatten)]
     pub render: RenderFlags,
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
-}
-
-/// Everything a finished render reports.
-pub struct RenderReport {
-    /// Ray statistics.
-    pub stats: RayStats,
-    /// Seconds parsing or generating the scene.
-    pub parse_s: f64,
-    /// Seconds building the render-ready scene and accelerator.
-    pub build_s: f64,
-    /// Seconds tracing.
-    pub trace_s: f64,
-}
-
-impl RenderReport {
-    /// The `--stats-json` object (DESIGN §10 keys, plus extras).
-    pub fn to_json(&self, extra: serde_json::Value) -> serde_json::Value {
-        let s = &self.stats;
-        let mut v = json!({
-            "eye_rays": s.eye_rays,
-            "eye_hits": s.eye_hits,
-            "shadow_rays": s.shadow_rays,
-            "shadow_hits": s.shadow_hits,
-            "reflection_rays": s.reflection_rays,
-            "reflection_hits": s.reflection_hits,
-            "refraction_rays": s.refraction_rays,
-            "refraction_hits": s.refraction_hits,
-            "box_tests": s.box_tests,
-            "primitive_tests": s.primitive_tests,
-            "cell_steps": s.cell_steps,
-            "total_rays": s.total_rays(),
-            "parse_s": self.parse_s,
-            "build_s": self.build_s,
-            "trace_s": self.trace_s,
-            "mrays_per_s": self.mrays_per_s(),
-        });
-        if let (Some(obj), serde_json::Value::Object(e)) = (v.as_object_mut(), extra) {
-            obj.extend(e);
-        }
-        v
-    }
-
-    /// Millions of rays per second of tracing time.
-    pub fn mrays_per_s(&self) -> f64 {
-        if self.trace_s > 0.0 {
-            self.stats.total_rays() as f64 / self.trace_s / 1e6
-        } else {
-            0.0
-        }
-    }
-
-    /// Human-readable statistics.
-    pub fn print(&self) {
-        let s = &self.stats;
-        let per = |n: u64, rays: u64| {
-            if rays > 0 {
-                n as f64 / rays as f64
-            } else {
-                0.0
-            }
-        };
-        let rays = s.total_rays();
-        println!(
-            "rays              {:>14}  ({:.2} Mrays/s)",
-            rays,
-            self.mrays_per_s()
-        );
-        println!("  eye             {:>14}  hits {}", s.eye_rays, s.eye_hits);
-        println!(
-            "  shadow          {:>14}  blocked {}",
-            s.shadow_rays, s.shadow_hits
-        );
-        println!(
-            "  reflection      {:>14}  hits {}",
-            s.reflection_rays, s.reflection_hits
-        );
-        println!(
-            "  refraction      {:>14}  hits {}",
-            s.refraction_rays, s.refraction_hits
-        );
-        println!(
-            "box tests         {:>14}  ({:.1} per ray)",
-            s.box_tests,
-            per(s.box_tests, rays)
-        );
-        println!(
-            "primitive tests   {:>14}  ({:.1} per ray)",
-            s.primitive_tests,
-            per(s.primitive_tests, rays)
-        );
-        if s.cell_steps > 0 {
-            println!(
-                "cell steps        {:>14}  ({:.1} per ray)",
-                s.cell_steps,
-                per(s.cell_steps, rays)
-            );
-        }
-        println!("parse             {:>13.3}s", self.parse_s);
-        println!("build             {:>13.3}s", self.build_s);
-        println!("preprocessing     {:>13.3}s", self.parse_s + self.build_s);
-        println!("trace             {:>13.3}s", self.trace_s);
-    }
 }
 
 /// What one way of rendering produced, for the common reporting.
@@ -234,35 +135,17 @@ fn render_here(
         tile: args.tile,
         executor: args.executor.executor(),
     };
-    let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len();
-    let pb = crate::progress::Progress::new(true);
-    pb.set_total(tiles);
     if let Some(l) = live {
-        l.state.set_job(live_job(spec, settings, args.tile, "smp"));
-        for t in 0..threads {
-            l.state
-                .add_worker(t as u64, &format!("thread {t}"), 1, true);
-        }
-        l.state.start();
+        l.set_job(live_job(spec, settings, args.tile, "smp"));
     }
-    let result = render_smp_with(&renderer, &opts, &|done| {
-        let st = done.stats;
-        pb.tile_done(st.total_rays());
-        if let Some(l) = live {
-            let thread = u64::from(done.span.thread);
-            l.state
-                .tile_done(thread, done.tile, done.pixels, st.total_rays());
-        }
-    });
-    if let Some(l) = live {
-        l.state.finish(true);
-    }
+    // The SMP timeline comes from the render's own per-tile spans (measured on the threads),
+    // not from a recorder.
+    let result = render_smp_observed(&renderer, &opts, &watchers(None, live));
     let timeline = args.timeline.as_ref().map(|_| {
         let label = spec.label();
         let job = timeline_job(&label, settings, args.tile);
         crate::timeline::Timeline::from_smp(&job, threads, &result.tile_spans, result.trace_s)
     });
-    pb.finish();
     let info = renderer.build_info();
     let a = &info.accel;
     Ok(Outcome {
@@ -352,8 +235,7 @@ fn render_through_workers(
         parse_s.set(secs);
         *choice.borrow_mut() = Some(why);
         if let Some(l) = live {
-            l.state
-                .set_job(live_job(spec, &settings, args.tile, "distributed"));
+            l.set_job(live_job(spec, &settings, args.tile, "distributed"));
         }
         Ok((desc, settings))
     };
@@ -369,7 +251,7 @@ fn render_through_workers(
         .as_ref()
         .map(|_| std::sync::Arc::new(crate::timeline::Recorder::new()));
     let mut config = MasterConfig {
-        observers: watchers(&recorder, live),
+        observers: watchers(recorder.as_ref(), live),
         ..MasterConfig::default()
     };
     config.spawn.count = n;
@@ -459,23 +341,6 @@ fn render_through_workers(
     Ok((outcome, parse_s.get(), settings, choice))
 }
 
-/// The observers of a distributed render: the progress bar (drawn only on a terminal), the
-/// timeline's recorder and the live view, if asked.
-pub fn watchers(
-    recorder: &Option<std::sync::Arc<crate::timeline::Recorder>>,
-    live: Option<&crate::live::Live>,
-) -> parrt_runtime::observer::Observers {
-    let mut v: Vec<std::sync::Arc<dyn parrt_runtime::observer::Observer>> =
-        vec![std::sync::Arc::new(crate::progress::Progress::new(true))];
-    if let Some(r) = recorder {
-        v.push(r.clone());
-    }
-    if let Some(l) = live {
-        v.push(l.observer());
-    }
-    parrt_runtime::observer::Observers(v)
-}
-
 /// Loads the scene and the settings the flags make of it, checking the image's size: the
 /// description, the settings, why their precision is what it is, and the seconds spent parsing
 /// or generating.
@@ -524,7 +389,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if args.threads == Some(0) {
         return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
     }
-    let live = crate::live::Live::start(&args.live, None)?;
+    let live = start_live(&args.live, None)?;
     let (out, parse_s, settings, choice) = match args.workers {
         Some(n) => render_through_workers(&args, &spec, n, live.as_ref())?,
         None => {
