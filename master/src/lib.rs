@@ -11,14 +11,14 @@
 //! - [`observed_smp`]: an SMP render reported to the same observers as a distributed one (its
 //!   threads as workers), so every watcher has one input.
 //! - [`machine`]: what machine a measurement ran on.
-//! - [`accuracy`]: the speed-against-error study behind `parrt bench accuracy`.
+//! - [`studies`]: the engines of the studies behind `parrt bench` (the speed-against-error
+//!   study, the emulated cluster), a public API the bench commands and the tests call.
 //! - [`plot`]: charts (SVG and PNG) for the studies.
 //! - [`timeline`]: per-tile timelines of renders (`--timeline`) and their plots.
 //! - [`live`]: the live view in a browser (`--http`).
 //! - [`exit`]: how errors map to exit codes (2 bad input or usage, 1 anything else).
 #![deny(missing_docs)]
 
-pub mod accuracy;
 pub mod cli;
 pub mod cli_args;
 pub mod commands;
@@ -28,4 +28,5 @@ pub mod machine;
 pub mod observed_smp;
 pub mod plot;
 pub mod progress;
+pub mod studies;
 pub mod timeline;

@@ -1,15 +1,15 @@
 //! `parrt bench accuracy`: speed against error (DESIGN §9). Renders a reference (f64, no
 //! cut-off, depth 16, 16 samples per pixel) and a grid of configurations per scene, and writes
 //! the tables (Markdown, CSV) and Pareto plots (SVG, PNG) to an output directory. The pieces live
-//! in [`crate::accuracy`]; this file only parses arguments and writes files.
+//! in [`crate::studies::accuracy`]; this file only parses arguments and writes files.
 
-use crate::accuracy::configs::{grid, Config};
-use crate::accuracy::plot::{self, PlotPoint, Series};
-use crate::accuracy::report;
-use crate::accuracy::study::{self, StudyOptions};
 use crate::cli_args::size::parse_size;
 use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
+use crate::studies::accuracy::configs::{grid, Config};
+use crate::studies::accuracy::plot::{self, PlotPoint, Series};
+use crate::studies::accuracy::report;
+use crate::studies::accuracy::study::{self, StudyOptions};
 use anyhow::Context;
 use clap::Args;
 use parrt::settings::Precision;
@@ -230,8 +230,8 @@ mod tests {
 
     #[test]
     fn replot_reads_what_the_study_wrote_and_names_bad_lines() {
-        use crate::accuracy::metrics::ImageError;
-        use crate::accuracy::study::{Row, SceneStudy};
+        use crate::studies::accuracy::metrics::ImageError;
+        use crate::studies::accuracy::study::{Row, SceneStudy};
         let e = ImageError {
             rmse: 0.01,
             psnr: 40.0,

@@ -2,15 +2,15 @@
 //! positive, negative and mixed signs) and scaled by 1e-6 … 1e6, in f32 (rebased into the
 //! camera-relative frame), f64 and auto, against the f64 render of the untransformed scene:
 //! share of pixels off by more than 1/255, the largest error, the precision auto chose, trace
-//! time (the errors by [`crate::accuracy::metrics`], as the accuracy study measures them).
+//! time (the errors by [`crate::studies::accuracy::metrics`], as the accuracy study measures them).
 //! Writes precision.md, precision.csv and two plots (translation, scale) as SVG and PNG.
 
-use crate::accuracy::metrics::{compare, ImageError};
 use crate::cli_args::size::parse_size;
 use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use crate::machine::machine;
 use crate::plot::{save_chart, Chart, Series};
+use crate::studies::accuracy::metrics::{compare, ImageError};
 use anyhow::Context;
 use clap::Args;
 use parrt::description::SceneDescription;
