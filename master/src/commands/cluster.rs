@@ -290,5 +290,6 @@ fn run_worker(
             token_file: None,
         },
     };
-    super::worker::run(worker)
+    // The same program as `parrt worker`, with the same exit codes.
+    parrt_worker::cli::run(worker).map_err(crate::exit::worker_error)
 }

@@ -15,7 +15,7 @@ use anyhow::Context;
 use clap::Args;
 use parrt::description::SceneDescription;
 use parrt_runtime::{Job, MasterConfig, DEFAULT_LISTEN};
-use parrt_worker::cli::{init_logging, TokenArgs, UsageError};
+use parrt_worker::cli::{init_logging, TokenArgs};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -113,13 +113,10 @@ fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
 /// the scene (built once as a worker would build it) and the image's size and tile count.
 pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     init_logging("info");
-    let token = args.token.require("`parrt master`").map_err(|e| {
-        if e.is::<UsageError>() {
-            input_error(e)
-        } else {
-            e
-        }
-    })?;
+    let token = args
+        .token
+        .require("`parrt master`")
+        .map_err(crate::exit::worker_error)?;
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
     }
