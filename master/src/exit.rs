@@ -38,3 +38,14 @@ pub fn dist_error(e: parrt_runtime::DistError) -> anyhow::Error {
         anyhow::Error::new(e)
     }
 }
+
+/// An error of the worker library (`parrt worker`, a worker rank of `parrt cluster`, the
+/// master's token flags) for the command line: its `UsageError` (no token, bad flags) exits 2,
+/// anything else 1.
+pub fn worker_error(e: anyhow::Error) -> anyhow::Error {
+    if e.chain().any(|c| c.is::<parrt_worker::cli::UsageError>()) {
+        input_error(e)
+    } else {
+        e
+    }
+}

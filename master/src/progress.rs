@@ -1,19 +1,31 @@
-//! The one progress bar (indicatif) of every render: tiles done of all, an ETA, and Mrays/s
-//! for an SMP render or each worker's tiles per second for a distributed one. It is an
-//! [`Observer`] of the distributed runtime and is fed tile by tile by the SMP path. Drawn only
-//! when stdout and stderr are both terminals, so logs, pipes and tests stay clean.
+//! The one progress bar (indicatif) of every render: tiles done of all, an ETA, and each
+//! worker's tiles per second while a distributed render reports them, else the Mrays/s of the
+//! tiles in so far (an SMP render, whose threads report no rates). A plain [`Observer`] of the
+//! render, SMP or distributed alike. Drawn only when stdout and stderr are both terminals, so
+//! logs, pipes and tests stay clean; hidden, it formats nothing.
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use parrt::film::Rgb;
+use parrt::stats::RayStats;
+use parrt::tile::Tile;
 use parrt_runtime::observer::Observer;
+use parrt_runtime::scheduler::WorkerId;
 use std::io::IsTerminal;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::OnceLock;
 use std::time::Instant;
 
 /// A progress bar over a render's tiles.
 pub struct Progress {
     bar: ProgressBar,
-    started: Instant,
+    /// When the bar was made: the rate's origin until the trace starts.
+    created: Instant,
+    /// When the trace started (the runtime's `started`).
+    started: OnceLock<Instant>,
+    /// Rays of the accepted tiles.
     rays: AtomicU64,
+    /// The most tiles reported done (reports from several threads may come out of order).
+    done: AtomicUsize,
 }
 
 impl Progress {
@@ -33,44 +45,64 @@ impl Progress {
         bar.set_style(style);
         Progress {
             bar,
-            started: Instant::now(),
+            created: Instant::now(),
+            started: OnceLock::new(),
             rays: AtomicU64::new(0),
+            done: AtomicUsize::new(0),
         }
     }
 
-    /// Sets the number of tiles in the image.
-    pub fn set_total(&self, tiles: usize) {
-        self.bar.set_length(tiles as u64);
-    }
-
-    /// One more tile done here (SMP), having traced `rays` rays.
-    pub fn tile_done(&self, rays: u64) {
-        let total = self.rays.fetch_add(rays, Ordering::Relaxed) + rays;
-        let secs = self.started.elapsed().as_secs_f64().max(1e-9);
-        self.bar
-            .set_message(format!("{:.2} Mrays/s", total as f64 / secs / 1e6));
-        self.bar.inc(1);
-    }
-
-    /// Removes the bar.
-    pub fn finish(&self) {
-        self.bar.finish_and_clear();
+    /// Mrays/s of the accepted tiles since the trace started (empty before any).
+    fn ray_rate(&self) -> String {
+        let rays = self.rays.load(Ordering::Relaxed);
+        if rays == 0 {
+            return String::new();
+        }
+        let origin = *self.started.get().unwrap_or(&self.created);
+        let secs = origin.elapsed().as_secs_f64().max(1e-9);
+        format!("{:.2} Mrays/s", rays as f64 / secs / 1e6)
     }
 }
 
 impl Observer for Progress {
+    fn started(&self, _now: tokio::time::Instant) {
+        self.started.get_or_init(Instant::now);
+    }
+
+    fn result(
+        &self,
+        _id: WorkerId,
+        _tile: &Tile,
+        _pixels: &[Rgb],
+        stats: &RayStats,
+        _seconds: f64,
+        accepted: bool,
+    ) {
+        if accepted {
+            self.rays.fetch_add(stats.total_rays(), Ordering::Relaxed);
+        }
+    }
+
     fn progress(&self, done: usize, total: usize, workers: &[(String, f64)]) {
+        let done = self.done.fetch_max(done, Ordering::Relaxed).max(done);
         self.bar.set_length(total as u64);
         self.bar.set_position(done as u64);
-        let msg = workers
-            .iter()
-            .map(|(n, r)| format!("{n} {r:.1} tiles/s"))
-            .collect::<Vec<_>>()
-            .join(", ");
+        if self.bar.is_hidden() {
+            return;
+        }
+        let msg = if workers.is_empty() {
+            self.ray_rate()
+        } else {
+            workers
+                .iter()
+                .map(|(n, r)| format!("{n} {r:.1} tiles/s"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         self.bar.set_message(msg);
     }
 
     fn finished(&self, _complete: bool, _now: tokio::time::Instant) {
-        self.finish();
+        self.bar.finish_and_clear();
     }
 }

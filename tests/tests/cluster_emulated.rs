@@ -4,8 +4,8 @@
 
 use parrt::render::Renderer;
 use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt_master::commands::bench::cluster::emulate::{self, EmulatedRun};
-use parrt_master::commands::bench::cluster::link::LinkParams;
+use parrt_master::studies::cluster::emulate::{self, EmulatedRun};
+use parrt_master::studies::cluster::link::LinkParams;
 use parrt_tests::*;
 use std::process::Command;
 use std::time::Duration;

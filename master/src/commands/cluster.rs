@@ -4,11 +4,12 @@
 //! only: the environment is read by [`parrt_runtime::launcher`], the file protocol is
 //! [`parrt_runtime::rendezvous`], the render is [`crate::distributed`]'s.
 
-use super::durations::{seconds_flag, MAX_FLAG_DURATION};
-use super::master::{check_listen, print_summary};
-use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
-use super::render::RenderFlags;
-use super::scene_input::{LimitArgs, SceneSpec};
+use super::report::print_summary;
+use super::watch::{start_live, Watch};
+use crate::cli_args::durations::{seconds_flag, MAX_FLAG_DURATION};
+use crate::cli_args::listen::check_listen;
+use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
@@ -26,7 +27,8 @@ use std::time::Duration;
 /// Arguments of `parrt cluster` (the same for every rank).
 #[derive(Debug, Args)]
 pub struct ClusterArgs {
-    /// The NFF scene to render (read by rank 0 only; workers receive it over TCP).
+    /// The NFF scene to render, or parrt's JSON form if it ends in .json (read by rank 0 only;
+    /// workers receive it over TCP).
     pub file: Option<PathBuf>,
     /// A generated scene, NAME or NAME:SIZE.
     #[arg(long, value_name = "NAME[:SIZE]")]
@@ -76,7 +78,7 @@ pub struct ClusterArgs {
     pub timeline: Option<PathBuf>,
     /// Live view in a browser (off loopback: the master's token is required).
     #[command(flatten)]
-    pub live: crate::live::LiveArgs,
+    pub live: crate::cli_args::live::LiveArgs,
     /// Render settings (the same flags as `parrt render`, so the same bits).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -169,7 +171,7 @@ fn run_master(
     // A leftover file is refused before the scene is even read.
     rendezvous::check_free(&args.rendezvous, job, timeout)
         .map_err(|e| input_error(anyhow::Error::new(e)))?;
-    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
+    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref(), None)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     let label = spec.label();
     let settings = args.render.settings(&desc)?;
@@ -179,8 +181,8 @@ fn run_master(
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
     let (token_text, token) = fresh_token()?;
-    let live = crate::live::Live::start(&args.live, Some(token.as_bytes()))?;
-    let watch = super::master::Watch::new(
+    let live = start_live(&args.live, Some(token.as_bytes()))?;
+    let watch = Watch::new(
         args.timeline.as_deref(),
         live,
         crate::live::state::JobInfo {
@@ -288,5 +290,6 @@ fn run_worker(
             token_file: None,
         },
     };
-    super::worker::run(worker)
+    // The same program as `parrt worker`, with the same exit codes.
+    parrt_worker::cli::run(worker).map_err(crate::exit::worker_error)
 }

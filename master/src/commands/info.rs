@@ -2,7 +2,7 @@
 //! bounds, camera, resolution, parse time — as an aligned summary or as one JSON object whose
 //! integer keys are a stable contract (DESIGN.md §10). It never renders or modifies anything.
 
-use super::scene_input::LimitArgs;
+use crate::cli_args::LimitArgs;
 use crate::exit::input_error;
 use clap::Args;
 use parrt::description::{Bounds, SceneDescription};

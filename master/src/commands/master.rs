@@ -1,17 +1,21 @@
 //! `parrt master`: loads a scene, listens for workers, hands them tiles, writes the image.
 //! Argument parsing and reporting only; the work is in [`crate::distributed`].
 
-use super::durations::{seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE};
-use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
-use super::render::RenderFlags;
-use super::scene_input::{LimitArgs, SceneSpec};
+use super::report::{print_summary, report_json};
+use super::watch::{start_live, Watch};
+use crate::cli_args::durations::{
+    seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE,
+};
+use crate::cli_args::listen::check_listen;
+use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use crate::live::state::JobInfo;
 use anyhow::Context;
 use clap::Args;
 use parrt::description::SceneDescription;
-use parrt_runtime::{DistResult, Job, MasterConfig, DEFAULT_LISTEN};
-use parrt_worker::cli::{init_logging, TokenArgs, UsageError};
+use parrt_runtime::{Job, MasterConfig, DEFAULT_LISTEN};
+use parrt_worker::cli::{init_logging, TokenArgs};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -19,7 +23,8 @@ use std::time::Duration;
 /// Arguments of `parrt master`.
 #[derive(Debug, Args)]
 pub struct MasterArgs {
-    /// The NFF scene to render (or --scene NAME[:SIZE], or --scene-json FILE).
+    /// The NFF scene to render, or parrt's JSON form if it ends in .json (or --scene
+    /// NAME[:SIZE], or --scene-json FILE).
     pub file: Option<PathBuf>,
     /// A generated scene, NAME or NAME:SIZE.
     #[arg(long, value_name = "NAME[:SIZE]", conflicts_with = "scene_json")]
@@ -84,7 +89,7 @@ pub struct MasterArgs {
     pub timeline: Option<PathBuf>,
     /// Live view in a browser (off loopback: the master's token is required).
     #[command(flatten)]
-    pub live: crate::live::LiveArgs,
+    pub live: crate::cli_args::live::LiveArgs,
     /// Render settings (the same flags as `parrt render`, so the same bits).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -93,46 +98,25 @@ pub struct MasterArgs {
     pub limits: LimitArgs,
 }
 
+/// The scene: a file, `--scene` or `--scene-json`, and its label for messages.
 fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
-    if let Some(p) = &args.scene_json {
-        let bytes = args.limits.read_file(p)?;
-        let desc = serde_json::from_slice(&bytes)
-            .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", p.display())))?;
-        return Ok((desc, p.display().to_string()));
-    }
-    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
+    let spec = SceneSpec::from_args(
+        args.file.clone(),
+        args.scene.as_deref(),
+        args.scene_json.clone(),
+    )?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     Ok((desc, spec.label()))
-}
-
-/// Checks that `--listen` is an address that can be resolved (bad input otherwise); whether it
-/// can be bound (a port in use) is found when binding, and is not the user's typo.
-pub fn check_listen(listen: &str) -> anyhow::Result<()> {
-    use std::net::ToSocketAddrs;
-    let mut addrs = listen.to_socket_addrs().map_err(|e| {
-        input_error(anyhow::anyhow!(
-            "--listen {listen}: not an address to listen on ({e}); use HOST:PORT, e.g. {DEFAULT_LISTEN}"
-        ))
-    })?;
-    if addrs.next().is_none() {
-        return Err(input_error(anyhow::anyhow!(
-            "--listen {listen}: resolves to no address"
-        )));
-    }
-    Ok(())
 }
 
 /// Runs `parrt master`. Everything the user gave is checked before listening: flags, outputs,
 /// the scene (built once as a worker would build it) and the image's size and tile count.
 pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     init_logging("info");
-    let token = args.token.require("`parrt master`").map_err(|e| {
-        if e.is::<UsageError>() {
-            input_error(e)
-        } else {
-            e
-        }
-    })?;
+    let token = args
+        .token
+        .require("`parrt master`")
+        .map_err(crate::exit::worker_error)?;
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
     }
@@ -175,7 +159,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     parrt::render::validate_job(&desc, &settings)
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
-    let live = crate::live::Live::start(&args.live, Some(token.as_bytes()))?;
+    let live = start_live(&args.live, Some(token.as_bytes()))?;
     let watch = Watch::new(
         args.timeline.as_deref(),
         live,
@@ -234,145 +218,4 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     }
     watch.end(result.trace_s)?;
     Ok(ExitCode::SUCCESS)
-}
-
-/// The watchers of a distributed render asked for on the command line (`--timeline`,
-/// `--http`), for `parrt master` and `parrt cluster`.
-pub struct Watch {
-    timeline: Option<(PathBuf, std::sync::Arc<crate::timeline::Recorder>)>,
-    live: Option<crate::live::Live>,
-    job: JobInfo,
-}
-
-impl Watch {
-    /// Watchers writing the timeline to `timeline` and feeding `live`, for `job`.
-    pub fn new(
-        timeline: Option<&std::path::Path>,
-        live: Option<crate::live::Live>,
-        job: JobInfo,
-    ) -> Self {
-        if let Some(l) = &live {
-            l.state.set_job(JobInfo {
-                scene: job.scene.clone(),
-                ..job
-            });
-        }
-        Watch {
-            timeline: timeline.map(|p| {
-                (
-                    p.to_path_buf(),
-                    std::sync::Arc::new(crate::timeline::Recorder::new()),
-                )
-            }),
-            live,
-            job,
-        }
-    }
-
-    /// The observers to give the render.
-    pub fn observers(&self) -> parrt_runtime::observer::Observers {
-        super::render::watchers(
-            &self.timeline.as_ref().map(|t| t.1.clone()),
-            self.live.as_ref(),
-        )
-    }
-
-    /// Writes the timeline, then serves the live view's last state for its linger time.
-    pub fn end(self, trace_s: f64) -> anyhow::Result<()> {
-        if let Some((path, rec)) = &self.timeline {
-            let job = crate::timeline::Job {
-                scene: &self.job.scene,
-                width: self.job.width,
-                height: self.job.height,
-                tile_size: self.job.tile_size,
-            };
-            rec.timeline(&job, trace_s).write(path)?;
-        }
-        if let Some(l) = self.live {
-            l.end(true);
-        }
-        Ok(())
-    }
-}
-
-/// Prints what a distributed render did (also `parrt cluster`'s rank 0).
-pub fn print_summary(r: &DistResult, out: &std::path::Path) {
-    eprintln!(
-        "parrt master: wrote {} ({} tiles in {:.3} s; {} rays; {} bytes out, {} in, {:.0} bytes/tile; scene transfer {:.4} s)",
-        out.display(),
-        r.tiles,
-        r.trace_s,
-        r.stats.total_rays(),
-        r.bytes_sent,
-        r.bytes_received,
-        (r.bytes_sent + r.bytes_received) as f64 / r.tiles.max(1) as f64,
-        r.scene_transfer_s,
-    );
-    if r.restored_tiles > 0 || r.checkpoint_bad_records > 0 {
-        eprintln!(
-            "  checkpoint: {} tiles restored, {} bad records dropped",
-            r.restored_tiles, r.checkpoint_bad_records
-        );
-    }
-    for w in &r.per_worker {
-        eprintln!(
-            "  {:<20} {:>2} threads {:>6} tiles {:>8.3} s render{}",
-            w.name,
-            w.threads,
-            w.tiles,
-            w.render_s,
-            w.left
-                .as_deref()
-                .map(|l| format!("  (left: {l})"))
-                .unwrap_or_default()
-        );
-    }
-    let f = &r.faults;
-    if !f.refused.is_empty() || f.rejected_results + f.requeued + f.dropped > 0 {
-        eprintln!(
-            "  faults: {} refused, {} results rejected, {} duplicates ignored, {} tiles requeued, {} backups, {} workers dropped",
-            f.refused.len(),
-            f.rejected_results,
-            f.duplicate_results,
-            f.requeued,
-            f.backups,
-            f.dropped
-        );
-    }
-}
-
-/// The figures of a run as JSON (for benchmarks and scripts).
-pub fn report_json(r: &DistResult) -> serde_json::Value {
-    serde_json::json!({
-        "tiles": r.tiles,
-        "restored_tiles": r.restored_tiles,
-        "checkpoint_bad_records": r.checkpoint_bad_records,
-        "trace_s": r.trace_s,
-        "bytes_sent": r.bytes_sent,
-        "bytes_received": r.bytes_received,
-        "bytes_per_tile": (r.bytes_sent + r.bytes_received) as f64 / r.tiles.max(1) as f64,
-        "scene_transfer_s": r.scene_transfer_s,
-        "master_cpu_s": r.master_cpu_s,
-        "master_cpu_per_tile_us": r.master_cpu_per_tile_us(),
-        "master_cpu_per_mb_ms": r.master_cpu_per_mb_ms(),
-        "eye_rays": r.stats.eye_rays,
-        "refused": r.faults.refused.count,
-        "refused_reasons": r.faults.refused.reasons,
-        "rejected_results": r.faults.rejected_results,
-        "duplicate_results": r.faults.duplicate_results,
-        "requeued": r.faults.requeued,
-        "backups": r.faults.backups,
-        "dropped": r.faults.dropped,
-        "workers": r.per_worker.iter().map(|w| serde_json::json!({
-            "name": w.name,
-            "threads": w.threads,
-            "tiles": w.tiles,
-            "render_s": w.render_s,
-            "build_s": w.build_s,
-            "scene_transfer_s": w.scene_transfer_s,
-            "bytes_sent": w.bytes_sent,
-            "bytes_received": w.bytes_received,
-            "left": w.left,
-        })).collect::<Vec<_>>(),
-    })
 }

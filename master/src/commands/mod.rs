@@ -1,13 +1,15 @@
-//! One module per subcommand; each exposes an `Args` struct and `run(args)`.
+//! One module per subcommand; each exposes an `Args` struct and `run(args)`. Two modules are
+//! shared by the commands that render, and import no command: [`watch`] (the observers the
+//! flags ask for) and [`report`] (what a finished render prints). The flags several commands
+//! take are [`crate::cli_args`]'s.
 
 pub mod bench;
 pub mod cluster;
-pub mod durations;
 pub mod info;
 pub mod master;
-pub mod output;
 pub mod plot_timeline;
 pub mod render;
+pub mod report;
 pub mod scene;
-pub mod scene_input;
+pub mod watch;
 pub mod worker;

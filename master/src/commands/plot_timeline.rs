@@ -1,7 +1,7 @@
 //! `parrt plot-timeline`: draws a timeline written by `--timeline` as SVG or PNG.
 
 use crate::exit::input_error;
-use crate::timeline::{plot, Timeline};
+use crate::timeline::{plot, ReadError, Timeline};
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -33,8 +33,11 @@ pub fn run(args: PlotTimelineArgs) -> anyhow::Result<ExitCode> {
             args.output.display()
         )));
     }
-    super::output::check_file_output(&args.output)?;
-    let t = Timeline::read(&args.file)?;
+    crate::cli_args::output::check_file_output(&args.output)?;
+    let t = Timeline::read(&args.file).map_err(|e| match e {
+        ReadError::NotATimeline { .. } => input_error(e),
+        ReadError::Io { .. } => anyhow::Error::new(e),
+    })?;
     let title = args.title.unwrap_or_else(|| plot::title(&t));
     plot::save(&t, &args.output, &title)?;
     eprintln!(

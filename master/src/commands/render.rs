@@ -2,162 +2,28 @@
 //! image on this machine's cores (or through local workers with `--workers`), with a progress
 //! bar on a terminal and the ray statistics of DESIGN §9 on request.
 
-use super::output::{check_checkpoint_apart, check_file_output, check_image_output};
-use super::scene_input::{LimitArgs, SceneSpec};
+use super::report::RenderReport;
+use super::watch::{start_live, watchers};
+use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use crate::cli_args::{ExecutorArg, LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
+use crate::observed_smp::render_smp_observed;
 use anyhow::Context;
-use clap::{Args, ValueEnum};
-use parrt::description::SceneDescription;
+use clap::Args;
 use parrt::precision::Choice;
 use parrt::render::Renderer;
-use parrt::settings::{AccelKind, Precision, RenderSettings};
-use parrt::smp::{render_smp_with, Executor, SmpOptions};
+use parrt::settings::RenderSettings;
+use parrt::smp::SmpOptions;
 use parrt::stats::RayStats;
 use serde_json::json;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// Acceleration structure choices.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum AccelArg {
-    /// Bounding volume hierarchy (binned SAH).
-    Bvh,
-    /// Uniform voxel grid with 3D-DDA.
-    Grid,
-    /// No acceleration: every primitive for every ray (the test oracle; slow).
-    Brute,
-    /// BVH built by Goldsmith–Salmon incremental insertion (the quality baseline for `bvh`).
-    BvhGs,
-}
-
-impl AccelArg {
-    /// The library's accelerator kind.
-    pub fn kind(self) -> AccelKind {
-        match self {
-            AccelArg::Bvh => AccelKind::Bvh,
-            AccelArg::Grid => AccelKind::Grid,
-            AccelArg::Brute => AccelKind::Brute,
-            AccelArg::BvhGs => AccelKind::BvhGoldsmithSalmon,
-        }
-    }
-}
-
-/// Tile executor choices.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum ExecutorArg {
-    /// The paper's design: N threads take the next tile from a locked queue.
-    Queue,
-    /// rayon's work-stealing pool.
-    Rayon,
-    /// Tiles in Morton (Z) order from an atomic counter.
-    Morton,
-    /// Runs of Morton-ordered tiles that shrink as work runs out (large first).
-    Guided,
-}
-
-impl ExecutorArg {
-    /// The library's executor.
-    pub fn executor(self) -> Executor {
-        match self {
-            ExecutorArg::Queue => Executor::Queue,
-            ExecutorArg::Rayon => Executor::Rayon,
-            ExecutorArg::Morton => Executor::Morton,
-            ExecutorArg::Guided => Executor::Guided,
-        }
-    }
-}
-
-/// Precision choices.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum PrecisionArg {
-    /// Whichever the scene needs: f32 unless its extent over its smallest feature is too large
-    /// for f32 to resolve (see --stats).
-    Auto,
-    /// Single precision (fast).
-    F32,
-    /// Double precision (reference).
-    F64,
-}
-
-/// Settings shared by every command that renders (render, master, bench).
-#[derive(Debug, Clone, Args)]
-pub struct RenderFlags {
-    /// Image width in pixels (default: the scene's resolution; 512 with --spd-standard).
-    #[arg(long, value_name = "W")]
-    pub width: Option<u32>,
-    /// Image height in pixels (default: the scene's resolution; 512 with --spd-standard).
-    #[arg(long, value_name = "H")]
-    pub height: Option<u32>,
-    /// Maximum ray depth; the eye ray is depth 1.
-    #[arg(long, value_name = "D", default_value_t = parrt::settings::DEFAULT_MAX_DEPTH)]
-    pub max_depth: u32,
-    /// Adaptive cut-off: a reflected/refracted ray is not traced when the product of weights
-    /// along its path falls below X (0 disables; ignored with --spd-standard).
-    #[arg(long, value_name = "X", default_value_t = parrt::settings::DEFAULT_CUTOFF)]
-    pub cutoff: f64,
-    /// Samples per pixel (1: one ray through each pixel centre; square numbers are stratified).
-    #[arg(long, value_name = "N", default_value_t = 1)]
-    pub spp: u32,
-    /// Haines' SPD testing procedure: 513×513 corner rays averaged per pixel, depth 5, no
-    /// cut-off, one-sided opaque primitives.
-    #[arg(long)]
-    pub spd_standard: bool,
-    /// With --spd-standard: treat every primitive as two-sided (SPD asks this for the teapot).
-    #[arg(long)]
-    pub two_sided: bool,
-    /// Acceleration structure.
-    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
-    pub accel: AccelArg,
-    /// Uniform grid density: about cbrt(density × primitives) cells along the longest axis.
-    #[arg(long, value_name = "X", default_value_t = parrt::settings::DEFAULT_GRID_DENSITY)]
-    pub grid_density: f64,
-    /// Geometric precision: auto (f32 when it resolves the scene, else f64), f32 (fast path)
-    /// or f64 (reference path).
-    #[arg(long, value_enum, default_value_t = PrecisionArg::Auto)]
-    pub precision: PrecisionArg,
-}
-
-impl RenderFlags {
-    /// The render settings for `desc`, with the precision resolved (auto decided once, here,
-    /// from the description, so every worker is sent the same `f32` or `f64`).
-    pub fn settings(&self, desc: &SceneDescription) -> anyhow::Result<RenderSettings> {
-        Ok(self.settings_and_precision(desc)?.0)
-    }
-
-    /// [`RenderFlags::settings`] and why the precision is what it is.
-    pub fn settings_and_precision(
-        &self,
-        desc: &SceneDescription,
-    ) -> anyhow::Result<(RenderSettings, Choice)> {
-        let (dw, dh) = if self.spd_standard {
-            (512, 512)
-        } else {
-            (desc.view.width, desc.view.height)
-        };
-        let mut s = RenderSettings::new(self.width.unwrap_or(dw), self.height.unwrap_or(dh));
-        s.max_depth = self.max_depth;
-        s.cutoff = self.cutoff;
-        s.spp = self.spp;
-        s.spd_standard = self.spd_standard;
-        s.two_sided = self.two_sided;
-        s.accel = self.accel.kind();
-        s.grid_density = self.grid_density;
-        let requested = match self.precision {
-            PrecisionArg::Auto => Precision::Auto,
-            PrecisionArg::F32 => Precision::F32,
-            PrecisionArg::F64 => Precision::F64,
-        };
-        parrt::render::validate_settings(&s).map_err(input_error)?;
-        let choice = parrt::precision::resolve(requested, desc);
-        s.precision = choice.precision;
-        Ok((s, choice))
-    }
-}
-
 /// Arguments of `parrt render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// NFF scene file (omit it, and --scene, to render the built-in default scene: mount).
+    /// NFF scene file, or parrt's JSON form if it ends in .json (omit it, and --scene, to render
+    /// the built-in default scene: mount).
     #[arg(value_name = "SCENE.nff")]
     pub file: Option<PathBuf>,
     /// Render a generated scene instead of a file: NAME or NAME:SIZE (see `parrt scene --list`).
@@ -208,115 +74,13 @@ pub struct RenderArgs {
     pub timeline: Option<PathBuf>,
     /// Live view in a browser.
     #[command(flatten)]
-    pub live: crate::live::LiveArgs,
+    pub live: crate::cli_args::live::LiveArgs,
     /// Render settings.
     #[command(flatten)]
     pub render: RenderFlags,
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
-}
-
-/// Everything a finished render reports.
-pub struct RenderReport {
-    /// Ray statistics.
-    pub stats: RayStats,
-    /// Seconds parsing or generating the scene.
-    pub parse_s: f64,
-    /// Seconds building the render-ready scene and accelerator.
-    pub build_s: f64,
-    /// Seconds tracing.
-    pub trace_s: f64,
-}
-
-impl RenderReport {
-    /// The `--stats-json` object (DESIGN §10 keys, plus extras).
-    pub fn to_json(&self, extra: serde_json::Value) -> serde_json::Value {
-        let s = &self.stats;
-        let mut v = json!({
-            "eye_rays": s.eye_rays,
-            "eye_hits": s.eye_hits,
-            "shadow_rays": s.shadow_rays,
-            "shadow_hits": s.shadow_hits,
-            "reflection_rays": s.reflection_rays,
-            "reflection_hits": s.reflection_hits,
-            "refraction_rays": s.refraction_rays,
-            "refraction_hits": s.refraction_hits,
-            "box_tests": s.box_tests,
-            "primitive_tests": s.primitive_tests,
-            "cell_steps": s.cell_steps,
-            "total_rays": s.total_rays(),
-            "parse_s": self.parse_s,
-            "build_s": self.build_s,
-            "trace_s": self.trace_s,
-            "mrays_per_s": self.mrays_per_s(),
-        });
-        if let (Some(obj), serde_json::Value::Object(e)) = (v.as_object_mut(), extra) {
-            obj.extend(e);
-        }
-        v
-    }
-
-    /// Millions of rays per second of tracing time.
-    pub fn mrays_per_s(&self) -> f64 {
-        if self.trace_s > 0.0 {
-            self.stats.total_rays() as f64 / self.trace_s / 1e6
-        } else {
-            0.0
-        }
-    }
-
-    /// Human-readable statistics.
-    pub fn print(&self) {
-        let s = &self.stats;
-        let per = |n: u64, rays: u64| {
-            if rays > 0 {
-                n as f64 / rays as f64
-            } else {
-                0.0
-            }
-        };
-        let rays = s.total_rays();
-        println!(
-            "rays              {:>14}  ({:.2} Mrays/s)",
-            rays,
-            self.mrays_per_s()
-        );
-        println!("  eye             {:>14}  hits {}", s.eye_rays, s.eye_hits);
-        println!(
-            "  shadow          {:>14}  blocked {}",
-            s.shadow_rays, s.shadow_hits
-        );
-        println!(
-            "  reflection      {:>14}  hits {}",
-            s.reflection_rays, s.reflection_hits
-        );
-        println!(
-            "  refraction      {:>14}  hits {}",
-            s.refraction_rays, s.refraction_hits
-        );
-        println!(
-            "box tests         {:>14}  ({:.1} per ray)",
-            s.box_tests,
-            per(s.box_tests, rays)
-        );
-        println!(
-            "primitive tests   {:>14}  ({:.1} per ray)",
-            s.primitive_tests,
-            per(s.primitive_tests, rays)
-        );
-        if s.cell_steps > 0 {
-            println!(
-                "cell steps        {:>14}  ({:.1} per ray)",
-                s.cell_steps,
-                per(s.cell_steps, rays)
-            );
-        }
-        println!("parse             {:>13.3}s", self.parse_s);
-        println!("build             {:>13.3}s", self.build_s);
-        println!("preprocessing     {:>13.3}s", self.parse_s + self.build_s);
-        println!("trace             {:>13.3}s", self.trace_s);
-    }
 }
 
 /// What one way of rendering produced, for the common reporting.
@@ -371,35 +135,17 @@ fn render_here(
         tile: args.tile,
         executor: args.executor.executor(),
     };
-    let tiles = parrt::tile::tiles(settings.width, settings.height, args.tile).len();
-    let pb = crate::progress::Progress::new(true);
-    pb.set_total(tiles);
     if let Some(l) = live {
-        l.state.set_job(live_job(spec, settings, args.tile, "smp"));
-        for t in 0..threads {
-            l.state
-                .add_worker(t as u64, &format!("thread {t}"), 1, true);
-        }
-        l.state.start();
+        l.set_job(live_job(spec, settings, args.tile, "smp"));
     }
-    let result = render_smp_with(&renderer, &opts, &|done| {
-        let st = done.stats;
-        pb.tile_done(st.total_rays());
-        if let Some(l) = live {
-            let thread = u64::from(done.span.thread);
-            l.state
-                .tile_done(thread, done.tile, done.pixels, st.total_rays());
-        }
-    });
-    if let Some(l) = live {
-        l.state.finish(true);
-    }
+    // The SMP timeline comes from the render's own per-tile spans (measured on the threads),
+    // not from a recorder.
+    let result = render_smp_observed(&renderer, &opts, &watchers(None, live));
     let timeline = args.timeline.as_ref().map(|_| {
         let label = spec.label();
         let job = timeline_job(&label, settings, args.tile);
         crate::timeline::Timeline::from_smp(&job, threads, &result.tile_spans, result.trace_s)
     });
-    pb.finish();
     let info = renderer.build_info();
     let a = &info.accel;
     Ok(Outcome {
@@ -489,8 +235,7 @@ fn render_through_workers(
         parse_s.set(secs);
         *choice.borrow_mut() = Some(why);
         if let Some(l) = live {
-            l.state
-                .set_job(live_job(spec, &settings, args.tile, "distributed"));
+            l.set_job(live_job(spec, &settings, args.tile, "distributed"));
         }
         Ok((desc, settings))
     };
@@ -506,7 +251,7 @@ fn render_through_workers(
         .as_ref()
         .map(|_| std::sync::Arc::new(crate::timeline::Recorder::new()));
     let mut config = MasterConfig {
-        observers: watchers(&recorder, live),
+        observers: watchers(recorder.as_ref(), live),
         ..MasterConfig::default()
     };
     config.spawn.count = n;
@@ -596,23 +341,6 @@ fn render_through_workers(
     Ok((outcome, parse_s.get(), settings, choice))
 }
 
-/// The observers of a distributed render: the progress bar (drawn only on a terminal), the
-/// timeline's recorder and the live view, if asked.
-pub fn watchers(
-    recorder: &Option<std::sync::Arc<crate::timeline::Recorder>>,
-    live: Option<&crate::live::Live>,
-) -> parrt_runtime::observer::Observers {
-    let mut v: Vec<std::sync::Arc<dyn parrt_runtime::observer::Observer>> =
-        vec![std::sync::Arc::new(crate::progress::Progress::new(true))];
-    if let Some(r) = recorder {
-        v.push(r.clone());
-    }
-    if let Some(l) = live {
-        v.push(l.observer());
-    }
-    parrt_runtime::observer::Observers(v)
-}
-
 /// Loads the scene and the settings the flags make of it, checking the image's size: the
 /// description, the settings, why their precision is what it is, and the seconds spent parsing
 /// or generating.
@@ -634,7 +362,7 @@ fn load_job(
 
 /// Runs `parrt render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
-    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref())?;
+    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref(), None)?;
     // Every output is checked before the render, so a typo costs nothing.
     check_image_output(&args.output)?;
     for p in [
@@ -661,7 +389,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if args.threads == Some(0) {
         return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
     }
-    let live = crate::live::Live::start(&args.live, None)?;
+    let live = start_live(&args.live, None)?;
     let (out, parse_s, settings, choice) = match args.workers {
         Some(n) => render_through_workers(&args, &spec, n, live.as_ref())?,
         None => {
@@ -727,39 +455,4 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         l.end(true);
     }
     Ok(ExitCode::SUCCESS)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Flags {
-        #[command(flatten)]
-        render: RenderFlags,
-    }
-
-    fn settings(args: &[&str], desc: &SceneDescription) -> (RenderSettings, Choice) {
-        let flags = Flags::try_parse_from(std::iter::once("parrt").chain(args.iter().copied()))
-            .expect("flags parse");
-        flags.render.settings_and_precision(desc).expect("settings")
-    }
-
-    /// What a master sends its workers is never `Auto`: auto is resolved here, once.
-    #[test]
-    fn auto_is_the_default_and_is_resolved_before_a_job_leaves() {
-        let near = parrt_scenes::generate("tetra", Some(2)).expect("tetra");
-        let (s, why) = settings(&[], &near);
-        assert_eq!(s.precision, Precision::F32);
-        assert!(why.reason.starts_with("auto: "), "{}", why.reason);
-        // The eye 1e7 away from a small scene: f32 cannot resolve it.
-        let mut far = near.clone();
-        far.view.from = far.view.at + (far.view.from - far.view.at).normalize() * 1e7;
-        let (s, why) = settings(&[], &far);
-        assert_eq!(s.precision, Precision::F64, "{}", why.reason);
-        let (s, why) = settings(&["--precision", "f32"], &far);
-        assert_eq!(s.precision, Precision::F32);
-        assert!(why.reason.starts_with("forced; auto would pick f64"));
-    }
 }

@@ -122,7 +122,9 @@ pub fn status_event(state: &LiveState) -> bytes::Bytes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::live::state::tests::land;
     use crate::live::state::JobInfo;
+    use parrt_runtime::observer::Observer;
     use std::time::Duration;
 
     fn state() -> Arc<LiveState> {
@@ -150,8 +152,8 @@ mod tests {
         let mut batcher = Batcher::new(s.clone(), 1e6);
         let t0 = Instant::now();
         let list = parrt::tile::tiles(4, 2, 2);
-        s.tile_done(0, &list[1], &[[1.0, 0.0, 0.0]; 4], 1);
-        s.tile_done(0, &list[0], &[[0.0, 0.0, 1.0]; 4], 1);
+        land(&s, 0, &list[1], &[[1.0, 0.0, 0.0]; 4], 1);
+        land(&s, 0, &list[0], &[[0.0, 0.0, 1.0]; 4], 1);
         batcher.tick(t0);
         let (ta, tb) = (a.try_recv().unwrap(), b.try_recv().unwrap());
         assert_eq!(ta.as_ptr(), tb.as_ptr(), "one encoding, shared");
@@ -166,7 +168,7 @@ mod tests {
         // Nothing landed, the status was sent 100 ms ago: nothing.
         batcher.tick(t0 + Duration::from_millis(100));
         assert!(a.try_recv().is_err());
-        s.finish(true);
+        s.finished(true, tokio::time::Instant::now());
         // Changed, but not due until 250 ms after the last.
         batcher.tick(t0 + Duration::from_millis(200));
         assert!(a.try_recv().is_err());
@@ -205,8 +207,8 @@ mod tests {
         let mut batcher = Batcher::new(s.clone(), 20.0);
         let list = parrt::tile::tiles(4, 2, 2);
         let one_red = [[1.0, 0.0, 0.0], [0.0; 3], [0.0; 3], [0.0; 3]];
-        s.tile_done(0, &list[0], &one_red, 1);
-        s.tile_done(0, &list[1], &[[0.0, 0.0, 1.0]; 4], 1);
+        land(&s, 0, &list[0], &one_red, 1);
+        land(&s, 0, &list[1], &[[0.0, 0.0, 1.0]; 4], 1);
         let t0 = Instant::now();
         batcher.tick(t0);
         let tiles = crate::live::encode::tests::decode_tiles(&rx.try_recv().unwrap());
@@ -222,7 +224,7 @@ mod tests {
             ]
         );
         // One tile over four ticks' time: under the rate, at full resolution.
-        s.tile_done(0, &list[0], &one_red, 1);
+        land(&s, 0, &list[0], &one_red, 1);
         while rx.try_recv().is_ok() {}
         batcher.tick(t0 + Duration::from_millis(400));
         let tiles = crate::live::encode::tests::decode_tiles(&rx.try_recv().unwrap());
@@ -237,7 +239,7 @@ mod tests {
         let mut batcher = Batcher::new(s.clone(), 1e6);
         let tile = parrt::tile::tiles(4, 2, 2)[0];
         for _ in 0..3 {
-            s.tile_done(0, &tile, &[[0.0; 3]; 4], 1);
+            land(&s, 0, &tile, &[[0.0; 3]; 4], 1);
         }
         batcher.tick(Instant::now());
         assert_eq!(
@@ -251,7 +253,7 @@ mod tests {
         let s = state();
         let mut batcher = Batcher::new(s.clone(), 1e6);
         let tile = parrt::tile::tiles(4, 2, 2)[0];
-        s.tile_done(0, &tile, &[[0.0; 3]; 4], 1);
+        land(&s, 0, &tile, &[[0.0; 3]; 4], 1);
         batcher.tick(Instant::now());
         let mut rx = s.subscribe();
         assert!(rx.try_recv().is_err());

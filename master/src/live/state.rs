@@ -1,4 +1,6 @@
-//! What the live view shows, kept up to date by the renderer. Every update is a short critical
+//! What the live view shows, kept up to date by the render's reports: its one input is the
+//! runtime's [`Observer`] interface (an SMP render reports its threads as workers), plus the
+//! job's description ([`LiveState::set_job`]) before it starts. Every update is a short critical
 //! section: a copy into the 8-bit frame that notes which tile landed (while a page is open),
 //! a few counters; the renderer never encodes, allocates or waits for a page. The server reads
 //! snapshots: [`LiveState::status`] (the `/status` JSON), [`LiveState::frame`] (the image so
@@ -173,6 +175,7 @@ pub struct LiveState {
 }
 
 /// What the page is told about the job.
+#[derive(Clone, Debug)]
 pub struct JobInfo {
     /// The scene's label.
     pub scene: String,
@@ -376,57 +379,12 @@ impl LiveState {
         Landed { tiles, overflow }
     }
 
-    /// The trace phase began.
-    pub fn start(&self) {
-        self.with(|i| {
-            i.started.get_or_insert_with(Instant::now);
-            i.status.state = Phase::Rendering;
-        });
-    }
-
-    /// The render ended.
-    pub fn finish(&self, complete: bool) {
-        self.with(|i| {
-            let now = Instant::now();
-            i.finished = Some(now);
-            i.status.state = if complete { Phase::Done } else { Phase::Failed };
-            for w in &mut i.status.workers {
-                w.end_at.get_or_insert(now);
-                if w.state != WorkerState::Lost {
-                    w.state = WorkerState::Done;
-                }
-            }
-        });
-    }
-
-    /// A worker (or render thread) `id` appeared.
-    pub fn add_worker(&self, id: u64, name: &str, threads: u32, ready: bool) {
-        self.with(|i| {
-            i.status.workers.push(WorkerStatus {
-                name: name.to_string(),
-                threads,
-                state: if ready {
-                    WorkerState::Rendering
-                } else {
-                    WorkerState::Building
-                },
-                tiles: 0,
-                rays: 0,
-                mrays_per_s: 0.0,
-                left: None,
-                id,
-                ready_at: ready.then(Instant::now),
-                end_at: None,
-            })
-        });
-    }
-
     fn worker(i: &mut Inner, id: u64) -> Option<&mut WorkerStatus> {
         i.status.workers.iter_mut().find(|w| w.id == id)
     }
 
     /// A tile landed in the image, rendered by `id`.
-    pub fn tile_done(&self, id: u64, tile: &Tile, pixels: &[Rgb], rays: u64) {
+    fn tile_done(&self, id: u64, tile: &Tile, pixels: &[Rgb], rays: u64) {
         {
             let mut guard = self.frame.lock().unwrap_or_else(|e| e.into_inner());
             let f = &mut *guard;
@@ -485,14 +443,31 @@ impl LiveState {
     }
 }
 
-/// The live view as an observer of a distributed render.
+/// The live view's one input: what the render reports, SMP (a worker per render thread) or
+/// distributed.
 impl Observer for LiveState {
     fn started(&self, _now: tokio::time::Instant) {
-        self.start();
+        self.with(|i| {
+            i.started.get_or_insert_with(Instant::now);
+            i.status.state = Phase::Rendering;
+        });
     }
 
     fn joined(&self, id: WorkerId, name: &str, threads: u32, _now: tokio::time::Instant) {
-        self.add_worker(id, name, threads, false);
+        self.with(|i| {
+            i.status.workers.push(WorkerStatus {
+                name: name.to_string(),
+                threads,
+                state: WorkerState::Building,
+                tiles: 0,
+                rays: 0,
+                mrays_per_s: 0.0,
+                left: None,
+                id,
+                ready_at: None,
+                end_at: None,
+            })
+        });
     }
 
     fn ready(&self, id: WorkerId, _now: tokio::time::Instant) {
@@ -561,13 +536,32 @@ impl Observer for LiveState {
     }
 
     fn finished(&self, complete: bool, _now: tokio::time::Instant) {
-        self.finish(complete);
+        self.with(|i| {
+            let now = Instant::now();
+            i.finished = Some(now);
+            i.status.state = if complete { Phase::Done } else { Phase::Failed };
+            for w in &mut i.status.workers {
+                w.end_at.get_or_insert(now);
+                if w.state != WorkerState::Lost {
+                    w.state = WorkerState::Done;
+                }
+            }
+        });
     }
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// Reports to `s` a tile of `pixels` rendered by `id` with `rays` rays, accepted.
+    pub(crate) fn land(s: &LiveState, id: WorkerId, tile: &Tile, pixels: &[Rgb], rays: u64) {
+        let stats = RayStats {
+            eye_rays: rays,
+            ..RayStats::default()
+        };
+        s.result(id, tile, pixels, &stats, 0.0, true);
+    }
 
     fn job() -> JobInfo {
         JobInfo {
@@ -583,10 +577,12 @@ mod tests {
     fn tiles_fill_the_frame_and_counts() {
         let s = LiveState::new(job());
         let _rx = s.subscribe();
-        s.add_worker(7, "w", 2, true);
-        s.start();
+        let now = tokio::time::Instant::now();
+        s.joined(7, "w", 2, now);
+        s.ready(7, now);
+        s.started(now);
         let tile = parrt::tile::tiles(4, 2, 2)[1];
-        s.tile_done(7, &tile, &[[1.0, 0.0, 0.0]; 4], 10);
+        land(&s, 7, &tile, &[[1.0, 0.0, 0.0]; 4], 10);
         let f = s.frame();
         assert_eq!(&f[6..9], &[255, 0, 0]);
         assert_eq!(&f[0..3], &[0, 0, 0]);
@@ -606,7 +602,7 @@ mod tests {
     fn no_tile_is_noted_while_no_page_is_open() {
         let s = LiveState::new(job());
         let tile = parrt::tile::tiles(4, 2, 2)[0];
-        s.tile_done(0, &tile, &[[0.5; 3]; 4], 1);
+        land(&s, 0, &tile, &[[0.5; 3]; 4], 1);
         assert!(s.take_landed(&mut Vec::new()).tiles.is_empty());
         assert_eq!(&s.frame()[0..3], &[128, 128, 128]);
     }

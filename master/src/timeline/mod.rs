@@ -13,7 +13,28 @@ pub use recorder::Recorder;
 
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Why [`Timeline::read`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The file could not be read.
+    #[error("cannot read {}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The file is not a timeline [`Timeline::write`] wrote (the reader's fault, not parrt's).
+    #[error("{} is not a parrt timeline", path.display())]
+    NotATimeline {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        source: anyhow::Error,
+    },
+}
 
 /// How a tile's result came to be in the timeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -224,7 +245,7 @@ impl Timeline {
             width: job.width,
             height: job.height,
             tile_size: job.tile_size,
-            machine: crate::commands::bench::efficiency::machine(),
+            machine: crate::machine::machine(),
             trace_s: 0.0,
             rows: Vec::new(),
             tiles: Vec::new(),
@@ -242,21 +263,23 @@ impl Timeline {
         std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
     }
 
-    /// Reads a timeline written by [`Self::write`] (bad content is bad input).
-    pub fn read(path: &Path) -> anyhow::Result<Self> {
-        let bytes =
-            std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-        let text = String::from_utf8(bytes)
-            .map_err(|_| crate::exit::input_error(anyhow::anyhow!("not UTF-8 text")))
-            .with_context(|| format!("{} is not a parrt timeline", path.display()))?;
-        let parsed = if is_csv(path) {
+    /// Reads a timeline written by [`Self::write`].
+    pub fn read(path: &Path) -> Result<Self, ReadError> {
+        let bytes = std::fs::read(path).map_err(|source| ReadError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let bad = |source: anyhow::Error| ReadError::NotATimeline {
+            path: path.to_path_buf(),
+            source,
+        };
+        let text = String::from_utf8(bytes).map_err(|_| bad(anyhow::anyhow!("not UTF-8 text")))?;
+        if is_csv(path) {
             Self::from_csv(&text)
         } else {
             serde_json::from_str(&text).map_err(anyhow::Error::from)
-        };
-        parsed
-            .map_err(crate::exit::input_error)
-            .with_context(|| format!("{} is not a parrt timeline", path.display()))
+        }
+        .map_err(bad)
     }
 
     /// The CSV form: one `tile` record per tile result, one record per event (its kind in

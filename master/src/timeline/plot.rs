@@ -265,6 +265,11 @@ fn size(t: &Timeline) -> (u32, u32) {
     (1100, (160 + 22 * lanes).clamp(320, 1600))
 }
 
+/// A plot asked for in a format other than SVG or PNG.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: a timeline plot is written as .svg or .png", .0.display())]
+pub struct UnknownFormat(pub std::path::PathBuf);
+
 /// Draws the timeline to `out` (`.svg` or `.png`, by extension) under `title`.
 pub fn save(t: &Timeline, out: &Path, title: &str) -> anyhow::Result<()> {
     let dims = size(t);
@@ -275,10 +280,7 @@ pub fn save(t: &Timeline, out: &Path, title: &str) -> anyhow::Result<()> {
     match ext.as_deref() {
         Some("svg") => draw(SVGBackend::new(out, dims).into_drawing_area(), t, title),
         Some("png") => crate::plot::save_png(out, dims, |root| draw(root, t, title)),
-        _ => Err(crate::exit::input_error(anyhow::anyhow!(
-            "{}: a timeline plot is written as .svg or .png",
-            out.display()
-        ))),
+        _ => Err(UnknownFormat(out.to_path_buf()).into()),
     }
     .with_context(|| format!("cannot draw {}", out.display()))
 }
@@ -287,6 +289,21 @@ pub fn save(t: &Timeline, out: &Path, title: &str) -> anyhow::Result<()> {
 pub fn save_both(t: &Timeline, stem: &Path, title: &str) -> anyhow::Result<()> {
     save(t, &stem.with_extension("svg"), title)?;
     save(t, &stem.with_extension("png"), title)
+}
+
+/// Draws `t` as `stem.svg` and `stem.png` in `out` for a study's report, titled `what` (the
+/// run it shows); returns the Markdown that shows it.
+pub fn save_figure(t: &Timeline, out: &Path, stem: &str, what: &str) -> anyhow::Result<String> {
+    let title = format!(
+        "{} {}×{}, tile {}, {what}: timeline on {}",
+        t.scene, t.width, t.height, t.tile_size, t.machine
+    );
+    save_both(t, &out.join(stem), &title)?;
+    Ok(format!(
+        "Timeline of one run ({what}, tile {}; a row per thread, a bar per tile, gaps are idle \
+         time; trace {:.3} s):\n\n![{stem}]({stem}.png)\n\n",
+        t.tile_size, t.trace_s
+    ))
 }
 
 #[cfg(test)]

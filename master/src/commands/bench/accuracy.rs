@@ -1,15 +1,15 @@
 //! `parrt bench accuracy`: speed against error (DESIGN §9). Renders a reference (f64, no
 //! cut-off, depth 16, 16 samples per pixel) and a grid of configurations per scene, and writes
 //! the tables (Markdown, CSV) and Pareto plots (SVG, PNG) to an output directory. The pieces live
-//! in [`crate::accuracy`]; this file only parses arguments and writes files.
+//! in [`crate::studies::accuracy`]; this file only parses arguments and writes files.
 
-use super::render::scene_arg;
-use crate::accuracy::configs::{grid, Config};
-use crate::accuracy::plot::{self, PlotPoint, Series};
-use crate::accuracy::report;
-use crate::accuracy::study::{self, StudyOptions};
-use crate::commands::scene_input::LimitArgs;
+use crate::cli_args::size::parse_size;
+use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
+use crate::studies::accuracy::configs::{grid, Config};
+use crate::studies::accuracy::plot::{self, PlotPoint, Series};
+use crate::studies::accuracy::report;
+use crate::studies::accuracy::study::{self, StudyOptions};
 use anyhow::Context;
 use clap::Args;
 use parrt::settings::Precision;
@@ -63,12 +63,9 @@ fn replot(
 ) -> anyhow::Result<ExitCode> {
     let text =
         std::fs::read_to_string(csv).with_context(|| format!("cannot read {}", csv.display()))?;
-    let machine = args
-        .machine
-        .clone()
-        .unwrap_or_else(super::efficiency::machine);
+    let machine = args.machine.clone().unwrap_or_else(crate::machine::machine);
     let scenes = read_points(csv, &text)?;
-    crate::commands::output::prepare_out_dir(&args.out)?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
     for (label, points) in &scenes {
         plot::write(
             &args.out.join(format!("pareto-{}", stem(label))),
@@ -137,18 +134,6 @@ fn read_points(
     Ok(scenes)
 }
 
-/// Parses `WxH` (both at least 1).
-pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
-    let bad = || input_error(anyhow::anyhow!("--size {s}: expected WxH, e.g. 256x256"));
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 {
-        return Err(bad());
-    }
-    Ok((w, h))
-}
-
 fn series(c: &Config) -> Series {
     if c.spp > 1 {
         Series::FourSamples
@@ -199,9 +184,9 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
     let specs = args
         .scenes
         .iter()
-        .map(|s| scene_arg(s))
+        .map(|s| SceneSpec::parse(s))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    crate::commands::output::prepare_out_dir(&args.out)?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
     let configs = grid(args.full);
     let mut studies = Vec::new();
     for spec in &specs {
@@ -223,7 +208,7 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
             .collect();
         plot::write(
             &args.out.join(format!("pareto-{label}")),
-            &pareto_title(&label, width, height, &super::efficiency::machine()),
+            &pareto_title(&label, width, height, &crate::machine::machine()),
             &points,
         )?;
         studies.push(st);
@@ -244,18 +229,9 @@ mod tests {
     use super::*;
 
     #[test]
-    fn sizes_parse_and_bad_ones_are_rejected() {
-        assert_eq!(parse_size("256x128").ok(), Some((256, 128)));
-        assert_eq!(parse_size("64X64").ok(), Some((64, 64)));
-        for bad in ["", "256", "0x4", "ax4", "4x-1"] {
-            assert!(parse_size(bad).is_err(), "{bad}");
-        }
-    }
-
-    #[test]
     fn replot_reads_what_the_study_wrote_and_names_bad_lines() {
-        use crate::accuracy::metrics::ImageError;
-        use crate::accuracy::study::{Row, SceneStudy};
+        use crate::studies::accuracy::metrics::ImageError;
+        use crate::studies::accuracy::study::{Row, SceneStudy};
         let e = ImageError {
             rmse: 0.01,
             psnr: 40.0,

@@ -2,9 +2,7 @@
 //! rays through pixel centres, one shadow ray per light per hit, no shading), repeated for at
 //! least `--mintime` seconds, reported as Mrays/s.
 
-use crate::commands::bench::render::scene_arg;
-use crate::commands::render::AccelArg;
-use crate::commands::scene_input::LimitArgs;
+use crate::cli_args::{AccelArg, LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use clap::Args;
 use parrt::render::Renderer;
@@ -51,7 +49,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for name in &args.scenes {
-        let spec = scene_arg(name)?;
+        let spec = SceneSpec::parse(name)?;
         let (desc, _) = spec.load(&args.limits.limits())?;
         let (w, h) = match args.size {
             Some(s) => (s, s),

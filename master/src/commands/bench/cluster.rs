@@ -1,23 +1,18 @@
 //! `parrt bench cluster`: an emulated cluster, real everywhere but the tracing (issue 15). A
 //! one-thread render of the scene is recorded once (per-tile costs and pixels); then, for N = 1,
 //! 2, 4, … workers × T threads, N real worker processes replay it against a real master over
-//! real TCP on 127.0.0.1, each behind an emulated LAN link ([`link`]). Reports measured
+//! real TCP on 127.0.0.1, each behind an emulated LAN link ([`crate::studies::cluster::link`]). Reports measured
 //! efficiency, the schedule simulator's prediction and the hardware's limit, and checks every
 //! assembled image bit for bit against the recorded one.
 
-pub mod cpu;
-pub mod emulate;
-pub mod link;
-
-use crate::commands::bench::efficiency::machine;
-use crate::commands::bench::render::scene_arg;
-use crate::commands::scene_input::LimitArgs;
+use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
+use crate::machine::machine;
 use crate::plot::{save_chart, Chart, Series};
+use crate::studies::cluster::emulate::{self, EmulatedRun};
+use crate::studies::cluster::link::LinkParams;
 use anyhow::Context;
 use clap::Args;
-use emulate::EmulatedRun;
-use link::LinkParams;
 use parrt::render::Renderer;
 use parrt::settings::RenderSettings;
 use parrt::simulate::{simulate, SimParams};
@@ -291,7 +286,7 @@ fn limit(
 /// Runs `parrt bench cluster`.
 pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     check(&args)?;
-    let spec = scene_arg(&args.scene)?;
+    let spec = SceneSpec::parse(&args.scene)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     let mut settings = RenderSettings::new(args.size, args.size);
     settings.spp = args.spp;
@@ -646,10 +641,10 @@ fn draw_timelines(
             let stem = format!("timeline-{workers}x{threads}");
             // The data behind the plot, for whoever wants to look closer.
             tl.write(&args.out.join(format!("{stem}.json")))?;
-            md += &super::efficiency::draw_timeline(
+            md += &crate::timeline::plot::save_figure(
+                &tl,
                 &args.out,
                 &stem,
-                &tl,
                 &format!("{workers} emulated workers × {threads} threads, replayed"),
             )?;
         }

@@ -4,11 +4,11 @@
 //! tracing phase and of the whole render) as Markdown and CSV, plots like its Figures 2 and 3,
 //! and a check of the schedule simulator against the measured runs.
 
-use crate::commands::bench::render::scene_arg;
-use crate::commands::render::{AccelArg, ExecutorArg};
-use crate::commands::scene_input::LimitArgs;
+use crate::cli_args::{AccelArg, ExecutorArg, LimitArgs, SceneSpec};
 use crate::exit::input_error;
+use crate::machine::machine;
 use crate::plot::{save_chart, Chart, Series};
+use crate::timeline::plot::save_figure;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use parrt::efficiency::{median, EfficiencyTable};
@@ -91,21 +91,6 @@ pub struct EfficiencyArgs {
     pub limits: LimitArgs,
 }
 
-/// A short description of this machine for the report.
-pub fn machine() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|m| m.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    format!("{cpu}, {cores} cores available")
-}
-
 /// Median tracing time of `repeat` distributed renders through `n` local one-thread workers,
 /// with the mean bytes on the wire and scene transfer time.
 fn time_distributed(
@@ -168,25 +153,6 @@ fn timeline_case(threads: &[usize], tiles: &[u32]) -> (usize, u32) {
     (n, tile)
 }
 
-/// Draws `tl` as `stem.svg` and `stem.png` in `out`; returns the Markdown that shows it.
-pub fn draw_timeline(
-    out: &std::path::Path,
-    stem: &str,
-    tl: &crate::timeline::Timeline,
-    what: &str,
-) -> anyhow::Result<String> {
-    let title = format!(
-        "{} {}×{}, tile {}, {what}: timeline on {}",
-        tl.scene, tl.width, tl.height, tl.tile_size, tl.machine
-    );
-    crate::timeline::plot::save_both(tl, &out.join(stem), &title)?;
-    Ok(format!(
-        "Timeline of one run ({what}, tile {}; a row per thread, a bar per tile, gaps are idle \
-         time; trace {:.3} s):\n\n![{stem}]({stem}.png)\n\n",
-        tl.tile_size, tl.trace_s
-    ))
-}
-
 /// Runs `parrt bench efficiency`.
 pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -206,8 +172,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     }
     let accels: Vec<AccelKind> = args.accel.iter().map(|a| a.kind()).collect();
     let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
-    let spec = scene_arg(&args.scene)?;
-    crate::commands::output::prepare_out_dir(&args.out)?;
+    let spec = SceneSpec::parse(&args.scene)?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
     let mut md = String::new();
     let mut csv = csv::Writer::from_writer(Vec::new());
     csv.write_record(parrt::efficiency::CSV_HEADER)?;
@@ -327,10 +293,10 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 };
                 let tl = crate::timeline::Timeline::from_smp(&job, n, &res.tile_spans, res.trace_s);
                 let stem = format!("timeline-{size}-{accel:?}-{}", ex.name()).to_lowercase();
-                md.push_str(&draw_timeline(
+                md.push_str(&save_figure(
+                    &tl,
                     &args.out,
                     &stem,
-                    &tl,
                     &format!("{} executor, {n} threads", ex.name()),
                 )?);
                 trace.write_csv(&mut csv)?;
@@ -398,10 +364,10 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 };
                 let tl = rec.timeline(&job, r.trace_s);
                 let stem = format!("timeline-{size}-{accel:?}-distributed").to_lowercase();
-                md.push_str(&draw_timeline(
+                md.push_str(&save_figure(
+                    &tl,
                     &args.out,
                     &stem,
-                    &tl,
                     &format!("{n} local workers × 1 thread"),
                 )?);
                 let _ = writeln!(

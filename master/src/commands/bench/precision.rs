@@ -2,16 +2,15 @@
 //! positive, negative and mixed signs) and scaled by 1e-6 … 1e6, in f32 (rebased into the
 //! camera-relative frame), f64 and auto, against the f64 render of the untransformed scene:
 //! share of pixels off by more than 1/255, the largest error, the precision auto chose, trace
-//! time (the errors by [`crate::accuracy::metrics`], as the accuracy study measures them).
+//! time (the errors by [`crate::studies::accuracy::metrics`], as the accuracy study measures them).
 //! Writes precision.md, precision.csv and two plots (translation, scale) as SVG and PNG.
 
-use super::accuracy::parse_size;
-use super::efficiency::machine;
-use super::render::scene_arg;
-use crate::accuracy::metrics::{compare, ImageError};
-use crate::commands::scene_input::LimitArgs;
+use crate::cli_args::size::parse_size;
+use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
+use crate::machine::machine;
 use crate::plot::{save_chart, Chart, Series};
+use crate::studies::accuracy::metrics::{compare, ImageError};
 use anyhow::Context;
 use clap::Args;
 use parrt::description::SceneDescription;
@@ -117,24 +116,17 @@ fn render(
     Ok((res.film, used, res.trace_s))
 }
 
-/// Loads a scene argument; `soup[:N]` is the sliver soup, not in the generator list.
+/// Loads a scene argument (the one scene parser's); `soup[:N]` is the sliver soup, not in the
+/// generator list. Returns the label the files use (`mount-6`, `soup-2`) with the scene.
 fn load(arg: &str, limits: &LimitArgs) -> anyhow::Result<(String, SceneDescription)> {
-    if let Some(rest) = arg.strip_prefix("soup") {
-        let size = match rest.strip_prefix(':') {
-            Some(n) => n
-                .parse()
-                .map_err(|_| input_error(anyhow::anyhow!("soup:{n}: not a size")))?,
-            None if rest.is_empty() => parrt_scenes::soup::DEFAULT_SIZE,
-            None => return load_spec(arg, limits),
-        };
-        let desc = parrt_scenes::soup::generate(size).map_err(input_error)?;
-        return Ok((format!("soup-{size}"), desc));
+    let spec = SceneSpec::parse(arg)?;
+    if let SceneSpec::Generated { name, size } = &spec {
+        if name == "soup" {
+            let size = size.unwrap_or(parrt_scenes::soup::DEFAULT_SIZE);
+            let desc = parrt_scenes::soup::generate(size).map_err(input_error)?;
+            return Ok((format!("soup-{size}"), desc));
+        }
     }
-    load_spec(arg, limits)
-}
-
-fn load_spec(arg: &str, limits: &LimitArgs) -> anyhow::Result<(String, SceneDescription)> {
-    let spec = scene_arg(arg)?;
     let (desc, _) = spec.load(&limits.limits())?;
     Ok((arg.replace(':', "-"), desc))
 }
@@ -163,7 +155,7 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|n| load(n, &args.limits))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    crate::commands::output::prepare_out_dir(&args.out)?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
     let modes = [Precision::F32, Precision::F64, Precision::Auto];
     let mut rows = Vec::new();
     for (scene, desc) in &scenes {

@@ -1,14 +1,12 @@
 //! `parrt bench render`: times full renders (parse or generate, build, trace) of one or more
 //! scenes, K times each, and prints the medians with Mrays/s as a Markdown table.
 
-use crate::commands::render::RenderFlags;
-use crate::commands::scene_input::{parse_scene_name, LimitArgs, SceneSpec};
+use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use clap::Args;
 use parrt::efficiency::median;
 use parrt::render::Renderer;
 use parrt::smp::{render_smp, Executor, SmpOptions};
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// Arguments of `parrt bench render`.
@@ -34,16 +32,6 @@ pub struct BenchRenderArgs {
     pub limits: LimitArgs,
 }
 
-/// Resolves a bench scene argument: an existing file, else a generator name.
-pub fn scene_arg(s: &str) -> anyhow::Result<SceneSpec> {
-    let p = PathBuf::from(s);
-    if p.extension().is_some_and(|e| e == "nff") || p.exists() {
-        Ok(SceneSpec::File(p))
-    } else {
-        parse_scene_name(s)
-    }
-}
-
 /// Runs `parrt bench render`.
 pub fn run(args: BenchRenderArgs) -> anyhow::Result<ExitCode> {
     if args.repeat == 0 || args.threads == 0 || args.tile == 0 {
@@ -59,7 +47,7 @@ pub fn run(args: BenchRenderArgs) -> anyhow::Result<ExitCode> {
     println!("| scene | size | prims | parse s | build s | trace s | total s | rays | Mrays/s |");
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
     for name in &names {
-        let spec = scene_arg(name)?;
+        let spec = SceneSpec::parse(name)?;
         let (mut parse, mut build, mut trace) = (Vec::new(), Vec::new(), Vec::new());
         let mut rays = 0;
         let mut prims = 0;

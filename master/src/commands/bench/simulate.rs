@@ -103,7 +103,7 @@ fn limit_note(p: &SimParams, r: &parrt::simulate::SimResult, costs: &[f64], tile
 
 /// Runs `parrt bench simulate`.
 pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
-    let bytes = crate::commands::scene_input::LimitArgs::read_path(
+    let bytes = crate::cli_args::limits::read_path(
         &args.tile_costs,
         parrt::nff::limits::DEFAULT_MAX_FILE_BYTES,
     )?;
@@ -136,7 +136,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
             )));
         }
     }
-    crate::commands::output::prepare_out_dir(&args.out)?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
     let mut md = String::new();
     let work: f64 = fine.iter().map(|(_, c)| c).sum();
     let _ = writeln!(
@@ -243,7 +243,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
             args.threads,
             args.latency_ms,
             args.bandwidth_mbps,
-            super::efficiency::machine()
+            crate::machine::machine()
         ),
         x_label: "render threads n (workers × threads)".into(),
         y_label: "efficiency t₁/(n·tₙ) (1 = ideal)".into(),

@@ -1,0 +1,27 @@
+//! The command line's shared vocabulary: the flags and arguments more than one command takes,
+//! each parsed and checked here, once, with the error a user sees (bad input, exit 2). Commands
+//! flatten these into their own `Args`; nothing here runs a render or reads more than a flag
+//! allows.
+//!
+//! - [`scene_arg`]: the scene (NFF file, JSON description or `NAME[:SIZE]`).
+//! - [`render_flags`]: the render settings (`RenderFlags`) and the accelerator and executor
+//!   choices.
+//! - [`limits`]: the parser and image limits (`LimitArgs`) and bounded reads of named files.
+//! - [`durations`]: flags that are a number of seconds.
+//! - [`size`]: `--size WxH`.
+//! - [`output`]: the outputs a command writes, checked before any work.
+//! - [`listen`]: `--listen ADDR`.
+//! - [`live`]: the live view's flags (`--http`, ...).
+
+pub mod durations;
+pub mod limits;
+pub mod listen;
+pub mod live;
+pub mod output;
+pub mod render_flags;
+pub mod scene_arg;
+pub mod size;
+
+pub use limits::LimitArgs;
+pub use render_flags::{AccelArg, ExecutorArg, RenderFlags};
+pub use scene_arg::SceneSpec;
