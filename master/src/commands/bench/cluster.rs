@@ -283,6 +283,47 @@ fn limit(
     (t, name.to_string())
 }
 
+/// A mean tile cost below this (seconds) measures wake-ups, timer slack and the emulation's own
+/// CPU per message more than a cluster's schedule.
+pub const SHORT_TILE_S: f64 = 0.002;
+/// Machine busy above this share during a run: the emulation competes with itself.
+pub const BUSY_MACHINE: f64 = 0.8;
+
+/// What makes the table measure this machine rather than a cluster, in words (empty: nothing).
+fn binding_warnings(mean_tile_s: f64, rows: &[Row]) -> Vec<String> {
+    let mut w = Vec::new();
+    if mean_tile_s < SHORT_TILE_S {
+        w.push(format!(
+            "tiles average {:.2} ms of work: at this size the per-message costs of the \
+             emulation (process wake-ups, timer slack, the relay) weigh as much as the work, and \
+             the efficiencies say more about this machine than about a cluster; give the frame \
+             a cluster's work with --work-seconds (e.g. --work-seconds 60)",
+            mean_tile_s * 1e3
+        ));
+    }
+    let busy: Vec<String> = rows
+        .iter()
+        .filter(|r| r.machine_busy > BUSY_MACHINE)
+        .map(|r| {
+            format!(
+                "{}×{} ({:.0}%)",
+                r.workers,
+                r.threads,
+                100.0 * r.machine_busy
+            )
+        })
+        .collect();
+    if !busy.is_empty() {
+        w.push(format!(
+            "this machine was busy above {:.0}% during {}: the emulation competes with itself \
+             for its cores, so those rows bound this host, not the schedule",
+            100.0 * BUSY_MACHINE,
+            busy.join(", ")
+        ));
+    }
+    w
+}
+
 /// Runs `parrt bench cluster`.
 pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     check(&args)?;
@@ -482,14 +523,22 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     );
     let mut md = report(&args, &title, &path, &rec.costs, scale, &rows);
     md += &draw_timelines(&args, &spec.label(), &timelines)?;
-    std::fs::write(args.out.join("cluster.md"), &md)?;
     std::fs::write(args.out.join("cluster.csv"), csv(&rows)?)?;
     plot(&args, &title, &rows)?;
     if let Some(j) = &args.json {
         std::fs::write(j, serde_json::to_string_pretty(&rows)?)
             .with_context(|| format!("cannot write {}", j.display()))?;
     }
+    let warnings = binding_warnings(work / costs.len().max(1) as f64, &rows);
+    md += &warnings
+        .iter()
+        .map(|w| format!("\n**Warning:** {w}\n"))
+        .collect::<String>();
+    std::fs::write(args.out.join("cluster.md"), &md)?;
     println!("{md}");
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     let all_good = rows.iter().all(|r| r.identical && r.delivered_once);
     if !all_good {
         eprintln!("some runs did not assemble the recorded image exactly once per tile");
@@ -700,6 +749,18 @@ fn plot(args: &ClusterArgs, title: &str, rows: &[Row]) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn short_tiles_and_a_busy_machine_are_said() {
+        assert!(binding_warnings(0.05, &[]).is_empty());
+        let w = binding_warnings(0.0007, &[]);
+        assert_eq!(w.len(), 1);
+        assert!(
+            w[0].contains("0.70 ms") && w[0].contains("--work-seconds"),
+            "{}",
+            w[0]
+        );
+    }
 
     #[test]
     fn csv_keeps_its_columns_and_number_formats() {
