@@ -88,8 +88,8 @@ fn scale(args: &[String]) -> Result<ExitCode, String> {
                 };
                 let row = run(&path, &cfg).map_err(|e| format!("{c}: {e:#}"))?;
                 println!(
-                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3}  identical {}  (+{:.1} % rounding, {:.2} virtual s, {:.1} s wall)",
-                    row.efficiency, row.predicted, row.identical, row.rounding * 100.0, row.trace_s, row.wall_s
+                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, {:.2} virtual s, {:.1} s wall)",
+                    row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.trace_s, row.wall_s
                 );
                 rows.push(row);
             }

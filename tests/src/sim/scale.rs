@@ -68,6 +68,11 @@ pub struct Row {
     pub rounding: f64,
     /// The analytic simulator's efficiency for the same configuration.
     pub predicted: f64,
+    /// The model's share of thread time idle after the first thread ran out of work (the
+    /// tail: tiles of unequal cost).
+    pub model_tail: f64,
+    /// The model's share of the master's time busy (near 1: the master or its link binds).
+    pub model_master: f64,
     /// The assembled image equals the recorded one, bit for bit.
     pub identical: bool,
     /// Virtual seconds from the first tile handed out to the last result.
@@ -234,7 +239,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         message_bytes: 64.0,
         ..SimParams::ideal(c.workers, c.threads)
     };
-    let predicted = simulate(&costs, &pixels, &p).efficiency;
+    let model = simulate(&costs, &pixels, &p);
+    let predicted = model.efficiency;
     Ok(Row {
         workers: c.workers,
         threads: c.threads,
@@ -243,6 +249,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         efficiency,
         rounding: spent / c.work_s - 1.0,
         predicted,
+        model_tail: model.tail_idle_s / (n as f64 * model.makespan.max(1e-12)),
+        model_master: model.master_utilisation,
         identical: same_bytes(&r.film, &want),
         trace_s: r.trace_s,
         wall_s,
