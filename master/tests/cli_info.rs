@@ -2,8 +2,8 @@
 //! `shared/spd/README.md`'s first table (read from the Markdown itself), and malformed inputs
 //! exit 2 with the right `file:line:column` and message.
 
-#[path = "../../common/tests/nff_support/mod.rs"]
-mod nff_support;
+#[path = "../../common/tests/support/mod.rs"]
+mod support;
 
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -105,7 +105,7 @@ fn groups_cell(s: &str, prefix: &str) -> BTreeMap<u64, u64> {
 
 /// Reads the first Markdown table of the SPD README, finding columns by their header names.
 fn spd_table() -> Vec<Row> {
-    let readme = nff_support::spd_dir().join("README.md");
+    let readme = support::spd_dir().join("README.md");
     let text = std::fs::read_to_string(&readme)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", readme.display()));
     let cells = |line: &str| -> Vec<String> {
@@ -184,11 +184,11 @@ fn by_vertices(v: &Value) -> BTreeMap<u64, u64> {
 
 #[test]
 fn info_json_matches_the_spd_readme_table_for_every_file() {
-    let dir = nff_support::spd_dir();
+    let dir = support::spd_dir();
     let rows = spd_table();
     // The table and the directory list the same files.
     let listed: Vec<String> = rows.iter().map(|r| r.file.clone()).collect();
-    let mut present: Vec<String> = nff_support::spd_files()
+    let mut present: Vec<String> = support::spd_files()
         .iter()
         .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
         .collect();
@@ -253,7 +253,7 @@ fn info_json_matches_the_spd_readme_table_for_every_file() {
 
 #[test]
 fn info_human_output_is_an_aligned_summary() {
-    let path = nff_support::spd_dir().join("gears-1.nff");
+    let path = support::spd_dir().join("gears-1.nff");
     let out = parrt(&["info", path.to_str().unwrap()]);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
@@ -771,7 +771,7 @@ fn missing_file_exits_2_and_names_the_path() {
 /// `info --json` says which precision `render --precision auto` would use and why.
 #[test]
 fn info_says_which_precision_auto_picks() {
-    let v = info_json(&nff_support::spd_dir().join("mount-4.nff"));
+    let v = info_json(&support::spd_dir().join("mount-4.nff"));
     assert_eq!(v["precision"], "f32", "{v}");
     let why = v["precision_reason"].as_str().unwrap_or_default();
     assert!(why.contains("origin (0, 0, 0)"), "{why}");

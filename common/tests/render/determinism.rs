@@ -8,7 +8,7 @@ use parrt::smp::{render_smp, Executor, SmpOptions};
 use std::path::PathBuf;
 
 fn spd(name: &str) -> SceneDescription {
-    let dir = parrt_tests::spd_dir();
+    let dir = crate::support::spd_dir();
     let path: PathBuf = dir.join(name);
     parrt::nff::parse_file(&path, &parrt::nff::Limits::default())
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))

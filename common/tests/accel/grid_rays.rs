@@ -4,22 +4,18 @@
 //! (empty, one primitive, everything in one plane). Also: a primitive spanning many cells is
 //! tested at most once per ray (mailbox), and the walk counts its cells.
 
+use crate::support::scene::{scene_of, tri, v};
+use crate::support::spd::Trio;
 use parrt::accel::{Accel, Grid};
 use parrt::description::{SceneDescription, Shape, View};
 use parrt::geometry::{PreparedRay, Ray};
 use parrt::real::Real;
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
-use parrt_tests::scene_of;
-use parrt_tests::spd::Trio;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
 type Rv = V3<f64>;
-
-fn v(x: f64, y: f64, z: f64) -> Rv {
-    V3::new(x, y, z)
-}
 
 fn describe(primitives: Vec<Shape>) -> SceneDescription {
     scene_of(
@@ -34,10 +30,6 @@ fn describe(primitives: Vec<Shape>) -> SceneDescription {
             height: 32,
         },
     )
-}
-
-fn tri(a: Rv, b: Rv, c: Rv) -> Shape {
-    Shape::Polygon(vec![a, b, c].into())
 }
 
 /// A scene whose box is exactly [-1, 1]³ (the unit sphere) with geometry around the point `o`:

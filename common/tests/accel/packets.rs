@@ -4,6 +4,8 @@
 //! patch of origins, and incoherent packets (which go one by one). Renders with and without
 //! packets are the same bits on any tiling and thread count.
 
+use crate::support::film::assert_same_bits;
+use crate::support::spd::{key, load, Trio, SMALL_SCENES};
 use parrt::accel::bvh::packet::PACKET;
 use parrt::accel::Accel;
 use parrt::camera::Camera;
@@ -15,8 +17,6 @@ use parrt::settings::{Precision, RenderSettings, DEFAULT_GRID_DENSITY};
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
-use parrt_tests::dist::assert_same_bits;
-use parrt_tests::spd::{key, load, Trio, SMALL_SCENES};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 

@@ -4,6 +4,8 @@
 //! random rays, shadow-like segments and rays leaving surfaces — and render bit-identical images.
 //! The Goldsmith–Salmon BVH (the quality baseline, `--accel bvh-gs`) is held to the same rule.
 
+use crate::support::scene::{scene_of, v};
+use crate::support::spd::{load, Trio, TrioStats, SMALL_SCENES};
 use parrt::accel::Accel;
 use parrt::camera::Camera;
 use parrt::description::{SceneDescription, Shape, View};
@@ -14,16 +16,10 @@ use parrt::settings::{AccelKind, Precision, RenderSettings, DEFAULT_GRID_DENSITY
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
-use parrt_tests::scene_of;
-use parrt_tests::spd::{load, Trio, TrioStats, SMALL_SCENES};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
 type Rv = V3<f64>;
-
-fn v(x: f64, y: f64, z: f64) -> Rv {
-    V3::new(x, y, z)
-}
 
 fn unit_dir(rng: &mut StdRng) -> Rv {
     loop {

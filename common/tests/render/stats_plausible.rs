@@ -3,11 +3,11 @@
 //! the SPD procedure, several samples, both precisions, packets on and off, the grid — passes
 //! the check, so an honest worker is never turned away.
 
+use crate::support::spd;
 use parrt::render::Renderer;
 use parrt::settings::{AccelKind, Precision, RenderSettings};
 use parrt::stats::RayStats;
 use parrt::tile::tiles;
-use parrt_tests::spd;
 
 fn check_every_tile(name: &str, settings: &RenderSettings, packets: bool, tile: u32) {
     let desc = spd::load(name);

@@ -1,6 +1,11 @@
-//! Helpers shared by the NFF test binaries (here and, by path, in `master/tests/`): where the SPD
-//! scenes are, and their files.
+//! Helpers shared by the test binaries of `common/tests/` (and, by path, `master/tests/` and
+//! `tests/src`): where the SPD scenes are and their files, the three-accelerator oracle, scenes
+//! built in code, and bit-for-bit film comparison. Test support only; never used by the renderer.
 #![allow(dead_code)] // each test binary uses a different subset
+
+pub mod film;
+pub mod scene;
+pub mod spd;
 
 use std::path::{Path, PathBuf};
 

@@ -8,6 +8,8 @@
 //! index), and on bundles of cones with rays along their axes, along generator lines, grazing
 //! and just missing. In `f64` leaves go one at a time, and the test holds there too.
 
+use crate::support::scene::scene_of;
+use crate::support::spd::{key, load, SMALL_SCENES};
 use parrt::accel::bvh::packet::PACKET;
 use parrt::accel::Accel;
 use parrt::camera::Camera;
@@ -19,8 +21,6 @@ use parrt::scene_leaf::SceneLeaf;
 use parrt::settings::{AccelKind, DEFAULT_GRID_DENSITY};
 use parrt::stats::RayStats;
 use parrt::vec3::V3;
-use parrt_tests::scene_of;
-use parrt_tests::spd::{key, load, SMALL_SCENES};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 

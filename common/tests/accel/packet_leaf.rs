@@ -8,6 +8,8 @@
 //! exactly through edges and vertices, ties the primitive index decides), mixed leaves, rays
 //! that miss, ranges ending before or exactly at a hit, and full, partial and single-ray masks.
 
+use crate::support::scene::scene_of;
+use crate::support::spd::{key, load};
 use parrt::accel::RayPrimTest;
 use parrt::description::{Shape, View};
 use parrt::geometry::{Nearest, PreparedRay, Ray};
@@ -16,8 +18,6 @@ use parrt::real::Real;
 use parrt::scene::{Prim, Scene};
 use parrt::scene_leaf::SceneLeaf;
 use parrt::vec3::V3;
-use parrt_tests::scene_of;
-use parrt_tests::spd::{key, load};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 

@@ -7,24 +7,9 @@ use parrt::render::Renderer;
 use parrt::settings::{AccelKind, RenderSettings};
 use parrt::smp::{render_smp, Executor, SmpOptions, SmpResult};
 use parrt::stats::RayStats;
-use std::path::{Path, PathBuf};
-
-/// The SPD scenes: `$PARRT_SPD_DIR`, else the first `shared/spd` above this crate. Panics when
-/// neither exists, so the tests never pass by skipping.
-fn spd_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("PARRT_SPD_DIR") {
-        return PathBuf::from(d);
-    }
-    let start = Path::new(env!("CARGO_MANIFEST_DIR"));
-    start
-        .ancestors()
-        .map(|d| d.join("shared").join("spd"))
-        .find(|d| d.is_dir())
-        .unwrap_or_else(|| panic!("no shared/spd above {}", start.display()))
-}
 
 fn load(name: &str) -> SceneDescription {
-    let path = spd_dir().join(name);
+    let path = crate::support::spd_dir().join(name);
     parrt::nff::parse_file(&path, &Default::default())
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
