@@ -3,11 +3,10 @@
 //! file is gone; no launcher in the environment, a stale or foreign rendezvous file, and a
 //! worker rank with no master are clear errors (exit 2) that overwrite nothing.
 
+use crate::EXE;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
-
-const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
 
 /// Every variable `parrt cluster` reads from a launcher, removed so the test's own environment
 /// (a test run under srun, say) cannot leak in.

@@ -2,6 +2,7 @@
 //! replaying a recorded render through the emulated LAN relay assemble exactly the SMP image,
 //! with every tile delivered once; and the command line writes the promised JSON rows.
 
+use crate::EXE;
 use parrt::render::Renderer;
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt_master::commands::bench::cluster::emulate::{self, EmulatedRun};
@@ -9,8 +10,6 @@ use parrt_master::commands::bench::cluster::link::LinkParams;
 use parrt_tests::*;
 use std::process::Command;
 use std::time::Duration;
-
-const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
 
 #[test]
 fn four_replaying_workers_of_two_threads_assemble_the_smp_image_once_per_tile() {

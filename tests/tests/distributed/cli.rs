@@ -1,13 +1,13 @@
-//! `parrt master` and `parrt worker` as processes: a master without workers gives up with a
-//! clear message (exit 1), a master without a token is a usage error (exit 2), and Ctrl-C on
-//! the master tells its workers to shut down and exits 1.
+//! `parrt master` and `parrt worker` as processes, their command lines: a master without
+//! workers gives up with a clear message (exit 1), a master or worker without a token and a
+//! worker with an address that does not resolve or an absurd --dial-timeout are usage errors
+//! (exit 2), and Ctrl-C on the master tells its workers to shut down and exits 1.
 
+use crate::EXE;
 use parrt_tests::*;
 use std::io::BufRead;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
 
 fn scene_file(dir: &std::path::Path, w: u32, h: u32) -> std::path::PathBuf {
     let p = dir.join("scene.json");
@@ -123,4 +123,36 @@ fn ctrl_c_on_the_master_shuts_workers_down_and_exits_1() {
     };
     assert!(st.success(), "worker exit {st:?}");
     assert!(!dir.path().join("x.png").exists());
+}
+
+#[test]
+fn worker_binary_and_subcommand_refuse_to_start_without_a_token() {
+    let out = Command::new(EXE)
+        .args(["worker", "--connect", "127.0.0.1:9"])
+        .env_remove("PARRT_TOKEN")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("token"));
+}
+
+/// "Also": an address that does not parse or resolve, or an absurd --dial-timeout, fails at
+/// once with exit 2 (no retries, no panic).
+#[test]
+fn worker_flags_fail_at_once_with_exit_2() {
+    for args in [
+        vec!["--connect", "nothing"],
+        vec!["--connect", "127.0.0.1:1", "--dial-timeout", "1e30"],
+    ] {
+        let out = Command::new(EXE)
+            .arg("worker")
+            .args(&args)
+            .env("PARRT_TOKEN", "t")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(err.contains(args[args.len() - 2]), "{args:?}: {err}");
+    }
 }

@@ -2,11 +2,10 @@
 //! threads each, tile sizes 8, 13 and 32; with in-process workers, with worker processes, and
 //! through the real command line.
 
+use crate::EXE;
 use parrt_tests::*;
 use std::process::Command;
 use std::time::Duration;
-
-const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn matches_smp_for_workers_threads_and_tile_sizes() {
@@ -200,17 +199,6 @@ pub fn read_listen_addr(r: &mut impl std::io::BufRead) -> std::net::SocketAddr {
             return addr.parse().unwrap();
         }
     }
-}
-
-#[test]
-fn worker_binary_and_subcommand_refuse_to_start_without_a_token() {
-    let out = Command::new(EXE)
-        .args(["worker", "--connect", "127.0.0.1:9"])
-        .env_remove("PARRT_TOKEN")
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("token"));
 }
 
 /// Issue 15: for an 8-bit output the workers send 3 bytes a pixel instead of 12, quantized by

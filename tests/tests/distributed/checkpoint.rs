@@ -5,6 +5,7 @@
 //! another scene or other settings is refused (exit 2, file unchanged); a torn last record and a
 //! flipped byte in a middle record are dropped and their tiles rendered again.
 
+use crate::EXE;
 use parrt::protocol::PixelFormat;
 use parrt::tile::tiles;
 use parrt_runtime::checkpoint::{scan_records, Scan, HEADER_LEN};
@@ -17,7 +18,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
 /// 64 tiles of 8x8.
 const SIZE: u32 = 64;
 const TILE: u32 = 8;
