@@ -1,9 +1,8 @@
 //! `--timeline FILE`: every tile once, on a thread or worker that exists, inside the trace
 //! phase; JSON and CSV agree with what the render did; the image does not change.
 
+use crate::EXE;
 use std::process::Command;
-
-const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
 
 fn render(dir: &std::path::Path, out: &str, extra: &[&str]) {
     let o = Command::new(EXE)

@@ -3,13 +3,12 @@
 //! served, the tiles the stream carries are the written image's pixels; on a non-loopback
 //! address a missing or wrong token gets 401 and nothing else.
 
+use crate::EXE;
 use parrt_worker::options::TILE_DELAY_ENV;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
 
 /// A `parrt render` with a live view; killed on drop.
 struct Render {
