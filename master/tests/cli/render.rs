@@ -1,30 +1,8 @@
-//! End-to-end tests of `parrt render` and the bench commands through the real binary: outputs,
-//! machine-readable statistics, exit codes for bad input.
+//! `parrt render` end to end through the real binary: outputs, machine-readable statistics,
+//! exit codes for bad input, the precision it picks, its help.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn parrt(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_parrt"))
-        .args(args)
-        .output()
-        .expect("the parrt binary runs")
-}
-
-fn spd(name: &str) -> String {
-    let mut dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    loop {
-        let cand = dir.join("shared/spd").join(name);
-        if cand.is_file() {
-            return cand.display().to_string();
-        }
-        assert!(dir.pop(), "shared/spd/{name} not found above the crate");
-    }
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use crate::{parrt, spd, stderr};
+use std::path::Path;
 
 fn png_size(path: &Path) -> (u32, u32) {
     let bytes = std::fs::read(path).expect("image written");
@@ -235,95 +213,4 @@ fn help_explains_every_render_flag() {
     ] {
         assert!(help.contains(flag), "--help lacks {flag}");
     }
-}
-
-#[test]
-fn efficiency_and_simulate_write_tables_and_plots() {
-    let dir = tempfile::tempdir().unwrap();
-    let eff = dir.path().join("eff");
-    let o = parrt(&[
-        "bench",
-        "efficiency",
-        &spd("tetra-4.nff"),
-        "--sizes",
-        "32",
-        "--tiles",
-        "8,16",
-        "--threads",
-        "1,2",
-        "--accel",
-        "bvh",
-        "--executors",
-        "queue,guided",
-        "--repeat",
-        "1",
-        "--out",
-        eff.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let md = std::fs::read_to_string(eff.join("efficiency.md")).unwrap();
-    // Two executors × (tracing + whole) tables, each with a header and two thread rows.
-    assert_eq!(
-        md.matches("| threads | tile 8 | tile 16 |").count(),
-        4,
-        "{md}"
-    );
-    let csv = std::fs::read_to_string(eff.join("efficiency.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 2 * 2 * 2 * 2, "{csv}");
-    for f in ["efficiency-32-bvh.svg", "efficiency-32-bvh.png"] {
-        assert!(eff.join(f).is_file(), "{f}");
-    }
-    // Tile costs at tile 8 → the simulator.
-    let costs = dir.path().join("costs.csv");
-    let png = dir.path().join("t.png");
-    let o = parrt(&[
-        "render",
-        &spd("tetra-4.nff"),
-        "-o",
-        png.to_str().unwrap(),
-        "--width",
-        "32",
-        "--height",
-        "32",
-        "--tile",
-        "8",
-        "--threads",
-        "1",
-        "--tile-costs",
-        costs.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let sim = dir.path().join("sim");
-    let o = parrt(&[
-        "bench",
-        "simulate",
-        "--tile-costs",
-        costs.to_str().unwrap(),
-        "--tiles",
-        "8,16,32",
-        "--workers",
-        "1,2,64",
-        "--out",
-        sim.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let md = std::fs::read_to_string(sim.join("simulate.md")).unwrap();
-    assert_eq!(
-        md.lines()
-            .filter(|l| l.starts_with("| ") && !l.starts_with("| workers"))
-            .count(),
-        3,
-        "{md}"
-    );
-    assert!(sim.join("simulate.png").is_file());
-    let o = parrt(&[
-        "bench",
-        "simulate",
-        "--tile-costs",
-        costs.to_str().unwrap(),
-        "--tiles",
-        "12",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("not a multiple"));
 }

@@ -4,6 +4,7 @@
 //! Every run is capped (address space, wall time) so a regression fails instead of taking the
 //! machine with it.
 
+use crate::stderr;
 use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
@@ -49,10 +50,6 @@ fn parrt(args: &[&str]) -> Output {
         std::thread::sleep(Duration::from_millis(20));
     }
     child.wait_with_output().expect("output")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// Asserts exit 2, no panic, nothing listened or rendered, and stderr equal to

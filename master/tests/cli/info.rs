@@ -2,20 +2,10 @@
 //! `shared/spd/README.md`'s first table (read from the Markdown itself), and malformed inputs
 //! exit 2 with the right `file:line:column` and message.
 
-#[path = "../../common/tests/support/mod.rs"]
-mod support;
-
+use crate::parrt;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn parrt(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_parrt"))
-        .args(args)
-        .output()
-        .expect("cannot run the parrt binary")
-}
 
 fn info_json(path: &Path) -> Value {
     let p = path.to_str().expect("UTF-8 path");
@@ -105,7 +95,7 @@ fn groups_cell(s: &str, prefix: &str) -> BTreeMap<u64, u64> {
 
 /// Reads the first Markdown table of the SPD README, finding columns by their header names.
 fn spd_table() -> Vec<Row> {
-    let readme = support::spd_dir().join("README.md");
+    let readme = crate::support::spd_dir().join("README.md");
     let text = std::fs::read_to_string(&readme)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", readme.display()));
     let cells = |line: &str| -> Vec<String> {
@@ -184,11 +174,11 @@ fn by_vertices(v: &Value) -> BTreeMap<u64, u64> {
 
 #[test]
 fn info_json_matches_the_spd_readme_table_for_every_file() {
-    let dir = support::spd_dir();
+    let dir = crate::support::spd_dir();
     let rows = spd_table();
     // The table and the directory list the same files.
     let listed: Vec<String> = rows.iter().map(|r| r.file.clone()).collect();
-    let mut present: Vec<String> = support::spd_files()
+    let mut present: Vec<String> = crate::support::spd_files()
         .iter()
         .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
         .collect();
@@ -253,7 +243,7 @@ fn info_json_matches_the_spd_readme_table_for_every_file() {
 
 #[test]
 fn info_human_output_is_an_aligned_summary() {
-    let path = support::spd_dir().join("gears-1.nff");
+    let path = crate::support::spd_dir().join("gears-1.nff");
     let out = parrt(&["info", path.to_str().unwrap()]);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
@@ -771,7 +761,7 @@ fn missing_file_exits_2_and_names_the_path() {
 /// `info --json` says which precision `render --precision auto` would use and why.
 #[test]
 fn info_says_which_precision_auto_picks() {
-    let v = info_json(&support::spd_dir().join("mount-4.nff"));
+    let v = info_json(&crate::support::spd_dir().join("mount-4.nff"));
     assert_eq!(v["precision"], "f32", "{v}");
     let why = v["precision_reason"].as_str().unwrap_or_default();
     assert!(why.contains("origin (0, 0, 0)"), "{why}");
