@@ -1,7 +1,7 @@
 //! Robustness: small SPD files with random byte and token damage never make the reader panic.
 //! Whatever it accepts must round-trip, and whatever it refuses must point inside the file.
 
-mod nff_support;
+mod support;
 
 use parrt::nff::{self, Limits, NffErrorKind};
 use proptest::prelude::*;
@@ -21,7 +21,7 @@ fn sources() -> &'static [Vec<u8>] {
             "teapot-2.nff",
         ]
         .iter()
-        .map(|n| nff_support::spd_bytes(n))
+        .map(|n| support::spd_bytes(n))
         .collect()
     })
 }

@@ -1,6 +1,6 @@
 //! Every SPD scene parses, and survives parse → write → parse unchanged.
 
-mod nff_support;
+mod support;
 
 use parrt::description::Shape;
 use parrt::nff::{self, Limits};
@@ -8,7 +8,7 @@ use parrt::nff::{self, Limits};
 #[test]
 fn every_spd_file_parses_and_round_trips() {
     let limits = Limits::default();
-    for path in nff_support::spd_files() {
+    for path in support::spd_files() {
         let name = path.display().to_string();
         let parsed = nff::parse_file_bytes(&path, &limits).unwrap_or_else(|e| panic!("{e}"));
         let d = &parsed.description;
@@ -27,7 +27,7 @@ fn every_spd_file_parses_and_round_trips() {
 #[test]
 fn spd_specifics_are_read_as_documented() {
     let limits = Limits::default();
-    let dir = nff_support::spd_dir();
+    let dir = support::spd_dir();
     // teapot pp normals contain -0, which must survive as a negative zero.
     let teapot = nff::parse_file(&dir.join("teapot-2.nff"), &limits).unwrap();
     let neg_zero = teapot.primitives.iter().any(|p| match &p.shape {

@@ -6,7 +6,7 @@
 # open page by its event stream (more drawn at the second capture, with no reload between) and
 # are drawn where they belong (every drawn tile equals the PNG parrt wrote), part drawn and part
 # not mid-render, the whole image at the end, one row per worker. /status is checked from Rust
-# (tests/tests/live_view.rs).
+# (tests/tests/watching/live_view.rs).
 #
 #   usage: tests/browser/live_view.sh [PARRT_BINARY]     (default: target/debug/parrt)
 # It runs twice: with the default --http-full-rate (every tile drawn at full resolution) and

@@ -4,7 +4,8 @@
 //! process's resident set — must stay flat across the jobs.
 //!
 //! CI runs 24 jobs; `PARRT_SOAK_JOBS=100 cargo test -p parrt-tests --test distributed_soak` runs
-//! more by hand.
+//! more by hand. It stays its own test binary, apart from `distributed/`: the resident set it
+//! watches is this process's, which the tests running beside it there would change.
 
 use parrt_tests::*;
 use rand::rngs::StdRng;

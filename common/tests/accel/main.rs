@@ -1,0 +1,13 @@
+//! Accelerators and traversal, one test binary: the BVH (borrowed and owned builds), the grid
+//! and brute force agree on every ray; SIMD and scalar leaf tests agree; packets of rays get
+//! exactly the answers their rays get alone.
+
+#[path = "../support/mod.rs"]
+mod support;
+
+mod agreement;
+mod bvh_owned;
+mod grid_rays;
+mod leaf_simd;
+mod packet_leaf;
+mod packets;

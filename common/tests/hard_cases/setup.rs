@@ -1,0 +1,183 @@
+//! What the hard cases share: the placements every scene-level case runs at (as written, moved
+//! far, tiny, huge), the precisions it runs in, a two-thread render, and an integrator and camera
+//! built directly to see radiance and hits before the film cleans them.
+
+use parrt::accel::Accel;
+use parrt::camera::Camera;
+use parrt::description::SceneDescription;
+use parrt::film::Film;
+use parrt::geometry::Ray;
+use parrt::real::Real;
+use parrt::render::Renderer;
+use parrt::scene::Scene;
+use parrt::settings::{AccelKind, Precision, RenderSettings};
+use parrt::shade::{Integrator, RayKind, ShadeOptions};
+use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt::stats::RayStats;
+use parrt::vec3::{Vec3d, V3};
+
+pub fn render(desc: &SceneDescription, s: &RenderSettings) -> (Film, RayStats) {
+    let r = Renderer::new(desc, s).expect("scene builds");
+    let res = render_smp(
+        &r,
+        &SmpOptions {
+            threads: 2,
+            tile: 16,
+            executor: Executor::Queue,
+        },
+        &|_, _| {},
+    );
+    (res.film, res.stats)
+}
+
+/// Where a hard case is placed: x ↦ s·x + t.
+#[derive(Clone, Copy, Debug)]
+pub struct Placement {
+    pub name: &'static str,
+    pub s: f64,
+    pub t: Vec3d,
+}
+
+/// As written, moved far in a mixed direction, tiny and huge.
+pub const PLACEMENTS: [Placement; 4] = [
+    Placement {
+        name: "as written",
+        s: 1.0,
+        t: V3::new(0.0, 0.0, 0.0),
+    },
+    Placement {
+        name: "moved 1e7",
+        s: 1.0,
+        t: V3::new(1e7, -1e7, 3e6),
+    },
+    Placement {
+        name: "scaled 1e-6",
+        s: 1e-6,
+        t: V3::new(0.0, 0.0, 0.0),
+    },
+    Placement {
+        name: "scaled 1e6",
+        s: 1e6,
+        t: V3::new(0.0, 0.0, 0.0),
+    },
+];
+
+impl Placement {
+    pub fn point(&self, p: Vec3d) -> Vec3d {
+        p * self.s + self.t
+    }
+
+    pub fn scene(&self, d: &SceneDescription) -> SceneDescription {
+        transform(d, self.s, self.t)
+    }
+}
+
+/// Every precision a rendered hard case runs in: f32, f64 and auto — except f32 where auto finds
+/// the scene outside what f32 resolves (a 2e4 ground scaled by 1e6 squares past f32's range):
+/// there auto's choice of f64 is the answer, and forcing f32 is the user's risk.
+pub fn precisions(desc: &SceneDescription) -> Vec<Precision> {
+    let auto = parrt::precision::resolve(Precision::Auto, desc).precision;
+    let mut all = vec![Precision::F64, Precision::Auto];
+    if auto == Precision::F32 {
+        all.insert(0, Precision::F32);
+    }
+    all
+}
+
+/// Whether auto picks f32 for `desc` (the Direct cases then test f32 as well as f64).
+pub fn f32_resolves(desc: &SceneDescription) -> bool {
+    parrt::precision::resolve(Precision::Auto, desc).precision == Precision::F32
+}
+
+pub fn settings(size: u32, precision: Precision) -> RenderSettings {
+    let mut s = RenderSettings::new(size, size);
+    s.precision = precision;
+    s
+}
+
+/// An integrator and camera built directly, to see radiance before the film cleans it, in the
+/// scene's own frame as the renderer builds it.
+pub struct Direct<R> {
+    integ: Integrator<R>,
+    cam: Camera<R>,
+    origin: Vec3d,
+}
+
+impl<R: Real> Direct<R> {
+    pub fn new(desc: &SceneDescription, accel: AccelKind, size: u32) -> Self {
+        let origin = parrt::frame::origin(desc);
+        let scene = Scene::<R>::build_in(desc, origin).expect("scene builds");
+        let accel = Accel::build(accel, &scene.all_bounds(), 3.0);
+        Direct {
+            integ: Integrator {
+                scene,
+                accel,
+                opts: ShadeOptions {
+                    max_depth: 8,
+                    cutoff: R::ZERO,
+                    spd: false,
+                    two_sided: false,
+                },
+            },
+            cam: Camera::in_frame(&desc.view, size, size, origin),
+            origin,
+        }
+    }
+
+    /// Radiance through every pixel centre, unclamped and uncleaned, as f64 RGB.
+    pub fn radiance(&self, size: u32) -> Vec<[f64; 3]> {
+        let mut st = RayStats::default();
+        let mut out = Vec::with_capacity((size * size) as usize);
+        for y in 0..size {
+            for x in 0..size {
+                let ray = self
+                    .cam
+                    .ray(R::from_f64(x as f64 + 0.5), R::from_f64(y as f64 + 0.5));
+                let c = self
+                    .integ
+                    .trace(&ray, 1, R::ONE, RayKind::Eye, &mut st)
+                    .to_f64();
+                out.push([c.x, c.y, c.z]);
+            }
+        }
+        out
+    }
+
+    /// The closest hit of the ray from world point `o` along `d`.
+    pub fn hit(&self, o: Vec3d, d: Vec3d) -> Option<(u32, f64)> {
+        let ray = Ray {
+            o: V3::from_f64(o - self.origin),
+            d: V3::from_f64(d),
+            t_min: R::ZERO,
+            t_max: R::INFINITY,
+        };
+        self.integ
+            .intersect(&ray, &mut RayStats::default())
+            .map(|h| (h.prim, h.t.to_f64()))
+    }
+}
+
+/// Applies `x ↦ s·x + t` to every position of a scene ([`SceneDescription::transformed`]).
+pub fn transform(desc: &SceneDescription, s: f64, t: Vec3d) -> SceneDescription {
+    desc.transformed(s, t)
+}
+
+/// Per-pixel differences of two films on the linear values clamped to [0, 1]: (mean absolute
+/// difference per channel, share of pixels with some channel off by more than 1/255).
+pub fn compare(a: &Film, b: &Film) -> (f64, f64) {
+    let mut sum = 0.0;
+    let mut off = 0usize;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        let mut worst = 0.0f64;
+        for c in 0..3 {
+            let e = (p[c].clamp(0.0, 1.0) as f64 - q[c].clamp(0.0, 1.0) as f64).abs();
+            sum += e;
+            worst = worst.max(e);
+        }
+        if worst > 1.0 / 255.0 {
+            off += 1;
+        }
+    }
+    let n = a.pixels.len() as f64;
+    (sum / (3.0 * n), off as f64 / n)
+}

@@ -1,0 +1,12 @@
+//! Whole renders, one test binary: the same bits whatever the threads, tiles and executor; the
+//! SPD procedure's ray counts; every real tile's statistics plausible; `--precision auto` and the
+//! camera-relative frame; the memory-saving scene build equal to the borrowed one.
+
+#[path = "../support/mod.rs"]
+mod support;
+
+mod determinism;
+mod precision_auto;
+mod scene_owned;
+mod spd_stats;
+mod stats_plausible;

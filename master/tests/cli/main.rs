@@ -1,0 +1,31 @@
+//! The `parrt` command line end to end through the real binary, one test binary with a file per
+//! subject: `parrt info` (`info`), `parrt render` (`render`), the bench studies (`studies`), and
+//! careless flags and files refused before any work (`careless`).
+
+#[path = "../../../common/tests/support/mod.rs"]
+mod support;
+
+mod careless;
+mod info;
+mod render;
+mod studies;
+
+use std::process::{Command, Output};
+
+/// Runs the `parrt` binary with `args` to the end. (`careless` has its own, capped runner.)
+fn parrt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_parrt"))
+        .args(args)
+        .output()
+        .expect("the parrt binary runs")
+}
+
+/// The SPD scene file `name` (e.g. `"mount-4.nff"`), as a command-line argument.
+fn spd(name: &str) -> String {
+    support::spd_dir().join(name).display().to_string()
+}
+
+/// A run's stderr as text.
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}

@@ -1,0 +1,276 @@
+//! Frames after the handshake: their size and their rate. After Welcome the master takes no
+//! frame larger than the job's biggest result, and the worker none larger than a small message
+//! after the job; a job or a result trickling in slower than the timeout allows for a whole
+//! message, but above the floor rate, is taken, a stalled one is not; a master that stops
+//! reading cannot hang a worker.
+
+use crate::peers::{authenticate, job, welcome_one};
+use bytes::BytesMut;
+use parrt::protocol::codec::MessageCodec;
+use parrt::protocol::limits;
+use parrt::protocol::{JobSpec, Message};
+use parrt::tile::Tile;
+use parrt_tests::*;
+use parrt_worker::WorkerError;
+use std::time::Duration;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpListener;
+use tokio::time::{sleep, timeout};
+use tokio_util::codec::Decoder;
+
+/// Item 14: after Welcome the master accepts no frame larger than the job's biggest result,
+/// and the worker none larger than a small message after the job.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn oversized_frames_after_welcome_are_refused_at_once() {
+    let desc = test_scene(16, 16);
+    let m = start_master(&desc, &settings_for(&desc), &test_options(8)).await;
+    let c = authenticate(m.addr, "bloater", 1).await;
+    let mut s = c.into_inner();
+    let announced = limits::worker_frame_limit(8) as u32 + 1;
+    s.write_all(&announced.to_be_bytes()).await.unwrap();
+    s.write_all(&[0u8; 1024]).await.unwrap();
+    assert!(
+        closed_within_5s(&mut s).await,
+        "the master waited for an oversized frame"
+    );
+    m.cancel.cancel();
+    let _ = m.handle.await;
+
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let worker = start_worker(worker_options(listener.local_addr().unwrap(), 1, "w"));
+    let mut c = welcome_one(&listener).await;
+    c.write(&job(16, 16, 8)).await.unwrap();
+    let mut s = c.into_inner();
+    s.write_all(&(10u32 << 20).to_be_bytes()).await.unwrap();
+    let ended = timeout(Duration::from_secs(5), worker)
+        .await
+        .expect("the worker waited for a 10 MiB frame after the job");
+    let err = ended.unwrap().unwrap_err();
+    assert!(err.to_string().contains("larger than the limit"), "{err}");
+}
+
+/// Item 11: a master that stops reading cannot hang a worker: its writes give up after the
+/// master timeout and it ends with a clear error, even while the master still sends heartbeats.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn worker_gives_up_on_a_master_that_stops_reading() {
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let mut w = worker_options(addr, 2, "w");
+    w.master_timeout = Duration::from_secs(2);
+    let worker = start_worker(w);
+    let mut c = welcome_one(&listener).await;
+    c.write(&job(128, 128, 128)).await.unwrap();
+    // 200 results of 196 KB: far more than the socket buffers hold.
+    for attempt in 1..=200 {
+        c.write(&Message::Assign {
+            job_id: 7,
+            tile: Tile {
+                id: 0,
+                x: 0,
+                y: 0,
+                w: 128,
+                h: 128,
+            },
+            attempt,
+        })
+        .await
+        .unwrap();
+    }
+    // Now never read, but keep beating: the worker cannot take the master for silent (as it
+    // would if filling the socket buffers took longer than the timeout on a loaded machine),
+    // so only its stalled writes can end it.
+    let (_unread, mut w) = c.into_inner().into_split();
+    let beats = tokio::spawn(async move {
+        while w.write_all(&frame(&Message::Heartbeat)).await.is_ok() {
+            sleep(Duration::from_millis(100)).await;
+        }
+    });
+    let ended = timeout(Duration::from_secs(60), worker).await;
+    beats.abort();
+    let err = ended
+        .expect("the worker hung on a master that stopped reading")
+        .unwrap()
+        .unwrap_err();
+    assert!(matches!(err, WorkerError::MasterNotReading(_)), "{err}");
+}
+
+/// Reads frames from a raw read half until `want` arrives; false on close or error.
+async fn read_until(
+    r: &mut tokio::net::tcp::OwnedReadHalf,
+    want: fn(&Message) -> bool,
+) -> Option<Message> {
+    let mut codec = MessageCodec::new(1 << 28);
+    let mut buf = BytesMut::new();
+    loop {
+        while let Ok(Some(m)) = codec.decode(&mut buf) {
+            if want(&m) {
+                return Some(m);
+            }
+        }
+        let mut chunk = [0u8; 8192];
+        match r.read(&mut chunk).await {
+            Ok(0) | Err(_) => return None,
+            Ok(n) => buf.extend_from_slice(&chunk[..n]),
+        }
+    }
+}
+
+/// A job of about `bytes` bytes: the test scene with extra small spheres.
+fn big_job(bytes: usize) -> Message {
+    let mut desc = test_scene(16, 16);
+    let extra = desc.primitives[1].clone();
+    while frame(&Message::Job(Box::new(JobSpec {
+        job_id: 7,
+        scene: desc.clone(),
+        settings: settings_for(&desc),
+        tile_size: 8,
+        pixel_format: Default::default(),
+    })))
+    .len()
+        < bytes
+    {
+        for _ in 0..100 {
+            desc.primitives.push(extra.clone());
+        }
+    }
+    let settings = settings_for(&desc);
+    Message::Job(Box::new(JobSpec {
+        job_id: 7,
+        scene: desc,
+        settings,
+        tile_size: 8,
+        pixel_format: Default::default(),
+    }))
+}
+
+/// Item 12: a job trickling in at 320 KB/s, slower than the 1 s master timeout allows for a
+/// whole message but above the floor rate, is received; one below the floor is dropped.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
+    // Taken: 600 KB in 32 KB chunks every 100 ms, at least 1.9 s (past the timeout) against
+    // the 1 s + 9.4 s the floor rate allows: over 5 times as slow still passes. Dropped: 300 KB
+    // at 10 KB/s, allowed 1 s + 4.7 s, which it would take 30 s to send.
+    for (size, chunk, pause_ms, accepted) in [
+        (600 * 1024, 32 * 1024, 100, true),
+        (300 * 1024, 1024, 100, false),
+    ] {
+        let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = listener.local_addr().unwrap();
+        let mut w = worker_options(addr, 1, "w");
+        w.master_timeout = Duration::from_secs(1);
+        let worker = start_worker(w);
+        let c = welcome_one(&listener).await;
+        let (mut r, mut wr) = c.into_inner().into_split();
+        let bytes = frame(&big_job(size));
+        let began = std::time::Instant::now();
+        let trickle = tokio::spawn(async move {
+            for part in bytes.chunks(chunk) {
+                if wr.write_all(part).await.is_err() {
+                    return false;
+                }
+                sleep(Duration::from_millis(pause_ms)).await;
+            }
+            // Keep the line alive (heartbeats) until the test is done.
+            for _ in 0..50 {
+                if wr.write_all(&frame(&Message::Heartbeat)).await.is_err() {
+                    return true;
+                }
+                sleep(Duration::from_millis(100)).await;
+            }
+            true
+        });
+        let ready = read_until(&mut r, |m| matches!(m, Message::Ready { .. })).await;
+        if accepted {
+            let took = began.elapsed();
+            if ready.is_none() {
+                let why = match timeout(Duration::from_secs(5), worker).await {
+                    Ok(Ok(Err(e))) => format!("the worker failed: {e}"),
+                    other => format!("the worker: {other:?}"),
+                };
+                panic!("the slow job was dropped after {took:?}; {why}");
+            }
+            assert!(
+                took > Duration::from_secs(1),
+                "the job took {took:?}, not longer than the timeout: nothing was tested"
+            );
+            drop(r);
+            trickle.abort();
+            let _ = worker.await;
+        } else {
+            assert!(ready.is_none(), "a stalled frame was waited for");
+            let err = worker.await.unwrap().unwrap_err();
+            assert!(matches!(err, WorkerError::MasterSilent(_)), "{err}");
+            trickle.abort();
+        }
+    }
+}
+
+/// Item 12, master side: a result trickling in slower than the heartbeat timeout allows for a
+/// whole message, but above the floor rate, is taken.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn master_takes_a_slow_result() {
+    // One 256 x 256 tile: a 786 KB result, so the floor rate allows it 3 s + 12 s, and the
+    // trickle below (at least 4.8 s, 160 KB/s, a chunk every 100 ms) stays far inside that
+    // even when the tests beside it slow this one several times over.
+    let desc = test_scene(256, 256);
+    let settings = settings_for(&desc);
+    let mut opts = test_options(256);
+    // Short enough that the trickle outlasts it; long enough that a stall of this test, run
+    // beside others that load the machine, does not read as a silent worker.
+    opts.net.heartbeat_timeout = Duration::from_secs(3);
+    opts.schedule.wait_workers = Duration::from_secs(8);
+    opts.schedule.backups = false;
+    let m = start_master(&desc, &settings, &opts).await;
+    let mut c = authenticate(m.addr, "slow", 1).await;
+    let Some(Message::Job(j)) = c.read().await.unwrap() else {
+        panic!("no job")
+    };
+    c.write(&Message::Ready {
+        job_id: j.job_id,
+        build_s: 0.0,
+    })
+    .await
+    .unwrap();
+    let tile = loop {
+        match c.read().await.unwrap() {
+            Some(Message::Assign { tile, attempt, .. }) => break (tile, attempt),
+            Some(_) => continue,
+            None => panic!("closed"),
+        }
+    };
+    let result = frame(&Message::TileResult {
+        job_id: j.job_id,
+        tile_id: tile.0.id,
+        attempt: tile.1,
+        pixels: parrt::protocol::TilePixels::encode(
+            &vec![[0.25, 0.5, 0.75]; tile.0.pixel_count()],
+            Default::default(),
+        ),
+        stats: parrt::stats::RayStats {
+            eye_rays: tile.0.pixel_count() as u64,
+            ..Default::default()
+        },
+        seconds: 0.0,
+    });
+    assert!(result.len() > 700_000, "a {}-byte result", result.len());
+    let (_r, mut w) = c.into_inner().into_split();
+    let began = std::time::Instant::now();
+    for part in result.chunks(16 * 1024) {
+        if let Err(e) = w.write_all(part).await {
+            let why = match timeout(Duration::from_secs(5), m.handle).await {
+                Ok(Ok(Err(e))) => format!("the master failed: {e:#}"),
+                Ok(Ok(Ok(_))) => "the master finished without the result".into(),
+                other => format!("the master: {other:?}"),
+            };
+            panic!("the master closed after {:?} ({e}); {why}", began.elapsed());
+        }
+        sleep(Duration::from_millis(100)).await;
+    }
+    let trickled = began.elapsed();
+    assert!(
+        trickled > opts.net.heartbeat_timeout,
+        "the result took {trickled:?}, not longer than the timeout: nothing was tested"
+    );
+    let r = m.handle.await.unwrap().expect("the slow result was taken");
+    assert_eq!(r.film.pixels[0], [0.25, 0.5, 0.75]);
+}

@@ -1,0 +1,23 @@
+//! Distributed rendering, one test binary with a file per subject: the image equals SMP
+//! (`identical`), worker faults (`faults`), the master killed and resumed (`checkpoint`),
+//! cluster launchers and the emulated cluster (`cluster_launch`, `cluster_emulated`), the
+//! command lines (`cli`), and hostile or careless peers by what they attack: the token
+//! (`token`), the handshake (`handshake`), frames after it (`frames`) and what a peer can cost
+//! (`limits`); `peers` holds their raw clients. The soak is its own binary
+//! (`distributed_soak.rs`): it measures this process's memory, which tests running beside it
+//! here would disturb.
+
+mod checkpoint;
+mod cli;
+mod cluster_emulated;
+mod cluster_launch;
+mod faults;
+mod frames;
+mod handshake;
+mod identical;
+mod limits;
+mod peers;
+mod token;
+
+/// The package's `parrt` executable (master, worker, `render --workers`, cluster).
+const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");
