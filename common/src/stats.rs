@@ -43,6 +43,46 @@ pub struct RayStats {
 }
 
 impl RayStats {
+    /// Counters in a [`RayStats`].
+    pub const FIELDS: usize = 11;
+
+    /// The counters in declaration order: the one place their order is written down (the
+    /// checkpoint's records keep it on disk, so it never changes).
+    pub fn to_array(&self) -> [u64; Self::FIELDS] {
+        [
+            self.eye_rays,
+            self.eye_hits,
+            self.shadow_rays,
+            self.shadow_hits,
+            self.reflection_rays,
+            self.reflection_hits,
+            self.refraction_rays,
+            self.refraction_hits,
+            self.box_tests,
+            self.primitive_tests,
+            self.cell_steps,
+        ]
+    }
+
+    /// The inverse of [`RayStats::to_array`].
+    pub fn from_array(v: [u64; Self::FIELDS]) -> Self {
+        let [eye_rays, eye_hits, shadow_rays, shadow_hits, reflection_rays, reflection_hits, refraction_rays, refraction_hits, box_tests, primitive_tests, cell_steps] =
+            v;
+        RayStats {
+            eye_rays,
+            eye_hits,
+            shadow_rays,
+            shadow_hits,
+            reflection_rays,
+            reflection_hits,
+            refraction_rays,
+            refraction_hits,
+            box_tests,
+            primitive_tests,
+            cell_steps,
+        }
+    }
+
     /// All rays cast (saturating: a total never wraps).
     pub fn total_rays(&self) -> u64 {
         self.eye_rays

@@ -245,38 +245,6 @@ fn checksum(parts: &[&[u8]]) -> [u8; CHECK_LEN] {
     out
 }
 
-fn stats_fields(s: &RayStats) -> [u64; 11] {
-    [
-        s.eye_rays,
-        s.eye_hits,
-        s.shadow_rays,
-        s.shadow_hits,
-        s.reflection_rays,
-        s.reflection_hits,
-        s.refraction_rays,
-        s.refraction_hits,
-        s.box_tests,
-        s.primitive_tests,
-        s.cell_steps,
-    ]
-}
-
-fn stats_from(v: [u64; 11]) -> RayStats {
-    RayStats {
-        eye_rays: v[0],
-        eye_hits: v[1],
-        shadow_rays: v[2],
-        shadow_hits: v[3],
-        reflection_rays: v[4],
-        reflection_hits: v[5],
-        refraction_rays: v[6],
-        refraction_hits: v[7],
-        box_tests: v[8],
-        primitive_tests: v[9],
-        cell_steps: v[10],
-    }
-}
-
 /// Appends the record of `t` to `out`.
 pub fn encode_record(t: &AcceptedTile, out: &mut Vec<u8>) {
     let len = (RECORD_FIXED + t.pixels.bytes.len()) as u32;
@@ -284,7 +252,7 @@ pub fn encode_record(t: &AcceptedTile, out: &mut Vec<u8>) {
     out.extend_from_slice(&len.to_le_bytes());
     out.extend_from_slice(&t.tile_id.to_le_bytes());
     out.extend_from_slice(&t.seconds.to_bits().to_le_bytes());
-    for v in stats_fields(&t.stats) {
+    for v in RayStats::to_array(&t.stats) {
         out.extend_from_slice(&v.to_le_bytes());
     }
     out.extend_from_slice(&t.pixels.bytes);
@@ -313,7 +281,7 @@ fn decode_payload(p: &[u8], tiles: &[Tile], format: PixelFormat) -> Option<Accep
             format,
             bytes: bytes.to_vec(),
         },
-        stats: stats_from(v),
+        stats: RayStats::from_array(v),
         seconds,
     })
 }

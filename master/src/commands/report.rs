@@ -23,26 +23,21 @@ impl RenderReport {
     /// The `--stats-json` object (DESIGN §10 keys, plus extras).
     pub fn to_json(&self, extra: serde_json::Value) -> serde_json::Value {
         let s = &self.stats;
-        let mut v = json!({
-            "eye_rays": s.eye_rays,
-            "eye_hits": s.eye_hits,
-            "shadow_rays": s.shadow_rays,
-            "shadow_hits": s.shadow_hits,
-            "reflection_rays": s.reflection_rays,
-            "reflection_hits": s.reflection_hits,
-            "refraction_rays": s.refraction_rays,
-            "refraction_hits": s.refraction_hits,
-            "box_tests": s.box_tests,
-            "primitive_tests": s.primitive_tests,
-            "cell_steps": s.cell_steps,
+        // The counters as one value (their serde names are the DESIGN §10 keys).
+        let mut v = serde_json::to_value(s).unwrap_or_else(|_| json!({}));
+        let timing = json!({
             "total_rays": s.total_rays(),
             "parse_s": self.parse_s,
             "build_s": self.build_s,
             "trace_s": self.trace_s,
             "mrays_per_s": self.mrays_per_s(),
         });
-        if let (Some(obj), serde_json::Value::Object(e)) = (v.as_object_mut(), extra) {
-            obj.extend(e);
+        if let Some(obj) = v.as_object_mut() {
+            for more in [timing, extra] {
+                if let serde_json::Value::Object(e) = more {
+                    obj.extend(e);
+                }
+            }
         }
         v
     }
