@@ -170,3 +170,27 @@ impl AddAssign for RayStats {
         self.cell_steps = self.cell_steps.saturating_add(o.cell_steps);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_array_keeps_declaration_order_and_round_trips() {
+        let s = RayStats {
+            eye_rays: 1,
+            eye_hits: 2,
+            shadow_rays: 3,
+            shadow_hits: 4,
+            reflection_rays: 5,
+            reflection_hits: 6,
+            refraction_rays: 7,
+            refraction_hits: 8,
+            box_tests: 9,
+            primitive_tests: 10,
+            cell_steps: 11,
+        };
+        assert_eq!(s.to_array(), [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11]);
+        assert_eq!(RayStats::from_array(s.to_array()), s);
+    }
+}
