@@ -28,14 +28,13 @@
 //! ## Example
 //! ```no_run
 //! use parrt_runtime::{run, Job, MasterConfig};
-//! let desc = parrt_scenes_stub();
+//! let desc = parrt_scenes::generate("balls", Some(1)).expect("a built-in scene");
 //! let settings = parrt::settings::RenderSettings::new(64, 64);
 //! let mut config = MasterConfig::default();
 //! config.spawn.count = 2; // two local worker processes of this executable
 //! config.spawn.threads = 1;
 //! let done = run(&config, Job::<parrt_runtime::DistError>::ready(desc, settings), &mut |_| Ok(None), None)?;
 //! println!("{} tiles, {:.3} s", done.result.tiles, done.result.trace_s);
-//! # fn parrt_scenes_stub() -> parrt::description::SceneDescription { unimplemented!() }
 //! # Ok::<(), parrt_runtime::DistError>(())
 //! ```
 #![deny(missing_docs)]
