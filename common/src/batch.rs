@@ -2,12 +2,13 @@
 //! and the schedule simulator both call [`batch_size`], so the model follows the rule the
 //! master runs.
 
-/// The most work, in seconds at the mean tile cost, that one batch of tiles may hold.
+/// The most work, in seconds at the mean tile cost, that one batch of tiles may hold, by
+/// default (a message costs the master 10–20 µs, so 2 ms keeps it near 1 %).
 pub const BATCH_SECONDS: f64 = 0.002;
 
 /// Tiles in the next assignment: guided, as the SMP `guided` schedule shrinks its runs — a
 /// quarter of the queued tiles' share per ready render thread, between 1 and `max_batch` — and
-/// no more than [`BATCH_SECONDS`] of work at `mean_cost`, the mean one-thread cost of the
+/// no more than `batch_seconds` (by default [`BATCH_SECONDS`]) of work at `mean_cost`, the mean one-thread cost of the
 /// tiles seen so far (single tiles until one has been seen, `None`). Large batches of cheap
 /// tiles cut the messages (and the wake-ups of master and worker) per tile; costly tiles,
 /// which amortise a message anyway, go alone so a batch never nears the tile deadline; single
@@ -17,6 +18,7 @@ pub fn batch_size(
     queued: usize,
     ready_threads: usize,
     mean_cost: Option<f64>,
+    batch_seconds: f64,
 ) -> usize {
     let Some(mean) = mean_cost else {
         return 1;
@@ -25,7 +27,7 @@ pub fn batch_size(
         return 1;
     }
     let by_cost = if mean > 0.0 {
-        (BATCH_SECONDS / mean).clamp(1.0, max_batch as f64) as usize
+        (batch_seconds / mean).clamp(1.0, max_batch as f64) as usize
     } else {
         max_batch
     };
@@ -38,13 +40,19 @@ mod tests {
 
     #[test]
     fn single_tiles_until_a_cost_is_known_or_when_costly() {
-        assert_eq!(batch_size(8, 10_000, 2, None), 1);
-        assert_eq!(batch_size(1, 10_000, 2, Some(1e-6)), 1);
-        assert_eq!(batch_size(8, 10_000, 2, Some(1e-6)), 8);
-        assert_eq!(batch_size(8, 10_000, 2, Some(BATCH_SECONDS)), 1);
-        assert_eq!(batch_size(8, 10_000, 2, Some(BATCH_SECONDS / 3.0)), 3);
+        assert_eq!(batch_size(8, 10_000, 2, None, BATCH_SECONDS), 1);
+        assert_eq!(batch_size(1, 10_000, 2, Some(1e-6), BATCH_SECONDS), 1);
+        assert_eq!(batch_size(8, 10_000, 2, Some(1e-6), BATCH_SECONDS), 8);
+        assert_eq!(
+            batch_size(8, 10_000, 2, Some(BATCH_SECONDS), BATCH_SECONDS),
+            1
+        );
+        assert_eq!(
+            batch_size(8, 10_000, 2, Some(BATCH_SECONDS / 3.0), BATCH_SECONDS),
+            3
+        );
         // Guided: the queue's share per thread shrinks the batch toward the tail.
-        assert_eq!(batch_size(8, 24, 2, Some(1e-6)), 3);
-        assert_eq!(batch_size(8, 3, 2, Some(1e-6)), 1);
+        assert_eq!(batch_size(8, 24, 2, Some(1e-6), BATCH_SECONDS), 3);
+        assert_eq!(batch_size(8, 3, 2, Some(1e-6), BATCH_SECONDS), 1);
     }
 }

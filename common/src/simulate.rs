@@ -21,6 +21,9 @@ pub struct SimParams {
     /// Most tiles in one assignment (1: every tile alone); the size of each is
     /// [`crate::batch::batch_size`] of the queue, the threads and the mean cost seen so far.
     pub max_batch: usize,
+    /// The most work, in seconds at the mean cost seen, one batch may hold
+    /// ([`crate::batch::BATCH_SECONDS`] unless a schedule sets another).
+    pub batch_seconds: f64,
     /// One-way network latency, seconds.
     pub latency_s: f64,
     /// Bandwidth of each worker's link, bytes per second (infinity: no limit).
@@ -55,6 +58,7 @@ impl SimParams {
             threads,
             window: threads,
             max_batch: 1,
+            batch_seconds: crate::batch::BATCH_SECONDS,
             latency_s: 0.0,
             bandwidth_bps: f64::INFINITY,
             master_link_bps: f64::INFINITY,
@@ -210,6 +214,7 @@ impl Sim<'_> {
                 self.costs.len() - self.next,
                 p.workers.max(1) * p.threads.max(1),
                 mean,
+                p.batch_seconds,
             );
             let free = (p.window.max(1) * size).saturating_sub(self.held[worker]);
             if free == 0 || (free < size && self.held[worker] > 0) {

@@ -4,6 +4,8 @@
 
 use parrt_tests::sim::plan::{Fault, Plan};
 use parrt_tests::sim::run_seed;
+use parrt_tests::sim::scale::{record, run, Config};
+use std::time::Duration;
 
 #[test]
 fn three_hundred_seeds_keep_every_invariant() {
@@ -68,4 +70,65 @@ fn every_planted_bug_is_caught() {
     }
     // And nothing stays planted: the same seeds pass without it.
     assert!(run_seed(0).failures.is_empty());
+}
+
+/// A recording of a small scene for the scale tests: 64×64 pixels in 64 tiles of 8×8.
+fn small_recording(dir: &std::path::Path) -> std::path::PathBuf {
+    let desc = parrt_scenes::generate("mount", Some(3)).expect("the mount scene");
+    let settings = parrt::settings::RenderSettings::new(64, 64);
+    let path = dir.join("mount-3-64-t8.replay");
+    record(&desc, &settings, 8, &path).expect("a recording");
+    path
+}
+
+fn small_config(work_s: f64, dilation: Option<f64>) -> Config {
+    Config {
+        workers: 4,
+        threads: 2,
+        work_s,
+        link_bps: 1e9,
+        latency: Duration::from_micros(200),
+        master_s_per_byte: 7e-6 / (3.0 * 64.0),
+        max_batch: 8,
+        dilation,
+    }
+}
+
+#[test]
+fn a_frame_of_microsecond_tiles_runs_dilated_with_its_image() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    // 0.3 ms a tile: far under tokio's millisecond timers, so the run is dilated.
+    let row = run(&path, &small_config(0.02, None)).expect("the run");
+    assert!(row.identical, "the assembled image is the recorded one");
+    assert!(row.dilation > 100.0, "dilated ×{}", row.dilation);
+    assert!(
+        row.rounding < 0.02,
+        "timers added {:.1} %",
+        row.rounding * 100.0
+    );
+    assert!(
+        (0.0..=1.0).contains(&row.efficiency) && (row.efficiency - row.predicted).abs() < 0.1,
+        "efficiency {:.3}, model {:.3}",
+        row.efficiency,
+        row.predicted
+    );
+}
+
+#[test]
+fn dilating_a_frame_leaves_its_efficiency_as_it_was() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    // 60 ms a tile: no dilation needed; the same frame stretched 8 times must measure the same.
+    let plain = run(&path, &small_config(3.84, None)).expect("the plain run");
+    let stretched = run(&path, &small_config(3.84, Some(8.0))).expect("the dilated run");
+    assert_eq!(plain.dilation, 1.0);
+    assert_eq!(stretched.dilation, 8.0);
+    assert!(plain.identical && stretched.identical);
+    assert!(
+        (plain.efficiency - stretched.efficiency).abs() < 0.01,
+        "efficiency {:.4} plain, {:.4} dilated ×8",
+        plain.efficiency,
+        stretched.efficiency
+    );
 }

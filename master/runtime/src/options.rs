@@ -46,6 +46,10 @@ pub struct Schedule {
     /// The most tiles in one assignment; batches shrink to single tiles as work runs out
     /// (1: every tile on its own).
     pub max_batch: usize,
+    /// The most work one batch may hold, in seconds at the mean tile cost seen so far
+    /// ([`parrt::batch::BATCH_SECONDS`], 2 ms, by default). The deterministic simulation
+    /// stretches it with the rest of time when it dilates a frame too short for its timers.
+    pub batch_seconds: f64,
     /// A tile not returned within this is given to another worker.
     pub tile_deadline: Duration,
     /// Failures after which a worker is dropped.
@@ -72,6 +76,7 @@ impl Default for Schedule {
             tile: 32,
             window: Window::default(),
             max_batch: 8,
+            batch_seconds: parrt::batch::BATCH_SECONDS,
             tile_deadline: Duration::from_secs(120),
             max_failures: 3,
             backups: true,

@@ -116,6 +116,9 @@ pub struct SchedOptions {
     /// The most tiles sent in one assignment ([`Scheduler::batch_size`]); 1 sends each tile
     /// on its own.
     pub max_batch: usize,
+    /// The most work one batch may hold, seconds at the mean tile cost seen
+    /// ([`parrt::batch::BATCH_SECONDS`] by default).
+    pub batch_seconds: f64,
     /// The pixel format the job asked results to use.
     pub pixel_format: PixelFormat,
     /// When to stop waiting for workers ([`crate::lifecycle`]).
@@ -733,6 +736,7 @@ impl Scheduler {
             self.queue.len(),
             threads,
             self.mean_cost(),
+            self.opts.batch_seconds,
         )
     }
 
@@ -963,6 +967,7 @@ mod tests {
                 max_failures,
                 backups: true,
                 max_batch: 1,
+                batch_seconds: BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
                 rules: Rules::default(),
             },
@@ -1135,6 +1140,7 @@ mod tests {
                 max_failures: 3,
                 backups: true,
                 max_batch: 1,
+                batch_seconds: BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
                 rules: Rules::default(),
             },
@@ -1241,6 +1247,7 @@ mod tests {
                 max_failures: 3,
                 backups: false,
                 max_batch: 8,
+                batch_seconds: BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
                 rules: Rules::default(),
             },

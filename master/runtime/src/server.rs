@@ -196,6 +196,7 @@ impl<L: Listener> Master<L> {
                 max_batch: sched_opts
                     .max_batch
                     .clamp(1, parrt::protocol::limits::MAX_BATCH),
+                batch_seconds: sched_opts.batch_seconds,
                 pixel_format: sched_opts.pixel_format,
                 rules: super::lifecycle::Rules {
                     min_workers: sched_opts.min_workers,

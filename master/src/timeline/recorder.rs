@@ -306,6 +306,7 @@ mod tests {
                 max_failures: 3,
                 backups: true,
                 max_batch: 1,
+                batch_seconds: parrt::batch::BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
                 rules: Default::default(),
             },

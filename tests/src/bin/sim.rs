@@ -85,18 +85,20 @@ fn scale(args: &[String]) -> Result<ExitCode, String> {
                     latency: std::time::Duration::from_secs_f64(latency),
                     master_s_per_byte: us * 1e-6 / (3.0 * (tile * tile) as f64),
                     max_batch,
+                    dilation: None,
                 };
                 let row = run(&path, &cfg).map_err(|e| format!("{c}: {e:#}"))?;
                 println!(
-                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, {:.2} virtual s, {:.1} s wall)",
-                    row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.trace_s, row.wall_s
+                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, dilated ×{}, {:.3} virtual s, {:.1} s wall)",
+                    row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.dilation, row.trace_s, row.wall_s
                 );
                 rows.push(row);
+                // Written after every row: a long sweep keeps what it has measured.
+                let text = serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?;
+                std::fs::write(json, text).map_err(|e| format!("cannot write {json}: {e}"))?;
             }
         }
     }
-    let text = serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?;
-    std::fs::write(json, text).map_err(|e| format!("cannot write {json}: {e}"))?;
     Ok(if rows.iter().all(|r| r.identical) {
         ExitCode::SUCCESS
     } else {

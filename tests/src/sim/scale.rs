@@ -6,6 +6,13 @@
 //! bandwidth, then the master's CPU per byte received (measured on real runs), one byte after
 //! another as a single-threaded master handles them. Beside each run, the analytic simulator
 //! (`parrt::simulate`) predicts the same configuration.
+//!
+//! tokio's timers run in whole milliseconds, so a frame whose tiles last microseconds (a
+//! 0.2 s frame cut into 16 384 tiles) is run *dilated*: every duration the world sets — tile
+//! costs, latency, the time a byte takes on a link and in the master, the batch rule's work
+//! cap, heartbeats — is stretched by one factor, so that the mean tile lasts at least
+//! [`MIN_DILATED_TILE_S`]. Efficiency is a ratio of times, so it does not change; the row
+//! reports times undilated and says the factor.
 
 use super::net::SimDial;
 use parrt::description::SceneDescription;
@@ -32,6 +39,10 @@ use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::time::{sleep_until, Instant, Sleep};
 use tokio_util::sync::CancellationToken;
 
+/// The shortest mean tile, in virtual seconds, that the simulation runs undilated: tokio's
+/// millisecond timers then add at most 1 % to it (half a millisecond on average).
+pub const MIN_DILATED_TILE_S: f64 = 0.05;
+
 /// One configuration to run.
 #[derive(Clone, Debug)]
 pub struct Config {
@@ -49,6 +60,9 @@ pub struct Config {
     pub master_s_per_byte: f64,
     /// Most tiles in one assignment.
     pub max_batch: usize,
+    /// Stretch every duration by this factor (`None`: only as much as the frame needs,
+    /// [`MIN_DILATED_TILE_S`]). A test sets it to show a factor changes nothing.
+    pub dilation: Option<f64>,
 }
 
 /// What one configuration gave.
@@ -66,6 +80,8 @@ pub struct Row {
     pub efficiency: f64,
     /// How much tokio's millisecond timers lengthened the frame's work (spent / asked − 1).
     pub rounding: f64,
+    /// How much every duration was stretched to keep the timers' rounding small (1: not).
+    pub dilation: f64,
     /// The analytic simulator's efficiency for the same configuration.
     pub predicted: f64,
     /// The model's share of thread time idle after the first thread ran out of work (the
@@ -119,21 +135,30 @@ pub fn record(
 pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let probe = Replay::open(path, 1.0)?;
     let t1: f64 = probe.costs.iter().sum();
-    let scale = c.work_s / t1.max(1e-12);
+    // Dilate a frame whose mean tile is shorter than the timers can follow (module docs).
+    let mean_asked = c.work_s / probe.costs.len().max(1) as f64;
+    let k = c
+        .dilation
+        .unwrap_or_else(|| (MIN_DILATED_TILE_S / mean_asked.max(1e-12)).max(1.0).ceil());
+    anyhow::ensure!(
+        k.is_finite() && k >= 1.0,
+        "dilation {k} is not a factor ≥ 1"
+    );
+    let scale = c.work_s * k / t1.max(1e-12);
     let replay = Arc::new(Replay::open(path, scale)?);
     let want = replay.film()?;
     let (width, height, tile) = (replay.width, replay.height, replay.tile);
     // What each tile really lasts in the simulation: tokio's timers run in whole
     // milliseconds, so a replayed tile ends at the next millisecond. Both the measured
-    // efficiency and the model take these costs, so they compare like with like; a frame of
-    // tiles far shorter than a millisecond cannot be simulated faithfully (the JSON says how
-    // much rounding added: `rounding`).
+    // efficiency and the model take these costs (undilated), so they compare like with like;
+    // the JSON says how much rounding added (`rounding`).
     let costs: Vec<f64> = replay
         .costs
         .iter()
-        .map(|x| (x * scale * 1e3).ceil() / 1e3)
+        .map(|x| (x * scale * 1e3).ceil() / 1e3 / k)
         .collect();
     let spent: f64 = costs.iter().sum();
+    let latency = c.latency.mul_f64(k);
     let pixels: Vec<u64> = replay
         .tiles
         .iter()
@@ -150,32 +175,36 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     config.schedule.tile = tile;
     config.schedule.min_workers = c.workers;
     config.schedule.max_batch = c.max_batch;
+    config.schedule.batch_seconds = parrt::batch::BATCH_SECONDS * k;
     config.schedule.pixel_format = PixelFormat::Rgb8;
     config.schedule.wait_workers = Duration::from_secs(3_600);
     config.schedule.tile_deadline = Duration::from_secs(86_400);
     config.net.token = Some(token.clone());
-    config.net.heartbeat_timeout = Duration::from_secs(3_600);
+    config.net.heartbeat = config.net.heartbeat.mul_f64(k);
+    config.net.heartbeat_timeout = Duration::from_secs(3_600).mul_f64(k);
     config.net.handshake_timeout = Duration::from_secs(600);
     config.net.max_connections = c.workers + 16;
     let result: Arc<Mutex<Option<DistResult>>> = Arc::default();
+    // Dilated: a byte takes k times as long on a link and in the master.
     let link_bytes_per_s = c.link_bps / 8.0;
+    let sim_link_bytes_per_s = link_bytes_per_s / k;
     let master_gate = Arc::new(Mutex::new(Gate::default()));
     let mut sim = turmoil::Builder::new()
         .rng_seed(1)
         .epoch(UNIX_EPOCH + Duration::from_secs(1_700_000_000))
-        .simulation_duration(Duration::from_secs(1_000_000))
+        .simulation_duration(Duration::from_secs(1_000_000).mul_f64(k))
         // Time moves in steps of half the latency (at least 10 µs): a coarser step would
         // round every message up to whole steps.
-        .tick_duration((c.latency / 2).max(Duration::from_micros(10)))
-        .min_message_latency(c.latency)
-        .max_message_latency(c.latency)
+        .tick_duration((latency / 2).max(Duration::from_micros(10)))
+        .min_message_latency(latency)
+        .max_message_latency(latency)
         .tcp_capacity(1 << 16)
         .build();
     {
         let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
         let (config, token, gate) = (config.clone(), token.clone(), master_gate.clone());
-        let per_byte = 1.0 / link_bytes_per_s + c.master_s_per_byte;
-        let worker_link = 1.0 / link_bytes_per_s;
+        let per_byte = 1.0 / sim_link_bytes_per_s + c.master_s_per_byte * k;
+        let worker_link = 1.0 / sim_link_bytes_per_s;
         sim.host("master", move || {
             let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
             let (config, token, gate) = (config.clone(), token.clone(), gate.clone());
@@ -204,8 +233,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
                 o.threads = threads;
                 o.tile_delay = None;
                 o.nonce_seed = Some(i as u64);
-                o.dial_timeout = Duration::from_secs(3_600);
-                o.master_timeout = Duration::from_secs(3_600);
+                o.dial_timeout = Duration::from_secs(3_600).mul_f64(k);
+                o.master_timeout = Duration::from_secs(3_600).mul_f64(k);
                 let exec = InlineExec::replaying(replay);
                 let _ =
                     parrt_worker::session::run_with(&o, CancellationToken::new(), &SimDial, exec)
@@ -228,7 +257,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         .take()
         .ok_or_else(|| anyhow::anyhow!("no result"))?;
     let n = c.workers * c.threads;
-    let efficiency = spent / (n as f64 * r.trace_s.max(1e-12));
+    let trace_s = r.trace_s / k;
+    let efficiency = spent / (n as f64 * trace_s.max(1e-12));
     let mean = spent / costs.len().max(1) as f64;
     let window = parrt::window::Window::default().assignments(
         c.threads,
@@ -238,6 +268,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let p = SimParams {
         window,
         max_batch: c.max_batch,
+        batch_seconds: parrt::batch::BATCH_SECONDS,
         latency_s: c.latency.as_secs_f64(),
         bandwidth_bps: link_bytes_per_s,
         master_link_bps: link_bytes_per_s,
@@ -255,11 +286,12 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         link_gbit: c.link_bps / 1e9,
         efficiency,
         rounding: spent / c.work_s - 1.0,
+        dilation: k,
         predicted,
         model_tail: model.tail_idle_s / (n as f64 * model.makespan.max(1e-12)),
         model_master: model.master_utilisation,
         identical: same_bytes(&r.film, &want),
-        trace_s: r.trace_s,
+        trace_s,
         wall_s,
     })
 }

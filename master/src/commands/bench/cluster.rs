@@ -430,6 +430,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                     work / costs.len().max(1) as f64,
                 ),
                 max_batch: args.max_batch,
+                batch_seconds: parrt::batch::BATCH_SECONDS,
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: worker_bps,
                 master_link_bps: master_bps,

@@ -199,6 +199,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
                 window: args.window.unwrap_or(2 * args.threads),
                 // Every tile alone: the model of tile size and window, without batches.
                 max_batch: 1,
+                batch_seconds: parrt::batch::BATCH_SECONDS,
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: args.bandwidth_mbps * 1e6 / 8.0,
                 master_link_bps: f64::INFINITY,
