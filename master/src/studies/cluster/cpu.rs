@@ -14,8 +14,12 @@ pub const MASTER_THREAD: &str = "parrt-master";
 /// more, seldom enough that its own reads (one stat file per worker process) stay a small
 /// part of the emulation's CPU.
 const PERIOD: Duration = Duration::from_millis(50);
-/// How often the sampler looks for the master's threads again.
+/// How often the sampler looks for the master's threads and the worker processes again…
 const RELIST: Duration = Duration::from_secs(1);
+/// …after the first [`EARLY`], when it looks at every sample: the row's master thread and
+/// its workers start just after the sampler, and a trace can begin well within a second
+/// (until 2026-11-26 a row shorter than that could read no master and no worker CPU at all).
+const EARLY: Duration = Duration::from_secs(2);
 
 /// CPU seconds spent so far (or in an interval).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -116,18 +120,39 @@ fn child_pids() -> Vec<u32> {
     pids
 }
 
-fn sample(children: &[u32], master: &[std::path::PathBuf], tick: f64) -> CpuSample {
-    let this = stat_ticks("/proc/self/stat");
-    let own: u64 = this
-        + children
-            .iter()
-            .map(|p| stat_ticks(&format!("/proc/{p}/stat")))
-            .sum::<u64>();
-    CpuSample {
-        master_s: master.iter().map(|t| thread_cpu_ns(t)).sum::<u64>() as f64 / 1e9,
-        own_s: own as f64 / tick,
-        this_process_s: this as f64 / tick,
-        machine_s: machine_ticks() as f64 / tick,
+/// The last CPU read of every worker process and master thread ever listed: a process or
+/// thread that has gone keeps its last value, so the sums only grow and the difference of two
+/// samples is the CPU spent between them, whatever was listed when.
+#[derive(Default)]
+struct Seen {
+    children: std::collections::BTreeMap<u32, u64>,
+    master: std::collections::BTreeMap<std::path::PathBuf, u64>,
+}
+
+impl Seen {
+    fn sample(&mut self, tick: f64) -> CpuSample {
+        let this = stat_ticks("/proc/self/stat");
+        for (p, last) in &mut self.children {
+            *last = (*last).max(stat_ticks(&format!("/proc/{p}/stat")));
+        }
+        for (t, last) in &mut self.master {
+            *last = (*last).max(thread_cpu_ns(t));
+        }
+        CpuSample {
+            master_s: self.master.values().sum::<u64>() as f64 / 1e9,
+            own_s: (this + self.children.values().sum::<u64>()) as f64 / tick,
+            this_process_s: this as f64 / tick,
+            machine_s: machine_ticks() as f64 / tick,
+        }
+    }
+
+    fn relist(&mut self) {
+        for p in child_pids() {
+            self.children.entry(p).or_insert(0);
+        }
+        for t in master_threads() {
+            self.master.entry(t).or_insert(0);
+        }
     }
 }
 
@@ -150,16 +175,15 @@ impl CpuSampler {
         let thread = std::thread::Builder::new()
             .name("cpu-sampler".into())
             .spawn(move || {
-                let mut master = Vec::new();
-                let mut children = Vec::new();
+                let mut seen = Seen::default();
+                let begun = Instant::now();
                 let mut listed: Option<Instant> = None;
                 while !stop2.load(Ordering::Relaxed) {
-                    if listed.is_none_or(|t| t.elapsed() >= RELIST) {
-                        master = master_threads();
-                        children = child_pids();
+                    if begun.elapsed() < EARLY || listed.is_none_or(|t| t.elapsed() >= RELIST) {
+                        seen.relist();
                         listed = Some(Instant::now());
                     }
-                    let v = (Instant::now(), sample(&children, &master, tick));
+                    let v = (Instant::now(), seen.sample(tick));
                     s2.lock().unwrap_or_else(|e| e.into_inner()).push(v);
                     std::thread::sleep(PERIOD);
                 }
@@ -216,6 +240,41 @@ mod tests {
         let d = s.between(t0, Instant::now());
         if cfg!(target_os = "linux") {
             assert!(d.own_s > 0.0 && d.machine_s > 0.0, "{d:?}");
+        }
+    }
+
+    #[test]
+    fn a_master_thread_and_a_child_started_after_the_sampler_are_counted_at_once() {
+        let s = CpuSampler::start();
+        std::thread::sleep(PERIOD);
+        let t0 = Instant::now();
+        // Fixed work, not fixed time: on a loaded machine a thread gets a share of a core.
+        let spin = || {
+            let mut x = 0u64;
+            for _ in 0..50_000_000u64 {
+                x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+            }
+        };
+        let master = std::thread::Builder::new()
+            .name(MASTER_THREAD.into())
+            .spawn(spin)
+            .expect("a thread");
+        // A child that burns CPU for a while (a shell loop), as a worker process does.
+        let child = std::process::Command::new("sh")
+            .args(["-c", "i=0; while [ $i -lt 50000 ]; do i=$((i+1)); done"])
+            .spawn();
+        let Ok(mut child) = child else { return }; // no shell: nothing to count
+        let _ = master.join();
+        let _ = child.wait();
+        std::thread::sleep(PERIOD * 2);
+        let d = s.between(t0, Instant::now());
+        if cfg!(target_os = "linux") {
+            assert!(d.master_s > 0.02, "master thread CPU {:.3} s", d.master_s);
+            assert!(
+                d.own_s - d.this_process_s > 0.02,
+                "child CPU {:.3} s",
+                d.own_s - d.this_process_s
+            );
         }
     }
 }
