@@ -45,6 +45,8 @@ pub struct ConnContext {
     /// Seeds each connection's nonce with this and its id (`None`: the operating system's
     /// randomness). Only the deterministic simulation sets it.
     pub seed: Option<u64>,
+    /// The most messages that ever waited in one outbox ([`crate::QueuePeaks::outbox`]).
+    pub outbox_peak: std::sync::atomic::AtomicUsize,
 }
 
 /// Why a handshake did not produce a worker.
@@ -254,6 +256,8 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
             }
             out = inbox.recv() => match out {
                 Some(msg) => {
+                    ctx.outbox_peak
+                        .fetch_max(inbox.len() + 1, std::sync::atomic::Ordering::Relaxed);
                     let last = matches!(msg, Message::Shutdown);
                     if let Err(e) = write_within(conn, &msg, limit).await {
                         return e;

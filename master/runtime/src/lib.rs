@@ -106,6 +106,18 @@ pub struct DistResult {
     pub restored_tiles: usize,
     /// Checkpoint records not trusted on resume (bad checksum, not a tile of this job).
     pub checkpoint_bad_records: usize,
+    /// The most messages that ever waited in the master's queues.
+    pub queue_peaks: QueuePeaks,
+}
+
+/// High-water marks of the master's in-memory queues (the deterministic simulation checks
+/// that they stay bounded whatever the faults).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct QueuePeaks {
+    /// Events from the connections waiting for the scheduler (results, joins, departures).
+    pub events: usize,
+    /// Messages waiting in any one connection's outbox to be written to its worker.
+    pub outbox: usize,
 }
 
 impl DistResult {

@@ -20,16 +20,20 @@ pub enum Mutation {
     GiveUpAtOnce,
     /// Accepting a tile also marks the next tile done, unwritten.
     MarkNeighbourDone,
+    /// Resuming a checkpoint takes a torn last record (cut short by a crash) as it is,
+    /// without its checksum.
+    TrustTornRecord,
 }
 
 impl Mutation {
     /// Every planted bug.
-    pub const ALL: [Mutation; 5] = [
+    pub const ALL: [Mutation; 6] = [
         Mutation::AcceptDuplicates,
         Mutation::ForgetDeadWorkersTiles,
         Mutation::NoHeartbeatCheck,
         Mutation::GiveUpAtOnce,
         Mutation::MarkNeighbourDone,
+        Mutation::TrustTornRecord,
     ];
 }
 

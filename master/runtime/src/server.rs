@@ -242,7 +242,10 @@ impl<L: Listener> Master<L> {
             heartbeat: net.heartbeat,
             heartbeat_timeout: net.heartbeat_timeout,
             seed: config.seed.map(|_| rng.gen()),
+            outbox_peak: Default::default(),
         });
+        let conn_ctx = ctx.clone();
+        let mut events_peak = 0;
         let (events_tx, mut events) = mpsc::unbounded_channel::<Event>();
         let stop = CancellationToken::new();
         let tracker = TaskTracker::new();
@@ -284,6 +287,7 @@ impl<L: Listener> Master<L> {
                 _ = tick.tick() => sched.expire(Instant::now()),
                 ev = events.recv() => match ev {
                     Some(ev) => {
+                        events_peak = events_peak.max(events.len() + 1);
                         // Take every event already waiting before handing out tiles again:
                         // a batch's results arrive together and are answered together.
                         let now = Instant::now();
@@ -311,6 +315,17 @@ impl<L: Listener> Master<L> {
         let complete = sched.is_done();
         observers.each(|o| o.finished(complete, Instant::now()));
 
+        // A complete render is on the disk before any worker is told to go: a machine that
+        // crashes after this point leaves a checkpoint that needs no worker to finish (with
+        // the goodbye first, a power loss while a slow disk synced the last records took them
+        // back after every worker had left). The runtime's thread keeps serving heartbeats
+        // meanwhile.
+        let closed_early = if complete {
+            Some(close_sink(sink.take(), blocking_close).await)
+        } else {
+            None
+        };
+
         // Shutdown: the scheduler closes every outbox after a Shutdown; the stop signal ends
         // the accept loop and any handshake still running; then wait for the tasks.
         let finished = sched.finish();
@@ -321,17 +336,11 @@ impl<L: Listener> Master<L> {
                 warn!("some connections did not close within {SHUTDOWN_WAIT:?}");
             }
         };
-        // The sink finishes on a blocking thread while the workers are told goodbye.
+        // An incomplete render's sink finishes while the workers are told goodbye.
         let sink_closed = async {
-            match sink {
-                Some(s) if blocking_close => {
-                    match tokio::task::spawn_blocking(move || s.close()).await {
-                        Ok(r) => r,
-                        Err(_) => Err(super::checkpoint::CheckpointError::WriterGone),
-                    }
-                }
-                Some(s) => s.close(),
-                None => Ok(()),
+            match closed_early {
+                Some(r) => r,
+                None => close_sink(sink, blocking_close).await,
             }
         };
         let ((), closed) = tokio::join!(closing, sink_closed);
@@ -368,7 +377,29 @@ impl<L: Listener> Master<L> {
             tiles: n_tiles,
             restored_tiles,
             checkpoint_bad_records,
+            queue_peaks: crate::QueuePeaks {
+                events: events_peak,
+                outbox: conn_ctx
+                    .outbox_peak
+                    .load(std::sync::atomic::Ordering::Relaxed),
+            },
         })
+    }
+}
+
+/// Writes what `sink` has left and makes it durable: on a blocking thread when it may wait
+/// for a disk (`blocking`), so the runtime's thread stays free for the connections.
+async fn close_sink(
+    sink: Option<Box<dyn TileSink>>,
+    blocking: bool,
+) -> Result<(), super::checkpoint::CheckpointError> {
+    match sink {
+        Some(s) if blocking => match tokio::task::spawn_blocking(move || s.close()).await {
+            Ok(r) => r,
+            Err(_) => Err(super::checkpoint::CheckpointError::WriterGone),
+        },
+        Some(s) => s.close(),
+        None => Ok(()),
     }
 }
 

@@ -27,6 +27,9 @@ impl Trace {
     /// Adds an event line (virtual milliseconds first).
     pub fn note(&self, what: &str) {
         let ms = turmoil::sim_elapsed().map_or(0, |d| d.as_micros());
+        if std::env::var_os("PARRT_SIM_LOG").is_some() {
+            eprintln!("{:>10.3} ms  {what}", ms as f64 / 1e3);
+        }
         let mut s = self.0.lock().unwrap_or_else(|p| p.into_inner());
         s.hash.update(format!("{ms} {what}\n").as_bytes());
         s.events += 1;

@@ -93,11 +93,16 @@ fn count_panics() {
     });
 }
 
+/// How many bytes of the checkpoint the running master has synced (set when it opens it).
+type Durable = Arc<Mutex<Option<Arc<std::sync::atomic::AtomicU64>>>>;
+
 /// The master host's software: started anew on every (re)start, resuming its checkpoint.
 #[derive(Clone)]
 struct MasterHost {
     config: MasterConfig,
     checkpoint: Option<PathBuf>,
+    /// What the checkpoint has on the disk: a crash tears only what came after.
+    durable: Durable,
     trace: Trace,
     result: Arc<Mutex<Option<Result<DistResult, DistError>>>>,
 }
@@ -113,6 +118,8 @@ impl MasterHost {
             let key = JobKey::new(&r.desc, &r.settings, TILE, PixelFormat::F32)?;
             let list = parrt::tile::tiles(WIDTH, HEIGHT, TILE);
             let opened = checkpoint::open(path, &key, &list, true)?;
+            *self.durable.lock().unwrap_or_else(|p| p.into_inner()) =
+                Some(opened.checkpoint.durable());
             self.trace
                 .note(&format!("resumed {} tiles", opened.scan.tiles.len()));
             master.set_checkpoint(opened, Writer::Inline);
@@ -318,9 +325,12 @@ fn run_planted(seed: u64) -> Outcome {
     config.net.token = Some(token());
     config.net.heartbeat_timeout = Duration::from_secs(3);
     config.net.handshake_timeout = Duration::from_secs(2);
+    let host_checkpoint = plan.checkpoint.then(|| dir.path().join("render.ck"));
+    let durable = Durable::default();
     let host = MasterHost {
         config,
-        checkpoint: plan.checkpoint.then(|| dir.path().join("render.ck")),
+        checkpoint: host_checkpoint.clone(),
+        durable: durable.clone(),
         trace: trace.clone(),
         result: result.clone(),
     };
@@ -377,8 +387,11 @@ fn run_planted(seed: u64) -> Outcome {
                 actions.push((*at, Action::Latency(w(*i), *latency)));
                 actions.push((*at + *d, Action::Latency(w(*i), Duration::from_millis(1))));
             }
-            Fault::MasterCrash { back } => {
+            Fault::MasterCrash { back, torn } => {
                 actions.push((*at, Action::Crash("master".into())));
+                if let (Some(path), true) = (&host_checkpoint, *torn > 0) {
+                    actions.push((*at, Action::Tear(path.clone(), *torn, durable.clone())));
+                }
                 actions.push((*at + *back, Action::Bounce("master".into())));
             }
             Fault::Hostile(_) => {}
@@ -426,6 +439,7 @@ fn run_planted(seed: u64) -> Outcome {
     match outcome {
         Some(Ok(r)) => {
             check_image(&r, &mut failures);
+            check_queues(&plan, &r, &mut failures);
             let accepted = trace.accepted();
             let mut unique = accepted.clone();
             unique.sort_unstable();
@@ -469,6 +483,37 @@ fn run_planted(seed: u64) -> Outcome {
     }
 }
 
+/// The master's queues stay bounded whatever the faults: an outbox holds at most the
+/// worker's window of assignments and a Shutdown; the events waiting for the scheduler are at
+/// most what the connections may have in flight (each worker's window of results, its join
+/// and its departure) plus what hostile peers send before they are refused or dropped.
+fn check_queues(plan: &Plan, r: &DistResult, failures: &mut Vec<String>) {
+    if std::env::var_os("PARRT_SIM_PEAKS").is_some() {
+        eprintln!("seed {} peaks {:?}", plan.seed, r.queue_peaks);
+    }
+    let most_threads = plan.threads.iter().copied().max().unwrap_or(1);
+    let outbox_bound = 2 * most_threads + 1;
+    if r.queue_peaks.outbox > outbox_bound {
+        failures.push(format!(
+            "queues: an outbox held {} messages (bound {outbox_bound})",
+            r.queue_peaks.outbox
+        ));
+    }
+    let hostile = plan
+        .faults
+        .iter()
+        .filter(|(_, f)| matches!(f, Fault::Hostile(_)))
+        .count();
+    let windows: usize = plan.threads.iter().map(|t| 2 * t + 2).sum();
+    let events_bound = windows + 64 * (hostile + 1);
+    if r.queue_peaks.events > events_bound {
+        failures.push(format!(
+            "queues: {} events waited for the scheduler (bound {events_bound})",
+            r.queue_peaks.events
+        ));
+    }
+}
+
 fn check_image(r: &DistResult, failures: &mut Vec<String>) {
     let want = &reference().film;
     let same = r.film.width == want.width
@@ -494,6 +539,9 @@ enum Action {
     Partition(String),
     Repair(String),
     Latency(String, Duration),
+    /// Up to this many of the checkpoint's last bytes lost, as a power loss loses what was
+    /// written but not yet synced (never what the checkpoint had synced).
+    Tear(PathBuf, u64, Durable),
 }
 
 impl Action {
@@ -506,6 +554,20 @@ impl Action {
             Action::Partition(w) => sim.partition("master", w.as_str()),
             Action::Repair(w) => sim.repair("master", w.as_str()),
             Action::Latency(w, d) => sim.set_link_latency("master", w.as_str(), *d),
+            Action::Tear(path, bytes, durable) => {
+                // The master is down: nothing writes the file now. A missing file (the
+                // master had not opened it yet) has nothing to tear.
+                let Some(synced) = durable.lock().unwrap_or_else(|p| p.into_inner()).clone() else {
+                    return;
+                };
+                let synced = synced.load(std::sync::atomic::Ordering::Acquire);
+                if let Ok(f) = std::fs::OpenOptions::new().write(true).open(path) {
+                    let len = f.metadata().map(|m| m.len()).unwrap_or(0);
+                    if len > synced {
+                        let _ = f.set_len(len.saturating_sub(*bytes).max(synced));
+                    }
+                }
+            }
         }
     }
 }
