@@ -89,8 +89,9 @@ fn scale(args: &[String]) -> Result<ExitCode, String> {
                 };
                 let row = run(&path, &cfg).map_err(|e| format!("{c}: {e:#}"))?;
                 println!(
-                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, dilated ×{}, {:.3} virtual s, {:.1} s wall)",
-                    row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.dilation, row.trace_s, row.wall_s
+                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, dilated ×{}, {:.3} virtual s, {:.1} s wall); trace: queue empty at {:.0} %, then {:.1} % of thread time idle, last 1 % of tiles {:.1}× the mean",
+                    row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.dilation, row.trace_s, row.wall_s,
+                    row.trace.handout_share * 100.0, row.trace.idle_after_queue * 100.0, row.trace.last_tiles_cost
                 );
                 rows.push(row);
                 // Written after every row: a long sweep keeps what it has measured.

@@ -7,6 +7,7 @@
 //! - [`trace`]: the event trace (its hash) and the accepted tiles.
 //! - [`net`]: turmoil's TCP in the runtime's and the worker's network seams.
 //! - [`scale`]: fault-free runs of many workers over a recorded render, in virtual time.
+//! - [`tail`]: what binds such a run, read from its event trace.
 //!
 //! The binary `sim` (`cargo run --release -p parrt-tests --bin sim -- explore --seeds N`)
 //! explores and replays; docs/simulation.md describes the world.
@@ -14,6 +15,7 @@
 pub mod net;
 pub mod plan;
 pub mod scale;
+pub mod tail;
 pub mod trace;
 pub mod world;
 

@@ -15,6 +15,7 @@
 //! reports times undilated and says the factor.
 
 use super::net::SimDial;
+use super::tail::{Tail, TailTrace};
 use parrt::description::SceneDescription;
 use parrt::film::Film;
 use parrt::protocol::{PixelFormat, Token};
@@ -95,6 +96,8 @@ pub struct Row {
     pub trace_s: f64,
     /// Real seconds the simulation took.
     pub wall_s: f64,
+    /// What the run's event trace says binds it.
+    pub trace: Tail,
 }
 
 /// Records (or reuses) a one-thread render (each tile's cost the least of three) of `desc` at `settings`, tile `tile`, in `path`.
@@ -168,8 +171,10 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let desc = crate::dist::test_scene(width, height);
     let settings = RenderSettings::new(width, height);
     let token = Token::new("scale")?;
+    let tail = Arc::new(TailTrace::default());
     let mut config = MasterConfig {
         seed: Some(1),
+        observers: parrt_runtime::observer::Observers(vec![tail.clone()]),
         ..MasterConfig::default()
     };
     config.schedule.tile = tile;
@@ -293,6 +298,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         identical: same_bytes(&r.film, &want),
         trace_s,
         wall_s,
+        // The trace's clock is dilated: so are the costs it is read with.
+        trace: tail.tail(n, &costs.iter().map(|c| c * k).collect::<Vec<_>>()),
     })
 }
 

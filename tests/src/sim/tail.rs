@@ -1,0 +1,109 @@
+//! What binds a fault-free run, read from its event trace: an [`Observer`] on the real
+//! master that notes when each tile was handed out and when its result came in, and from
+//! them how much thread time was idle once the queue had emptied (the tail) and what the
+//! tiles handed out last cost against the frame's mean.
+
+use parrt::film::Rgb;
+use parrt::stats::RayStats;
+use parrt::tile::Tile;
+use parrt_runtime::observer::Observer;
+use parrt_runtime::scheduler::WorkerId;
+use std::sync::Mutex;
+use tokio::time::Instant;
+
+/// The trace of one run, as the master saw it.
+#[derive(Default)]
+pub struct TailTrace(Mutex<Seen>);
+
+#[derive(Default)]
+struct Seen {
+    started: Option<Instant>,
+    finished: Option<Instant>,
+    /// When the last tile (not a backup copy) was handed out: the queue was empty after it.
+    last_handout: Option<Instant>,
+    /// Each first handout: (when, tile id), in order.
+    handouts: Vec<(Instant, u32)>,
+    /// Each accepted result: (when it came in, tile id).
+    results: Vec<(Instant, u32)>,
+}
+
+/// What the trace says.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Tail {
+    /// Share of the trace (first tile out to last result in) spent handing tiles out.
+    pub handout_share: f64,
+    /// Share of all thread time idle after the queue emptied: every thread's time from the
+    /// last handout to the end, less the work still done then.
+    pub idle_after_queue: f64,
+    /// Mean cost of the last 1 % of tiles handed out, over the mean of all.
+    pub last_tiles_cost: f64,
+}
+
+impl TailTrace {
+    /// Reads the trace of a run on `threads` render threads in all, whose tiles cost `costs`
+    /// seconds of the trace's clock (by tile id).
+    pub fn tail(&self, threads: usize, costs: &[f64]) -> Tail {
+        let s = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let (Some(t0), Some(end), Some(h)) = (s.started, s.finished, s.last_handout) else {
+            return Tail::default();
+        };
+        let trace = end.duration_since(t0).as_secs_f64().max(1e-12);
+        let after = end.duration_since(h).as_secs_f64();
+        // Work done after the last handout: of each result that came in later, the part of
+        // its cost that fits between the handout and its arrival.
+        let cost = |id: u32| costs.get(id as usize).copied().unwrap_or(0.0);
+        let busy_after: f64 = s
+            .results
+            .iter()
+            .filter(|(at, _)| *at > h)
+            .map(|(at, id)| cost(*id).min(at.duration_since(h).as_secs_f64()))
+            .sum();
+        let n = threads.max(1) as f64;
+        let mean = costs.iter().sum::<f64>() / costs.len().max(1) as f64;
+        let k = (s.handouts.len() / 100).max(1);
+        let last: Vec<f64> = s.handouts[s.handouts.len().saturating_sub(k)..]
+            .iter()
+            .map(|(_, id)| cost(*id))
+            .collect();
+        let last_mean = last.iter().sum::<f64>() / last.len().max(1) as f64;
+        Tail {
+            handout_share: h.duration_since(t0).as_secs_f64() / trace,
+            idle_after_queue: ((n * after - busy_after) / (n * trace)).max(0.0),
+            last_tiles_cost: last_mean / mean.max(1e-12),
+        }
+    }
+}
+
+impl Observer for TailTrace {
+    fn started(&self, now: Instant) {
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).started = Some(now);
+    }
+
+    fn assigned(&self, _id: WorkerId, tile: &Tile, attempt: u32, backup: bool, now: Instant) {
+        if !backup && attempt <= 1 {
+            let mut s = self.0.lock().unwrap_or_else(|p| p.into_inner());
+            s.last_handout = Some(now);
+            s.handouts.push((now, tile.id));
+        }
+    }
+
+    fn result(
+        &self,
+        _id: WorkerId,
+        tile: &Tile,
+        _pixels: &[Rgb],
+        _stats: &RayStats,
+        _seconds: f64,
+        accepted: bool,
+    ) {
+        if accepted {
+            let now = Instant::now();
+            let mut s = self.0.lock().unwrap_or_else(|p| p.into_inner());
+            s.results.push((now, tile.id));
+        }
+    }
+
+    fn finished(&self, _complete: bool, now: Instant) {
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).finished = Some(now);
+    }
+}
