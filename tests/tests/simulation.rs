@@ -91,6 +91,7 @@ fn small_config(work_s: f64, dilation: Option<f64>) -> Config {
         master_s_per_byte: 7e-6 / (3.0 * 64.0),
         max_batch: 8,
         dilation,
+        costly_first: false,
     }
 }
 

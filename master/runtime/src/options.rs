@@ -50,6 +50,10 @@ pub struct Schedule {
     /// ([`parrt::batch::BATCH_SECONDS`], 2 ms, by default). The deterministic simulation
     /// stretches it with the rest of time when it dilates a frame too short for its timers.
     pub batch_seconds: f64,
+    /// The order tiles are handed out in, by tile id (`None`: raster order). A render that
+    /// knows its tiles' costs (a previous frame's `--tile-costs`) can hand the costliest out
+    /// first, so the frame does not end waiting on one costly tile started late.
+    pub order: Option<Vec<u32>>,
     /// A tile not returned within this is given to another worker.
     pub tile_deadline: Duration,
     /// Failures after which a worker is dropped.
@@ -77,6 +81,7 @@ impl Default for Schedule {
             window: Window::default(),
             max_batch: 8,
             batch_seconds: parrt::batch::BATCH_SECONDS,
+            order: None,
             tile_deadline: Duration::from_secs(120),
             max_failures: 3,
             backups: true,

@@ -342,6 +342,27 @@ impl Scheduler {
             .unwrap_or_default()
     }
 
+    /// Hands the tiles out in `order` (tile ids, e.g. costliest first by a previous frame's
+    /// costs) instead of raster order. Ids out of range or repeated are ignored, and tiles
+    /// the order leaves out follow in raster order, so every tile is still handed out once.
+    /// Call before the first tile goes out.
+    pub fn set_order(&mut self, order: &[u32]) {
+        let n = self.tiles.len();
+        let mut placed = vec![false; n];
+        let mut queue = VecDeque::with_capacity(n);
+        for &t in order {
+            if let Some(p) = placed.get_mut(t as usize) {
+                if !std::mem::replace(p, true) {
+                    queue.push_back(t);
+                }
+            }
+        }
+        queue.extend((0..n as u32).filter(|&t| !placed[t as usize]));
+        // Only what is still queued (a restored tile is done).
+        queue.retain(|&t| self.state[t as usize] == TileState::Queued);
+        self.queue = queue;
+    }
+
     /// Marks tiles done before any worker came (from a checkpoint): each is checked as a
     /// result is, written into the film and counted in the statistics and tile seconds; a
     /// tile that fails the checks, or is already done, stays to be rendered. Returns how many
@@ -1071,6 +1092,23 @@ mod tests {
             stats,
             seconds,
         }
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn tiles_go_out_in_the_order_asked_and_each_once() {
+        let all = tiles(16, 8, 4);
+        let mut s = sched(3);
+        s.restore(vec![accepted(&all[2], 0.5)]);
+        // Costliest first, with a repeat, an id out of range and two tiles left out.
+        s.set_order(&[7, 2, 5, 7, 99, 0, 6, 1]);
+        let mut rx = join(&mut s, 1, 4); // a window of 8: every queued tile at once
+        s.fill(Instant::now());
+        let ids: Vec<u32> = assigned(&mut rx).iter().map(|(t, _)| t.id).collect();
+        assert_eq!(
+            ids,
+            [7, 5, 0, 6, 1, 3, 4],
+            "restored 2 skipped; 3 and 4 last"
+        );
     }
 
     #[tokio::test(start_paused = true)]

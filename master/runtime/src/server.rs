@@ -206,6 +206,9 @@ impl<L: Listener> Master<L> {
                 },
             },
         );
+        if let Some(order) = &sched_opts.order {
+            sched.set_order(order);
+        }
         let observers = config.observers.clone();
         sched.set_observers(observers.clone());
         let (mut sink, blocking_close, restored_tiles, checkpoint_bad_records) = match sink {

@@ -10,7 +10,7 @@ use std::time::Instant;
 const USAGE: &str = "usage: sim explore --seeds N [--first S] | sim replay <seed> | \
      sim mutants [--seeds N] | sim scale --json FILE [--scene NAME:SIZE] [--size PX] [--tile S] \
      [--configs WxT,...] [--work-seconds S,...] [--gbit G,...] [--latency-ms MS] \
-     [--master-us-per-tile US] [--max-batch N]";
+     [--master-us-per-tile US] [--max-batch N] [--costly-first]";
 
 /// The value after `flag`, or `default`.
 fn text<'a>(args: &'a [String], flag: &str, default: &'a str) -> &'a str {
@@ -86,12 +86,13 @@ fn scale(args: &[String]) -> Result<ExitCode, String> {
                     master_s_per_byte: us * 1e-6 / (3.0 * (tile * tile) as f64),
                     max_batch,
                     dilation: None,
+                    costly_first: args.iter().any(|a| a == "--costly-first"),
                 };
                 let row = run(&path, &cfg).map_err(|e| format!("{c}: {e:#}"))?;
                 println!(
-                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, dilated ×{}, {:.3} virtual s, {:.1} s wall); trace: queue empty at {:.0} %, then {:.1} % of thread time idle, last 1 % of tiles {:.1}× the mean",
+                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, dilated ×{}, {:.3} virtual s, {:.1} s wall); trace: queue empty at {:.0} %, then {:.1} % of thread time idle, last 1 % handed out {:.1}× the mean tile, last 1 % in {:.1}×, costliest still out {:.1}×",
                     row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.dilation, row.trace_s, row.wall_s,
-                    row.trace.handout_share * 100.0, row.trace.idle_after_queue * 100.0, row.trace.last_tiles_cost
+                    row.trace.handout_share * 100.0, row.trace.idle_after_queue * 100.0, row.trace.last_tiles_cost, row.trace.last_results_cost, row.trace.costliest_out
                 );
                 rows.push(row);
                 // Written after every row: a long sweep keeps what it has measured.

@@ -64,6 +64,9 @@ pub struct Config {
     /// Stretch every duration by this factor (`None`: only as much as the frame needs,
     /// [`MIN_DILATED_TILE_S`]). A test sets it to show a factor changes nothing.
     pub dilation: Option<f64>,
+    /// Hand the tiles out costliest first (by the recording's costs, as a previous frame's
+    /// would give them) instead of in raster order.
+    pub costly_first: bool,
 }
 
 /// What one configuration gave.
@@ -181,6 +184,12 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     config.schedule.min_workers = c.workers;
     config.schedule.max_batch = c.max_batch;
     config.schedule.batch_seconds = parrt::batch::BATCH_SECONDS * k;
+    // The handout order, by tile id; the model is given the tiles in the same order.
+    let mut order: Vec<u32> = (0..costs.len() as u32).collect();
+    if c.costly_first {
+        order.sort_by(|&a, &b| costs[b as usize].total_cmp(&costs[a as usize]));
+        config.schedule.order = Some(order.clone());
+    }
     config.schedule.pixel_format = PixelFormat::Rgb8;
     config.schedule.wait_workers = Duration::from_secs(3_600);
     config.schedule.tile_deadline = Duration::from_secs(86_400);
@@ -282,7 +291,9 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         message_bytes: 64.0,
         ..SimParams::ideal(c.workers, c.threads)
     };
-    let model = simulate(&costs, &pixels, &p);
+    let in_order = |v: &[f64]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
+    let pixels_in_order: Vec<u64> = order.iter().map(|&i| pixels[i as usize]).collect();
+    let model = simulate(&in_order(&costs), &pixels_in_order, &p);
     let predicted = model.efficiency;
     Ok(Row {
         workers: c.workers,

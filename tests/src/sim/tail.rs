@@ -37,6 +37,11 @@ pub struct Tail {
     pub idle_after_queue: f64,
     /// Mean cost of the last 1 % of tiles handed out, over the mean of all.
     pub last_tiles_cost: f64,
+    /// Mean cost of the last 1 % of results to come in, over the mean of all: above 1, the
+    /// render ends waiting on costly tiles handed out before the queue emptied.
+    pub last_results_cost: f64,
+    /// The costliest tile still out when the queue emptied, over the mean.
+    pub costliest_out: f64,
 }
 
 impl TailTrace {
@@ -66,10 +71,24 @@ impl TailTrace {
             .map(|(_, id)| cost(*id))
             .collect();
         let last_mean = last.iter().sum::<f64>() / last.len().max(1) as f64;
+        let kr = (s.results.len() / 100).max(1);
+        let last_in: Vec<f64> = s.results[s.results.len().saturating_sub(kr)..]
+            .iter()
+            .map(|(_, id)| cost(*id))
+            .collect();
+        let last_in_mean = last_in.iter().sum::<f64>() / last_in.len().max(1) as f64;
+        let costliest_out = s
+            .results
+            .iter()
+            .filter(|(at, _)| *at > h)
+            .map(|(_, id)| cost(*id))
+            .fold(0.0, f64::max);
         Tail {
             handout_share: h.duration_since(t0).as_secs_f64() / trace,
             idle_after_queue: ((n * after - busy_after) / (n * trace)).max(0.0),
             last_tiles_cost: last_mean / mean.max(1e-12),
+            last_results_cost: last_in_mean / mean.max(1e-12),
+            costliest_out: costliest_out / mean.max(1e-12),
         }
     }
 }
