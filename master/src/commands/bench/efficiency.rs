@@ -7,7 +7,7 @@
 use crate::cli_args::{AccelArg, ExecutorArg, LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use crate::machine::machine;
-use crate::plot::{save_chart, Chart, Series};
+use crate::plot::{range_from_zero, save_chart, Chart, Reference, Series};
 use crate::timeline::plot::save_figure;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
@@ -404,9 +404,10 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 ),
                 x_label: "tile edge (pixels)".into(),
                 y_label: "efficiency t1/(n·tn) (1 = ideal)".into(),
+                y_range: Some(range_from_zero(&chart_series, 1.0)),
                 series: chart_series,
                 log_x: true,
-                y_range: None,
+                reference: Some(Reference::ideal_efficiency()),
             };
             save_chart(
                 &chart,
