@@ -13,7 +13,8 @@
 # - a command whose comment says `# exit N` must exit N (the docs show refusals too);
 # - a block right after `<!-- walk: skip: REASON -->` is not run: it needs what one machine in
 #   CI has not (other hosts, ssh, a cluster launcher); the reason is printed.
-# Jobs a block starts with `&` are waited for at the block's end. Files the walk creates in the
+# Jobs a block starts with `&` are waited for at the block's end. WALK_DRY=1 lists the commands
+# without running them. Files the walk creates in the
 # checkout (images, scenes, checkpoints, bench-out/) are removed at the end unless WALK_KEEP=1.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -120,6 +121,10 @@ walk_run() {
         fi
     done
     echo "walk: $file:$line: \$ $cmd"
+    if [ "${WALK_DRY:-0}" = 1 ]; then
+        ran=$((ran + 1))
+        return 0
+    fi
     eval "$cmd"
     rc=$?
     ran=$((ran + 1))
