@@ -23,14 +23,15 @@ fn main() {
     let commit = git(&["rev-parse", "--short=10", "HEAD"]).unwrap_or_default();
     println!("cargo:rustc-env=PARRT_BUILD_COMMIT={commit}");
     // Rebuild when the checked-out commit moves: HEAD, the branch it names, and packed refs.
-    for name in ["HEAD", "packed-refs"] {
-        if let Some(p) = git(&["rev-parse", "--git-path", name]) {
-            println!("cargo:rerun-if-changed={}", abs(p).display());
-        }
-    }
-    if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
-        if let Some(p) = git(&["rev-parse", "--git-path", &branch]) {
-            println!("cargo:rerun-if-changed={}", abs(p).display());
+    // Only files that exist: cargo reruns a build script on every build while a path it
+    // watches is missing (a repository without packed-refs has none).
+    let mut watched = vec!["HEAD".to_string(), "packed-refs".to_string()];
+    watched.extend(git(&["symbolic-ref", "-q", "HEAD"]));
+    for name in watched {
+        if let Some(p) = git(&["rev-parse", "--git-path", &name]).map(abs) {
+            if p.exists() {
+                println!("cargo:rerun-if-changed={}", p.display());
+            }
         }
     }
     println!("cargo:rerun-if-changed=build.rs");

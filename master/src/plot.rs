@@ -61,8 +61,8 @@ impl Reference {
         Reference {
             y: 1.0,
             label: "ideal (1)".into(),
-            above: "Values above 1 are superlinear: split among more threads, each thread's \
-                    share of the scene and image stays warmer in its caches (or timing noise)."
+            above: "Above 1: superlinear (each thread's share stays warmer in its caches) or \
+                    timing noise."
                 .into(),
         }
     }
@@ -208,18 +208,6 @@ where
                     .draw()
                     .map_err(|e| anyhow::anyhow!("{e:?}"))?;
             }
-            if let Some(r) = &chart.reference {
-                let line = [(x0, r.y), (x1, r.y)];
-                let style = BLACK.mix(0.7).stroke_width(1);
-                let anno = ctx
-                    .draw_series(DashedLineSeries::new(line.iter().map($map), 6, 4, style))
-                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-                if text {
-                    anno.label(r.label.as_str()).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.7))
-                    });
-                }
-            }
             for (i, s) in chart.series.iter().enumerate() {
                 let color = colors[i % colors.len()];
                 let pts: Vec<(f64, f64)> = s.points.iter().map($map).collect();
@@ -239,6 +227,20 @@ where
                 if text && !s.line {
                     anno.label(s.label.as_str())
                         .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
+                }
+            }
+            // Over the data, so the ideal shows where lines cross it.
+            if let Some(r) = &chart.reference {
+                let xs = ctx.x_range();
+                let line = [(xs.start, r.y), (xs.end, r.y)];
+                let style = BLACK.mix(0.7).stroke_width(1);
+                let anno = ctx
+                    .draw_series(DashedLineSeries::new(line.iter().map($map), 6, 4, style))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                if text {
+                    anno.label(r.label.as_str()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.7))
+                    });
                 }
             }
             if text {
