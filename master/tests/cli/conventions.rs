@@ -24,7 +24,10 @@ fn listed_commands() -> Vec<String> {
 fn help_and_readme_list_every_command() {
     let commands = listed_commands();
     for c in ["render", "cluster", "plot-timeline", "completions", "man"] {
-        assert!(commands.iter().any(|x| x == c), "--help lacks {c}: {commands:?}");
+        assert!(
+            commands.iter().any(|x| x == c),
+            "--help lacks {c}: {commands:?}"
+        );
     }
     let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md"))
         .expect("README.md beside the workspace");
@@ -33,11 +36,17 @@ fn help_and_readme_list_every_command() {
         .find(|l| l.starts_with("| `master/`"))
         .expect("the crate map's master row");
     for c in &commands {
-        assert!(map_row.contains(&format!("`{c}`")), "the README's crate map lacks `{c}`");
+        assert!(
+            map_row.contains(&format!("`{c}`")),
+            "the README's crate map lacks `{c}`"
+        );
     }
     let o = parrt(&["--help"]);
     let about = String::from_utf8_lossy(&o.stdout);
-    assert!(!about.contains("(render, info, scene, master, worker, bench)"), "{about}");
+    assert!(
+        !about.contains("(render, info, scene, master, worker, bench)"),
+        "{about}"
+    );
 }
 
 #[test]
@@ -45,7 +54,10 @@ fn version_names_the_build() {
     let o = parrt(&["--version"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v = String::from_utf8_lossy(&o.stdout).into_owned();
-    assert!(v.starts_with(&format!("parrt {} (", env!("CARGO_PKG_VERSION"))), "{v}");
+    assert!(
+        v.starts_with(&format!("parrt {} (", env!("CARGO_PKG_VERSION"))),
+        "{v}"
+    );
     assert!(v.contains("commit "), "{v}");
     assert!(v.contains(" build, "), "{v}");
     assert!(v.contains(std::env::consts::ARCH), "{v}");
@@ -58,7 +70,10 @@ fn completions_for_each_shell_and_a_refusal_for_others() {
         assert!(o.status.success(), "{shell}: {}", stderr(&o));
         let text = String::from_utf8_lossy(&o.stdout);
         assert!(text.contains("plot-timeline"), "{shell}: {text}");
-        assert!(text.contains("--http-linger"), "{shell} completes render's flags");
+        assert!(
+            text.contains("http-linger"),
+            "{shell} completes render's flags"
+        );
     }
     let o = parrt(&["completions", "tcsh"]);
     assert_eq!(o.status.code(), Some(2));
@@ -83,7 +98,14 @@ fn man_page_to_stdout_and_a_page_per_command() {
 fn scene_says_what_it_wrote() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("mount-3.nff");
-    let o = parrt(&["scene", "mount", "--size", "3", "-o", &out.display().to_string()]);
+    let o = parrt(&[
+        "scene",
+        "mount",
+        "--size",
+        "3",
+        "-o",
+        &out.display().to_string(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(
