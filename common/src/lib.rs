@@ -39,6 +39,7 @@ pub mod real;
 pub mod render;
 pub mod scene;
 pub mod scene_leaf;
+pub mod seconds;
 pub mod settings;
 pub mod shade;
 pub mod simulate;

@@ -7,7 +7,14 @@ use std::process::ExitCode;
 
 /// parrt: a parallel Whitted ray tracer for NFF scenes (SMP and distributed).
 #[derive(Debug, Parser)]
-#[command(name = "parrt", version, about, long_about = None, propagate_version = true)]
+#[command(
+    name = "parrt",
+    version = crate::version::text(),
+    about = "A parallel Whitted ray tracer for NFF scenes, on one machine's cores or on workers \
+             over TCP",
+    long_about = None,
+    propagate_version = true
+)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
@@ -34,6 +41,10 @@ pub enum Command {
     Bench(commands::bench::BenchArgs),
     /// Draw a timeline written by --timeline as SVG or PNG (a row per thread or worker).
     PlotTimeline(commands::plot_timeline::PlotTimelineArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(commands::completions::CompletionsArgs),
+    /// Print the manual page (roff), or write one page per command with --dir.
+    Man(commands::man::ManArgs),
 }
 
 /// Parses the arguments, runs the command and returns the exit status. Errors are printed to
@@ -63,6 +74,8 @@ pub fn main() -> ExitCode {
         Command::Cluster(a) => commands::cluster::run(a),
         Command::Bench(a) => commands::bench::run(a),
         Command::PlotTimeline(a) => commands::plot_timeline::run(a),
+        Command::Completions(a) => commands::completions::run(a),
+        Command::Man(a) => commands::man::run(a),
     };
     match result {
         Ok(code) => code,

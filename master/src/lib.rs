@@ -3,7 +3,7 @@
 //! ## Layout
 //! - [`cli`]: argument definitions and dispatch; `main.rs` only calls [`cli::main`].
 //! - [`commands`]: one module per subcommand (`render`, `info`, `scene`, `master`, `worker`,
-//!   `cluster`, `bench`).
+//!   `cluster`, `bench`, `plot-timeline`, `completions`, `man`).
 //! - [`cli_args`]: the flags and arguments several commands share (scene, render settings,
 //!   limits, durations, sizes, outputs), each parsed and checked once.
 //! - the master side of distributed rendering is the `parrt_runtime` crate (`master/runtime`).
@@ -17,6 +17,7 @@
 //! - [`timeline`]: per-tile timelines of renders (`--timeline`) and their plots.
 //! - [`live`]: the live view in a browser (`--http`).
 //! - [`exit`]: how errors map to exit codes (2 bad input or usage, 1 anything else).
+//! - [`version`]: what build this is (`--version`).
 #![deny(missing_docs)]
 
 pub mod cli;
@@ -30,3 +31,4 @@ pub mod plot;
 pub mod progress;
 pub mod studies;
 pub mod timeline;
+pub mod version;

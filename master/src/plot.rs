@@ -2,6 +2,10 @@
 //! font: DejaVu Sans from the system is registered once; without it, charts are drawn unlabelled
 //! and the Markdown tables carry the numbers.
 //!
+//! A chart of efficiencies carries a [`Reference`]: a dashed line at the ideal (1), and a note
+//! under the chart when some value lies above it, saying why that can happen. A y axis that does
+//! not start at zero says so in its label, so a small spread does not look dramatic.
+//!
 //! PNGs are drawn into an RGB buffer and encoded with the workspace's `image` ([`save_png`],
 //! which every plot uses): plotters' own encoder would pull in a second, older `image`.
 
@@ -34,8 +38,64 @@ pub struct Chart {
     pub series: Vec<Series>,
     /// Logarithmic x axis (base 2 ticks are labelled as numbers).
     pub log_x: bool,
-    /// Fixed y range; `None`: from the data.
+    /// Fixed y range; `None`: from the data (and the reference line, if any).
     pub y_range: Option<(f64, f64)>,
+    /// A horizontal reference line (the ideal), if any.
+    pub reference: Option<Reference>,
+}
+
+/// A horizontal line the data is read against, with what a value above it means.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    /// Where the line is.
+    pub y: f64,
+    /// Its legend label.
+    pub label: String,
+    /// The note printed under the chart when a value lies above the line.
+    pub above: String,
+}
+
+impl Reference {
+    /// The ideal parallel efficiency, 1, and why a measured value can exceed it.
+    pub fn ideal_efficiency() -> Reference {
+        Reference {
+            y: 1.0,
+            label: "ideal (1)".into(),
+            above: "Above 1: superlinear (each thread's share stays warmer in its caches) or \
+                    timing noise."
+                .into(),
+        }
+    }
+}
+
+/// A y range from zero to a little above both the data and `ideal`, for efficiency charts.
+pub fn range_from_zero(series: &[Series], ideal: f64) -> (f64, f64) {
+    let top = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1))
+        .filter(|y| y.is_finite())
+        .fold(ideal, f64::max);
+    (0.0, top * 1.08)
+}
+
+/// The y axis's label: the chart's, plus a warning when the axis does not start at zero.
+pub fn y_label(chart: &Chart, y0: f64) -> String {
+    if y0 > 0.0 {
+        format!("{} (axis starts at {y0:.2}, not 0)", chart.y_label)
+    } else {
+        chart.y_label.clone()
+    }
+}
+
+/// The note under the chart: the reference's explanation when some value lies above it.
+pub fn note(chart: &Chart) -> Option<&str> {
+    let r = chart.reference.as_ref()?;
+    let above = chart
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter())
+        .any(|&(_, y)| y.is_finite() && y > r.y);
+    above.then_some(r.above.as_str())
 }
 
 const FONT_PATHS: [&str; 2] = [
@@ -74,6 +134,10 @@ fn bounds(chart: &Chart) -> ((f64, f64), (f64, f64)) {
     if x0 > x1 {
         (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
     }
+    if let Some(r) = &chart.reference {
+        y0 = y0.min(r.y);
+        y1 = y1.max(r.y);
+    }
     if x0 == x1 {
         x1 = x0 + 1.0;
     }
@@ -95,6 +159,19 @@ where
     let text = font_ready();
     root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
     let ((x0, x1), (y0, y1)) = bounds(chart);
+    let y_desc = y_label(chart, y0);
+    // The note, if any, gets a strip of its own under the chart.
+    let root = match note(chart).filter(|_| text) {
+        Some(n) => {
+            let (_, h) = root.dim_in_pixel();
+            let (upper, lower) = root.split_vertically(h.saturating_sub(28));
+            lower
+                .draw(&Text::new(n.to_string(), (16, 4), ("sans-serif", 14)))
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            upper
+        }
+        None => root,
+    };
     let mut builder = ChartBuilder::on(&root);
     builder
         .margin(16)
@@ -119,7 +196,7 @@ where
             if text {
                 ctx.configure_mesh()
                     .x_desc(chart.x_label.as_str())
-                    .y_desc(chart.y_label.as_str())
+                    .y_desc(y_desc.as_str())
                     .draw()
                     .map_err(|e| anyhow::anyhow!("{e:?}"))?;
             } else {
@@ -150,6 +227,20 @@ where
                 if text && !s.line {
                     anno.label(s.label.as_str())
                         .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
+                }
+            }
+            // Over the data, so the ideal shows where lines cross it.
+            if let Some(r) = &chart.reference {
+                let xs = ctx.x_range();
+                let line = [(xs.start, r.y), (xs.end, r.y)];
+                let style = BLACK.mix(0.7).stroke_width(1);
+                let anno = ctx
+                    .draw_series(DashedLineSeries::new(line.iter().map($map), 6, 4, style))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                if text {
+                    anno.label(r.label.as_str()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.7))
+                    });
                 }
             }
             if text {
@@ -206,4 +297,71 @@ pub fn save_png(
         image::ImageFormat::Png,
     )
     .with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chart(points: Vec<(f64, f64)>, reference: Option<Reference>) -> Chart {
+        Chart {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "efficiency".into(),
+            series: vec![Series {
+                label: "s".into(),
+                points,
+                line: true,
+            }],
+            log_x: false,
+            y_range: None,
+            reference,
+        }
+    }
+
+    #[test]
+    fn the_ideal_is_inside_the_range_and_a_value_above_it_is_explained() {
+        let below = chart(
+            vec![(8.0, 0.8), (16.0, 0.9)],
+            Some(Reference::ideal_efficiency()),
+        );
+        let ((_, _), (_, y1)) = bounds(&below);
+        assert!(y1 >= 1.0, "the ideal line is drawn: {y1}");
+        assert_eq!(note(&below), None);
+        let above = chart(
+            vec![(8.0, 0.9), (16.0, 1.06)],
+            Some(Reference::ideal_efficiency()),
+        );
+        assert!(note(&above).is_some_and(|n| n.contains("superlinear")));
+        assert_eq!(note(&chart(vec![(8.0, 1.2)], None)), None);
+    }
+
+    #[test]
+    fn an_axis_not_from_zero_says_so() {
+        let c = chart(vec![(8.0, 0.8), (16.0, 0.9)], None);
+        let ((_, _), (y0, _)) = bounds(&c);
+        assert!(y0 > 0.0);
+        assert!(y_label(&c, y0).contains("not 0"), "{}", y_label(&c, y0));
+        let (z0, z1) = range_from_zero(&c.series, 1.0);
+        assert_eq!(z0, 0.0);
+        assert!(z1 > 1.0);
+        assert_eq!(y_label(&c, z0), "efficiency");
+    }
+
+    #[test]
+    fn charts_with_a_note_are_drawn() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let c = chart(
+            vec![(8.0, 0.9), (16.0, 1.06)],
+            Some(Reference::ideal_efficiency()),
+        );
+        let (svg, png) = (dir.path().join("c.svg"), dir.path().join("c.png"));
+        save_chart(&c, &svg, &png).expect("draws");
+        let text = std::fs::read_to_string(&svg).expect("svg");
+        if font_ready() {
+            assert!(text.contains("superlinear"), "the note is in the SVG");
+            assert!(text.contains("ideal (1)"));
+        }
+        assert!(std::fs::metadata(&png).expect("png").len() > 0);
+    }
 }

@@ -100,6 +100,6 @@ if sum(w["tiles"] for w in r["workers"]) != r["tiles"]:
 if not r["requeued"] and not r["backups"]:
     sys.exit("netns fault test: FAILED: the cut produced no requeue or backup: was the fault injected?")
 PY
-echo "netns fault test: master log (warnings):"
+echo "netns fault test: the master's log lines about the fault (warnings and the INFO lines of workers lost, tiles requeued):"
 grep -E "WARN|fault|dropping|left|requeue" "$T/master.log" | sed 's/^/  /' | head -12
 echo "netns fault test: passed: identical image, nothing lost or doubled"

@@ -2,6 +2,7 @@
 //! master gave one.
 
 use parrt::protocol::ProtocolError;
+use parrt::seconds::seconds;
 use std::time::Duration;
 use thiserror::Error;
 
@@ -10,7 +11,8 @@ use thiserror::Error;
 pub enum WorkerError {
     /// No connection could be made within the dial budget.
     #[error(
-        "cannot connect to master at {addr} after {attempts} attempts over {elapsed:?}: {last}"
+        "cannot connect to master at {addr} after {attempts} attempts over {}: {last}",
+        seconds(*elapsed)
     )]
     Dial {
         /// The address dialled.
@@ -37,7 +39,7 @@ pub enum WorkerError {
         during: &'static str,
     },
     /// The master fell silent for too long.
-    #[error("no message from master for {0:?}")]
+    #[error("no message from master for {}", seconds(*.0))]
     MasterSilent(Duration),
     /// The peer we dialled did not prove it knows the token: it is not our master (a wrong
     /// address, a squatted port) or its token differs. We sent it no MAC.
@@ -47,7 +49,7 @@ pub enum WorkerError {
     )]
     MasterUnproven(String),
     /// The master took nothing we wrote for too long (stopped, or not reading).
-    #[error("the master took nothing we sent for {0:?}; giving up")]
+    #[error("the master took nothing we sent for {}; giving up", seconds(*.0))]
     MasterNotReading(Duration),
     /// The master closed the connection during the handshake.
     #[error("master closed the connection during the handshake")]

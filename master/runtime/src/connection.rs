@@ -13,6 +13,7 @@ use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
     Connection, Encoded, Message, ProtocolError, Token, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
+use parrt::seconds::seconds;
 use rand::{RngCore, SeedableRng};
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -76,7 +77,7 @@ pub async fn serve<S: AsyncRead + AsyncWrite + Unpin + Send>(
         _ = stop.cancelled() => return,
         r = timeout(ctx.handshake_timeout, handshake(&mut conn, &ctx, id)) => match r {
             Ok(h) => h,
-            Err(_) => Handshake::Refused(format!("handshake not finished within {:?}", ctx.handshake_timeout)),
+            Err(_) => Handshake::Refused(format!("handshake not finished within {}", seconds(ctx.handshake_timeout))),
         },
     };
     drop(slot);
@@ -199,7 +200,7 @@ async fn write_within<S: AsyncRead + AsyncWrite + Unpin>(
     match timeout(limit, conn.write(msg)).await {
         Ok(Ok(())) => Ok(()),
         Ok(Err(e)) => Err(format!("write failed: {e}")),
-        Err(_) => Err(format!("the worker took nothing for {limit:?}")),
+        Err(_) => Err(format!("the worker took nothing for {}", seconds(limit))),
     }
 }
 
@@ -228,7 +229,12 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
     match timeout(ctx.job_write_timeout, conn.write_encoded(&ctx.job)).await {
         Ok(Ok(())) => {}
         Ok(Err(e)) => return format!("cannot send the job: {e}"),
-        Err(_) => return format!("the job not taken within {:?}", ctx.job_write_timeout),
+        Err(_) => {
+            return format!(
+                "the job not taken within {}",
+                seconds(ctx.job_write_timeout)
+            )
+        }
     }
     let limit = ctx.heartbeat_timeout;
     let mut beat = interval(ctx.heartbeat);
@@ -312,7 +318,7 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
                     Some((_, len)) => format!(
                         "a {len}-byte frame arriving slower than {} bytes/s", limits::MIN_FRAME_RATE
                     ),
-                    None => format!("no heartbeat for {limit:?}"),
+                    None => format!("no heartbeat for {}", seconds(limit)),
                 };
             }
         }

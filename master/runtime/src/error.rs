@@ -115,10 +115,26 @@ const SHOWN_REASON_CHARS: usize = 300;
 
 fn no_workers_message(waited: Duration, wanted: usize, ready: usize, failed: &[String]) -> String {
     if failed.is_empty() {
+        // "No worker" only when none came: with some there, say how many of how many.
+        let (arrived, start) = match ready {
+            0 => (
+                format!(
+                    "no worker arrived within {} (none of the {wanted} needed",
+                    seconds(waited)
+                ),
+                "workers",
+            ),
+            n => (
+                format!(
+                    "only {n} of the {wanted} workers needed arrived within {} (the others never",
+                    seconds(waited)
+                ),
+                "more",
+            ),
+        };
         return format!(
-            "no worker arrived within {} ({ready} of the {wanted} needed connected and built \
-             the job); start workers with `parrt worker --connect ADDR` and the same token",
-            seconds(waited)
+            "{arrived} connected and built the job); start {start} with \
+             `parrt worker --connect ADDR` and the same token"
         );
     }
     let mut reasons = failed
@@ -142,16 +158,8 @@ fn no_workers_message(waited: Duration, wanted: usize, ready: usize, failed: &[S
     )
 }
 
-/// A duration for people: seconds with at most one decimal (`120 s`, `2.5 s`, `0.3 s`).
-pub fn seconds(d: Duration) -> String {
-    let s = d.as_secs_f64();
-    let r = (s * 10.0).round() / 10.0;
-    if r == r.trunc() {
-        format!("{r:.0} s")
-    } else {
-        format!("{r:.1} s")
-    }
-}
+/// Durations in messages: the one helper every crate shares (`parrt::seconds`).
+pub use parrt::seconds::seconds;
 
 #[cfg(test)]
 mod tests {
@@ -183,6 +191,19 @@ mod tests {
         );
         assert!(m.ends_with("; and 2 more"), "{m}");
         assert_eq!(seconds(Duration::from_nanos(120_002_006_428)), "120 s");
+        // Issue 32: one of two there is not "no worker".
+        let some = DistError::NoWorkers {
+            waited: Duration::from_nanos(120_002_006_428),
+            wanted: 2,
+            ready: 1,
+            failed: vec![],
+        }
+        .to_string();
+        assert_eq!(
+            some,
+            "only 1 of the 2 workers needed arrived within 120 s (the others never connected \
+             and built the job); start more with `parrt worker --connect ADDR` and the same token"
+        );
         assert_eq!(seconds(Duration::from_millis(2_460)), "2.5 s");
         assert!(
             m.len() < 4 * 320 + 200,

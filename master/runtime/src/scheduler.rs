@@ -738,7 +738,11 @@ impl Scheduler {
             self.requeue_all(&mut tiles);
             self.fail(
                 id,
-                format!("{} tile(s) past the {deadline:?} deadline", tiles.len()),
+                format!(
+                    "{} tile(s) past the {} deadline",
+                    tiles.len(),
+                    parrt::seconds::seconds(deadline)
+                ),
             );
         }
     }

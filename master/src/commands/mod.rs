@@ -5,7 +5,9 @@
 
 pub mod bench;
 pub mod cluster;
+pub mod completions;
 pub mod info;
+pub mod man;
 pub mod master;
 pub mod plot_timeline;
 pub mod render;

@@ -39,6 +39,21 @@ fn listing() -> String {
     out
 }
 
+/// The success line's text: the file, its size and what it holds.
+fn summary(
+    path: &std::path::Path,
+    scene: &parrt::description::SceneDescription,
+    bytes: usize,
+) -> String {
+    let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    format!(
+        "{} ({}, {}, {bytes} bytes)",
+        path.display(),
+        plural(scene.primitives.len(), "primitive"),
+        plural(scene.lights.len(), "light")
+    )
+}
+
 /// Runs `parrt scene`.
 pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
     if args.list {
@@ -53,8 +68,11 @@ pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
     let scene = parrt_scenes::generate(name, args.size).map_err(input_error)?;
     let text = parrt::nff::to_nff(&scene);
     match &args.output {
-        Some(path) => std::fs::write(path, text.as_bytes())
-            .with_context(|| format!("cannot write {}", path.display()))?,
+        Some(path) => {
+            std::fs::write(path, text.as_bytes())
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            eprintln!("parrt: wrote {}", summary(path, &scene, text.len()));
+        }
         None => {
             let mut out = std::io::stdout().lock();
             out.write_all(text.as_bytes())

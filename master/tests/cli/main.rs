@@ -1,11 +1,13 @@
 //! The `parrt` command line end to end through the real binary, one test binary with a file per
-//! subject: `parrt info` (`info`), `parrt render` (`render`), the bench studies (`studies`), and
-//! careless flags and files refused before any work (`careless`).
+//! subject: `parrt info` (`info`), `parrt render` (`render`), the bench studies (`studies`), what a
+//! Rust CLI user expects (`conventions`), and careless flags and files refused before any work
+//! (`careless`).
 
 #[path = "../../../common/tests/support/mod.rs"]
 mod support;
 
 mod careless;
+mod conventions;
 mod info;
 mod render;
 mod studies;

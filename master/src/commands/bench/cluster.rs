@@ -8,7 +8,7 @@
 use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use crate::machine::machine;
-use crate::plot::{save_chart, Chart, Series};
+use crate::plot::{save_chart, Chart, Reference, Series};
 use crate::studies::cluster::emulate::{self, EmulatedRun};
 use crate::studies::cluster::link::LinkParams;
 use anyhow::Context;
@@ -739,6 +739,7 @@ fn plot(args: &ClusterArgs, title: &str, rows: &[Row]) -> anyhow::Result<()> {
         series,
         log_x: true,
         y_range: Some((0.0, 1.05)),
+        reference: Some(Reference::ideal_efficiency()),
     };
     save_chart(
         &chart,

@@ -7,7 +7,7 @@
 use crate::cli_args::{AccelArg, ExecutorArg, LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use crate::machine::machine;
-use crate::plot::{save_chart, Chart, Series};
+use crate::plot::{range_from_zero, save_chart, Chart, Reference, Series};
 use crate::timeline::plot::save_figure;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
@@ -153,6 +153,40 @@ fn timeline_case(threads: &[usize], tiles: &[u32]) -> (usize, u32) {
     (n, tile)
 }
 
+/// What the run will do, said before it starts: how many renders, and the files it writes.
+fn plan(args: &EfficiencyArgs, threads: &[usize]) -> String {
+    let (tiles, reps) = (args.tiles.len(), args.repeat);
+    let multi = threads.iter().filter(|&&n| n > 1).count();
+    let smp = if args.mode.contains(&Mode::Smp) {
+        args.executors.len() * (tiles * (1 + multi) * reps + 1)
+    } else {
+        0
+    };
+    let dist = if args.mode.contains(&Mode::Distributed) {
+        tiles * threads.len() * reps + 1
+    } else {
+        0
+    };
+    let cases = args.sizes.len() * args.accel.len();
+    let renders = cases * (smp + dist);
+    // Per case: the chart and a timeline per executor and mode (SVG and PNG each).
+    let timelines = if args.mode.contains(&Mode::Smp) {
+        args.executors.len()
+    } else {
+        0
+    } + usize::from(args.mode.contains(&Mode::Distributed));
+    let files = 2 + cases * 2 * (1 + timelines);
+    format!(
+        "bench efficiency: {renders} renders ({} sizes × {} accelerators, {} tile sizes, {reps} \
+         runs each); at 512² and up this takes minutes. Writes {files} files (tables, CSV, \
+         plots, timelines) to {}",
+        args.sizes.len(),
+        args.accel.len(),
+        tiles,
+        args.out.display()
+    )
+}
+
 /// Runs `parrt bench efficiency`.
 pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -174,6 +208,7 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
     let spec = SceneSpec::parse(&args.scene)?;
     crate::cli_args::output::prepare_out_dir(&args.out)?;
+    eprintln!("parrt: {}", plan(&args, &threads));
     let mut md = String::new();
     let mut csv = csv::Writer::from_writer(Vec::new());
     csv.write_record(parrt::efficiency::CSV_HEADER)?;
@@ -404,9 +439,10 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 ),
                 x_label: "tile edge (pixels)".into(),
                 y_label: "efficiency t1/(n·tn) (1 = ideal)".into(),
+                y_range: Some(range_from_zero(&chart_series, 1.0)),
                 series: chart_series,
                 log_x: true,
-                y_range: None,
+                reference: Some(Reference::ideal_efficiency()),
             };
             save_chart(
                 &chart,

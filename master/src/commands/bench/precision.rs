@@ -225,6 +225,7 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
             series,
             log_x: false,
             y_range: Some((-0.005, 0.1)),
+            reference: None,
         };
         save_chart(
             &chart,

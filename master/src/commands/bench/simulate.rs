@@ -3,7 +3,7 @@
 //! workers and each tile size, with what limits it (tail imbalance, the master, the network).
 
 use crate::exit::input_error;
-use crate::plot::{save_chart, Chart, Series};
+use crate::plot::{save_chart, Chart, Reference, Series};
 use clap::Args;
 use parrt::efficiency::{aggregate_costs, read_tile_costs};
 use parrt::simulate::{simulate, SimParams};
@@ -251,6 +251,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         series,
         log_x: true,
         y_range: Some((0.0, 1.05)),
+        reference: Some(Reference::ideal_efficiency()),
     };
     save_chart(
         &chart,

@@ -170,7 +170,10 @@ pub fn run(
     let r = result
         .map_err(|e| {
             if timed_out.load(Ordering::Relaxed) {
-                anyhow::anyhow!("the run did not finish within {:?}", run.timeout)
+                anyhow::anyhow!(
+                    "the run did not finish within {}",
+                    parrt::seconds::seconds(run.timeout)
+                )
             } else {
                 anyhow::Error::new(e)
             }
