@@ -286,6 +286,7 @@ fn busy() -> Response {
 /// connection buffers a chunk, never the snapshot, and the lease (the snapshot and its place)
 /// is let go once the last chunk is taken.
 fn leased_body(lease: Lease, bytes: Bytes, content_type: &'static str) -> Response {
+    let len = bytes.len();
     let chunks = futures::stream::unfold(Some((lease, 0usize)), move |held| {
         let bytes = bytes.clone();
         async move {
@@ -298,8 +299,9 @@ fn leased_body(lease: Lease, bytes: Bytes, content_type: &'static str) -> Respon
     });
     (
         [
-            (header::CONTENT_TYPE, content_type),
-            (header::CACHE_CONTROL, "no-store"),
+            (header::CONTENT_TYPE, content_type.to_string()),
+            (header::CACHE_CONTROL, "no-store".to_string()),
+            (header::CONTENT_LENGTH, len.to_string()),
         ],
         Body::from_stream(chunks),
     )
