@@ -5,7 +5,8 @@
 #
 # Usage: bench/live_view_frame_loops.sh REPS BIN [BIN...] [-- RENDER ARGS...]
 #   default render: --scene balls:3 --width 2048 --height 2048 --threads 1
-#   LOOPS: curl loops (default 2).
+#   LOOPS: curl loops (default 2). CURL_SCHED=idle runs them under SCHED_IDLE (`chrt -i 0`), so
+#   that they take only CPU the render leaves, as clients on another machine would.
 # Prints one line per render (bin, kind, trace seconds) and then the medians, fastest and
 # slowest per bin and kind. Run it under `chrt -r 1` on a quiet machine, as docs/live-view.md
 # did.
@@ -33,9 +34,14 @@ one() { # one BIN KIND -> prints trace seconds
     done
     if [ "$kind" = loops ]; then
         for _ in $(seq 1 "$loops"); do
-            (while kill -0 "$pid" 2>/dev/null; do
-                curl -s -o /dev/null "${url}frame" || true
-            done) &
+            if [ "${CURL_SCHED:-same}" = idle ]; then
+                chrt -i 0 bash -c 'while kill -0 "$1" 2>/dev/null; do
+                    curl -s -o /dev/null "$2" || true; done' _ "$pid" "${url}frame" &
+            else
+                (while kill -0 "$pid" 2>/dev/null; do
+                    curl -s -o /dev/null "${url}frame" || true
+                done) &
+            fi
             pids+=($!)
         done
     fi
