@@ -236,7 +236,7 @@ class Capture:
 
 
 def fetch(address, path):
-    """GET address + path (address: the page's URL, ending in / or carrying ?token=...)."""
+    """GET address + path (address: the page's URL, ending in / or carrying ?key=...)."""
     base, _, query = address.partition("?")
     with urllib.request.urlopen(base.rstrip("/") + "/" + path + ("?" + query if query else ""),
                                 timeout=30) as r:

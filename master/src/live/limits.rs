@@ -2,8 +2,31 @@
 
 use std::time::Duration;
 
-/// Pages (event streams) open at once; more get 503 until one closes.
+/// Event streams open at once. A stream past it closes the one that took an event least
+/// recently (a stuck one first), so pages are never refused for streams others hold.
 pub const MAX_STREAMS: usize = 32;
+
+/// Connections open at once. A connection past it closes the oldest one still waiting for its
+/// request's head; when every one has been served a request, the newcomer is closed instead.
+/// Far under the usual 1 024 descriptors a process may hold, so no flood of connections can
+/// take the descriptors the render's workers need.
+pub const MAX_CONNECTIONS: usize = 128;
+
+/// How long a connection may take to send a request's head (from its opening, or from the end
+/// of its last response); then it is closed.
+pub const HEAD_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// `GET /frame` and `GET /image.png` responses being sent at once; more get 503. Each holds at
+/// most one snapshot of the frame until its client has read it.
+pub const MAX_IMAGE_RESPONSES: usize = 4;
+
+/// The frame snapshot that `/frame` and `/image.png` serve is taken again at most this often,
+/// however many ask.
+pub const SNAPSHOT_EVERY: Duration = Duration::from_millis(100);
+
+/// A snapshot of the frame is copied in bands of about this many bytes, the frame's lock
+/// taken and released for each, so a tile landing waits for one band's copy at most.
+pub const SNAPSHOT_BAND: usize = 64 * 1024;
 
 /// Events (each a batch of tiles or a status) buffered for the pages, about 2 s of them; a page
 /// that falls this far behind is told to reload the whole image instead.
@@ -36,3 +59,11 @@ pub const KEPT_FAULTS: usize = 100;
 
 /// The longest `--http-linger`.
 pub const MAX_LINGER: Duration = Duration::from_secs(24 * 3600);
+
+/// What one connection buffers of a response before its client reads (hyper's write buffer;
+/// also the longest request head, more gets 431).
+pub const RESPONSE_BUFFER: usize = 64 * 1024;
+
+/// `/frame` and `/image.png` are sent in copied chunks of this many bytes, so a connection
+/// never buffers more than a chunk or two of a snapshot.
+pub const SEND_CHUNK: usize = 16 * 1024;

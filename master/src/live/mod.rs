@@ -11,17 +11,25 @@
 //! - [`batcher`]: the server's task that encodes the tiles landed, once per 100 ms for every
 //!   page, and the status, into events shared by all pages (lossy: a page that falls behind
 //!   reloads).
-//! - [`auth`]: who may see it: anyone on loopback, only holders of the token elsewhere.
+//! - [`auth`]: who may see it: anyone on loopback (through a `Host` naming it), only holders of
+//!   the view key elsewhere (derived one way from the workers' token, never the token itself).
+//! - [`gate`]: which connections and event streams stay open when there are too many.
+//! - [`snapshot`]: the one copy of the frame `/frame` and `/image.png` serve.
+//! - [`announce`]: where the page's address is told (the key only to a terminal or a 0600
+//!   file, never to a log).
 //! - [`limits`]: the server's limits.
 //! - [`encode`]: the bytes of the events (a batch of tiles as one PNG, in base64, at full
 //!   resolution or averaged over blocks when tiles land faster than `--http-full-rate`).
 //! - `page.html`: the page (HTML and plain JavaScript, served as it is).
 
+pub mod announce;
 pub mod auth;
 pub mod batcher;
 pub mod encode;
+pub mod gate;
 pub mod limits;
 pub mod server;
+pub mod snapshot;
 pub mod state;
 
 pub use server::LiveView;
@@ -49,29 +57,33 @@ pub struct Live {
     state: std::sync::Arc<LiveState>,
     view: LiveView,
     linger: std::time::Duration,
+    /// Where the address with the key was written (removed at the end).
+    announced: announce::Announced,
 }
 
 impl Live {
-    /// Starts a live view at `opts.addr` and prints its address. `token` is what a
-    /// non-loopback address requires; without one (`parrt render`) a random one is made and
-    /// printed in the address. Fails only when the address cannot be served.
+    /// Starts a live view at `opts.addr` and tells its address (see [`announce`]). On a
+    /// non-loopback address a page needs the view key, derived from `token` (the workers'
+    /// secret, which itself does not open the view); without one (`parrt render`) a random
+    /// token is made for it. Fails only when the address cannot be served.
     pub fn start(opts: &LiveOptions, token: Option<&[u8]>) -> anyhow::Result<Live> {
-        let made;
-        let token = match token {
-            Some(t) => Some(t),
-            None if auth::needs_token(&opts.addr) => {
-                made = parrt_runtime::generate_token();
-                Some(made.as_bytes())
-            }
-            None => None,
-        };
+        let key = auth::needs_token(&opts.addr).then(|| match token {
+            Some(t) => auth::view_key(t),
+            None => auth::view_key(parrt_runtime::generate_token().as_bytes()),
+        });
         let state = std::sync::Arc::new(LiveState::empty());
-        let view = LiveView::start(&opts.addr.to_string(), state.clone(), token, opts.full_rate)?;
-        eprintln!("parrt: live view at {}", view.url());
+        let view = LiveView::start(
+            &opts.addr.to_string(),
+            state.clone(),
+            key.as_deref().map(str::as_bytes),
+            opts.full_rate,
+        )?;
+        let announced = announce::announce(&view, &mut std::io::stderr())?;
         Ok(Live {
             state,
             view,
             linger: opts.linger,
+            announced,
         })
     }
 
@@ -117,5 +129,6 @@ impl Live {
             }
         }
         self.view.stop();
+        self.announced.remove();
     }
 }

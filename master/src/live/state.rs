@@ -3,11 +3,12 @@
 //! job's description ([`LiveState::set_job`]) before it starts. Every update is a short critical
 //! section: a copy into the 8-bit frame that notes which tile landed (while a page is open),
 //! a few counters; the renderer never encodes, allocates or waits for a page. The server reads
-//! snapshots: [`LiveState::status`] (the `/status` JSON), [`LiveState::frame`] (the image so
-//! far) and [`LiveState::take_landed`] (the tiles landed since, which the batcher encodes once
-//! and sends to every page on [`LiveState::subscribe`]'s channel).
+//! snapshots: [`LiveState::status`] (the `/status` JSON), [`LiveState::copy_frame`] (the image
+//! so far, copied in bands of rows with the frame's lock released between them, so a tile
+//! waits for one band at most) and [`LiveState::take_landed`] (the tiles landed since, which
+//! the batcher encodes once and sends to every page on [`LiveState::subscribe`]'s channel).
 
-use super::limits::{EVENT_BACKLOG, KEPT_FAULTS};
+use super::limits::{EVENT_BACKLOG, KEPT_FAULTS, SNAPSHOT_BAND};
 use parrt::film::{to_u8_into, Rgb};
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
@@ -172,6 +173,11 @@ pub struct LiveState {
     events: broadcast::Sender<bytes::Bytes>,
     /// Told when a page subscribes (the batcher sleeps while none is open).
     opened: tokio::sync::Notify,
+    /// Tiles landed in the frame so far (any snapshot that counted fewer is older).
+    landed_total: AtomicU64,
+    /// Times a page was told to load the whole image (it subscribed, or fell behind): a
+    /// snapshot of the frame older than the last is too old to serve.
+    reloads: AtomicU64,
 }
 
 /// What the page is told about the job.
@@ -244,6 +250,8 @@ impl LiveState {
             version: AtomicU64::new(0),
             events: broadcast::channel(EVENT_BACKLOG).0,
             opened: tokio::sync::Notify::new(),
+            landed_total: AtomicU64::new(0),
+            reloads: AtomicU64::new(0),
         }
     }
 
@@ -321,13 +329,66 @@ impl LiveState {
         s
     }
 
-    /// The image so far (8-bit RGB).
+    /// The image so far (8-bit RGB), a fresh copy (see [`Self::copy_frame`]).
     pub fn frame(&self) -> Vec<u8> {
-        self.frame
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .rgb
-            .clone()
+        let mut out = Vec::new();
+        self.copy_frame(&mut out);
+        out
+    }
+
+    /// Copies the image so far (8-bit RGB) into `out` in bands of whole rows of about
+    /// [`SNAPSHOT_BAND`] bytes, taking the frame's lock for each band only, so a tile landing
+    /// meanwhile waits for one band's copy at most (and may be in the copy in part: it landed
+    /// after the copy began, so a page that loads it still receives the tile in an event).
+    pub fn copy_frame(&self, out: &mut Vec<u8>) {
+        self.copy_frame_with(out, || {});
+    }
+
+    /// [`Self::copy_frame`], calling `between` between bands with the lock released.
+    pub(crate) fn copy_frame_with(&self, out: &mut Vec<u8>, mut between: impl FnMut()) {
+        let (len, row) = {
+            let f = self.frame.lock().unwrap_or_else(|e| e.into_inner());
+            (f.rgb.len(), f.width * 3)
+        };
+        out.clear();
+        out.resize(len, 0);
+        let band = (SNAPSHOT_BAND / row.max(1)).max(1) * row.max(1);
+        let mut at = 0;
+        while at < len {
+            if at > 0 {
+                between();
+            }
+            let end = (at + band).min(len);
+            let f = self.frame.lock().unwrap_or_else(|e| e.into_inner());
+            // The frame is only replaced before the render (`set_job`); a size that changed
+            // under a copy leaves the rest black.
+            if let (Some(dst), Some(src)) = (out.get_mut(at..end), f.rgb.get(at..end)) {
+                dst.copy_from_slice(src);
+            }
+            at = end;
+        }
+    }
+
+    /// Tiles landed in the frame so far.
+    pub fn landed_total(&self) -> u64 {
+        self.landed_total.load(Ordering::Acquire)
+    }
+
+    /// Times a page was told to load the whole image so far.
+    pub fn reloads(&self) -> u64 {
+        self.reloads.load(Ordering::Acquire)
+    }
+
+    /// A page is about to be told to load the whole image: snapshots taken before are too old
+    /// for it.
+    pub fn reloading(&self) {
+        self.reloads.fetch_add(1, Ordering::AcqRel);
+    }
+
+    /// Whether the render ended (the frame will not change again).
+    pub fn ended(&self) -> bool {
+        let i = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+        matches!(i.status.state, Phase::Done | Phase::Failed)
     }
 
     /// The events sent to every open page (`tiles` batches, statuses), as the bytes of the
@@ -335,6 +396,7 @@ impl LiveState {
     /// one is open the renderer notes which tiles land.
     pub fn subscribe(&self) -> broadcast::Receiver<bytes::Bytes> {
         let rx = self.events.subscribe();
+        self.reloading();
         self.opened.notify_one();
         rx
     }
@@ -398,6 +460,7 @@ impl LiveState {
                     to_u8_into(dst, src.as_flattened());
                 }
             }
+            self.landed_total.fetch_add(1, Ordering::AcqRel);
             // Which tile landed, for the server to encode (only while a page is open).
             if pixels.len() == tile.pixel_count() && self.watched() {
                 if f.landed.len() < f.landed.capacity() {
@@ -596,6 +659,38 @@ pub(crate) mod tests {
         assert!(!landed.overflow);
         assert!(s.take_landed(&mut rgb).tiles.is_empty(), "taken once");
         assert!(rgb.is_empty());
+    }
+
+    #[test]
+    fn a_frame_copy_takes_the_lock_a_band_at_a_time() {
+        // 1 024 pixels a row (3 KiB): 21 rows a 64 KiB band, 4 bands for 64 rows.
+        let s = LiveState::new(JobInfo {
+            scene: "test".into(),
+            mode: "smp",
+            width: 1024,
+            height: 64,
+            tile_size: 32,
+        });
+        let _rx = s.subscribe();
+        let tiles = parrt::tile::tiles(1024, 64, 32);
+        let mut between = 0;
+        let mut out = vec![7; 5];
+        s.copy_frame_with(&mut out, || {
+            assert!(
+                s.frame.try_lock().is_ok(),
+                "the frame's lock is free between bands"
+            );
+            // A tile lands meanwhile, as the renderer would: it does not wait for the copy.
+            land(&s, 0, &tiles[between], &[[1.0; 3]; 32 * 32], 1);
+            between += 1;
+        });
+        assert_eq!(between, 3);
+        assert_eq!(out.len(), 1024 * 64 * 3);
+        assert_eq!(&out[..3], &[0, 0, 0], "the first band was copied before");
+        assert_eq!(s.landed_total(), 3);
+        // Every tile that landed during the copy is noted for the pages.
+        assert_eq!(s.take_landed(&mut Vec::new()).tiles, tiles[..3].to_vec());
+        assert_eq!(s.frame()[..3], [255, 255, 255]);
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! The live view (`--http`) as a client sees it: `/status` carries the documented keys and
 //! agrees with the render, `/frame` is the written image, the page and the event stream are
 //! served, the tiles the stream carries are the written image's pixels; on a non-loopback
-//! address a missing or wrong token gets 401 and nothing else.
+//! address a missing or wrong view key gets 401 and nothing else. Its helpers serve
+//! `live_guard`'s tests too.
 
 use crate::EXE;
 use parrt_worker::options::TILE_DELAY_ENV;
@@ -11,20 +12,22 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// A `parrt render` with a live view; killed on drop.
-struct Render {
-    child: Child,
-    /// The URL it printed.
-    url: String,
+pub(crate) struct Render {
+    pub(crate) child: Child,
+    /// The page's address (with its key, read from the file it printed, when it has one).
+    pub(crate) url: String,
     /// `host:port` to dial.
-    dial: String,
+    pub(crate) dial: String,
+    /// The lines it printed on stderr up to the live view's address.
+    pub(crate) printed: Vec<String>,
     /// The lines it prints on stderr, as they come.
-    lines: std::sync::mpsc::Receiver<String>,
+    pub(crate) lines: std::sync::mpsc::Receiver<String>,
 }
 
 impl Render {
     /// Waits (at most 60 s) for the line saying the image was written: the live view says
     /// `done` when the render ends, a moment before the file is there.
-    fn written(&self) {
+    pub(crate) fn written(&self) {
         let deadline = Instant::now() + Duration::from_secs(60);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
@@ -54,7 +57,7 @@ fn start(dir: &std::path::Path, extra: &[&str]) -> Render {
 }
 
 /// Starts `parrt render` with `job` and `extra`; `tile_delay_ms` slows its workers' tiles.
-fn start_render(
+pub(crate) fn start_render(
     dir: &std::path::Path,
     job: &[&str],
     extra: &[&str],
@@ -65,8 +68,14 @@ fn start_render(
         .args(job)
         .args(["--threads", "2", "--http-linger", "60", "-o"])
         .arg(dir.join("out.png"))
-        .args(extra)
-        .env_remove(TILE_DELAY_ENV)
+        .args(extra);
+    start_command(cmd, tile_delay_ms)
+}
+
+/// Starts `cmd` (a `parrt` with `--http`), reading its stderr until it tells the live view's
+/// address; `tile_delay_ms` slows its workers' tiles.
+pub(crate) fn start_command(mut cmd: Command, tile_delay_ms: Option<u64>) -> Render {
+    cmd.env_remove(TILE_DELAY_ENV)
         .stdout(Stdio::null())
         .stderr(Stdio::piped());
     if let Some(ms) = tile_delay_ms {
@@ -80,6 +89,7 @@ fn start_render(
         child,
         url: String::new(),
         dial: String::new(),
+        printed: Vec::new(),
         lines: rx,
     };
     std::thread::spawn(move || {
@@ -94,7 +104,17 @@ fn start_render(
             .lines
             .recv_timeout(left)
             .expect("the live view's address is printed");
-        if let Some(url) = line.strip_prefix("parrt: live view at ") {
+        r.printed.push(line.clone());
+        if let Some(said) = line.strip_prefix("parrt: live view at ") {
+            let mut url = said.split(' ').next().expect("an address").to_string();
+            // Off a terminal the key is not printed: the address with it is in a file.
+            if let Some((_, file)) = said.split_once(" the address with it is in ") {
+                let file = file.split(", readable").next().expect("a path");
+                url = std::fs::read_to_string(file)
+                    .expect("the address's file")
+                    .trim()
+                    .to_string();
+            }
             let port = url
                 .trim_start_matches("http://")
                 .split(['/', '?'])
@@ -102,15 +122,33 @@ fn start_render(
                 .and_then(|hp| hp.rsplit(':').next())
                 .expect("a port")
                 .to_string();
-            r.url = url.to_string();
+            r.url = url;
             r.dial = format!("127.0.0.1:{port}");
             return r;
         }
     }
 }
 
+/// The view key in a page's address.
+pub(crate) fn key_of(url: &str) -> String {
+    url.split("key=")
+        .nth(1)
+        .expect("the address carries a key")
+        .to_string()
+}
+
 /// One GET: the status code, the headers and the body.
-fn get(dial: &str, path: &str, auth: Option<&str>) -> (u16, String, Vec<u8>) {
+pub(crate) fn get(dial: &str, path: &str, auth: Option<&str>) -> (u16, String, Vec<u8>) {
+    get_as(dial, dial, path, auth)
+}
+
+/// One GET with `Host: host`: the status code, the headers and the body.
+pub(crate) fn get_as(
+    dial: &str,
+    host: &str,
+    path: &str,
+    auth: Option<&str>,
+) -> (u16, String, Vec<u8>) {
     let mut s = TcpStream::connect(dial).expect("connects");
     s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
     let auth = auth
@@ -118,7 +156,7 @@ fn get(dial: &str, path: &str, auth: Option<&str>) -> (u16, String, Vec<u8>) {
         .unwrap_or_default();
     write!(
         s,
-        "GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n{auth}\r\n"
+        "GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n{auth}\r\n"
     )
     .unwrap();
     let mut raw = Vec::new();
@@ -137,7 +175,7 @@ fn get(dial: &str, path: &str, auth: Option<&str>) -> (u16, String, Vec<u8>) {
 }
 
 /// The first bytes of the event stream.
-fn events_start(dial: &str, q: &str) -> String {
+pub(crate) fn events_start(dial: &str, q: &str) -> String {
     events_until_done(dial, q, Duration::from_secs(5))
 }
 
@@ -145,7 +183,7 @@ fn events_start(dial: &str, q: &str) -> String {
 fn events_until_done(dial: &str, q: &str, wait: Duration) -> String {
     let mut s = TcpStream::connect(dial).expect("connects");
     s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    write!(s, "GET /events{q} HTTP/1.1\r\nHost: localhost\r\n\r\n").unwrap();
+    write!(s, "GET /events{q} HTTP/1.1\r\nHost: {dial}\r\n\r\n").unwrap();
     let mut got = Vec::new();
     let mut buf = [0u8; 65536];
     let deadline = Instant::now() + wait;
@@ -158,7 +196,7 @@ fn events_until_done(dial: &str, q: &str, wait: Duration) -> String {
     String::from_utf8_lossy(&got).to_string()
 }
 
-fn status_when_done(dial: &str, auth: Option<&str>) -> serde_json::Value {
+pub(crate) fn status_when_done(dial: &str, auth: Option<&str>) -> serde_json::Value {
     let deadline = Instant::now() + Duration::from_secs(30);
     loop {
         let (code, _, body) = get(dial, "/status", auth);
@@ -175,11 +213,7 @@ fn status_when_done(dial: &str, auth: Option<&str>) -> serde_json::Value {
 fn status_frame_page_and_events_on_loopback() {
     let dir = tempfile::tempdir().unwrap();
     let r = start(dir.path(), &["--http", "127.0.0.1:0"]);
-    assert!(
-        !r.url.contains("token"),
-        "loopback needs no token: {}",
-        r.url
-    );
+    assert!(!r.url.contains("key"), "loopback needs no key: {}", r.url);
     let v = status_when_done(&r.dial, None);
     for key in [
         "scene",
@@ -255,18 +289,13 @@ fn status_frame_page_and_events_on_loopback() {
 }
 
 #[test]
-fn off_loopback_a_missing_or_wrong_token_gets_401_and_nothing_else() {
+fn off_loopback_a_missing_or_wrong_key_gets_401_and_nothing_else() {
     let dir = tempfile::tempdir().unwrap();
     let r = start(dir.path(), &["--http", "0.0.0.0:0"]);
-    let token = r
-        .url
-        .split("token=")
-        .nth(1)
-        .expect("the printed URL carries a generated token")
-        .to_string();
-    assert!(token.len() >= 32);
+    let key = key_of(&r.url);
+    assert!(key.len() >= 32);
     for path in ["/status", "/", "/frame", "/image.png", "/events"] {
-        for auth in [None, Some("Bearer wrong"), Some(&*format!("Basic {token}"))] {
+        for auth in [None, Some("Bearer wrong"), Some(&*format!("Basic {key}"))] {
             let (code, _, body) = get(&r.dial, path, auth);
             assert_eq!(code, 401, "{path} {auth:?}");
             let body = String::from_utf8_lossy(&body);
@@ -275,15 +304,15 @@ fn off_loopback_a_missing_or_wrong_token_gets_401_and_nothing_else() {
                 "{body}"
             );
         }
-        let (code, _, _) = get(&r.dial, &format!("{path}?token=wrong{token}"), None);
+        let (code, _, _) = get(&r.dial, &format!("{path}?key=wrong{key}"), None);
         assert_eq!(code, 401, "{path} with a wrong parameter");
     }
-    let v = status_when_done(&r.dial, Some(&format!("Bearer {token}")));
+    let v = status_when_done(&r.dial, Some(&format!("Bearer {key}")));
     assert_eq!(v["tiles_done"], 16);
-    let (code, _, body) = get(&r.dial, &format!("/status?token={token}"), None);
+    let (code, _, body) = get(&r.dial, &format!("/status?key={key}"), None);
     assert_eq!(code, 200);
     assert!(String::from_utf8_lossy(&body).contains("tiles_total"));
-    let ev = events_start(&r.dial, &format!("?token={token}"));
+    let ev = events_start(&r.dial, &format!("?key={key}"));
     assert!(ev.contains("event: reload"), "{ev}");
 }
 
