@@ -1,12 +1,14 @@
 //! The `parrt` command line end to end through the real binary, one test binary with a file per
-//! subject: `parrt info` (`info`), `parrt render` (`render`), the bench studies (`studies`), and
-//! careless flags and files refused before any work (`careless`).
+//! subject: `parrt info` (`info`), `parrt render` (`render`), the instruction-set tier (`isa`),
+//! the bench studies (`studies`), and careless flags and files refused before any work
+//! (`careless`).
 
 #[path = "../../../common/tests/support/mod.rs"]
 mod support;
 
 mod careless;
 mod info;
+mod isa;
 mod render;
 mod studies;
 
