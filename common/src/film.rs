@@ -184,14 +184,14 @@ pub fn to_u8(v: f32) -> u8 {
 }
 
 /// [`to_u8`] of each value of `src` into `dst` (as many as the shorter holds): the same bytes,
-/// eight at a time in vector registers where the CPU has AVX2 (8-bit films, tiles sent as 8-bit,
-/// the live view's frame).
+/// eight at a time in AVX2 registers on the `avx2` and `avx512` tiers ([`crate::isa`]) (8-bit
+/// films, tiles sent as 8-bit, the live view's frame).
 pub fn to_u8_into(dst: &mut [u8], src: &[f32]) {
     let n = dst.len().min(src.len());
     let (dst, src) = (&mut dst[..n], &src[..n]);
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
+    if crate::isa::current().avx() {
+        // SAFETY: the AVX tiers are only chosen on a CPU that has AVX2.
         return unsafe { to_u8_avx2(dst, src) };
     }
     for (d, &v) in dst.iter_mut().zip(src) {

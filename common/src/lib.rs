@@ -13,6 +13,7 @@
 //! - [`frame`], [`precision`]: the camera-relative origin scenes are built in, and the choice of
 //!   `f32` or `f64` a scene needs.
 //! - [`protocol`]: the master/worker wire protocol (messages, codec, auth, connection).
+//! - [`isa`]: the instruction-set tier every SIMD kernel follows, chosen once per process.
 //! - [`window`], [`simulate`]: how much work a worker holds at once, and a model of the
 //!   master/worker schedule.
 #![deny(missing_docs)]
@@ -30,6 +31,7 @@ pub mod film;
 pub mod frame;
 pub mod geometry;
 pub mod heap;
+pub mod isa;
 pub mod nff;
 pub mod packet_leaf;
 pub mod packet_trace;

@@ -1,7 +1,7 @@
 //! The primitive test of one packet's rays ([`crate::accel::RayPrimTest`]): [`SceneLeaf`], except
-//! that where the CPU has AVX and the scene is in `f32`, a leaf of triangles or of spheres
-//! that several of the packet's rays enter is tested one primitive at a time against all of them
-//! at once, a ray per lane ([`crate::geometry::leaf16`]). The packet's rays are put into lanes
+//! that where the process's tier runs AVX ([`crate::isa`]) and the scene is in `f32`, a leaf of
+//! triangles or of spheres that several of the packet's rays enter is tested one primitive at a
+//! time against all of them at once, a ray per lane ([`crate::geometry::leaf16`]). The packet's rays are put into lanes
 //! once, when the first such leaf needs them; every ray gets exactly the one-ray test's answer.
 
 use crate::bits::SetBits;

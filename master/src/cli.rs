@@ -58,6 +58,12 @@ pub fn main() -> ExitCode {
             return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
         }
     };
+    // The instruction-set tier, once for the process: an unknown or unsupported PARRT_ISA is
+    // bad input.
+    if let Err(e) = parrt::isa::init() {
+        eprintln!("parrt: {e}");
+        return ExitCode::from(2);
+    }
     // Library warnings (e.g. the NFF reader's) go to stderr; master and worker log more.
     if !matches!(
         cli.command,

@@ -18,6 +18,12 @@ fn main() -> ExitCode {
             return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
         }
     };
+    // The instruction-set tier, once for the process: an unknown or unsupported PARRT_ISA is
+    // bad input.
+    if let Err(e) = parrt::isa::init() {
+        eprintln!("parrt-worker: {e}");
+        return ExitCode::from(2);
+    }
     match parrt_worker::cli::run(cli.args) {
         Ok(code) => code,
         Err(e) => {

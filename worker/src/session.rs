@@ -200,6 +200,7 @@ async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
         name: opts.name.clone(),
         threads: opts.render_threads() as u32,
         nonce: ours,
+        isa: parrt::isa::current(),
     };
     write_within(conn, &hello, opts.handshake_timeout).await?;
     let theirs = match read_in_handshake(conn, opts).await? {

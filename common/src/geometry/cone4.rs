@@ -4,9 +4,10 @@
 //! operations in the same order (no FMA, no reassociation) and takes the same branch outcomes
 //! (a ray parallel to a generator, a negative discriminant, `q == 0`, the two roots in order,
 //! the `t` and height ranges) as lane masks, so each lane's answer is bit for bit the scalar
-//! one. [`intersect4`] and [`intersect_rays4`] pick the kernel at run time like
-//! [`super::sphere4`]: AVX when the CPU has it, SSE2 otherwise, the portable lane loops
-//! ([`intersect4_lanes`], [`intersect_rays4_lanes`]) elsewhere.
+//! one. [`intersect4`] and [`intersect_rays4`] pick the kernel of the process's tier
+//! ([`crate::isa`]) like [`super::sphere4`]: AVX on `avx2` and `avx512`, SSE2 on `sse2`, the
+//! portable lane loops ([`intersect4_lanes`], [`intersect_rays4_lanes`]) on `scalar` and
+//! elsewhere.
 
 use super::cone::Cone;
 use super::hits4::DistanceHits4;
@@ -30,7 +31,7 @@ pub fn intersect4_lanes<R: Real>(
     DistanceHits4::from_tests(cones.iter().take(used).map(|c| c.intersect(ray, t_max)))
 }
 
-/// The `f32` test of `used` (1..=4) cones, with the fastest kernel this CPU runs.
+/// The `f32` test of `used` (1..=4) cones, with the kernel of the process's tier.
 #[inline]
 pub fn intersect4(
     ray: &Ray<f32>,
@@ -40,13 +41,15 @@ pub fn intersect4(
 ) -> DistanceHits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above).
+        let tier = crate::isa::current();
+        if tier.avx() {
+            // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
             return unsafe { x86::intersect4_avx(ray, cones, used, t_max) };
         }
-        x86::intersect4_sse2(ray, cones, used, t_max)
+        if tier.sse2() {
+            return x86::intersect4_sse2(ray, cones, used, t_max);
+        }
     }
-    #[cfg(not(target_arch = "x86_64"))]
     intersect4_lanes(ray, cones, used, t_max)
 }
 
@@ -68,7 +71,7 @@ pub fn intersect_rays4_lanes<R: Real>(
 }
 
 /// One `f32` cone against `used` (1..=4) rays (a packet's rays entering a leaf), with the
-/// fastest kernel this CPU runs; lane `i` is [`Cone::intersect`] of `rays[i]` within `t_max[i]`.
+/// kernel of the process's tier; lane `i` is [`Cone::intersect`] of `rays[i]` within `t_max[i]`.
 #[inline]
 pub fn intersect_rays4(
     cone: &Cone<f32>,
@@ -78,13 +81,15 @@ pub fn intersect_rays4(
 ) -> DistanceHits4<f32> {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above).
+        let tier = crate::isa::current();
+        if tier.avx() {
+            // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
             return unsafe { x86::intersect_rays4_avx(cone, rays, used, t_max) };
         }
-        x86::intersect_rays4_sse2(cone, rays, used, t_max)
+        if tier.sse2() {
+            return x86::intersect_rays4_sse2(cone, rays, used, t_max);
+        }
     }
-    #[cfg(not(target_arch = "x86_64"))]
     intersect_rays4_lanes(cone, rays, used, t_max)
 }
 
@@ -362,7 +367,7 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             kernels.push(intersect4_sse2(ray, c, used, t_max));
-            if std::arch::is_x86_feature_detected!("avx") {
+            if crate::isa::Isa::Avx2.supported() {
                 // SAFETY: the CPU has AVX.
                 kernels.push(unsafe { intersect4_avx(ray, c, used, t_max) });
             }
@@ -385,7 +390,7 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             kernels.push(intersect_rays4_sse2(c, rays, used, t_max));
-            if std::arch::is_x86_feature_detected!("avx") {
+            if crate::isa::Isa::Avx2.supported() {
                 // SAFETY: the CPU has AVX.
                 kernels.push(unsafe { intersect_rays4_avx(c, rays, used, t_max) });
             }

@@ -7,7 +7,7 @@
 //! ray. The rays' axis permutations may differ: each lane picks its vertex components with
 //! masks. The rays go in two halves of eight AVX lanes: AVX-512 intrinsics need Rust 1.89,
 //! past the MSRV (a sixteen-lane AVX-512F build of these kernels measured 5-12 % faster).
-//! [`Rays16::new`] is `None` where the CPU has no AVX; the portable kernels
+//! [`Rays16::new`] is `None` unless the process's tier ([`crate::isa`]) runs AVX; the portable kernels
 //! ([`triangle16_lanes`], [`sphere16_lanes`]) define the answers and serve the tests.
 
 use super::ray::PreparedRay;
@@ -69,8 +69,8 @@ impl Hits16 {
 }
 
 impl Rays16 {
-    /// The lanes of `rays` (1..=16), or `None` when there are too many or this CPU has no
-    /// AVX.
+    /// The lanes of `rays` (1..=16), or `None` when there are too many or the process's tier
+    /// runs no AVX.
     #[inline]
     pub fn new(rays: &[PreparedRay<f32>]) -> Option<Self> {
         if rays.is_empty() || rays.len() > LANES || !available() {
@@ -120,15 +120,10 @@ impl Rays16 {
     }
 }
 
-/// Whether this CPU runs the AVX kernels.
+/// Whether the process's tier ([`crate::isa`]) runs the AVX kernels (`avx2`, `avx512`).
 #[inline(always)]
 pub fn available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    false
+    cfg!(target_arch = "x86_64") && crate::isa::current().avx()
 }
 
 /// The triangle `tri` against the rays of `active` (bits of lanes), ray `i` within `t_max[i]`.
@@ -142,7 +137,7 @@ pub fn triangle16(
 ) -> Hits16 {
     #[cfg(target_arch = "x86_64")]
     if available() {
-        // SAFETY: the CPU has AVX (checked just above).
+        // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
         return unsafe { x86::triangle16(rays, tri, active, t_max) };
     }
     triangle16_lanes(src, tri, active, t_max)
@@ -159,7 +154,7 @@ pub fn sphere16(
 ) -> Hits16 {
     #[cfg(target_arch = "x86_64")]
     if available() {
-        // SAFETY: the CPU has AVX (checked just above).
+        // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
         return unsafe { x86::sphere16(rays, s, active, t_max) };
     }
     sphere16_lanes(src, s, active, t_max)

@@ -1,6 +1,7 @@
-//! Which slab kernel a precision runs: the SSE kernels for `f32` rays on x86-64, the lane-by-lane
-//! ones otherwise (`f64`, other targets). Lives above [`crate::real`] so the scalar trait knows
-//! nothing of the SIMD code; the choice is by type and folds away at compile time.
+//! Which slab kernel a precision runs: the SSE kernels for `f32` rays on x86-64 on every tier but
+//! `scalar` ([`crate::isa`]), the lane-by-lane ones otherwise (`f64`, the `scalar` tier, other
+//! targets). Lives above [`crate::real`] so the scalar trait knows nothing of the SIMD code; the
+//! choice by type folds away at compile time, the tier is one predictable branch.
 
 use std::any::Any;
 
@@ -12,7 +13,10 @@ use crate::real::Real;
 /// test computes.
 #[inline(always)]
 pub fn slab4<R: Real>(b: &Box4, r: &SlabRay<R>, t_max: R) -> (u32, [R; 4]) {
-    if let Some(r32) = (r as &dyn Any).downcast_ref::<SlabRay<f32>>() {
+    if let Some(r32) = (r as &dyn Any)
+        .downcast_ref::<SlabRay<f32>>()
+        .filter(|_| crate::isa::current().sse2())
+    {
         // R is f32 here: both conversions are the identity.
         let (mask, t) = slab4_f32(b, r32, t_max.to_f32());
         return (mask, t.map(R::from_f32));
@@ -26,9 +30,10 @@ pub fn slab4<R: Real>(b: &Box4, r: &SlabRay<R>, t_max: R) -> (u32, [R; 4]) {
 pub fn enter16<R: Real>(l: &RayLanes<R>, lo: &[f32; 3], hi: &[f32; 3], reach: &[R; LANES]) -> u32 {
     let any_l = l as &dyn Any;
     let any_reach = reach as &dyn Any;
-    if let (Some(l32), Some(reach32)) = (
+    if let (Some(l32), Some(reach32), true) = (
         any_l.downcast_ref::<RayLanes<f32>>(),
         any_reach.downcast_ref::<[f32; LANES]>(),
+        crate::isa::current().sse2(),
     ) {
         return enter16_f32(l32, lo, hi, reach32);
     }

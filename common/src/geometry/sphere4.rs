@@ -1,8 +1,9 @@
 //! Four spheres against one ray at once: [`Sphere::intersect`] with one sphere per SIMD lane,
 //! for BVH leaves of spheres (shells, balls). Every lane does the scalar test's IEEE operations
 //! in the same order (no FMA, no reassociation), so each lane's answer is bit for bit the
-//! scalar one. [`intersect4`] picks the kernel at run time like [`super::triangle4`]: AVX when
-//! the CPU has it, SSE2 otherwise, the portable lane loop ([`intersect4_lanes`]) elsewhere.
+//! scalar one. [`intersect4`] picks the kernel of the process's tier ([`crate::isa`]) like
+//! [`super::triangle4`]: AVX on `avx2` and `avx512`, SSE2 on `sse2`, the portable lane loop
+//! ([`intersect4_lanes`]) on `scalar` and elsewhere.
 //! [`SphereLanes`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
 //! that enter the leaf share one gather ([`intersect4_gathered`]).
 
@@ -43,6 +44,21 @@ impl SphereLanes {
             r: spheres.map(|s| s.radius),
         }
     }
+
+    /// The sphere of lane `i`.
+    #[inline(always)]
+    fn sphere(&self, i: usize) -> Sphere<f32> {
+        Sphere {
+            center: crate::vec3::V3::new(self.c[0][i], self.c[1][i], self.c[2][i]),
+            radius: self.r[i],
+        }
+    }
+
+    /// The portable kernel on these lanes.
+    fn scalar_hits(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
+        let s = [0, 1, 2, 3].map(|i| self.sphere(i));
+        intersect4_lanes(ray, &[&s[0], &s[1], &s[2], &s[3]], used, t_max)
+    }
 }
 
 /// The portable kernel: the scalar test lane by lane, in any precision.
@@ -56,7 +72,7 @@ pub fn intersect4_lanes<R: Real>(
     DistanceHits4::from_tests(spheres.iter().take(used).map(|s| s.intersect(ray, t_max)))
 }
 
-/// The `f32` test of `used` (1..=4) spheres, with the fastest kernel this CPU runs.
+/// The `f32` test of `used` (1..=4) spheres, with the kernel of the process's tier.
 #[inline]
 pub fn intersect4(
     ray: &Ray<f32>,
@@ -85,13 +101,7 @@ pub fn intersect4_gathered(
         x86::dispatch(ray, spheres, used, t_max)
     }
     #[cfg(not(target_arch = "x86_64"))]
-    {
-        let s = [0, 1, 2, 3].map(|i| Sphere {
-            center: crate::vec3::V3::new(spheres.c[0][i], spheres.c[1][i], spheres.c[2][i]),
-            radius: spheres.r[i],
-        });
-        intersect4_lanes(ray, &[&s[0], &s[1], &s[2], &s[3]], used, t_max)
-    }
+    spheres.scalar_hits(ray, used, t_max)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -127,7 +137,7 @@ mod x86 {
         kernel(ray, src, used, t_max)
     }
 
-    /// The fastest of the two this CPU runs.
+    /// The kernel of the process's tier ([`crate::isa`]).
     #[inline(always)]
     pub fn dispatch<S: Source>(
         ray: &Ray<f32>,
@@ -135,11 +145,15 @@ mod x86 {
         used: usize,
         t_max: f32,
     ) -> DistanceHits4<f32> {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above).
+        let tier = crate::isa::current();
+        if tier.avx() {
+            // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
             return unsafe { avx(ray, src, used, t_max) };
         }
-        sse2(ray, src, used, t_max)
+        if tier.sse2() {
+            return sse2(ray, src, used, t_max);
+        }
+        src.portable(ray, used, t_max)
     }
 
     /// Where the kernel reads the spheres from: gathered from four spheres on the spot, or
@@ -147,6 +161,8 @@ mod x86 {
     pub trait Source {
         /// Centre `x`, `y`, `z` and radius of the four spheres.
         unsafe fn lanes(&self) -> [__m128; 4];
+        /// The portable kernel on the same spheres.
+        fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32>;
     }
 
     impl Source for Spheres4<'_, f32> {
@@ -160,6 +176,10 @@ mod x86 {
                 lane(&|i| self[i].radius),
             ]
         }
+
+        fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
+            super::intersect4_lanes(ray, self, used, t_max)
+        }
     }
 
     impl Source for SphereLanes {
@@ -171,6 +191,10 @@ mod x86 {
                 _mm_load_ps(self.c[2].as_ptr()),
                 _mm_load_ps(self.r.as_ptr()),
             ]
+        }
+
+        fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
+            self.scalar_hits(ray, used, t_max)
         }
     }
 
@@ -262,7 +286,7 @@ mod tests {
         {
             kernels.push(sse2(ray, s, used, t_max));
             kernels.push(sse2(ray, &lanes, used, t_max));
-            if std::arch::is_x86_feature_detected!("avx") {
+            if crate::isa::Isa::Avx2.supported() {
                 // SAFETY: the CPU has AVX.
                 kernels.push(unsafe { avx(ray, s, used, t_max) });
                 // SAFETY: as above.

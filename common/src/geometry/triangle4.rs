@@ -4,9 +4,9 @@
 //! edge functions that come out exactly zero redone in `f64` lane by lane), so each lane's
 //! answer — hit or not, `t`, `b1`, `b2` — is bit for bit the scalar [`intersect_triangle`]'s.
 //!
-//! [`intersect4`] picks the kernel at run time: AVX (the same instructions in their
-//! three-operand VEX form) when the CPU has it, SSE2 (the x86-64 baseline) otherwise, and the
-//! portable lane-by-lane loop ([`intersect4_lanes`]) on other targets and for `f64`.
+//! [`intersect4`] picks the kernel of the process's tier ([`crate::isa`]): AVX (the same
+//! instructions in their three-operand VEX form) on `avx2` and `avx512`, SSE2 on `sse2`, and the
+//! portable lane-by-lane loop ([`intersect4_lanes`]) on `scalar`, on other targets and for `f64`.
 //! [`TriLanes`] holds a leaf's triangles already gathered into lanes, so the rays of a packet
 //! that enter the leaf share one gather ([`intersect4_gathered`]).
 
@@ -92,7 +92,7 @@ pub fn intersect4_lanes<R: Real>(
     h
 }
 
-/// The `f32` test of `used` (1..=4) triangles, with the fastest kernel this CPU runs.
+/// The `f32` test of `used` (1..=4) triangles, with the kernel of the process's tier.
 #[inline]
 pub fn intersect4(
     pr: &PreparedRay<f32>,
@@ -162,7 +162,7 @@ mod x86 {
         permuted(pr, src, used, t_max)
     }
 
-    /// The fastest of the two this CPU runs.
+    /// The kernel of the process's tier ([`crate::isa`]).
     #[inline(always)]
     pub fn dispatch<S: Source>(
         pr: &PreparedRay<f32>,
@@ -170,11 +170,15 @@ mod x86 {
         used: usize,
         t_max: f32,
     ) -> Hits4<f32> {
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above).
+        let tier = crate::isa::current();
+        if tier.avx() {
+            // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
             return unsafe { avx(pr, src, used, t_max) };
         }
-        sse2(pr, src, used, t_max)
+        if tier.sse2() {
+            return sse2(pr, src, used, t_max);
+        }
+        src.lanes(pr, used, t_max)
     }
 
     /// Where the kernel reads the triangles' components from: gathered from four triangles
@@ -429,7 +433,7 @@ mod tests {
         {
             kernels.push(sse2(r, tris, used, t_max));
             kernels.push(sse2(r, &lanes, used, t_max));
-            if std::arch::is_x86_feature_detected!("avx") {
+            if crate::isa::Isa::Avx2.supported() {
                 // SAFETY: the CPU has AVX.
                 kernels.push(unsafe { avx(r, tris, used, t_max) });
                 // SAFETY: as above.

@@ -380,6 +380,7 @@ mod tests {
                 name: "host-1".into(),
                 threads: 4,
                 nonce: [5; 32],
+                isa: crate::isa::Isa::Avx512,
             },
             Message::Challenge {
                 nonce: [9; 32],
@@ -478,6 +479,7 @@ mod tests {
             name: String::new(),
             threads: 1,
             nonce: [0; 32],
+            isa: crate::isa::Isa::Scalar,
         })
         .unwrap();
         assert_eq!(&p[..2], &[0, 7]);
@@ -608,7 +610,7 @@ mod tests {
                     pixels: crate::protocol::TilePixels::encode(&pixels, crate::protocol::PixelFormat::F32),
                     stats: RayStats { eye_rays: job_id, ..RayStats::default() }, seconds,
                 },
-                Message::Hello { version: attempt, name, threads: tile_id, nonce: [7; 32] },
+                Message::Hello { version: attempt, name, threads: tile_id, nonce: [7; 32], isa: crate::isa::Isa::Sse2 },
             ];
             let mut codec = MessageCodec::new(1 << 20);
             let mut buf = BytesMut::new();

@@ -40,6 +40,8 @@ pub enum Message {
         threads: u32,
         /// The worker's random bytes, fresh per connection: the master's proof must cover them.
         nonce: [u8; NONCE_LEN],
+        /// The worker's instruction-set tier ([`crate::isa`]), for the master's report.
+        isa: crate::isa::Isa,
     },
     /// Master → worker: the master's proof that it knows the token, and its own nonce for the
     /// worker to prove the same.

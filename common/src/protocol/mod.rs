@@ -66,5 +66,5 @@ pub use pixels::{PixelError, PixelFormat, TilePixels};
 
 /// The protocol version spoken by this build; bumped on any incompatible change (2: mutual
 /// authentication, a nonce in Hello and the master's proof in Challenge; pixels as the output
-/// needs them; batches of tiles).
-pub const PROTOCOL_VERSION: u32 = 2;
+/// needs them; batches of tiles; 3: the worker's instruction-set tier in Hello).
+pub const PROTOCOL_VERSION: u32 = 3;

@@ -8,6 +8,7 @@
 
 use super::scheduler::{Event, WorkerId};
 use super::server::HandshakeSlot;
+use parrt::isa::Isa;
 use parrt::protocol::limits::{self, MAX_THREADS};
 use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
@@ -52,8 +53,8 @@ pub struct ConnContext {
 
 /// Why a handshake did not produce a worker.
 enum Handshake {
-    /// The peer is accepted: name and threads.
-    Accepted(String, u32),
+    /// The peer is accepted: name, threads and instruction-set tier.
+    Accepted(String, u32, Isa),
     /// Refused, with the reason (already sent to the peer when possible).
     Refused(String),
 }
@@ -81,8 +82,8 @@ pub async fn serve<S: AsyncRead + AsyncWrite + Unpin + Send>(
         },
     };
     drop(slot);
-    let (name, threads) = match hs {
-        Handshake::Accepted(n, t) => (n, t),
+    let (name, threads, isa) = match hs {
+        Handshake::Accepted(n, t, i) => (n, t, i),
         Handshake::Refused(reason) => {
             let _ = events.send(Event::Refused { peer, reason });
             return;
@@ -95,6 +96,7 @@ pub async fn serve<S: AsyncRead + AsyncWrite + Unpin + Send>(
         id,
         name: name.clone(),
         threads,
+        isa,
         outbox,
         counters: conn.counters(),
     });
@@ -122,12 +124,13 @@ async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
     ctx: &ConnContext,
     id: WorkerId,
 ) -> Handshake {
-    let (name, threads, worker_nonce) = match conn.read().await {
+    let (name, threads, isa, worker_nonce) = match conn.read().await {
         Ok(Some(Message::Hello {
             version,
             name,
             threads,
             nonce,
+            isa,
         })) => {
             let name = limits::shown(&name);
             if version != PROTOCOL_VERSION {
@@ -142,7 +145,7 @@ async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
                 );
                 return refuse(conn, reason).await;
             }
-            (name, threads, nonce)
+            (name, threads, isa, nonce)
         }
         Err(ProtocolError::OtherVersion(version)) => {
             let reason =
@@ -184,7 +187,7 @@ async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
     if let Err(e) = conn.write(&Message::Welcome).await {
         return Handshake::Refused(format!("cannot send Welcome: {e}"));
     }
-    Handshake::Accepted(name, threads)
+    Handshake::Accepted(name, threads, isa)
 }
 
 fn bad_bytes(e: ProtocolError) -> String {

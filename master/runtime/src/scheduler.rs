@@ -17,6 +17,7 @@ pub use crate::lifecycle::{Rules, Step, Verdict};
 use crate::mutation::{self, Mutation};
 use parrt::film::Film;
 use parrt::film::Rgb;
+use parrt::isa::Isa;
 use parrt::protocol::{Message, PixelFormat, TilePixels, WireCounters};
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
@@ -52,6 +53,8 @@ pub enum Event {
         name: String,
         /// Its render threads.
         threads: u32,
+        /// Its instruction-set tier, as its Hello said.
+        isa: Isa,
         /// Where to send it messages.
         outbox: UnboundedSender<Message>,
         /// Its connection's byte counters.
@@ -155,6 +158,7 @@ struct Assignment {
 struct Slot {
     name: String,
     threads: u32,
+    isa: Isa,
     outbox: UnboundedSender<Message>,
     counters: Arc<WireCounters>,
     ready_at: Option<Instant>,
@@ -187,6 +191,8 @@ pub struct WorkerReport {
     pub name: String,
     /// Its render threads.
     pub threads: u32,
+    /// Its instruction-set tier.
+    pub isa: Isa,
     /// Tiles it delivered first (those in the image).
     pub tiles: u64,
     /// Seconds it spent rendering those tiles (its own clock).
@@ -458,6 +464,7 @@ impl Scheduler {
                 id,
                 name,
                 threads,
+                isa,
                 outbox,
                 counters,
             } => {
@@ -468,6 +475,7 @@ impl Scheduler {
                     Slot {
                         name,
                         threads,
+                        isa,
                         outbox,
                         counters,
                         ready_at: None,
@@ -945,6 +953,7 @@ fn report(w: &Slot, left: Option<String>) -> WorkerReport {
     WorkerReport {
         name: w.name.clone(),
         threads: w.threads,
+        isa: w.isa,
         tiles: w.tiles,
         render_s: w.render_s,
         build_s: w.build_s,
@@ -1007,6 +1016,7 @@ mod tests {
                 id,
                 name: format!("w{id}"),
                 threads,
+                isa: parrt::isa::Isa::Scalar,
                 outbox: tx,
                 counters: Arc::default(),
             },
@@ -1034,6 +1044,7 @@ mod tests {
                 id: 4,
                 name: "w4".into(),
                 threads: 1,
+                isa: parrt::isa::Isa::Scalar,
                 outbox: tx,
                 counters: Arc::default(),
             },
@@ -1466,6 +1477,7 @@ mod tests {
                 id: 9,
                 name: "bad".into(),
                 threads: 1,
+                isa: parrt::isa::Isa::Scalar,
                 outbox: tx,
                 counters: Arc::default(),
             },

@@ -139,6 +139,7 @@ fn to_json(
         "precision": parrt::precision::name(choice.precision),
         "precision_reason": choice.reason,
         "precision_s": precision_s,
+        "isa": parrt::isa::current(),
     })
 }
 
@@ -222,6 +223,7 @@ fn human(
             precision_s * 1e3
         ),
     ));
+    rows.push(("isa", parrt::isa::current().to_string()));
     let width = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
     let mut out = String::new();
     for (label, value) in rows {

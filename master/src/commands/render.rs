@@ -288,9 +288,10 @@ fn render_through_workers(
     )];
     for w in &r.per_worker {
         describe.push(format!(
-            "  worker {:<10} {} threads, {} tiles, render {:.3}s, build {:.3}s{}",
+            "  worker {:<10} {} threads, {}, {} tiles, render {:.3}s, build {:.3}s{}",
             w.name,
             w.threads,
+            w.isa,
             w.tiles,
             w.render_s,
             w.build_s,

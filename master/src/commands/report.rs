@@ -31,6 +31,7 @@ impl RenderReport {
             "build_s": self.build_s,
             "trace_s": self.trace_s,
             "mrays_per_s": self.mrays_per_s(),
+            "isa": parrt::isa::current(),
         });
         if let Some(obj) = v.as_object_mut() {
             for more in [timing, extra] {
@@ -101,6 +102,7 @@ impl RenderReport {
         println!("build             {:>13.3}s", self.build_s);
         println!("preprocessing     {:>13.3}s", self.parse_s + self.build_s);
         println!("trace             {:>13.3}s", self.trace_s);
+        println!("isa               {:>14}", parrt::isa::current().name());
     }
 }
 
@@ -125,9 +127,10 @@ pub fn print_summary(r: &DistResult, out: &std::path::Path) {
     }
     for w in &r.per_worker {
         eprintln!(
-            "  {:<20} {:>2} threads {:>6} tiles {:>8.3} s render{}",
+            "  {:<20} {:>2} threads {:<6} {:>6} tiles {:>8.3} s render{}",
             w.name,
             w.threads,
+            w.isa.name(),
             w.tiles,
             w.render_s,
             w.left
@@ -175,6 +178,7 @@ pub fn report_json(r: &DistResult) -> serde_json::Value {
         "workers": r.per_worker.iter().map(|w| serde_json::json!({
             "name": w.name,
             "threads": w.threads,
+            "isa": w.isa,
             "tiles": w.tiles,
             "render_s": w.render_s,
             "build_s": w.build_s,

@@ -246,6 +246,7 @@ mod tests {
                 id,
                 name: "same-name".into(),
                 threads: 1,
+                isa: parrt::isa::Isa::Scalar,
                 outbox: tx,
                 counters: Arc::default(),
             },

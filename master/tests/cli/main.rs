@@ -1,6 +1,7 @@
 //! The `parrt` command line end to end through the real binary, one test binary with a file per
-//! subject: `parrt info` (`info`), `parrt render` (`render`), the bench studies (`studies`), what a
-//! Rust CLI user expects (`conventions`), and careless flags and files refused before any work
+//! subject: `parrt info` (`info`), `parrt render` (`render`), the instruction-set tier (`isa`),
+//! the bench studies (`studies`), what a Rust CLI user expects (`conventions`), and careless
+//! flags and files refused before any work
 //! (`careless`).
 
 #[path = "../../../common/tests/support/mod.rs"]
@@ -9,6 +10,7 @@ mod support;
 mod careless;
 mod conventions;
 mod info;
+mod isa;
 mod render;
 mod studies;
 

@@ -256,6 +256,7 @@ async fn impossible_results(addr: String, seed: u64) -> turmoil::Result {
         name: "liar".into(),
         threads: 1,
         nonce: ours,
+        isa: parrt::isa::Isa::Scalar,
     })
     .await?;
     let Some(Message::Challenge { nonce, .. }) = c.read().await? else {

@@ -242,6 +242,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         name: "guesser".into(),
         threads: 1,
         nonce: [6; 32],
+        isa: parrt::isa::Isa::Scalar,
     })
     .await
     .unwrap();
@@ -266,6 +267,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         name: "future".into(),
         threads: 1,
         nonce: [1; 32],
+        isa: parrt::isa::Isa::Scalar,
     }))
     .await
     .unwrap();
@@ -304,6 +306,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         name: "liar".into(),
         threads: 1,
         nonce: ours,
+        isa: parrt::isa::Isa::Scalar,
     })
     .await
     .unwrap();

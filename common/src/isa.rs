@@ -1,0 +1,287 @@
+//! The instruction-set tier of this process, chosen in this one place: `scalar` (one lane at a
+//! time, the portable definition of every answer), `sse2` (four-lane SSE2 kernels, the x86-64
+//! baseline), `avx2` (the AVX kernels of the leaf tests and the AVX2 film conversion) and
+//! `avx512` (a CPU with AVX-512 F, BW, DQ and VL; it runs the `avx2` kernels until a kernel of
+//! its own lands). Every tier gives the same bits: the kernels do the scalar test's IEEE
+//! operations lane by lane, with no FMA and no approximate reciprocal.
+//!
+//! The tier is the best this CPU runs, or the one `PARRT_ISA` names. The binaries call [`init`]
+//! first thing and refuse an unknown or unsupported name (exit 2); the kernels ask
+//! [`current`], one relaxed atomic load. This module never decides an exit code.
+
+use std::fmt;
+use std::str::FromStr;
+use std::sync::atomic::{AtomicU8, Ordering};
+
+/// The environment variable that forces a tier.
+pub const ENV: &str = "PARRT_ISA";
+
+/// An instruction-set tier, from the narrowest to the widest.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Isa {
+    /// One lane at a time: the portable kernels.
+    Scalar,
+    /// Four-lane SSE2 kernels.
+    Sse2,
+    /// The AVX kernels (and AVX2 where one is written for it).
+    Avx2,
+    /// AVX-512 F, BW, DQ and VL present; the `avx2` kernels otherwise.
+    Avx512,
+}
+
+/// Why a tier cannot be used.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum IsaError {
+    /// The name is no tier.
+    #[error("{ENV}={value:?} is not a tier: expected one of scalar, sse2, avx2, avx512")]
+    Unknown {
+        /// The name given (lossily decoded when it was not UTF-8).
+        value: String,
+    },
+    /// The CPU lacks the instructions the tier needs.
+    #[error(
+        "{ENV}={tier}: this CPU lacks {needs}; the tiers it runs are {}",
+        Isa::supported_names()
+    )]
+    Unsupported {
+        /// The tier asked for.
+        tier: Isa,
+        /// What the tier needs.
+        needs: &'static str,
+    },
+}
+
+impl Isa {
+    /// Every tier, narrowest first.
+    pub const ALL: [Isa; 4] = [Isa::Scalar, Isa::Sse2, Isa::Avx2, Isa::Avx512];
+
+    /// The tier's name as `PARRT_ISA` takes it and the reports print it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Scalar => "scalar",
+            Isa::Sse2 => "sse2",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+
+    /// What the tier needs of the CPU, in words.
+    pub fn needs(self) -> &'static str {
+        match self {
+            Isa::Scalar => "nothing",
+            Isa::Sse2 => "an x86-64 CPU (SSE2)",
+            Isa::Avx2 => "AVX and AVX2",
+            Isa::Avx512 => "AVX2 and AVX-512 F, BW, DQ and VL",
+        }
+    }
+
+    /// Whether this CPU runs the tier.
+    pub fn supported(self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            match self {
+                Isa::Scalar | Isa::Sse2 => true,
+                Isa::Avx2 => has!("avx") && has!("avx2"),
+                Isa::Avx512 => {
+                    Isa::Avx2.supported()
+                        && has!("avx512f")
+                        && has!("avx512bw")
+                        && has!("avx512dq")
+                        && has!("avx512vl")
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            self == Isa::Scalar
+        }
+    }
+
+    /// The widest tier this CPU runs.
+    pub fn best() -> Isa {
+        Isa::ALL
+            .into_iter()
+            .rev()
+            .find(|t| t.supported())
+            .unwrap_or(Isa::Scalar)
+    }
+
+    /// The tiers this CPU runs, narrowest first.
+    pub fn supported_tiers() -> Vec<Isa> {
+        Isa::ALL.into_iter().filter(|t| t.supported()).collect()
+    }
+
+    /// Whether the four-lane SSE2 kernels run (every tier but `scalar`).
+    #[inline(always)]
+    pub fn sse2(self) -> bool {
+        self >= Isa::Sse2
+    }
+
+    /// Whether the AVX kernels run (`avx2` and `avx512`).
+    #[inline(always)]
+    pub fn avx(self) -> bool {
+        self >= Isa::Avx2
+    }
+
+    /// `self` if this CPU runs it, else why not.
+    pub fn check(self) -> Result<Isa, IsaError> {
+        if self.supported() {
+            Ok(self)
+        } else {
+            Err(IsaError::Unsupported {
+                tier: self,
+                needs: self.needs(),
+            })
+        }
+    }
+
+    fn supported_names() -> String {
+        let names: Vec<&str> = Isa::supported_tiers().iter().map(|t| t.name()).collect();
+        names.join(", ")
+    }
+
+    fn from_u8(v: u8) -> Isa {
+        match v {
+            0 => Isa::Scalar,
+            1 => Isa::Sse2,
+            2 => Isa::Avx2,
+            _ => Isa::Avx512,
+        }
+    }
+}
+
+impl fmt::Display for Isa {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Isa {
+    type Err = IsaError;
+
+    /// A tier by its name, in any case (`scalar`, `sse2`, `avx2`, `avx512`).
+    fn from_str(s: &str) -> Result<Isa, IsaError> {
+        Isa::ALL
+            .into_iter()
+            .find(|t| t.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| IsaError::Unknown {
+                value: s.to_string(),
+            })
+    }
+}
+
+/// The process's tier as `Isa as u8`, or [`UNSET`] before the first [`current`] or [`init`].
+static TIER: AtomicU8 = AtomicU8::new(UNSET);
+const UNSET: u8 = u8::MAX;
+
+/// The tier `PARRT_ISA` asks for, checked against this CPU; the best this CPU runs when the
+/// variable is unset or empty.
+pub fn from_env() -> Result<Isa, IsaError> {
+    match std::env::var_os(ENV) {
+        None => Ok(Isa::best()),
+        Some(v) if v.is_empty() => Ok(Isa::best()),
+        Some(v) => match v.to_str() {
+            Some(s) => s.parse::<Isa>()?.check(),
+            None => Err(IsaError::Unknown {
+                value: v.to_string_lossy().into_owned(),
+            }),
+        },
+    }
+}
+
+/// Chooses the process's tier from `PARRT_ISA` and this CPU ([`from_env`]); the binaries call
+/// it before anything else and refuse the error with exit 2.
+pub fn init() -> Result<Isa, IsaError> {
+    let tier = from_env()?;
+    TIER.store(tier as u8, Ordering::Relaxed);
+    Ok(tier)
+}
+
+/// The process's tier: what [`init`] or [`force`] set, else chosen now as [`init`] would (the
+/// best this CPU runs when `PARRT_ISA` is not usable: a library caller that wants the refusal
+/// calls [`init`]).
+#[inline(always)]
+pub fn current() -> Isa {
+    let v = TIER.load(Ordering::Relaxed);
+    if v == UNSET {
+        return choose();
+    }
+    Isa::from_u8(v)
+}
+
+#[cold]
+#[inline(never)]
+fn choose() -> Isa {
+    let tier = from_env().unwrap_or_else(|_| Isa::best());
+    match TIER.compare_exchange(UNSET, tier as u8, Ordering::Relaxed, Ordering::Relaxed) {
+        Ok(_) => tier,
+        Err(other) => Isa::from_u8(other),
+    }
+}
+
+/// Sets the tier of the whole process, for tests and benchmarks that compare tiers in one
+/// process (the renderer reads it at every kernel call: change it only between renders).
+/// Returns the tier it replaced, or why `tier` cannot run here.
+pub fn force(tier: Isa) -> Result<Isa, IsaError> {
+    tier.check()?;
+    let before = current();
+    TIER.store(tier as u8, Ordering::Relaxed);
+    Ok(before)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_order_is_narrowest_first() {
+        for t in Isa::ALL {
+            assert_eq!(t.name().parse::<Isa>(), Ok(t));
+            assert_eq!(t.name().to_uppercase().parse::<Isa>(), Ok(t));
+            assert_eq!(Isa::from_u8(t as u8), t);
+        }
+        assert!(Isa::Scalar < Isa::Sse2 && Isa::Sse2 < Isa::Avx2 && Isa::Avx2 < Isa::Avx512);
+        assert!(!Isa::Scalar.sse2() && Isa::Sse2.sse2() && !Isa::Sse2.avx());
+        assert!(Isa::Avx2.avx() && Isa::Avx512.avx());
+    }
+
+    #[test]
+    fn unknown_names_are_refused_with_the_choices() {
+        for bad in ["avx", "sse4", "AVX-512", "fast", "0"] {
+            let e = bad.parse::<Isa>().unwrap_err();
+            assert_eq!(
+                e,
+                IsaError::Unknown {
+                    value: bad.to_string()
+                }
+            );
+            let msg = e.to_string();
+            assert!(msg.contains("PARRT_ISA") && msg.contains("avx512"), "{msg}");
+        }
+    }
+
+    #[test]
+    fn scalar_runs_everywhere_and_best_is_supported() {
+        assert!(Isa::Scalar.supported());
+        assert!(Isa::best().supported());
+        let tiers = Isa::supported_tiers();
+        assert_eq!(tiers.first(), Some(&Isa::Scalar));
+        assert_eq!(tiers.last(), Some(&Isa::best()));
+        // Tiers nest: a CPU that runs one runs every narrower one.
+        assert_eq!(tiers, Isa::ALL[..tiers.len()].to_vec());
+    }
+
+    #[test]
+    fn serde_names_are_the_tier_names() {
+        for t in Isa::ALL {
+            assert_eq!(
+                serde_json::to_value(t).unwrap(),
+                serde_json::json!(t.name())
+            );
+        }
+    }
+}
