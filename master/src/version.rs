@@ -1,7 +1,7 @@
 //! What build this binary is, for `parrt --version`: the package version, the git commit it was
 //! built from (when known at build time), the cargo profile and the target. `master/build.rs`
 //! records them; this is the one place the text is put together, so later facts about the build
-//! (the instruction-set tier) join it here.
+//! (the instruction-set tier, from `parrt::isa`) join it here.
 
 use std::sync::OnceLock;
 
@@ -16,6 +16,8 @@ pub struct BuildInfo {
     pub profile: &'static str,
     /// The target triple.
     pub target: &'static str,
+    /// The instruction-set tier this process runs (`PARRT_ISA`, else the best the CPU has).
+    pub isa: &'static str,
 }
 
 impl BuildInfo {
@@ -27,18 +29,19 @@ impl BuildInfo {
             commit: (!commit.is_empty()).then_some(commit),
             profile: env!("PARRT_BUILD_PROFILE"),
             target: env!("PARRT_BUILD_TARGET"),
+            isa: parrt::isa::current().name(),
         }
     }
 
-    /// One line: `0.1.0 (commit 1a2b3c4d5e, release build, x86_64-unknown-linux-gnu)`.
+    /// One line: `0.1.0 (commit 1a2b3c4d5e, release build, x86_64-unknown-linux-gnu, tier avx2)`.
     pub fn text(&self) -> String {
         let commit = match self.commit {
             Some(c) => format!("commit {c}"),
             None => "commit unknown".to_string(),
         };
         format!(
-            "{} ({commit}, {} build, {})",
-            self.version, self.profile, self.target
+            "{} ({commit}, {} build, {}, tier {})",
+            self.version, self.profile, self.target, self.isa
         )
     }
 }
@@ -60,10 +63,11 @@ mod tests {
             commit: Some("abcdef1234"),
             profile: "release",
             target: "x86_64-unknown-linux-gnu",
+            isa: "avx2",
         };
         assert_eq!(
             b.text(),
-            "1.2.3 (commit abcdef1234, release build, x86_64-unknown-linux-gnu)"
+            "1.2.3 (commit abcdef1234, release build, x86_64-unknown-linux-gnu, tier avx2)"
         );
         let outside_git = BuildInfo { commit: None, ..b };
         assert!(outside_git.text().contains("commit unknown"));

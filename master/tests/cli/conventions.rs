@@ -61,6 +61,7 @@ fn version_names_the_build() {
     assert!(v.contains("commit "), "{v}");
     assert!(v.contains(" build, "), "{v}");
     assert!(v.contains(std::env::consts::ARCH), "{v}");
+    assert!(v.contains(", tier "), "{v}");
 }
 
 #[test]
