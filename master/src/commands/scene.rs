@@ -42,7 +42,7 @@ fn listing() -> String {
 /// Runs `parrt scene`.
 pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
     if args.list {
-        print!("{}", listing());
+        crate::out!("{}", listing());
         return Ok(ExitCode::SUCCESS);
     }
     let Some(name) = args.name.as_deref() else {

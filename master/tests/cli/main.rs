@@ -6,6 +6,7 @@
 mod support;
 
 mod careless;
+mod files;
 mod info;
 mod render;
 mod studies;
