@@ -86,7 +86,7 @@ pub fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("parrt: {e:#}");
+            crate::errln!("parrt: {e:#}");
             ExitCode::from(exit::code_for(&e))
         }
     }

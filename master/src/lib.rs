@@ -18,11 +18,13 @@
 //! - [`live`]: the live view in a browser (`--http`).
 //! - [`exit`]: how errors map to exit codes (2 bad input or usage, 1 anything else).
 //! - [`version`]: what build this is (`--version`).
+//! - [`console`]: printing that a closed stdout or stderr cannot turn into a panic.
 #![deny(missing_docs)]
 
 pub mod cli;
 pub mod cli_args;
 pub mod commands;
+pub mod console;
 pub mod exit;
 pub mod live;
 pub mod machine;

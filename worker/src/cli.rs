@@ -16,6 +16,9 @@ use tokio_util::sync::CancellationToken;
 /// The environment variable holding the shared token.
 pub const TOKEN_ENV: &str = "PARRT_TOKEN";
 
+/// The most bytes a `--token-file` may hold: a token is a line; anything larger is not one.
+pub const MAX_TOKEN_FILE_BYTES: u64 = 4096;
+
 /// The environment variable with the log filter (tracing-subscriber syntax, e.g. `debug`).
 pub const LOG_ENV: &str = "PARRT_LOG";
 
@@ -63,8 +66,7 @@ impl TokenArgs {
         let text = if let Some(t) = &self.token {
             t.clone()
         } else if let Some(f) = &self.token_file {
-            std::fs::read_to_string(f)
-                .map_err(|e| UsageError(format!("cannot read token file {}: {e}", f.display())))?
+            read_token_file(f)?
         } else {
             match std::env::var(TOKEN_ENV) {
                 Ok(t) => t,
@@ -85,6 +87,21 @@ impl TokenArgs {
             .into()
         })
     }
+}
+
+/// Reads a `--token-file`: only a regular file (a FIFO or a device is refused without
+/// opening it, so nothing blocks), at most [`MAX_TOKEN_FILE_BYTES`], UTF-8. Every refusal is
+/// a [`UsageError`] naming the file.
+pub fn read_token_file(f: &std::path::Path) -> Result<String, UsageError> {
+    use parrt::nff::ReadError;
+    let bad = |why: String| UsageError(format!("token file {}: {why}", f.display()));
+    let bytes = parrt::nff::read_bounded(f, MAX_TOKEN_FILE_BYTES).map_err(|e| match e {
+        ReadError::TooLarge { max } => bad(format!(
+            "larger than {max} bytes; a token file holds one token"
+        )),
+        e => bad(e.to_string()),
+    })?;
+    String::from_utf8(bytes).map_err(|_| bad("not UTF-8 text".into()))
 }
 
 /// Arguments of `parrt worker` / `parrt-worker`.
@@ -142,8 +159,11 @@ impl WorkerArgs {
 pub fn init_logging(default: &str) {
     let filter = tracing_subscriber::EnvFilter::try_from_env(LOG_ENV)
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    // A closed stderr must not stop the work: the log's write errors are dropped, not
+    // reported with `eprintln!` (which panics on a closed stderr).
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
+        .log_internal_errors(false)
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .try_init();
@@ -211,6 +231,48 @@ mod tests {
             token_file: Some(dir.path().join("nope")),
         };
         assert!(missing.resolve().unwrap_err().is::<UsageError>());
+    }
+
+    /// Issue 31 item 15: /dev/zero, a FIFO and a huge file are refused at once (a usage
+    /// error), without reading without bound or blocking.
+    #[test]
+    fn token_files_are_bounded_and_only_regular() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let big = dir.path().join("big");
+        std::fs::write(&big, vec![b'a'; MAX_TOKEN_FILE_BYTES as usize + 1]).unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
+        let paths = [PathBuf::from("/dev/zero"), fifo, big];
+        std::thread::spawn(move || {
+            for p in paths {
+                let args = TokenArgs {
+                    token: None,
+                    token_file: Some(p),
+                };
+                let _ = tx.send(args.resolve().map(|_| ()).map_err(|e| e.to_string()));
+            }
+        });
+        // A hang guard, not a timing: reading a FIFO without a writer never returns.
+        let mut got = Vec::new();
+        for _ in 0..3 {
+            got.push(
+                rx.recv_timeout(Duration::from_secs(30))
+                    .expect("reading a token file hung"),
+            );
+        }
+        for (e, want) in got.iter().zip([
+            "a character device, not a regular file",
+            "a FIFO, not a regular file",
+            "larger than 4096 bytes",
+        ]) {
+            let e = e.as_ref().unwrap_err();
+            assert!(e.contains("token file") && e.contains(want), "{e}");
+        }
     }
 
     fn args(connect: &str, threads: Option<usize>, dial_timeout: f64) -> WorkerArgs {

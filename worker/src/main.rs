@@ -11,6 +11,7 @@ struct Cli {
 }
 
 fn main() -> ExitCode {
+    use std::io::Write;
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -27,7 +28,8 @@ fn main() -> ExitCode {
     match parrt_worker::cli::run(cli.args) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("parrt-worker: {e:#}");
+            // Not eprintln!: a closed stderr would turn the exit status into a panic's.
+            let _ = writeln!(std::io::stderr(), "parrt-worker: {e:#}");
             let usage = e.chain().any(|c| c.is::<parrt_worker::cli::UsageError>());
             ExitCode::from(if usage { 2 } else { 1 })
         }

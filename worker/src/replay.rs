@@ -23,6 +23,9 @@ use thiserror::Error;
 pub const MAGIC: &[u8; 8] = b"PARRTRP1";
 /// Largest image a replay file may describe (pixels).
 pub const MAX_PIXELS: u64 = 1 << 28;
+/// Most tiles a replay file may describe (as `--max-pixels`' companion limit on the command
+/// line: every tile costs the worker tens of bytes before the first is replayed).
+pub const MAX_TILES: u64 = 1 << 22;
 /// Largest cost scale (`--cost-scale`).
 pub const MAX_COST_SCALE: f64 = 1e6;
 /// Largest recorded cost of one tile, seconds.
@@ -145,8 +148,20 @@ impl Replay {
             path: path.into(),
             reason,
         };
-        let mut file = File::open(path).map_err(io(path))?;
-        let len = file.metadata().map_err(io(path))?.len();
+        // Not blocking on a FIFO: opened non-blocking, then only a regular file is read.
+        let mut file = {
+            use std::os::unix::fs::OpenOptionsExt;
+            std::fs::OpenOptions::new()
+                .read(true)
+                .custom_flags(libc::O_NONBLOCK)
+                .open(path)
+                .map_err(io(path))?
+        };
+        let meta = file.metadata().map_err(io(path))?;
+        if !meta.is_file() {
+            return Err(bad("not a regular file".into()));
+        }
+        let len = meta.len();
         let mut head = [0u8; HEADER as usize];
         file.read_exact(&mut head)
             .map_err(|_| bad("too short for a header".into()))?;
@@ -165,14 +180,21 @@ impl Replay {
                 "image {width}x{height} with tile {tile} is outside the limits (at most {MAX_PIXELS} pixels)"
             )));
         }
-        let list = tiles(width, height, tile);
-        let expect = HEADER + 8 * list.len() as u64 + 12 * pixels;
-        if count as usize != list.len() || len != expect {
+        // Everything the header claims is checked against the file's length before anything
+        // is allocated for it (a 24-byte file may claim 16384² pixels in tiles of 1).
+        let n = (width as u64).div_ceil(tile as u64) * (height as u64).div_ceil(tile as u64);
+        if n > MAX_TILES {
             return Err(bad(format!(
-                "{count} tiles and {len} bytes, expected {} tiles and {expect} bytes for {width}x{height} at tile {tile}",
-                list.len()
+                "{width}x{height} at tile {tile} is {n} tiles, more than the {MAX_TILES} a replay may have"
             )));
         }
+        let expect = HEADER + 8 * n + 12 * pixels;
+        if count as u64 != n || len != expect {
+            return Err(bad(format!(
+                "{count} tiles and {len} bytes, expected {n} tiles and {expect} bytes for {width}x{height} at tile {tile}"
+            )));
+        }
+        let list = tiles(width, height, tile);
         let mut raw = vec![0u8; 8 * list.len()];
         file.read_exact(&mut raw).map_err(io(path))?;
         let mut costs = Vec::with_capacity(list.len());

@@ -3,7 +3,7 @@
 //! most a byte limit ([`Limits::max_file_bytes`](super::Limits::max_file_bytes)), checked on the
 //! size and again while reading, in case the file grows.
 
-use std::fs::{File, FileType};
+use std::fs::FileType;
 use std::io::Read;
 use std::path::Path;
 use thiserror::Error;
@@ -51,7 +51,16 @@ pub fn read_bounded(path: &Path, max_bytes: u64) -> Result<Vec<u8>, ReadError> {
     if !meta.is_file() {
         return Err(ReadError::NotAFile(kind_of(meta.file_type())));
     }
-    let file = File::open(path).map_err(ReadError::Io)?;
+    // Non-blocking, in case the path became a FIFO since: the open returns at once, and the
+    // check below refuses it. (On a regular file the flag changes nothing.)
+    let file = {
+        use std::os::unix::fs::OpenOptionsExt;
+        std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(path)
+            .map_err(ReadError::Io)?
+    };
     // The opened file is what is read: check it too (the path may have changed since).
     let meta = file.metadata().map_err(ReadError::Io)?;
     if !meta.is_file() {

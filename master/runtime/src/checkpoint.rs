@@ -2,14 +2,29 @@
 //! the master runs, and their source when a killed master is started again with `--resume`.
 //!
 //! ## Format (all integers little-endian)
-//! - Header, [`HEADER_LEN`] bytes: the magic `PARRTCK1`; tile edge, width, height and tile
-//!   count (`u32` each); the pixel format (`u8`: 0 f32, 1 rgb8); SHA-256 of the scene
-//!   description's postcard encoding; SHA-256 of the settings' postcard encoding; the first 8
-//!   bytes of the SHA-256 of everything before them.
+//! - Header, [`HEADER_LEN`] bytes: the magic `PARRTCK2`; tile edge, width, height and tile
+//!   count (`u32` each); the pixel format (`u8`: 0 f32, 1 rgb8); the seal (`u8`: 0 plain,
+//!   1 keyed); SHA-256 of the scene description's postcard encoding; SHA-256 of the settings'
+//!   postcard encoding; the first 8 bytes of the seal of everything before them.
 //! - Then one record per accepted tile: the payload length (`u32`); the payload — tile id
 //!   (`u32`), render seconds (`f64`), the 11 ray counters of [`RayStats`] (`u64` each, in
 //!   declaration order), the pixels as the job's workers sent them; the first 8 bytes of the
-//!   SHA-256 of the length and the payload.
+//!   seal of the length and the payload.
+//!
+//! ## Seals
+//! A [`Seal::Plain`] checkpoint (`render --workers`, `cluster`: their token lives only as long
+//! as the run) is sealed with SHA-256: it finds damage, but anyone who can write the file can
+//! also write records with fresh checksums. A master given a lasting secret (`parrt master`'s
+//! token) seals with [`Seal::Keyed`]: HMAC-SHA256 under a key derived from the token, so
+//! records written without the token are not trusted, and a file sealed otherwise (plain, or
+//! with another token) is refused as a whole.
+//!
+//! ## Who may use the file
+//! An existing checkpoint is opened without following a symbolic link and without blocking,
+//! and used only if it is a regular file of this user that no one else may write
+//! ([`crate::file_guard`]); a new one is created with mode 0600. The open file is locked
+//! (`flock`) for as long as the master runs: a second master on the same file is refused and
+//! told which process holds it.
 //!
 //! The file is only ever appended to; each batch of records is written with one `write` (so a
 //! killed process leaves whole records) and synced to the disk at least every
@@ -18,7 +33,9 @@
 //! pixel count; a bad record in the middle is skipped (its tile is rendered again), and a torn
 //! or unreadable tail is cut off before anything is appended.
 
+use super::file_guard::{self, GuardError, Privacy};
 use super::scheduler::AcceptedTile;
+use hmac::{Hmac, Mac};
 use parrt::description::SceneDescription;
 use parrt::protocol::{PixelFormat, TilePixels};
 use parrt::settings::RenderSettings;
@@ -37,10 +54,10 @@ use thiserror::Error;
 use tokio::time::Instant;
 
 /// The first bytes of every checkpoint (the digit is the format's version).
-pub const MAGIC: &[u8; 8] = b"PARRTCK1";
+pub const MAGIC: &[u8; 8] = b"PARRTCK2";
 /// Bytes in the header.
-pub const HEADER_LEN: usize = 8 + 4 * 4 + 1 + 32 + 32 + CHECK_LEN;
-/// Bytes of each checksum (a truncated SHA-256).
+pub const HEADER_LEN: usize = 8 + 4 * 4 + 1 + 1 + 32 + 32 + CHECK_LEN;
+/// Bytes of each checksum (a truncated SHA-256 or HMAC-SHA256).
 pub const CHECK_LEN: usize = 8;
 /// The payload bytes before the pixels: tile id, seconds, 11 counters.
 pub const RECORD_FIXED: usize = 4 + 8 + 11 * 8;
@@ -73,6 +90,33 @@ pub enum CheckpointError {
     /// The file does not start with a valid checkpoint header.
     #[error("{0} is not a parrt checkpoint (or its header is damaged); it was left unchanged")]
     NotACheckpoint(PathBuf),
+    /// The file's seal is not this run's: written with another token, without one, or altered.
+    #[error("checkpoint {path} {why}; it was left unchanged")]
+    Unauthenticated {
+        /// The file.
+        path: PathBuf,
+        /// What does not match.
+        why: String,
+    },
+    /// The path is not a file this user may trust (a link, a FIFO, a device, another user's
+    /// file, one others may write).
+    #[error("checkpoint {path} {refusal}; it was left unchanged")]
+    Refused {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        refusal: file_guard::Refusal,
+    },
+    /// Another master has the file open.
+    #[error(
+        "checkpoint {path} is in use by another master ({holder}); one checkpoint, one master"
+    )]
+    Locked {
+        /// The file.
+        path: PathBuf,
+        /// Who holds its lock.
+        holder: String,
+    },
     /// The scene or settings could not be encoded for hashing.
     #[error("cannot encode the job for its checkpoint hash: {0}")]
     Encode(String),
@@ -118,6 +162,80 @@ pub struct JobKey {
     pub tiles: u32,
     /// How pixels are stored.
     pub format: PixelFormat,
+    /// How the header and the records are sealed.
+    pub seal: Seal,
+}
+
+/// How the header and each record are checksummed: a plain SHA-256 (finds damage only), or an
+/// HMAC-SHA256 under a key derived from the job's secret (also finds records written without
+/// it).
+#[derive(Clone, PartialEq, Eq)]
+pub enum Seal {
+    /// SHA-256: anyone who can write the file can seal a record.
+    Plain,
+    /// HMAC-SHA256 under this key.
+    Keyed([u8; 32]),
+}
+
+impl std::fmt::Debug for Seal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Seal::Plain => write!(f, "Plain"),
+            Seal::Keyed(_) => write!(f, "Keyed(<key>)"),
+        }
+    }
+}
+
+type HmacSha256 = Hmac<Sha256>;
+
+impl Seal {
+    /// The keyed seal of a job whose secret is `secret` (the master's token): the key is
+    /// HMAC-SHA256(secret, a label), so the checkpoint's key is not the handshake's.
+    pub fn from_secret(secret: &[u8]) -> Seal {
+        let mut m =
+            <HmacSha256 as Mac>::new_from_slice(secret).expect("HMAC takes a key of any length");
+        m.update(b"parrt checkpoint records v1");
+        Seal::Keyed(m.finalize().into_bytes().into())
+    }
+
+    fn byte(&self) -> u8 {
+        match self {
+            Seal::Plain => 0,
+            Seal::Keyed(_) => 1,
+        }
+    }
+
+    /// The first [`CHECK_LEN`] bytes of the seal of `parts`, concatenated.
+    fn tag(&self, parts: &[&[u8]]) -> [u8; CHECK_LEN] {
+        let mut out = [0u8; CHECK_LEN];
+        match self {
+            Seal::Plain => {
+                let mut h = Sha256::new();
+                for p in parts {
+                    h.update(p);
+                }
+                out.copy_from_slice(&h.finalize()[..CHECK_LEN]);
+            }
+            Seal::Keyed(key) => {
+                let mut m = <HmacSha256 as Mac>::new_from_slice(key)
+                    .expect("HMAC takes a key of any length");
+                for p in parts {
+                    m.update(p);
+                }
+                out.copy_from_slice(&m.finalize().into_bytes()[..CHECK_LEN]);
+            }
+        }
+        out
+    }
+}
+
+/// Why a header is not this run's.
+#[derive(Debug, PartialEq, Eq)]
+enum BadHeader {
+    /// Not a checkpoint header at all, or a damaged plain one.
+    NotOne,
+    /// Sealed otherwise than this run seals (say how).
+    Seal(String),
 }
 
 impl JobKey {
@@ -142,7 +260,14 @@ impl JobKey {
             height: settings.height,
             tiles: u32::try_from(n).unwrap_or(u32::MAX),
             format,
+            seal: Seal::Plain,
         })
+    }
+
+    /// This key with records sealed by the job's lasting secret ([`Seal::from_secret`]).
+    pub fn sealed_with(mut self, secret: &[u8]) -> JobKey {
+        self.seal = Seal::from_secret(secret);
+        self
     }
 
     fn header(&self) -> [u8; HEADER_LEN] {
@@ -156,34 +281,62 @@ impl JobKey {
         for v in [self.tile, self.width, self.height, self.tiles] {
             put(&v.to_le_bytes());
         }
-        put(&[format_byte(self.format)]);
+        put(&[format_byte(self.format), self.seal.byte()]);
         put(&self.scene);
         put(&self.settings);
-        let check = checksum(&[&h[..HEADER_LEN - CHECK_LEN]]);
+        let check = self.seal.tag(&[&h[..HEADER_LEN - CHECK_LEN]]);
         h[HEADER_LEN - CHECK_LEN..].copy_from_slice(&check);
         h
     }
 
-    /// Parses a header; `None` when it is not one (wrong magic, bad checksum, unknown format).
-    fn parse(h: &[u8; HEADER_LEN]) -> Option<JobKey> {
+    /// Parses a header sealed as `seal` seals: not one at all (wrong magic, a plain checksum
+    /// that fails, an unknown format), or sealed otherwise (plain where this run has a secret,
+    /// keyed where it has none, or a keyed checksum that fails: another token, or altered).
+    fn parse(h: &[u8; HEADER_LEN], seal: &Seal) -> Result<JobKey, BadHeader> {
+        if &h[..8] != MAGIC {
+            return Err(BadHeader::NotOne);
+        }
         let body = &h[..HEADER_LEN - CHECK_LEN];
-        if &h[..8] != MAGIC || checksum(&[body])[..] != h[HEADER_LEN - CHECK_LEN..] {
-            return None;
+        let sealed_ok = seal.tag(&[body])[..] == h[HEADER_LEN - CHECK_LEN..];
+        match (h[25], seal) {
+            (0, Seal::Plain) | (1, Seal::Keyed(_)) if sealed_ok => {}
+            (0, Seal::Keyed(_)) if Seal::Plain.tag(&[body])[..] == h[HEADER_LEN - CHECK_LEN..] => {
+                return Err(BadHeader::Seal(
+                    "was written without a token (by `render --workers` or `cluster`), so its                      records cannot be authenticated with this master's token"
+                        .into(),
+                ))
+            }
+            (1, Seal::Plain) => {
+                return Err(BadHeader::Seal(
+                    "was written by a master with a token; give `parrt master` the same token                      to resume it"
+                        .into(),
+                ))
+            }
+            (1, Seal::Keyed(_)) => {
+                return Err(BadHeader::Seal(
+                    "was not written with this master's token (or was altered since)".into(),
+                ))
+            }
+            _ => return Err(BadHeader::NotOne),
         }
         let u = |i: usize| u32::from_le_bytes([h[i], h[i + 1], h[i + 2], h[i + 3]]);
         let format = match h[24] {
             0 => PixelFormat::F32,
             1 => PixelFormat::Rgb8,
-            _ => return None,
+            _ => return Err(BadHeader::NotOne),
         };
-        Some(JobKey {
+        let bytes = |r: std::ops::Range<usize>| -> Result<[u8; 32], BadHeader> {
+            h[r].try_into().map_err(|_| BadHeader::NotOne)
+        };
+        Ok(JobKey {
             tile: u(8),
             width: u(12),
             height: u(16),
             tiles: u(20),
             format,
-            scene: h[25..57].try_into().ok()?,
-            settings: h[57..89].try_into().ok()?,
+            scene: bytes(26..58)?,
+            settings: bytes(58..90)?,
+            seal: seal.clone(),
         })
     }
 
@@ -239,19 +392,13 @@ fn format_byte(f: PixelFormat) -> u8 {
     }
 }
 
-fn checksum(parts: &[&[u8]]) -> [u8; CHECK_LEN] {
-    let mut h = Sha256::new();
-    for p in parts {
-        h.update(p);
-    }
-    let d = h.finalize();
-    let mut out = [0u8; CHECK_LEN];
-    out.copy_from_slice(&d[..CHECK_LEN]);
-    out
+/// Appends the record of `t`, sealed plain, to `out`.
+pub fn encode_record(t: &AcceptedTile, out: &mut Vec<u8>) {
+    encode_sealed_record(t, &Seal::Plain, out);
 }
 
-/// Appends the record of `t` to `out`.
-pub fn encode_record(t: &AcceptedTile, out: &mut Vec<u8>) {
+/// Appends the record of `t`, sealed with `seal`, to `out`.
+pub fn encode_sealed_record(t: &AcceptedTile, seal: &Seal, out: &mut Vec<u8>) {
     let len = (RECORD_FIXED + t.pixels.bytes.len()) as u32;
     let start = out.len();
     out.extend_from_slice(&len.to_le_bytes());
@@ -261,7 +408,7 @@ pub fn encode_record(t: &AcceptedTile, out: &mut Vec<u8>) {
         out.extend_from_slice(&v.to_le_bytes());
     }
     out.extend_from_slice(&t.pixels.bytes);
-    let check = checksum(&[&out[start..]]);
+    let check = seal.tag(&[&out[start..]]);
     out.extend_from_slice(&check);
 }
 
@@ -305,14 +452,27 @@ pub struct Scan {
     pub good_len: u64,
 }
 
-/// Reads the records after the header from `r` (positioned just past it), for a job of `tiles`
-/// whose pixels travel as `format`. Never trusts a record whose checksum fails; stops at a
-/// length that cannot be (the framing is lost) or at a torn end.
+/// Reads the plainly sealed records after the header from `r` (positioned just past it), for
+/// a job of `tiles` whose pixels travel as `format`: [`scan_sealed_records`] with
+/// [`Seal::Plain`].
 pub fn scan_records(
     r: &mut impl Read,
     file_len: u64,
     tiles: &[Tile],
     format: PixelFormat,
+) -> std::io::Result<Scan> {
+    scan_sealed_records(r, file_len, tiles, format, &Seal::Plain)
+}
+
+/// Reads the records after the header from `r` (positioned just past it), for a job of `tiles`
+/// whose pixels travel as `format`. Never trusts a record whose seal fails; stops at a
+/// length that cannot be (the framing is lost) or at a torn end.
+pub fn scan_sealed_records(
+    r: &mut impl Read,
+    file_len: u64,
+    tiles: &[Tile],
+    format: PixelFormat,
+    seal: &Seal,
 ) -> std::io::Result<Scan> {
     let max_pixels = tiles.iter().map(|t| t.pixel_count()).max().unwrap_or(0);
     let max_payload = RECORD_FIXED + max_pixels * format.bytes_per_pixel();
@@ -343,7 +503,7 @@ pub fn scan_records(
         }
         pos += (4 + n + CHECK_LEN) as u64;
         let (payload, check) = buf.split_at(n);
-        if checksum(&[&len, payload])[..] != check[..] {
+        if seal.tag(&[&len, payload])[..] != check[..] {
             scan.bad_records += 1;
             continue;
         }
@@ -388,6 +548,7 @@ pub struct Checkpoint {
     written: u64,
     /// Bytes of the file known to be on the disk (written before the last sync).
     durable: Arc<AtomicU64>,
+    seal: Seal,
 }
 
 /// A checkpoint just opened, with what an earlier run left in it.
@@ -420,46 +581,53 @@ pub fn open(
     tiles: &[Tile],
     resume: bool,
 ) -> Result<Opened, CheckpointError> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let refused = |refusal| CheckpointError::Refused {
+        path: path.to_path_buf(),
+        refusal,
+    };
+    // O_EXCL never follows a link: a link planted at the path is "already there".
     let created = OpenOptions::new()
         .read(true)
         .write(true)
         .create_new(true)
+        .mode(0o600)
+        .custom_flags(libc::O_CLOEXEC)
         .open(path);
-    match created {
-        Ok(mut file) => {
-            file.write_all(&key.header())
-                .and_then(|()| file.sync_all())
-                .map_err(io("write", path))?;
-            sync_parent(path);
-            return Ok(Opened {
-                checkpoint: Checkpoint::new(file, path),
-                scan: Scan {
-                    good_len: HEADER_LEN as u64,
-                    ..Scan::default()
-                },
-                created: true,
-            });
-        }
+    let (mut file, fresh) = match created {
+        Ok(file) => (file, true),
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
             if !resume {
                 return Err(CheckpointError::Exists(path.to_path_buf()));
             }
+            let file = file_guard::open_existing(path, true, Privacy::OwnerWrites).map_err(
+                |e| match e {
+                    GuardError::Refused(r) => refused(r),
+                    GuardError::Io(e) => io("open", path)(e),
+                },
+            )?;
+            (file, false)
         }
         Err(e) => return Err(io("create", path)(e)),
+    };
+    if let Some(holder) = file_guard::try_lock(&file).map_err(io("lock", path))? {
+        return Err(CheckpointError::Locked {
+            path: path.to_path_buf(),
+            holder,
+        });
     }
-    let mut file = OpenOptions::new()
-        .read(true)
-        .write(true)
-        .open(path)
-        .map_err(io("open", path))?;
     let file_len = file.metadata().map_err(io("read", path))?.len();
-    if file_len == 0 {
-        // A master killed between creating the file and writing its header: nothing to lose.
+    if fresh || file_len == 0 {
+        // New, or a master killed between creating the file and writing its header: nothing
+        // to lose.
         file.write_all(&key.header())
             .and_then(|()| file.sync_all())
             .map_err(io("write", path))?;
+        if fresh {
+            sync_parent(path);
+        }
         return Ok(Opened {
-            checkpoint: Checkpoint::new(file, path),
+            checkpoint: Checkpoint::new(file, path, key.seal.clone()),
             scan: Scan {
                 good_len: HEADER_LEN as u64,
                 ..Scan::default()
@@ -472,8 +640,15 @@ pub fn open(
     if !read_full(&mut reader, &mut head).map_err(io("read", path))? {
         return Err(CheckpointError::NotACheckpoint(path.to_path_buf()));
     }
-    let Some(theirs) = JobKey::parse(&head) else {
-        return Err(CheckpointError::NotACheckpoint(path.to_path_buf()));
+    let theirs = match JobKey::parse(&head, &key.seal) {
+        Ok(k) => k,
+        Err(BadHeader::NotOne) => return Err(CheckpointError::NotACheckpoint(path.to_path_buf())),
+        Err(BadHeader::Seal(why)) => {
+            return Err(CheckpointError::Unauthenticated {
+                path: path.to_path_buf(),
+                why,
+            })
+        }
     };
     if theirs.scene != key.scene {
         return Err(CheckpointError::OtherScene(path.to_path_buf()));
@@ -485,7 +660,8 @@ pub fn open(
             what: diff.join("; "),
         });
     }
-    let scan = scan_records(&mut reader, file_len, tiles, key.format).map_err(io("read", path))?;
+    let scan = scan_sealed_records(&mut reader, file_len, tiles, key.format, &key.seal)
+        .map_err(io("read", path))?;
     drop(reader);
     if scan.cut_bytes > 0 {
         file.set_len(scan.good_len)
@@ -494,7 +670,7 @@ pub fn open(
     }
     file.seek(SeekFrom::End(0)).map_err(io("seek", path))?;
     Ok(Opened {
-        checkpoint: Checkpoint::new(file, path),
+        checkpoint: Checkpoint::new(file, path, key.seal.clone()),
         scan,
         created: false,
     })
@@ -514,9 +690,10 @@ fn sync_parent(path: &Path) {
 
 impl Checkpoint {
     /// `file` has just been synced, positioned at its end.
-    fn new(file: File, path: &Path) -> Checkpoint {
+    fn new(file: File, path: &Path, seal: Seal) -> Checkpoint {
         let len = file.metadata().map_or(0, |m| m.len());
         Checkpoint {
+            seal,
             file,
             path: path.to_path_buf(),
             last_sync: Instant::now(),
@@ -544,7 +721,7 @@ impl Checkpoint {
         if !tiles.is_empty() {
             self.buf.clear();
             for t in tiles {
-                encode_record(t, &mut self.buf);
+                encode_sealed_record(t, &self.seal, &mut self.buf);
             }
             self.file
                 .write_all(&self.buf)
@@ -612,12 +789,184 @@ mod tests {
     fn header_round_trips_and_a_changed_byte_is_not_a_header() {
         let (k, _) = key(8);
         let h = k.header();
-        assert_eq!(JobKey::parse(&h), Some(k.clone()));
+        assert_eq!(JobKey::parse(&h, &Seal::Plain), Ok(k.clone()));
         for i in 0..HEADER_LEN {
             let mut bad = h;
             bad[i] ^= 0x10;
-            assert_eq!(JobKey::parse(&bad), None, "byte {i}");
+            assert!(JobKey::parse(&bad, &Seal::Plain).is_err(), "byte {i}");
         }
+        let keyed = k.clone().sealed_with(b"secret");
+        let h = keyed.header();
+        assert_eq!(JobKey::parse(&h, &keyed.seal), Ok(keyed.clone()));
+        for i in 0..HEADER_LEN {
+            let mut bad = h;
+            bad[i] ^= 0x10;
+            assert!(JobKey::parse(&bad, &keyed.seal).is_err(), "byte {i}");
+        }
+    }
+
+    fn sealed_file_of(k: &JobKey, records: &[AcceptedTile], seal: &Seal) -> Vec<u8> {
+        let mut f = k.header().to_vec();
+        for r in records {
+            encode_sealed_record(r, seal, &mut f);
+        }
+        f
+    }
+
+    /// Issue 31 item 8: someone who can write a keyed checkpoint but has not the token rewrites
+    /// every record (white pixels) with fresh plain checksums; the resume trusts none of them.
+    #[test]
+    fn a_keyed_checkpoint_trusts_no_record_sealed_without_the_token() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("c.ckpt");
+        let (plain, tiles) = key(8);
+        let k = plain.clone().sealed_with(b"the master's token");
+        let mut o = open(&p, &k, &tiles, false).unwrap();
+        let honest: Vec<_> = tiles.iter().map(|t| tile_result(t, 7)).collect();
+        o.checkpoint.append(&honest).unwrap();
+        o.checkpoint.sync().unwrap();
+        drop(o);
+        let o = open(&p, &k, &tiles, true).unwrap();
+        assert_eq!(
+            o.scan.tiles.len(),
+            tiles.len(),
+            "its own records are trusted"
+        );
+        drop(o);
+        // Forged: the header kept, every record white with a plain checksum.
+        let white: Vec<_> = tiles.iter().map(|t| tile_result(t, 255)).collect();
+        let mut forged = k.header().to_vec();
+        forged.extend_from_slice(&sealed_file_of(&k, &white, &Seal::Plain)[HEADER_LEN..]);
+        std::fs::write(&p, &forged).unwrap();
+        let o = open(&p, &k, &tiles, true).unwrap();
+        assert!(
+            o.scan.tiles.is_empty(),
+            "{} forged tiles trusted",
+            o.scan.tiles.len()
+        );
+        drop(o);
+        // Forged with another token: the same.
+        let other = plain.clone().sealed_with(b"not the token");
+        let mut forged = k.header().to_vec();
+        forged.extend_from_slice(&sealed_file_of(&k, &white, &other.seal)[HEADER_LEN..]);
+        std::fs::write(&p, &forged).unwrap();
+        let o = open(&p, &k, &tiles, true).unwrap();
+        assert!(o.scan.tiles.is_empty());
+        drop(o);
+        // A whole plain file, or one of another token: refused, left unchanged.
+        for f in [
+            sealed_file_of(&plain, &white, &Seal::Plain),
+            sealed_file_of(&other, &white, &other.seal),
+        ] {
+            std::fs::write(&p, &f).unwrap();
+            let e = open(&p, &k, &tiles, true).unwrap_err();
+            assert!(matches!(e, CheckpointError::Unauthenticated { .. }), "{e}");
+            assert!(e.is_bad_input());
+            assert_eq!(std::fs::read(&p).unwrap(), f);
+        }
+        // And a keyed file resumed without the token.
+        let f = sealed_file_of(&k, &honest, &k.seal);
+        std::fs::write(&p, &f).unwrap();
+        let e = open(&p, &plain, &tiles, true).unwrap_err();
+        assert!(e.to_string().contains("with a token"), "{e}");
+    }
+
+    /// Issue 31 item 16: a FIFO, a device or a link at the checkpoint's path is refused at
+    /// once (bad input) and nothing is written into it.
+    #[test]
+    fn resume_refuses_what_is_not_a_regular_file_and_writes_nothing() {
+        use std::os::unix::fs::OpenOptionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let (k, tiles) = key(8);
+        let fifo = dir.path().join("fifo");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo with a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let mut reader = OpenOptions::new()
+            .read(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(&fifo)
+            .unwrap();
+        let e = open(&fifo, &k, &tiles, true).unwrap_err();
+        assert!(e.to_string().contains("a FIFO, not a regular file"), "{e}");
+        assert!(e.is_bad_input());
+        let mut got = [0u8; 8];
+        let read = reader.read(&mut got);
+        assert!(
+            matches!(read, Ok(0)) || read.is_err(),
+            "written into: {read:?}"
+        );
+        let e = open(Path::new("/dev/zero"), &k, &tiles, true).unwrap_err();
+        assert!(e.to_string().contains("character device"), "{e}");
+        assert!(e.is_bad_input());
+        let dangling = dir.path().join("dangling");
+        std::os::unix::fs::symlink(dir.path().join("nowhere"), &dangling).unwrap();
+        let e = open(&dangling, &k, &tiles, true).unwrap_err();
+        assert!(e.to_string().contains("symbolic link"), "{e}");
+        assert!(
+            !dir.path().join("nowhere").exists(),
+            "created through the link"
+        );
+        let target = dir.path().join("target");
+        let mut o = open(&target, &k, &tiles, false).unwrap();
+        o.checkpoint.append(&[tile_result(&tiles[0], 1)]).unwrap();
+        drop(o);
+        let before = std::fs::read(&target).unwrap();
+        let link = dir.path().join("link");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let e = open(&link, &k, &tiles, true).unwrap_err();
+        assert!(matches!(e, CheckpointError::Refused { .. }), "{e}");
+        assert_eq!(std::fs::read(&target).unwrap(), before);
+    }
+
+    /// Issue 31 item 3 for checkpoints: another user's file, or one others may write, is not
+    /// resumed.
+    #[test]
+    fn resume_refuses_another_users_or_a_writable_file() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("c.ckpt");
+        let (k, tiles) = key(8);
+        drop(open(&p, &k, &tiles, false).unwrap());
+        assert_eq!(
+            std::fs::metadata(&p).unwrap().permissions().mode() & 0o777,
+            0o600
+        );
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o666)).unwrap();
+        let e = open(&p, &k, &tiles, true).unwrap_err();
+        assert!(e.to_string().contains("mode 0666"), "{e}");
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o644)).unwrap();
+        assert!(open(&p, &k, &tiles, true).is_ok());
+        if file_guard::effective_uid() != 0 {
+            eprintln!("not root: the other-owner case needs chown");
+            return;
+        }
+        std::os::unix::fs::chown(&p, Some(65534), Some(65534)).unwrap();
+        let e = open(&p, &k, &tiles, true).unwrap_err();
+        assert!(e.to_string().contains("owned by uid 65534"), "{e}");
+        assert!(e.is_bad_input());
+    }
+
+    /// Issue 31 item 14: one checkpoint, one master.
+    #[test]
+    fn a_second_master_on_the_same_checkpoint_is_refused_and_told_who_holds_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("c.ckpt");
+        let (k, tiles) = key(8);
+        let first = open(&p, &k, &tiles, false).unwrap();
+        let e = open(&p, &k, &tiles, true).unwrap_err();
+        assert!(matches!(e, CheckpointError::Locked { .. }), "{e}");
+        assert!(
+            e.to_string()
+                .contains(&format!("process {}", std::process::id())),
+            "{e}"
+        );
+        assert!(e.is_bad_input());
+        drop(first);
+        assert!(
+            open(&p, &k, &tiles, true).is_ok(),
+            "free once the first ends"
+        );
     }
 
     #[test]
@@ -752,6 +1101,7 @@ mod tests {
         let o = open(&p, &k, &tiles, true).unwrap();
         assert_eq!(o.scan.tiles.len(), 2);
         assert_eq!(o.scan.cut_bytes, 0);
+        drop(o);
         std::fs::write(&p, b"").unwrap();
         let o = open(&p, &k, &tiles, true).unwrap();
         assert!(o.created, "an empty file is a header never written");

@@ -22,6 +22,7 @@
 //! - [`refusals`]: the bounded record of refused handshakes.
 //! - [`launcher`]: rank, size and job id from `srun`/`mpirun`/`mpiexec`'s environment.
 //! - [`rendezvous`]: the file through which the ranks of `parrt cluster` meet.
+//! - [`file_guard`]: opening users' files safely (no links, FIFOs or others' files) and locking them.
 //! - [`mutation`]: planted bugs (feature `mutations`) that the simulation must catch.
 //! - [`net`], [`clock`]: the seams; [`cpu_time`]: CPU clocks; [`error`]: what goes wrong.
 //!
@@ -44,6 +45,7 @@ pub mod clock;
 pub mod connection;
 pub mod cpu_time;
 pub mod error;
+pub mod file_guard;
 pub mod launcher;
 pub mod lifecycle;
 pub mod mutation;
@@ -233,8 +235,9 @@ pub struct Rendered {
 /// `config.spawn.count` local workers (dialling the address `on_listen` returns, or the bound
 /// one), prepares the job, serves tiles until the image is complete, and stops the workers.
 /// Runs on a current-thread tokio runtime of its own on the calling thread; must not be
-/// called from inside one. Ctrl-C, or `cancel` when given, cancels cleanly
-/// ([`DistError::Interrupted`]). `on_listen` may fail (then nothing is rendered) and may keep
+/// called from inside one. Ctrl-C or SIGTERM (also while the local workers are starting), or
+/// `cancel` when given, cancels cleanly ([`DistError::Interrupted`]): the workers started are
+/// killed and reaped. `on_listen` may fail (then nothing is rendered) and may keep
 /// state until the render ends (`parrt cluster` publishes its rendezvous file there).
 pub fn run<E: From<DistError>>(
     config: &MasterConfig,
@@ -263,7 +266,8 @@ pub fn run<E: From<DistError>>(
     let opened = match &config.checkpoint {
         Some(at) => {
             let (desc, settings) = prepare_once()?;
-            let o = open_checkpoint(&at.path, at.resume, &desc, &settings, &config.schedule)?;
+            let secret = at.keyed.then(|| token.as_bytes());
+            let o = open_checkpoint(at, secret, &desc, &settings, &config.schedule)?;
             ready = Some((desc, settings));
             Some(o)
         }
@@ -276,12 +280,26 @@ pub fn run<E: From<DistError>>(
         }
         let addr = master.local_addr();
         let dial = on_listen(addr)?.unwrap_or_else(|| dial_address(addr));
+        // Signals are heard from before the first worker starts: a master told to stop while
+        // it starts hundreds stops starting them, and kills and reaps those it started.
+        let cancel = cancel.unwrap_or_default();
+        let on_signal = cancel.clone();
+        let signal = tokio::spawn(async move {
+            if stop_signal().await {
+                on_signal.cancel();
+            }
+        });
         let _children = if config.spawn.count > 0 {
             let s = &config.spawn;
-            Some(
-                spawn_workers(&s.command, s.count, s.threads, dial, &token)
-                    .map_err(DistError::from)?,
-            )
+            let started =
+                spawn::spawn_workers_until(&s.command, s.count, s.threads, dial, &token, &cancel)
+                    .await
+                    .map_err(DistError::from)?;
+            if cancel.is_cancelled() {
+                signal.abort();
+                return Err(DistError::Interrupted.into());
+            }
+            Some(started)
         } else {
             None
         };
@@ -290,13 +308,6 @@ pub fn run<E: From<DistError>>(
             Some(j) => j,
             None => prepare_once()?,
         };
-        let cancel = cancel.unwrap_or_default();
-        let on_signal = cancel.clone();
-        let signal = tokio::spawn(async move {
-            if tokio::signal::ctrl_c().await.is_ok() {
-                on_signal.cancel();
-            }
-        });
         let result = master.render(&desc, &settings, cancel).await;
         signal.abort();
         if result.is_err() {
@@ -313,17 +324,41 @@ pub fn run<E: From<DistError>>(
     })
 }
 
+/// Waits for SIGINT (Ctrl-C) or SIGTERM; `false` if neither can be listened for.
+async fn stop_signal() -> bool {
+    use tokio::signal::unix::{signal, SignalKind};
+    match signal(SignalKind::terminate()) {
+        Ok(mut term) => {
+            tokio::select! {
+                r = tokio::signal::ctrl_c() => {
+                    if r.is_err() {
+                        // No Ctrl-C handler: SIGTERM is still heard.
+                        term.recv().await;
+                    }
+                }
+                _ = term.recv() => {}
+            }
+            true
+        }
+        Err(_) => tokio::signal::ctrl_c().await.is_ok(),
+    }
+}
+
 /// Opens (or creates) the checkpoint of this job, refusing one of another job.
 fn open_checkpoint(
-    path: &std::path::Path,
-    resume: bool,
+    at: &CheckpointAt,
+    secret: Option<&[u8]>,
     desc: &SceneDescription,
     settings: &RenderSettings,
     schedule: &options::Schedule,
 ) -> Result<checkpoint::Opened, DistError> {
-    let key = checkpoint::JobKey::new(desc, settings, schedule.tile, schedule.pixel_format)?;
+    let path = &at.path;
+    let mut key = checkpoint::JobKey::new(desc, settings, schedule.tile, schedule.pixel_format)?;
+    if let Some(s) = secret {
+        key = key.sealed_with(s);
+    }
     let list = parrt::tile::tiles(settings.width, settings.height, schedule.tile.max(1));
-    let o = checkpoint::open(path, &key, &list, resume)?;
+    let o = checkpoint::open(path, &key, &list, at.resume)?;
     if !o.created {
         tracing::info!(
             checkpoint = %path.display(),

@@ -176,4 +176,8 @@ pub struct CheckpointAt {
     pub path: PathBuf,
     /// Continue the render recorded there (else an existing file is refused).
     pub resume: bool,
+    /// Seal the records with a key derived from the master's token
+    /// ([`crate::checkpoint::Seal::Keyed`]): only for a token that outlives the run (`parrt
+    /// master`'s), since a resume must give the same one. Without it they are sealed plain.
+    pub keyed: bool,
 }

@@ -6,7 +6,14 @@
 //! linked into place (readers never see half a file, an existing file is never overwritten),
 //! removed by rank 0 at the end; a file left by a dead job (its pid gone on this host, or older
 //! than the timeout) or by another job is refused, not trusted.
+//!
+//! The directory may be shared with other users (a sticky `/tmp`, a cluster's scratch), so a
+//! file is read only if it is a regular file of this user that no one else may read or write
+//! (it holds the job's token), opened without following a link and without blocking
+//! ([`crate::file_guard`]): a file planted by someone else, a link or a FIFO is refused at
+//! once, naming what is wrong, and no rank dials the master it names.
 
+use crate::file_guard::{self, GuardError, Privacy, Refusal};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -99,6 +106,15 @@ pub enum RendezvousError {
         /// How long.
         waited: Duration,
     },
+    /// The file is not one this user may trust: another user's, readable or writable by
+    /// others, a link, a FIFO or a device. Never read, never removed.
+    #[error("rendezvous file {path} {refusal}; remove it if no job of yours is using it")]
+    Refused {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        refusal: Refusal,
+    },
     /// The file could not be written or read.
     #[error("rendezvous file {path}: {source}")]
     Io {
@@ -186,10 +202,16 @@ pub fn staleness(r: &Rendezvous, now: u64, stale_after: Duration) -> Option<Stri
 /// Reads and parses a rendezvous file; `Ok(None)` when it does not exist.
 pub fn read(path: &Path) -> Result<Option<Rendezvous>, RendezvousError> {
     use std::io::Read;
-    let file = match std::fs::File::open(path) {
+    let file = match file_guard::open_existing(path, false, Privacy::OwnerOnly) {
         Ok(f) => f,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(source) => {
+        Err(GuardError::Io(e)) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(GuardError::Refused(refusal)) => {
+            return Err(RendezvousError::Refused {
+                path: path.into(),
+                refusal,
+            })
+        }
+        Err(GuardError::Io(source)) => {
             return Err(RendezvousError::Io {
                 path: path.into(),
                 source,
@@ -407,6 +429,12 @@ mod tests {
 
     const T: Duration = Duration::from_secs(60);
 
+    /// Writes a file as rank 0 does: readable and writable by its owner only.
+    fn write_private(path: &Path, bytes: impl AsRef<[u8]>) {
+        std::fs::write(path, bytes).unwrap();
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o600)).unwrap();
+    }
+
     #[test]
     fn publish_then_wait_then_removed_on_drop() {
         let dir = tempfile::tempdir().unwrap();
@@ -439,7 +467,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = path_for(dir.path(), "j");
         // Live: this process.
-        std::fs::write(&path, serde_json::to_vec(&sample("j")).unwrap()).unwrap();
+        write_private(&path, serde_json::to_vec(&sample("j")).unwrap());
         let before = std::fs::read(&path).unwrap();
         let e = publish(dir.path(), &sample("j"), T).unwrap_err();
         assert!(e.to_string().contains("in use by pid"), "{e}");
@@ -447,7 +475,7 @@ mod tests {
         // Dead pid on this host.
         let mut dead = sample("j");
         dead.pid = u32::MAX - 1;
-        std::fs::write(&path, serde_json::to_vec(&dead).unwrap()).unwrap();
+        write_private(&path, serde_json::to_vec(&dead).unwrap());
         let e = publish(dir.path(), &sample("j"), T).unwrap_err();
         assert!(e.to_string().contains("no longer running"), "{e}");
         // Old, from another host.
@@ -455,13 +483,13 @@ mod tests {
         old.host = "elsewhere".into();
         old.created -= 3600;
         let bytes = serde_json::to_vec(&old).unwrap();
-        std::fs::write(&path, &bytes).unwrap();
+        write_private(&path, &bytes);
         let e = publish(dir.path(), &sample("j"), T).unwrap_err();
         assert!(e.to_string().contains("3600 s ago"), "{e}");
         assert!(e.is_bad_input());
         assert_eq!(std::fs::read(&path).unwrap(), bytes);
         // Garbage.
-        std::fs::write(&path, b"{").unwrap();
+        write_private(&path, b"{");
         let e = publish(dir.path(), &sample("j"), T).unwrap_err();
         assert!(e.to_string().contains("not a parrt rendezvous file"), "{e}");
         assert_eq!(std::fs::read(&path).unwrap(), b"{");
@@ -471,22 +499,87 @@ mod tests {
     fn waiting_ranks_refuse_foreign_stale_and_resized_files() {
         let dir = tempfile::tempdir().unwrap();
         let path = path_for(dir.path(), "j");
-        std::fs::write(&path, serde_json::to_vec(&sample("other")).unwrap()).unwrap();
+        write_private(&path, serde_json::to_vec(&sample("other")).unwrap());
         let e = wait(dir.path(), "j", 3, T).unwrap_err();
         assert!(matches!(e, RendezvousError::Foreign { .. }), "{e}");
         let mut dead = sample("j");
         dead.pid = u32::MAX - 1;
-        std::fs::write(&path, serde_json::to_vec(&dead).unwrap()).unwrap();
+        write_private(&path, serde_json::to_vec(&dead).unwrap());
         let e = wait(dir.path(), "j", 3, T).unwrap_err();
         assert!(matches!(e, RendezvousError::Stale { .. }), "{e}");
-        std::fs::write(&path, serde_json::to_vec(&sample("j")).unwrap()).unwrap();
+        write_private(&path, serde_json::to_vec(&sample("j")).unwrap());
         let e = wait(dir.path(), "j", 4, T).unwrap_err();
         assert!(matches!(e, RendezvousError::SizeMismatch { .. }), "{e}");
         let mut v = sample("j");
         v.version = 99;
-        std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+        write_private(&path, serde_json::to_vec(&v).unwrap());
         let e = wait(dir.path(), "j", 3, T).unwrap_err();
         assert!(matches!(e, RendezvousError::Corrupt { .. }), "{e}");
+    }
+
+    /// Issue 31 item 3: a file planted by another user (here `nobody`) naming their master is
+    /// refused by every rank, and left alone.
+    #[test]
+    fn a_file_of_another_user_or_readable_by_others_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = path_for(dir.path(), "j");
+        let mut planted = sample("j");
+        planted.address = "127.0.0.1:1".into();
+        let bytes = serde_json::to_vec(&planted).unwrap();
+        std::fs::write(&path, &bytes).unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let e = wait(dir.path(), "j", 3, T).unwrap_err();
+        assert!(e.to_string().contains("mode 0644"), "{e}");
+        assert!(e.is_bad_input());
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600)).unwrap();
+        assert_eq!(
+            wait(dir.path(), "j", 3, T).unwrap(),
+            planted,
+            "ours, private: read"
+        );
+        if file_guard::effective_uid() != 0 {
+            eprintln!("not root: the other-owner case needs chown");
+            return;
+        }
+        std::os::unix::fs::chown(&path, Some(65534), Some(65534)).unwrap();
+        let e = wait(dir.path(), "j", 3, T).unwrap_err();
+        assert!(matches!(e, RendezvousError::Refused { .. }), "{e}");
+        assert!(e.to_string().contains("owned by uid 65534"), "{e}");
+        assert!(e.is_bad_input());
+        let e = publish(dir.path(), &sample("j"), T).unwrap_err();
+        assert!(e.to_string().contains("owned by uid 65534"), "{e}");
+        assert_eq!(std::fs::read(&path).unwrap(), bytes, "left as it was");
+    }
+
+    /// Issue 31 items 3 and 9: a link or a FIFO at the path is refused at once, without
+    /// waiting on the FIFO (which would hang every rank).
+    #[test]
+    fn a_link_or_a_fifo_is_refused_without_blocking() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = path_for(dir.path(), "j");
+        let real = dir.path().join("real.json");
+        std::fs::write(&real, serde_json::to_vec(&sample("j")).unwrap()).unwrap();
+        std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o600)).unwrap();
+        std::os::unix::fs::symlink(&real, &path).unwrap();
+        let e = wait(dir.path(), "j", 3, T).unwrap_err();
+        assert!(e.to_string().contains("symbolic link"), "{e}");
+        std::fs::remove_file(&path).unwrap();
+        let c = std::ffi::CString::new(path.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo with a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let d = dir.path().to_path_buf();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let _ = tx.send((wait(&d, "j", 3, T), check_free(&d, "j", T)));
+        });
+        // A hang guard, not a timing: without the check, opening the FIFO never returns.
+        let (waited, free) = rx
+            .recv_timeout(Duration::from_secs(30))
+            .expect("reading a FIFO at the rendezvous path hung");
+        let e = waited.unwrap_err();
+        assert!(e.to_string().contains("a FIFO, not a regular file"), "{e}");
+        assert!(e.is_bad_input());
+        assert!(free.unwrap_err().to_string().contains("a FIFO"));
     }
 
     #[test]

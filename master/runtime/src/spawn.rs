@@ -2,14 +2,21 @@
 //! `<exe> worker --connect ADDR --threads T`, the emulated cluster N replaying workers; both
 //! through [`spawn_workers`] and a [`WorkerCommand`]. The token travels in their environment
 //! (never on the command line, where `ps` would show it). Dropping the handle kills them.
+//!
+//! No orphans: each worker asks the kernel to kill it when the thread that started it ends
+//! (`PR_SET_PDEATHSIG`), so a master that dies any way at all, `SIGKILL` included, takes its
+//! workers with it; and [`spawn_workers_until`] stops starting them as soon as the run is
+//! cancelled (SIGINT, SIGTERM), handing back only those it started, to be killed and reaped.
 
 use crate::options::WorkerCommand;
 use parrt::protocol::{Token, LOG_ENV, TOKEN_ENV};
 use std::net::SocketAddr;
+use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use thiserror::Error;
+use tokio_util::sync::CancellationToken;
 
 /// Errors starting local workers.
 #[derive(Debug, Error)]
@@ -78,15 +85,58 @@ pub fn spawn_workers(
     addr: SocketAddr,
     token: &Token,
 ) -> Result<LocalWorkers, SpawnError> {
+    let mut workers = LocalWorkers {
+        children: Vec::with_capacity(n),
+    };
+    let mut start = starter(cmd, threads, addr, token)?;
+    for index in 0..n {
+        workers.children.push(start(index)?);
+    }
+    Ok(workers)
+}
+
+/// Starts up to `n` workers as [`spawn_workers`] does, yielding to the runtime after each so
+/// that a signal can cancel `stop`; stops starting them once it is cancelled. Returns the
+/// workers started (all `n` unless cancelled); on an error, those started are killed.
+pub async fn spawn_workers_until(
+    cmd: &WorkerCommand,
+    n: usize,
+    threads: usize,
+    addr: SocketAddr,
+    token: &Token,
+    stop: &CancellationToken,
+) -> Result<LocalWorkers, SpawnError> {
+    let mut workers = LocalWorkers {
+        children: Vec::with_capacity(n),
+    };
+    let mut start = starter(cmd, threads, addr, token)?;
+    for index in 0..n {
+        if stop.is_cancelled() {
+            break;
+        }
+        workers.children.push(start(index)?);
+        // Lets the signal listener run (its wake is handled when the driver is next polled).
+        tokio::task::yield_now().await;
+    }
+    Ok(workers)
+}
+
+/// What starts worker `index`: the command line, the token in the environment, and the
+/// parent-death signal.
+fn starter<'a>(
+    cmd: &'a WorkerCommand,
+    threads: usize,
+    addr: SocketAddr,
+    token: &Token,
+) -> Result<impl FnMut(usize) -> Result<Child, SpawnError> + 'a, SpawnError> {
     let exe = match &cmd.exe {
         Some(e) => e.clone(),
         None => std::env::current_exe().map_err(SpawnError::CurrentExe)?,
     };
-    let mut workers = LocalWorkers {
-        children: Vec::with_capacity(n),
-    };
     let token = String::from_utf8_lossy(token.as_bytes()).into_owned();
-    for index in 0..n {
+    // SAFETY: getpid has no preconditions.
+    let parent = unsafe { libc::getpid() };
+    Ok(move |index: usize| {
         let mut c = Command::new(&exe);
         c.args(&cmd.prefix)
             .arg("--connect")
@@ -102,14 +152,26 @@ pub fn spawn_workers(
         if std::env::var_os(LOG_ENV).is_none() {
             c.env(LOG_ENV, &cmd.log);
         }
-        let child = c.spawn().map_err(|source| SpawnError::Start {
+        // SAFETY: prctl, getppid and _exit are async-signal-safe; the closure touches nothing
+        // of the parent's but a copied pid.
+        unsafe {
+            c.pre_exec(move || {
+                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                // The master died before the request took hold: nothing to work for.
+                if libc::getppid() != parent {
+                    libc::_exit(1);
+                }
+                Ok(())
+            });
+        }
+        c.spawn().map_err(|source| SpawnError::Start {
             index,
             exe: exe.display().to_string(),
             source,
-        })?;
-        workers.children.push(child);
-    }
-    Ok(workers)
+        })
+    })
 }
 
 /// Starts `n` workers from executable `exe` (which must accept `worker --connect ...`).

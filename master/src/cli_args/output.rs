@@ -1,7 +1,8 @@
 //! Outputs named on the command line, checked before any work: an image's format and a writable
 //! place for it (`-o`), other files (`--stats-json`, `--report-json`, `--tile-costs`) and the
 //! output directories of the bench studies. A bad output is bad input (exit 2), found before a
-//! render that could take hours rather than after it.
+//! render that could take hours rather than after it. No two of a command's files may be one
+//! file ([`check_distinct`]).
 
 use crate::exit::input_error;
 use std::path::Path;
@@ -17,14 +18,49 @@ pub fn check_file_output(path: &Path) -> anyhow::Result<()> {
     parrt::film::check_writable(path).map_err(input_error)
 }
 
-/// Refuses a `--checkpoint` file that is also another output of the run (it would be
-/// overwritten by it, or overwrite it).
-pub fn check_checkpoint_apart(checkpoint: &Path, others: &[&Path]) -> anyhow::Result<()> {
-    if others.contains(&checkpoint) {
-        return Err(input_error(anyhow::anyhow!(
-            "--checkpoint {} is also an output of this run; give it a file of its own",
-            checkpoint.display()
-        )));
+/// What a path is, as the file system sees it: an existing file by device and inode (so
+/// `./out.png`, `out.png`, a hard link and a symbolic link to it are one), a file still to be
+/// written by its directory's canonical path and its name.
+#[derive(Debug, PartialEq, Eq)]
+enum Identity {
+    Inode(u64, u64),
+    New(std::path::PathBuf),
+}
+
+fn identity(path: &Path) -> Option<Identity> {
+    use std::os::unix::fs::MetadataExt;
+    if let Ok(m) = std::fs::metadata(path) {
+        return Some(Identity::Inode(m.dev(), m.ino()));
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let dir = std::fs::canonicalize(parent).ok()?;
+    Some(Identity::New(dir.join(name)))
+}
+
+/// Refuses two of `files` that are one file (an output that would overwrite the scene, or
+/// another output, or the checkpoint): compared by file identity, not by their text. Each is
+/// the flag that names it (`-o`, `--timeline`, `the scene`, …) and its path, if given. Bad
+/// input (exit 2) naming both flags. A path whose identity cannot be found (its directory
+/// missing) is left to the output checks, which say why.
+pub fn check_distinct(files: &[(&str, Option<&Path>)]) -> anyhow::Result<()> {
+    let given: Vec<(&str, &Path, Option<Identity>)> = files
+        .iter()
+        .filter_map(|&(flag, p)| p.map(|p| (flag, p, identity(p))))
+        .collect();
+    for (i, (flag_a, a, id_a)) in given.iter().enumerate() {
+        for (flag_b, b, id_b) in &given[i + 1..] {
+            if id_a.is_some() && id_a == id_b {
+                return Err(input_error(anyhow::anyhow!(
+                    "{flag_a} {} and {flag_b} {} are the same file; give each its own",
+                    a.display(),
+                    b.display()
+                )));
+            }
+        }
     }
     Ok(())
 }

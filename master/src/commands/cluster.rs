@@ -8,7 +8,7 @@ use super::report::print_summary;
 use super::watch::{start_live, Watch};
 use crate::cli_args::durations::{seconds_flag, MAX_FLAG_DURATION};
 use crate::cli_args::listen::check_listen;
-use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use crate::cli_args::output::{check_distinct, check_file_output, check_image_output};
 use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
@@ -154,13 +154,16 @@ fn run_master(
     check_image_output(&args.output)?;
     if let Some(c) = &args.checkpoint {
         check_file_output(c)?;
-        let mut others = vec![args.output.as_path()];
-        others.extend(args.timeline.as_deref());
-        check_checkpoint_apart(c, &others)?;
     }
     if let Some(t) = &args.timeline {
         check_file_output(t)?;
     }
+    check_distinct(&[
+        ("-o", Some(&args.output)),
+        ("the scene", args.file.as_deref()),
+        ("--checkpoint", args.checkpoint.as_deref()),
+        ("--timeline", args.timeline.as_deref()),
+    ])?;
     check_listen(&args.listen)?;
     if !args.rendezvous.is_dir() {
         return Err(input_error(anyhow::anyhow!(
@@ -201,6 +204,8 @@ fn run_master(
             .map(|path| parrt_runtime::CheckpointAt {
                 path,
                 resume: args.resume,
+                // The job's token is fresh in every run: nothing to key a resume with.
+                keyed: false,
             }),
         ..MasterConfig::default()
     };
@@ -229,7 +234,7 @@ fn run_master(
                 created: rendezvous::now_unix(),
             };
             let p = rendezvous::publish(&args.rendezvous, &r, timeout)?;
-            eprintln!(
+            crate::errln!(
             "parrt cluster: rank 0 of {} ({}, job {job}) is the master on {bound}, published as {} in {}; {label} at {}x{}",
             rank.size,
             rank.launcher,

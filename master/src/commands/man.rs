@@ -54,7 +54,7 @@ pub fn run(args: ManArgs) -> anyhow::Result<ExitCode> {
     match &args.dir {
         Some(dir) => {
             let n = write_pages(dir)?;
-            eprintln!("parrt: wrote {n} manual pages to {}", dir.display());
+            crate::errln!("parrt: wrote {n} manual pages to {}", dir.display());
         }
         None => {
             let mut out = std::io::stdout().lock();

@@ -7,7 +7,7 @@ use crate::cli_args::durations::{
     seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE,
 };
 use crate::cli_args::listen::check_listen;
-use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use crate::cli_args::output::{check_distinct, check_file_output, check_image_output};
 use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use crate::live::state::JobInfo;
@@ -145,12 +145,14 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     {
         check_file_output(p)?;
     }
-    if let Some(c) = &args.checkpoint {
-        let mut others = vec![args.output.as_path()];
-        others.extend(args.report_json.as_deref());
-        others.extend(args.timeline.as_deref());
-        check_checkpoint_apart(c, &others)?;
-    }
+    check_distinct(&[
+        ("-o", Some(&args.output)),
+        ("the scene", args.file.as_deref()),
+        ("--scene-json", args.scene_json.as_deref()),
+        ("--report-json", args.report_json.as_deref()),
+        ("--checkpoint", args.checkpoint.as_deref()),
+        ("--timeline", args.timeline.as_deref()),
+    ])?;
     check_listen(&args.listen)?;
     let (desc, label) = load_scene(&args)?;
     let settings = args.render.settings(&desc)?;
@@ -179,6 +181,8 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
             .map(|path| parrt_runtime::CheckpointAt {
                 path,
                 resume: args.resume,
+                // The token outlives the run (the user gives it again to resume).
+                keyed: true,
             }),
         ..MasterConfig::default()
     };
@@ -199,7 +203,9 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         &config,
         Job::<parrt_runtime::DistError>::ready(desc, settings),
         &mut |addr| {
-            eprintln!("parrt master: listening on {addr}; {label} at {w}x{h}, tiles of {tile} px");
+            crate::errln!(
+                "parrt master: listening on {addr}; {label} at {w}x{h}, tiles of {tile} px"
+            );
             Ok(None)
         },
         None,

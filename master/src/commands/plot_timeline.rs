@@ -40,7 +40,7 @@ pub fn run(args: PlotTimelineArgs) -> anyhow::Result<ExitCode> {
     })?;
     let title = args.title.unwrap_or_else(|| plot::title(&t));
     plot::save(&t, &args.output, &title)?;
-    eprintln!(
+    crate::errln!(
         "parrt: drew {} ({} tiles, {} events)",
         args.output.display(),
         t.tiles.len(),

@@ -4,7 +4,7 @@
 
 use super::report::RenderReport;
 use super::watch::{start_live, watchers};
-use crate::cli_args::output::{check_checkpoint_apart, check_file_output, check_image_output};
+use crate::cli_args::output::{check_distinct, check_file_output, check_image_output};
 use crate::cli_args::{ExecutorArg, LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use crate::observed_smp::render_smp_observed;
@@ -265,6 +265,8 @@ fn render_through_workers(
         .map(|path| parrt_runtime::CheckpointAt {
             path,
             resume: args.resume,
+            // The workers' token is made for this run only: nothing to key a resume with.
+            keyed: false,
         });
     let (r, settings) = match parrt_runtime::run(&config, job, &mut |_| Ok(None), None) {
         Ok(done) => (done.result, done.settings),
@@ -274,7 +276,7 @@ fn render_through_workers(
         }
     };
     if let Some(c) = &args.checkpoint {
-        eprintln!(
+        crate::errln!(
             "parrt: checkpoint {}: {} tiles restored, {} bad records dropped",
             c.display(),
             r.restored_tiles,
@@ -377,13 +379,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     {
         check_file_output(p)?;
     }
-    if let Some(c) = &args.checkpoint {
-        let mut others = vec![args.output.as_path()];
-        others.extend(args.stats_json.as_deref());
-        others.extend(args.tile_costs.as_deref());
-        others.extend(args.timeline.as_deref());
-        check_checkpoint_apart(c, &others)?;
-    }
+    check_distinct(&[
+        ("-o", Some(&args.output)),
+        ("the scene", args.file.as_deref()),
+        ("--stats-json", args.stats_json.as_deref()),
+        ("--tile-costs", args.tile_costs.as_deref()),
+        ("--checkpoint", args.checkpoint.as_deref()),
+        ("--timeline", args.timeline.as_deref()),
+    ])?;
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
     }
@@ -414,10 +417,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         trace_s: out.trace_s,
     };
     if args.stats {
-        println!("scene             {}", spec.label());
-        println!("precision         {precision} ({})", choice.reason);
+        crate::outln!("scene             {}", spec.label());
+        crate::outln!("precision         {precision} ({})", choice.reason);
         for line in &out.describe {
-            println!("{line}");
+            crate::outln!("{line}");
         }
         report.print();
     }
@@ -445,7 +448,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         std::fs::write(path, text + "\n")
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    eprintln!(
+    crate::errln!(
         "parrt: wrote {} ({}x{}) in {:.2}s",
         args.output.display(),
         settings.width,

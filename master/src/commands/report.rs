@@ -63,52 +63,55 @@ impl RenderReport {
             }
         };
         let rays = s.total_rays();
-        println!(
+        crate::outln!(
             "rays              {:>14}  ({:.2} Mrays/s)",
             rays,
             self.mrays_per_s()
         );
-        println!("  eye             {:>14}  hits {}", s.eye_rays, s.eye_hits);
-        println!(
+        crate::outln!("  eye             {:>14}  hits {}", s.eye_rays, s.eye_hits);
+        crate::outln!(
             "  shadow          {:>14}  blocked {}",
-            s.shadow_rays, s.shadow_hits
+            s.shadow_rays,
+            s.shadow_hits
         );
-        println!(
+        crate::outln!(
             "  reflection      {:>14}  hits {}",
-            s.reflection_rays, s.reflection_hits
+            s.reflection_rays,
+            s.reflection_hits
         );
-        println!(
+        crate::outln!(
             "  refraction      {:>14}  hits {}",
-            s.refraction_rays, s.refraction_hits
+            s.refraction_rays,
+            s.refraction_hits
         );
-        println!(
+        crate::outln!(
             "box tests         {:>14}  ({:.1} per ray)",
             s.box_tests,
             per(s.box_tests, rays)
         );
-        println!(
+        crate::outln!(
             "primitive tests   {:>14}  ({:.1} per ray)",
             s.primitive_tests,
             per(s.primitive_tests, rays)
         );
         if s.cell_steps > 0 {
-            println!(
+            crate::outln!(
                 "cell steps        {:>14}  ({:.1} per ray)",
                 s.cell_steps,
                 per(s.cell_steps, rays)
             );
         }
-        println!("parse             {:>13.3}s", self.parse_s);
-        println!("build             {:>13.3}s", self.build_s);
-        println!("preprocessing     {:>13.3}s", self.parse_s + self.build_s);
-        println!("trace             {:>13.3}s", self.trace_s);
-        println!("isa               {:>14}", parrt::isa::current().name());
+        crate::outln!("parse             {:>13.3}s", self.parse_s);
+        crate::outln!("build             {:>13.3}s", self.build_s);
+        crate::outln!("preprocessing     {:>13.3}s", self.parse_s + self.build_s);
+        crate::outln!("trace             {:>13.3}s", self.trace_s);
+        crate::outln!("isa               {:>14}", parrt::isa::current().name());
     }
 }
 
 /// Prints what a distributed render did (also `parrt cluster`'s rank 0).
 pub fn print_summary(r: &DistResult, out: &std::path::Path) {
-    eprintln!(
+    crate::errln!(
         "parrt master: wrote {} ({} tiles in {:.3} s; {} rays; {} bytes out, {} in, {:.0} bytes/tile; scene transfer {:.4} s)",
         out.display(),
         r.tiles,
@@ -120,13 +123,14 @@ pub fn print_summary(r: &DistResult, out: &std::path::Path) {
         r.scene_transfer_s,
     );
     if r.restored_tiles > 0 || r.checkpoint_bad_records > 0 {
-        eprintln!(
+        crate::errln!(
             "  checkpoint: {} tiles restored, {} bad records dropped",
-            r.restored_tiles, r.checkpoint_bad_records
+            r.restored_tiles,
+            r.checkpoint_bad_records
         );
     }
     for w in &r.per_worker {
-        eprintln!(
+        crate::errln!(
             "  {:<20} {:>2} threads {:<6} {:>6} tiles {:>8.3} s render{}",
             w.name,
             w.threads,
@@ -141,7 +145,7 @@ pub fn print_summary(r: &DistResult, out: &std::path::Path) {
     }
     let f = &r.faults;
     if !f.refused.is_empty() || f.rejected_results + f.requeued + f.dropped > 0 {
-        eprintln!(
+        crate::errln!(
             "  faults: {} refused, {} results rejected, {} duplicates ignored, {} tiles requeued, {} backups, {} workers dropped",
             f.refused.len(),
             f.rejected_results,

@@ -57,7 +57,7 @@ fn summary(
 /// Runs `parrt scene`.
 pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
     if args.list {
-        print!("{}", listing());
+        crate::out!("{}", listing());
         return Ok(ExitCode::SUCCESS);
     }
     let Some(name) = args.name.as_deref() else {
@@ -71,7 +71,7 @@ pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
         Some(path) => {
             std::fs::write(path, text.as_bytes())
                 .with_context(|| format!("cannot write {}", path.display()))?;
-            eprintln!("parrt: wrote {}", summary(path, &scene, text.len()));
+            crate::errln!("parrt: wrote {}", summary(path, &scene, text.len()));
         }
         None => {
             let mut out = std::io::stdout().lock();

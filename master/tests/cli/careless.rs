@@ -16,7 +16,7 @@ const MEMORY_CAP: u64 = 4 << 30;
 const TIME_CAP: Duration = Duration::from_secs(30);
 
 /// Runs `parrt args` under [`MEMORY_CAP`] and [`TIME_CAP`] (killed past it).
-fn parrt(args: &[&str]) -> Output {
+pub(crate) fn parrt(args: &[&str]) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_parrt"));
     cmd.args(args)
         .env("RUST_BACKTRACE", "0")

@@ -9,6 +9,7 @@ mod support;
 
 mod careless;
 mod conventions;
+mod files;
 mod info;
 mod isa;
 mod render;

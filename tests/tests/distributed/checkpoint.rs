@@ -268,7 +268,7 @@ fn a_checkpoint_of_another_scene_or_settings_or_without_resume_is_refused_unchan
     // The checkpoint cannot be the image too.
     let o = run(&dist_args(&out, &out, false), false);
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("is also an output of this run"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("are the same file"));
     assert!(!out.exists());
     // parrt master refuses it too, before listening.
     let o = Command::new(EXE)

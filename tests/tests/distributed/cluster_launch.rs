@@ -222,7 +222,45 @@ fn leftover(dir: &Path, job_in_name: &str, job_inside: &str, pid: u32, age: u64)
         "pid": pid, "host": host, "created": now - age,
     });
     std::fs::write(&path, body.to_string()).unwrap();
+    // Private, as rank 0 writes it (it holds the job's token).
+    std::fs::set_permissions(&path, std::os::unix::fs::PermissionsExt::from_mode(0o600)).unwrap();
     path
+}
+
+/// Issue 31 items 3 and 9: a file planted by another user (`nobody`) naming their master, and a
+/// FIFO at the rendezvous path: every rank refuses at once (exit 2) and none dials.
+#[test]
+fn a_planted_or_fifo_rendezvous_file_is_refused_by_every_rank() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = leftover(dir.path(), "5", "5", std::process::id(), 0);
+    // The tests run as root, who may give the file to `nobody`; anyone else cannot.
+    if std::os::unix::fs::chown(&path, Some(65534), Some(65534)).is_ok() {
+        for rank in [0, 1] {
+            let (out, err) = run_one(dir.path(), &slurm(rank, "5"), &[]);
+            assert_eq!(out.status.code(), Some(2), "rank {rank}: {err}");
+            assert!(err.contains("owned by uid 65534"), "rank {rank}: {err}");
+        }
+    } else {
+        eprintln!("not root: the planted-by-another-user case needs chown");
+    }
+    std::fs::remove_file(&path).unwrap();
+    let made = Command::new("mkfifo").arg(&path).status().unwrap();
+    assert!(made.success());
+    for rank in [0, 1] {
+        let t0 = Instant::now();
+        let (out, err) = run_one(
+            dir.path(),
+            &slurm(rank, "5"),
+            &["--rendezvous-timeout", "5"],
+        );
+        assert_eq!(out.status.code(), Some(2), "rank {rank}: {err}");
+        assert!(
+            err.contains("a FIFO, not a regular file"),
+            "rank {rank}: {err}"
+        );
+        // A hang guard: the timeout is honoured (without the check every rank hung).
+        assert!(t0.elapsed() < Duration::from_secs(60), "rank {rank} hung");
+    }
 }
 
 #[test]

@@ -73,7 +73,7 @@ fn replot(
             points,
         )?;
     }
-    eprintln!(
+    crate::errln!(
         "parrt: drew {} Pareto plots in {}",
         scenes.len(),
         args.out.display()
@@ -164,6 +164,8 @@ fn stem(label: &str) -> String {
 /// Runs `parrt bench accuracy`.
 pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
     let (width, height) = parse_size(&args.size)?;
+    // The studies render in tiles of 32 (issue 31 item 11: every bench checks its image).
+    args.limits.check_image(width, height, 32)?;
     if let Some(csv) = &args.replot {
         return replot(&args, csv, width, height);
     }
@@ -192,7 +194,9 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
     for spec in &specs {
         let (desc, _) = spec.load(&args.limits.limits())?;
         let label = stem(&spec.label());
-        let st = study::run(&label, &desc, &configs, &opts, &|line| eprintln!("{line}"))?;
+        let st = study::run(&label, &desc, &configs, &opts, &|line| {
+            crate::errln!("{line}")
+        })?;
         let front = report::front_of(&st);
         let points: Vec<PlotPoint> = st
             .rows
@@ -219,8 +223,8 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
     let csv_path = args.out.join("accuracy.csv");
     std::fs::write(&csv_path, report::csv(&studies)?)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
-    println!("{md}");
-    eprintln!("parrt: wrote {}", args.out.display());
+    crate::outln!("{md}");
+    crate::errln!("parrt: wrote {}", args.out.display());
     Ok(ExitCode::SUCCESS)
 }
 

@@ -44,10 +44,10 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
             "--mintime must be a non-negative number"
         )));
     }
-    println!(
+    crate::outln!(
         "| scene | prims | build s | rays/frame | eye hits | shadow rays | frames | Mrays/s | Mrays/CPU-s |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    crate::outln!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for name in &args.scenes {
         let spec = SceneSpec::parse(name)?;
         let (desc, _) = spec.load(&args.limits.limits())?;
@@ -55,6 +55,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
             Some(s) => (s, s),
             None => (desc.view.width, desc.view.height),
         };
+        args.limits.check_image(w, h, 32)?;
         let mut settings = RenderSettings::new(w, h);
         settings.accel = args.accel.kind();
         let mut r = Renderer::new(&desc, &settings).map_err(input_error)?;
@@ -76,7 +77,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
         let secs = t0.elapsed().as_secs_f64();
         let cpu = parrt_runtime::cpu_time::thread_cpu_s() - c0;
         let rays = per_frame.eye_rays + per_frame.shadow_rays;
-        println!(
+        crate::outln!(
             "| {} | {} | {:.4} | {} | {} | {} | {} | {:.2} | {:.2} |",
             spec.label(),
             r.build_info().primitives,

@@ -24,8 +24,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
 
-/// Most worker processes one run may start.
-pub const MAX_WORKERS: usize = 1024;
+/// Most worker processes one run may start: the cap every master that starts local workers
+/// keeps (`render --workers` too).
+pub const MAX_WORKERS: usize = parrt_runtime::options::MAX_SPAWNED_WORKERS;
 /// Most threads per worker.
 pub const MAX_THREADS: usize = 256;
 
@@ -173,7 +174,7 @@ fn replay_path(args: &ClusterArgs, label: &str) -> PathBuf {
 /// scaled up (×100 to emulate 100 samples), one such hiccup would become a tile seconds long
 /// that no real render has, so the minimum, not the first or the mean, is the tile's cost.
 fn record(renderer: &Renderer, tile: u32, repeat: usize, path: &Path) -> anyhow::Result<()> {
-    eprintln!(
+    crate::errln!(
         "recording a one-thread render ({repeat} times) into {} ...",
         path.display()
     );
@@ -191,7 +192,7 @@ fn record(renderer: &Renderer, tile: u32, repeat: usize, path: &Path) -> anyhow:
         }
     }
     replay::write(path, tile, &costs, &first.film)?;
-    eprintln!(
+    crate::errln!(
         "recorded: t₁ = {:.3} s (first run {:.3} s)",
         costs.iter().sum::<f64>(),
         first.trace_s
@@ -327,6 +328,8 @@ fn binding_warnings(mean_tile_s: f64, rows: &[Row]) -> Vec<String> {
 /// Runs `parrt bench cluster`.
 pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     check(&args)?;
+    // Before the recording allocates its film (issue 31 item 11: 65536² aborted on 51.5 GB).
+    args.limits.check_image(args.size, args.size, args.tile)?;
     let spec = SceneSpec::parse(&args.scene)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     let mut settings = RenderSettings::new(args.size, args.size);
@@ -386,7 +389,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     let mut timelines = Vec::new();
     for &threads in &args.threads {
         for &workers in &worker_counts(&args) {
-            eprintln!("{workers} workers × {threads} threads ...");
+            crate::errln!("{workers} workers × {threads} threads ...");
             let recorder = std::sync::Arc::new(crate::timeline::Recorder::new());
             let m = emulate::run(
                 &desc,
@@ -495,7 +498,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 predicted_as_run: as_run.efficiency * work / ran.max(1e-12),
                 bytes_received: m.bytes_received,
             };
-            eprintln!(
+            crate::errln!(
                 "  e = {:.3}, predicted {:.3} ({:.3} from the tile times as run, workers overran {:.1}%), limit {:.3} ({}), emulation CPU {:.0}% (master {:.0}%, relay {:.0}%, workers {:.0}% of it), machine busy {:.0}%, identical {}",
                 row.efficiency,
                 row.predicted,
@@ -536,13 +539,13 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
         .map(|w| format!("\n**Warning:** {w}\n"))
         .collect::<String>();
     std::fs::write(args.out.join("cluster.md"), &md)?;
-    println!("{md}");
+    crate::outln!("{md}");
     for w in &warnings {
-        eprintln!("warning: {w}");
+        crate::errln!("warning: {w}");
     }
     let all_good = rows.iter().all(|r| r.identical && r.delivered_once);
     if !all_good {
-        eprintln!("some runs did not assemble the recorded image exactly once per tile");
+        crate::errln!("some runs did not assemble the recorded image exactly once per tile");
         return Ok(ExitCode::FAILURE);
     }
     Ok(ExitCode::SUCCESS)

@@ -204,6 +204,12 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
             "threads, tiles, sizes and --repeat must be at least 1"
         )));
     }
+    // Every image is checked before the first is rendered (issue 31 item 11).
+    for &size in &args.sizes {
+        for &tile in &args.tiles {
+            args.limits.check_image(size, size, tile)?;
+        }
+    }
     let accels: Vec<AccelKind> = args.accel.iter().map(|a| a.kind()).collect();
     let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
     let spec = SceneSpec::parse(&args.scene)?;
@@ -450,12 +456,12 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
                 &args.out.join(format!("{stem}.png")),
             )?;
             let _ = writeln!(md, "![{stem}]({stem}.png)\n");
-            eprintln!("parrt: measured {size}px {accel:?}");
+            crate::errln!("parrt: measured {size}px {accel:?}");
         }
     }
     std::fs::write(args.out.join("efficiency.md"), &md)?;
     std::fs::write(args.out.join("efficiency.csv"), csv.into_inner()?)?;
-    println!("{md}");
-    eprintln!("parrt: wrote {}", args.out.display());
+    crate::outln!("{md}");
+    crate::errln!("parrt: wrote {}", args.out.display());
     Ok(ExitCode::SUCCESS)
 }

@@ -138,6 +138,8 @@ fn name(p: Precision) -> &'static str {
 /// Runs `parrt bench precision`.
 pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
     let (width, height) = parse_size(&args.size)?;
+    // Rendered in tiles of 16 (issue 31 item 11: every bench checks its image).
+    args.limits.check_image(width, height, 16)?;
     if args.threads == Some(0) {
         return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
     }
@@ -172,7 +174,7 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
                 let ImageError {
                     off, max: max_err, ..
                 } = compare(&film.pixels, &reference.pixels);
-                eprintln!(
+                crate::errln!(
                     "{scene} {} {:e} {}: {} off {:.4}% max {max_err:.4} trace {trace_s:.3}s",
                     place.kind,
                     place.magnitude,
@@ -298,8 +300,8 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
     let csv_path = args.out.join("precision.csv");
     std::fs::write(&csv_path, csv.into_inner()?)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
-    println!("{md}");
-    eprintln!("parrt: wrote {}", args.out.display());
+    crate::outln!("{md}");
+    crate::errln!("parrt: wrote {}", args.out.display());
     Ok(ExitCode::SUCCESS)
 }
 

@@ -44,8 +44,10 @@ pub fn run(args: BenchRenderArgs) -> anyhow::Result<ExitCode> {
     } else {
         args.scenes.clone()
     };
-    println!("| scene | size | prims | parse s | build s | trace s | total s | rays | Mrays/s |");
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    crate::outln!(
+        "| scene | size | prims | parse s | build s | trace s | total s | rays | Mrays/s |"
+    );
+    crate::outln!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
     for name in &names {
         let spec = SceneSpec::parse(name)?;
         let (mut parse, mut build, mut trace) = (Vec::new(), Vec::new(), Vec::new());
@@ -75,7 +77,7 @@ pub fn run(args: BenchRenderArgs) -> anyhow::Result<ExitCode> {
             rays = res.stats.total_rays();
         }
         let (p, b, t) = (median(&parse), median(&build), median(&trace));
-        println!(
+        crate::outln!(
             "| {} | {}x{} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {:.2} |",
             spec.label(),
             size.0,

@@ -261,6 +261,6 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
     let _ = writeln!(md, "\n![simulate](simulate.png)");
     std::fs::write(args.out.join("simulate.md"), &md)?;
     std::fs::write(args.out.join("simulate.csv"), csv.into_inner()?)?;
-    println!("{md}");
+    crate::outln!("{md}");
     Ok(ExitCode::SUCCESS)
 }

@@ -21,6 +21,11 @@ use std::time::{Duration, Instant};
 const CHUNK: usize = 16 * 1024;
 /// Stack of the relay threads (they hold a chunk and little else).
 const STACK: usize = 256 * 1024;
+/// Longest the relay waits to reach the master for one worker's connection. A master that
+/// stopped accepting (it failed to start its workers, say) leaves connects unanswered for
+/// minutes of SYN retries; bounded, the relay stops soon after it is dropped (issue 31 item
+/// 12), and the worker, whose connection is closed, dials again if the master is still there.
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// The emulated network.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,9 +93,12 @@ impl Relay {
                         break;
                     }
                     let Ok(worker) = conn else { continue };
-                    let Ok(master) = TcpStream::connect(target) else {
+                    let Ok(master) = TcpStream::connect_timeout(&target, CONNECT_TIMEOUT) else {
                         continue;
                     };
+                    if stop2.load(Ordering::Relaxed) {
+                        break;
+                    }
                     if let Err(e) = connect(worker, master, &p, &up, &down, &sockets2) {
                         tracing::warn!(error = %e, "relay: cannot relay a connection");
                     }
@@ -284,6 +292,56 @@ fn pump(mut dirs: [Direction; 2], latency: Duration) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 31 item 12: a master that stopped accepting (its listen queue full, so a connect
+    /// waits through minutes of SYN retries) does not keep the dropped relay alive.
+    #[test]
+    fn dropping_the_relay_does_not_wait_on_a_master_that_never_answers() {
+        use std::os::fd::FromRawFd;
+        // A listener with the shortest queue, filled, that never accepts.
+        // SAFETY: plain socket calls on a descriptor owned here, then by the TcpListener.
+        let (listener, target) = unsafe {
+            let fd = libc::socket(libc::AF_INET, libc::SOCK_STREAM, 0);
+            assert!(fd >= 0);
+            let mut a: libc::sockaddr_in = std::mem::zeroed();
+            a.sin_family = libc::AF_INET as libc::sa_family_t;
+            a.sin_addr.s_addr = u32::from_ne_bytes([127, 0, 0, 1]);
+            let len = std::mem::size_of::<libc::sockaddr_in>() as libc::socklen_t;
+            assert_eq!(
+                libc::bind(fd, &a as *const _ as *const libc::sockaddr, len),
+                0
+            );
+            assert_eq!(libc::listen(fd, 0), 0);
+            let l = TcpListener::from_raw_fd(fd);
+            let addr = l.local_addr().unwrap();
+            (l, addr)
+        };
+        let mut fillers = Vec::new();
+        while let Ok(c) = TcpStream::connect_timeout(&target, Duration::from_millis(300)) {
+            fillers.push(c);
+            assert!(fillers.len() < 64, "the queue never filled");
+        }
+        let relay = Relay::start(
+            target,
+            LinkParams {
+                latency: Duration::ZERO,
+                worker_bps: f64::INFINITY,
+                master_bps: f64::INFINITY,
+            },
+        )
+        .unwrap();
+        let _worker = TcpStream::connect(relay.addr()).unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            drop(relay);
+            let _ = tx.send(());
+        });
+        // A hang guard, not a timing: unbounded, the relay's connect waited ~130 s.
+        rx.recv_timeout(Duration::from_secs(30))
+            .expect("dropping the relay waited on the master's connect");
+        drop((listener, fillers));
+    }
 
     #[test]
     fn relays_both_ways_with_latency_and_bandwidth() {
