@@ -61,7 +61,7 @@ pub fn main() -> ExitCode {
     // The instruction-set tier, once for the process: an unknown or unsupported PARRT_ISA is
     // bad input.
     if let Err(e) = parrt::isa::init() {
-        eprintln!("parrt: {e}");
+        crate::errln!("parrt: {e}");
         return ExitCode::from(2);
     }
     // Library warnings (e.g. the NFF reader's) go to stderr; master and worker log more.

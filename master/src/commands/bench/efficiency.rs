@@ -214,7 +214,7 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let executors: Vec<Executor> = args.executors.iter().map(|e| e.executor()).collect();
     let spec = SceneSpec::parse(&args.scene)?;
     crate::cli_args::output::prepare_out_dir(&args.out)?;
-    eprintln!("parrt: {}", plan(&args, &threads));
+    crate::errln!("parrt: {}", plan(&args, &threads));
     let mut md = String::new();
     let mut csv = csv::Writer::from_writer(Vec::new());
     csv.write_record(parrt::efficiency::CSV_HEADER)?;
