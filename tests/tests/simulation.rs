@@ -4,7 +4,7 @@
 
 use parrt_tests::sim::plan::{Fault, Plan};
 use parrt_tests::sim::run_seed;
-use parrt_tests::sim::scale::{record, run, Config};
+use parrt_tests::sim::scale::{run, Config};
 use std::time::Duration;
 
 #[test]
