@@ -34,9 +34,12 @@ pub fn on_each_tier<T>(mut f: impl FnMut(Isa) -> T) -> Vec<(Isa, T)> {
     out
 }
 
+/// What one tier rendered: the film, its ray statistics and its 8-bit bytes.
+pub type Rendered = (Film, RayStats, Vec<u8>);
+
 /// Asserts every tier's film and statistics equal the `scalar` tier's, bit for bit, and that
 /// the 8-bit conversion of each film gives the same bytes.
-pub fn assert_same_on_every_tier(what: &str, runs: &[(Isa, (Film, RayStats, Vec<u8>))]) {
+pub fn assert_same_on_every_tier(what: &str, runs: &[(Isa, Rendered)]) {
     let (_, (want, want_stats, want_bytes)) = &runs[0];
     for (tier, (film, stats, bytes)) in &runs[1..] {
         crate::support::film::assert_same_bits(film, want, &format!("{what} on {tier}"));
