@@ -3,7 +3,7 @@
 //! cluster launchers and the emulated cluster (`cluster_launch`, `cluster_emulated`), the
 //! command lines (`cli`), and hostile or careless peers by what they attack: the token
 //! (`token`), the handshake (`handshake`), frames after it (`frames`) and what a peer can cost
-//! (`limits`); `peers` holds their raw clients. The soak is its own binary
+//! (`limits`), and a relay in the middle (`relay`); `peers` holds their raw clients. The soak is its own binary
 //! (`distributed_soak.rs`): it measures this process's memory, which tests running beside it
 //! here would disturb.
 
@@ -17,6 +17,7 @@ mod handshake;
 mod identical;
 mod limits;
 mod peers;
+mod relay;
 mod token;
 
 /// The package's `parrt` executable (master, worker, `render --workers`, cluster).
