@@ -15,9 +15,9 @@ use crate::exec::{ExecEvent, Execute, RayonExec};
 use crate::net::{Dial, TcpDial};
 use crate::options::WorkerOptions;
 use crate::tiles::JobHandle;
+use parrt::protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt::protocol::limits::{self, MASTER_FRAME_AFTER_JOB};
 use parrt::protocol::message::NONCE_LEN;
-use parrt::protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt::protocol::{
     Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };

@@ -234,7 +234,9 @@ pub async fn connect<S: AsyncRead + AsyncWrite + Unpin>(
         .build_initiator()
         .map_err(ChannelError::Noise)?;
     let mut msg = [0u8; 128];
-    let n = hs.write_message(&[], &mut msg).map_err(ChannelError::Noise)?;
+    let n = hs
+        .write_message(&[], &mut msg)
+        .map_err(ChannelError::Noise)?;
     write_frame(&mut stream, &[&header, &msg[..n]]).await?;
     let reply = read_frame(&mut stream).await?;
     match reply.split_first() {
@@ -270,8 +272,7 @@ pub async fn accept<S: AsyncRead + AsyncWrite + Unpin>(
             None => ChannelError::NotParrt,
         };
         if let ChannelError::OtherVersion(v) = err {
-            let reason =
-                format!("protocol version {v}; this master speaks {PROTOCOL_VERSION}");
+            let reason = format!("protocol version {v}; this master speaks {PROTOCOL_VERSION}");
             refuse_in_clear(&mut stream, reason).await;
         }
         return Err(err);
@@ -286,7 +287,9 @@ pub async fn accept<S: AsyncRead + AsyncWrite + Unpin>(
         return Err(ChannelError::WrongKey);
     }
     let mut msg = [0u8; 128];
-    let n = hs.write_message(&[], &mut msg).map_err(ChannelError::Noise)?;
+    let n = hs
+        .write_message(&[], &mut msg)
+        .map_err(ChannelError::Noise)?;
     write_frame(&mut stream, &[&[NOISE_REPLY], &msg[..n]]).await?;
     let t = hs.into_transport_mode().map_err(ChannelError::Noise)?;
     Ok(SecureStream::new(stream, t))
@@ -436,7 +439,8 @@ impl<S: AsyncRead + Unpin> AsyncRead for SecureStream<S> {
             if me.open_chunk()? {
                 continue;
             }
-            me.rx.reserve(CHUNK_PREFIX + MAX_NOISE_MESSAGE - me.rx.len());
+            me.rx
+                .reserve(CHUNK_PREFIX + MAX_NOISE_MESSAGE - me.rx.len());
             let n = ready!(tokio_util::io::poll_read_buf(
                 Pin::new(&mut me.inner),
                 cx,
@@ -541,7 +545,10 @@ mod tests {
     async fn a_large_message_crosses_in_chunks_and_comes_back_whole() {
         let k = key("t");
         let (w, m) = pair(&k, &k).await;
-        let (mut w, mut m) = (Connection::new(w.unwrap(), 1 << 22), Connection::new(m.unwrap(), 1 << 22));
+        let (mut w, mut m) = (
+            Connection::new(w.unwrap(), 1 << 22),
+            Connection::new(m.unwrap(), 1 << 22),
+        );
         let big = Message::Error {
             reason: "x".repeat(3 * MAX_CHUNK + 17),
         };
@@ -575,13 +582,21 @@ mod tests {
             let header = greeting_header();
             let p = prologue(&header);
             let other = key("guess");
-            let mut hs = builder(&other, &p, None).unwrap().build_responder().unwrap();
+            let mut hs = builder(&other, &p, None)
+                .unwrap()
+                .build_responder()
+                .unwrap();
             let mut buf = [0u8; 128];
             // It cannot read message 1; it answers anyway with a fresh message of its own.
             let _ = hs.read_message(&greeting[header.len()..], &mut buf);
-            let mut hs = builder(&other, &p, None).unwrap().build_initiator().unwrap();
+            let mut hs = builder(&other, &p, None)
+                .unwrap()
+                .build_initiator()
+                .unwrap();
             let n = hs.write_message(&[], &mut buf).unwrap();
-            write_frame(&mut b, &[&[NOISE_REPLY], &buf[..n]]).await.unwrap();
+            write_frame(&mut b, &[&[NOISE_REPLY], &buf[..n]])
+                .await
+                .unwrap();
             b
         };
         let ours = key("t");
@@ -606,7 +621,10 @@ mod tests {
         // Not a greeting at all, and an oversized first frame.
         let (mut a, b) = duplex(1 << 16);
         write_frame(&mut a, &[&[7u8, 1, 2, 3]]).await.unwrap();
-        assert!(matches!(accept(b, &key("t"), None).await, Err(ChannelError::NotParrt)));
+        assert!(matches!(
+            accept(b, &key("t"), None).await,
+            Err(ChannelError::NotParrt)
+        ));
         let (mut a, b) = duplex(1 << 16);
         a.write_all(&[0xff, 0xff, 0xff, 0xff]).await.unwrap();
         let e = accept(b, &key("t"), None).await.unwrap_err();
@@ -626,7 +644,10 @@ mod tests {
         // Flip a byte of the ciphertext in flight: read it raw from below the worker's channel.
         let mut raw = [0u8; 64];
         let n = w.get_mut().read(&mut raw).await.unwrap();
-        assert!(!raw[..n].windows(5).any(|x| x == b"scene"), "plaintext on the wire");
+        assert!(
+            !raw[..n].windows(5).any(|x| x == b"scene"),
+            "plaintext on the wire"
+        );
         raw[n / 2] ^= 1;
         w.rx.extend_from_slice(&raw[..n]);
         let mut got = [0u8; 64];

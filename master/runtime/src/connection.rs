@@ -10,8 +10,8 @@
 
 use super::scheduler::{Event, WorkerId};
 use super::server::HandshakeSlot;
-use parrt::protocol::limits::{self, MAX_THREADS};
 use parrt::protocol::channel::{self, ChannelError, LinkKey, SecureStream};
+use parrt::protocol::limits::{self, MAX_THREADS};
 use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
     Connection, Encoded, Message, ProtocolError, Token, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,

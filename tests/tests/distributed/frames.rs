@@ -154,6 +154,9 @@ async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
         (600 * 1024, 32 * 1024, 100, true),
         (300 * 1024, 1024, 100, false),
     ] {
+        // Made before the worker starts: the fake master sends no heartbeats, so a job that
+        // took longer than the 1 s timeout to build would read as silence.
+        let bytes = frame(&big_job(size));
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
         let addr = listener.local_addr().unwrap();
         let mut w = worker_options(addr, 1, "w");
@@ -161,7 +164,6 @@ async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
         let worker = start_worker(w);
         let c = welcome_one(&listener).await;
         let (mut r, mut wr) = tokio::io::split(c.into_inner());
-        let bytes = frame(&big_job(size));
         let began = std::time::Instant::now();
         let trickle = tokio::spawn(async move {
             for part in bytes.chunks(chunk) {

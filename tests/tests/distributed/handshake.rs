@@ -76,7 +76,11 @@ async fn worker_answers_no_peer_that_cannot_prove_the_token() {
     s.read_exact(&mut len).await.unwrap();
     let mut greeting = vec![0u8; u32::from_be_bytes(len) as usize];
     s.read_exact(&mut greeting).await.unwrap();
-    assert_eq!(&greeting[..2], &[0, PROTOCOL_VERSION as u8], "variant 0, then the version");
+    assert_eq!(
+        &greeting[..2],
+        &[0, PROTOCOL_VERSION as u8],
+        "variant 0, then the version"
+    );
     // A squatter answering with a handshake message it could not make without the token.
     let mut answer = 49u32.to_be_bytes().to_vec();
     answer.push(0xFF);
@@ -84,7 +88,11 @@ async fn worker_answers_no_peer_that_cannot_prove_the_token() {
     s.write_all(&answer).await.unwrap();
     let mut after = Vec::new();
     let _ = s.read_to_end(&mut after).await;
-    assert!(after.is_empty(), "the worker sent {} more bytes", after.len());
+    assert!(
+        after.is_empty(),
+        "the worker sent {} more bytes",
+        after.len()
+    );
     let err = worker.await.unwrap().unwrap_err();
     assert!(matches!(err, WorkerError::MasterUnproven(_)), "{err}");
     assert!(err.to_string().contains("did not prove"), "{err}");

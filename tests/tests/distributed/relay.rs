@@ -21,9 +21,15 @@ struct Seen {
 }
 
 /// Accepts one connection on `listener`, dials `master` and forwards bytes both ways until
-/// either side closes, keeping a copy. With `flip_chunk = Some(k)`, the last byte of the k-th
-/// encrypted chunk from the worker (after its greeting frame) is flipped on the way.
-async fn relay_one(listener: TcpListener, master: SocketAddr, flip_chunk: Option<usize>, seen: Arc<Mutex<Seen>>) {
+/// either side closes, keeping a copy. With `flip_over = Some(n)`, the last byte of the first
+/// encrypted chunk from the worker longer than `n` bytes is flipped on the way; returns
+/// whether a byte was flipped.
+async fn relay_one(
+    listener: TcpListener,
+    master: SocketAddr,
+    flip_over: Option<usize>,
+    seen: Arc<Mutex<Seen>>,
+) -> bool {
     let (w, _) = listener.accept().await.unwrap();
     let m = TcpStream::connect(master).await.unwrap();
     let (mut wr, mut ww) = w.into_split();
@@ -31,37 +37,37 @@ async fn relay_one(listener: TcpListener, master: SocketAddr, flip_chunk: Option
     let seen_up = seen.clone();
     let up = async move {
         // The greeting frame: a 4-byte length and its payload.
+        let mut flipped = false;
         let mut len = [0u8; 4];
         if wr.read_exact(&mut len).await.is_err() {
-            return;
+            return flipped;
         }
         let mut greeting = vec![0u8; u32::from_be_bytes(len) as usize];
         if wr.read_exact(&mut greeting).await.is_err() {
-            return;
+            return flipped;
         }
         let mut out = len.to_vec();
         out.extend_from_slice(&greeting);
         // Then encrypted chunks: a 2-byte length and the ciphertext.
-        let mut chunk = 0;
         loop {
             seen_up.lock().unwrap().to_master.extend_from_slice(&out);
             if mw.write_all(&out).await.is_err() {
-                return;
+                return flipped;
             }
             let mut len = [0u8; 2];
             if wr.read_exact(&mut len).await.is_err() {
-                return;
+                return flipped;
             }
             let mut body = vec![0u8; u16::from_be_bytes(len) as usize];
             if wr.read_exact(&mut body).await.is_err() {
-                return;
+                return flipped;
             }
-            if flip_chunk == Some(chunk) {
+            if !flipped && flip_over.is_some_and(|n| body.len() > n) {
                 if let Some(last) = body.last_mut() {
                     *last ^= 0x01;
+                    flipped = true;
                 }
             }
-            chunk += 1;
             out = len.to_vec();
             out.extend_from_slice(&body);
         }
@@ -81,7 +87,7 @@ async fn relay_one(listener: TcpListener, master: SocketAddr, flip_chunk: Option
         }
         let _ = ww.shutdown().await;
     };
-    tokio::join!(up, down);
+    tokio::join!(up, down).0
 }
 
 fn contains(hay: &[u8], needle: &[u8]) -> bool {
@@ -104,10 +110,13 @@ async fn a_relay_sees_no_plaintext() {
     let r = finish(m).await;
     assert_same_bits(&r.film, &reference, "through a relay");
     assert_eq!(worker.await.unwrap().unwrap().end, SessionEnd::Shutdown);
-    relay.await.unwrap();
+    assert!(!relay.await.unwrap());
 
     let seen = seen.lock().unwrap();
-    assert!(seen.to_worker.len() > 1000 && seen.to_master.len() > 1000, "the relay carried the render");
+    assert!(
+        seen.to_worker.len() > 1000 && seen.to_master.len() > 1000,
+        "the relay carried the render"
+    );
     // What a plain-text link would show: the scene as the Job encodes it, the name in Hello,
     // the Welcome frame. Each is found in the plaintext it comes from (the search works)…
     let job = encode_payload(&Message::Job(Box::new(parrt::protocol::JobSpec {
@@ -127,8 +136,14 @@ async fn a_relay_sees_no_plaintext() {
         ("the worker's name", name.as_bytes()),
         ("Welcome", &welcome[..]),
     ] {
-        assert!(!contains(&seen.to_worker, needle), "{what} crossed to the worker in clear");
-        assert!(!contains(&seen.to_master, needle), "{what} crossed to the master in clear");
+        assert!(
+            !contains(&seen.to_worker, needle),
+            "{what} crossed to the worker in clear"
+        );
+        assert!(
+            !contains(&seen.to_master, needle),
+            "{what} crossed to the master in clear"
+        );
     }
     // Nor the token.
     assert!(!contains(&seen.to_master, TEST_TOKEN.as_bytes()));
@@ -148,8 +163,8 @@ async fn a_flipped_byte_ends_that_connection_and_the_render_finishes() {
     let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
     let relay_addr = listener.local_addr().unwrap();
     let seen = Arc::new(Mutex::new(Seen::default()));
-    // Chunks 0 and 1 are Hello and Auth; chunk 3 comes once the worker serves the job.
-    let relay = tokio::spawn(relay_one(listener, m.addr, Some(3), seen));
+    // Hello, Auth, Ready and heartbeats are under 100 bytes; tile results are longer.
+    let relay = tokio::spawn(relay_one(listener, m.addr, Some(150), seen));
     let mut tampered = worker_options(relay_addr, 1, "tampered");
     tampered.tile_delay = Some(std::time::Duration::from_millis(20));
     let tampered = start_worker(tampered);
@@ -165,5 +180,5 @@ async fn a_flipped_byte_ends_that_connection_and_the_render_finishes() {
         Ok(s) => assert_ne!(s.end, SessionEnd::Shutdown, "the tampered link lasted"),
         Err(e) => eprintln!("tampered worker: {e}"),
     }
-    relay.await.unwrap();
+    assert!(relay.await.unwrap(), "the relay flipped no byte");
 }
