@@ -380,10 +380,11 @@ impl<S> SecureStream<S> {
         if self.rx.len() < CHUNK_PREFIX + len {
             return Ok(false);
         }
-        self.plain.resize(MAX_CHUNK, 0);
         let opened = if len < TAG_LEN {
             Err(ChannelError::Tampered)
         } else {
+            // Only as long as this chunk's plaintext: no 64 KiB fill for a heartbeat.
+            self.plain.resize(len - TAG_LEN, 0);
             self.noise
                 .read_message(&self.rx[CHUNK_PREFIX..CHUNK_PREFIX + len], &mut self.plain)
                 .map_err(|_| ChannelError::Tampered)
