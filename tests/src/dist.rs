@@ -27,6 +27,29 @@ pub fn token() -> Token {
     Token::new(TEST_TOKEN).expect("non-empty")
 }
 
+/// The worker's side of the encrypted channel over `s`, with the test token: what a raw
+/// test peer speaks inside, as a worker does.
+pub async fn secure_client<S>(s: S) -> parrt::protocol::SecureStream<S>
+where
+    S: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin,
+{
+    let key = parrt::protocol::LinkKey::from_token(&token());
+    parrt::protocol::channel::connect(s, &key, None)
+        .await
+        .expect("the channel opens with the test token")
+}
+
+/// The master's side of the encrypted channel over `s`, with the test token (a fake master).
+pub async fn secure_server<S>(s: S) -> parrt::protocol::SecureStream<S>
+where
+    S: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin,
+{
+    let key = parrt::protocol::LinkKey::from_token(&token());
+    parrt::protocol::channel::accept(s, &key, None)
+        .await
+        .expect("the channel opens with the test token")
+}
+
 /// A small scene: a floor polygon, a matte, a mirror and a glass sphere, two lights.
 pub fn test_scene(width: u32, height: u32) -> SceneDescription {
     let v = Vec3d::new;
@@ -260,7 +283,7 @@ pub fn frame(msg: &parrt::protocol::Message) -> bytes::BytesMut {
 }
 
 /// Reads and discards until the peer closes; true when it closed within 5 s.
-pub async fn closed_within_5s(s: &mut tokio::net::TcpStream) -> bool {
+pub async fn closed_within_5s<S: tokio::io::AsyncRead + Unpin>(s: &mut S) -> bool {
     use tokio::io::AsyncReadExt;
     let mut buf = [0u8; 4096];
     tokio::time::timeout(Duration::from_secs(5), async {

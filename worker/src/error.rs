@@ -54,6 +54,9 @@ pub enum WorkerError {
     /// The master closed the connection during the handshake.
     #[error("master closed the connection during the handshake")]
     ClosedInHandshake,
+    /// The encrypted channel could not be set up (bytes that are not a parrt master's).
+    #[error("encrypted channel: {0}")]
+    Channel(parrt::protocol::ChannelError),
     /// The task building the rayon pool failed (panicked).
     #[error("cannot start the render threads: {0}")]
     PoolTask(String),

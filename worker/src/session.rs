@@ -1,5 +1,6 @@
-//! One worker session: dial, handshake (Hello with our nonce → Challenge with the master's
-//! proof, checked before we answer → Auth → Welcome), then the message loop. A handshake cut
+//! One worker session: dial, open the encrypted channel keyed by the token
+//! ([`parrt::protocol::channel`]), handshake inside it (Hello with our nonce → Challenge with
+//! the master's proof, checked before we answer → Auth → Welcome), then the message loop. A handshake cut
 //! short is retried within the dial budget; a refusal or a master that cannot prove the token
 //! ends the session at once. The loop owns the connection; renderer builds and tiles go to an
 //! executor ([`crate::exec`]) that reports back as one more branch of the loop, so heartbeats
@@ -14,6 +15,7 @@ use crate::exec::{ExecEvent, Execute, RayonExec};
 use crate::net::{Dial, TcpDial};
 use crate::options::WorkerOptions;
 use crate::tiles::JobHandle;
+use parrt::protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt::protocol::limits::{self, MASTER_FRAME_AFTER_JOB};
 use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
@@ -79,6 +81,15 @@ impl Nonces {
         }
     }
 
+    /// The ephemeral key of a connection attempt's encrypted handshake: `None` (fresh from the
+    /// operating system) unless seeded.
+    fn ephemeral(&mut self) -> Option<[u8; 32]> {
+        match self {
+            Nonces::Thread => None,
+            Nonces::Seeded(rng) => Some(channel::seeded_ephemeral(rng.next_u64())),
+        }
+    }
+
     /// A fresh nonce (one per connection attempt).
     fn next(&mut self) -> [u8; NONCE_LEN] {
         let mut n = [0u8; NONCE_LEN];
@@ -116,14 +127,14 @@ pub async fn run_with<D: Dial, E: Execute>(
         tiles_rendered: 0,
     };
     let mut nonces = Nonces::new(opts);
+    let key = LinkKey::from_token(&opts.token);
     let mut dialer = Dialer::with(opts, dial);
     let mut conn = loop {
         let Some(stream) = dialer.connect(&stop).await? else {
             return Ok(stopped);
         };
-        let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
-        match handshake(&mut conn, opts, nonces.next()).await {
-            Ok(()) => break conn,
+        match open(stream, opts, &key, &mut nonces).await {
+            Ok(conn) => break conn,
             Err(e) if e.is_cut_handshake() => {
                 if !dialer.retry_after(e, &stop).await? {
                     return Ok(stopped);
@@ -149,6 +160,41 @@ pub async fn run_with<D: Dial, E: Execute>(
         Err(e) => return Err(e),
     };
     Ok(summary)
+}
+
+/// Opens the encrypted channel on `stream` and authenticates inside it: a connection ready for
+/// the job. Each step is bounded by the handshake timeout.
+async fn open<S: AsyncRead + AsyncWrite + Unpin>(
+    stream: S,
+    opts: &WorkerOptions,
+    key: &LinkKey,
+    nonces: &mut Nonces,
+) -> Result<Connection<SecureStream<S>>, WorkerError> {
+    let secure = match timeout(
+        opts.handshake_timeout,
+        channel::connect(stream, key, nonces.ephemeral()),
+    )
+    .await
+    {
+        Err(_) => return Err(WorkerError::MasterSilent(opts.handshake_timeout)),
+        Ok(Ok(s)) => s,
+        Ok(Err(e)) => return Err(channel_error(e, opts)),
+    };
+    let mut conn = Connection::new(secure, HANDSHAKE_MAX_FRAME);
+    handshake(&mut conn, opts, nonces.next()).await?;
+    Ok(conn)
+}
+
+/// What a failed channel handshake means for the worker: a master that could not prove the
+/// token, a refusal (a wrong token, another version), or a cut handshake worth retrying.
+fn channel_error(e: ChannelError, opts: &WorkerOptions) -> WorkerError {
+    match e {
+        ChannelError::WrongKey => WorkerError::MasterUnproven(opts.connect.clone()),
+        ChannelError::Refused(r) => WorkerError::Refused(limits::capped_reason(r)),
+        ChannelError::Closed => WorkerError::ClosedInHandshake,
+        ChannelError::Io(e) => WorkerError::Protocol(ProtocolError::Io(e)),
+        other => WorkerError::Channel(other),
+    }
 }
 
 fn is_disconnect(e: &std::io::Error) -> bool {

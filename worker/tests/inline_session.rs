@@ -1,13 +1,14 @@
 //! The worker's real session code over an in-memory stream, driven by a scripted master: with
 //! the inline executor it renders the same pixels as the renderer itself, and its simulated
 //! costs advance tokio's paused clock by exactly what was configured; with the rayon executor
-//! the pixels are the same. Also: a seeded nonce repeats run after run.
+//! the pixels are the same. Also: a seeded nonce repeats run after run. The scripted master
+//! speaks inside the encrypted channel the worker opens, as a real master does.
 
 use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
 use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
-    Connection, JobSpec, Message, PixelFormat, TilePixels, Token, DEFAULT_MAX_FRAME,
-    PROTOCOL_VERSION,
+    Connection, JobSpec, LinkKey, Message, PixelFormat, SecureStream, TilePixels, Token,
+    DEFAULT_MAX_FRAME, PROTOCOL_VERSION,
 };
 use parrt::render::Renderer;
 use parrt::settings::RenderSettings;
@@ -69,6 +70,15 @@ fn token() -> Token {
     Token::new("sim secret").unwrap()
 }
 
+/// The master's end of the encrypted channel the worker opens first.
+type Secure = SecureStream<DuplexStream>;
+
+async fn secure(end: DuplexStream) -> Secure {
+    parrt::protocol::channel::accept(end, &LinkKey::from_token(&token()), None)
+        .await
+        .expect("the worker opens the channel with our token")
+}
+
 fn options(threads: usize) -> WorkerOptions {
     let mut o = WorkerOptions::new("master.sim:7878", token());
     o.threads = threads;
@@ -91,7 +101,7 @@ fn spawn_worker<E: Execute + 'static>(
 }
 
 /// The master's side of the handshake; returns the threads the worker announced.
-async fn accept(conn: &mut Connection<DuplexStream>) -> u32 {
+async fn accept(conn: &mut Connection<Secure>) -> u32 {
     let Some(Message::Hello {
         version,
         threads,
@@ -116,7 +126,7 @@ async fn accept(conn: &mut Connection<DuplexStream>) -> u32 {
 }
 
 /// The next message that is not a heartbeat.
-async fn next(conn: &mut Connection<DuplexStream>) -> Message {
+async fn next(conn: &mut Connection<Secure>) -> Message {
     loop {
         match conn.read().await.unwrap() {
             Some(Message::Heartbeat) => {}
@@ -162,7 +172,7 @@ fn check_results(msgs: &[Message], batch: &[(Tile, u32)]) -> Vec<f64> {
 
 /// Reads `n` TileResults (they come back in one write per batch; order within the lot is the
 /// executor's), returned in the order read.
-async fn results(conn: &mut Connection<DuplexStream>, n: usize) -> Vec<Message> {
+async fn results(conn: &mut Connection<Secure>, n: usize) -> Vec<Message> {
     let mut got = Vec::new();
     while got.len() < n {
         got.push(next(conn).await);
@@ -177,7 +187,7 @@ async fn scripted_run(threads: usize, build_cost: Duration) -> (Duration, Durati
     let cost = |t: &Tile| Duration::from_millis([100, 300, 200, 50][t.id as usize]);
     let exec = InlineExec::new(cost).with_build_cost(build_cost);
     let worker = spawn_worker(options(threads), vec![theirs], exec);
-    let mut conn = Connection::new(ours, DEFAULT_MAX_FRAME);
+    let mut conn = Connection::new(secure(ours).await, DEFAULT_MAX_FRAME);
     assert_eq!(accept(&mut conn).await, threads as u32);
 
     let t0 = Instant::now();
@@ -233,7 +243,7 @@ async fn inline_session_given_pixels_and_early_tiles() {
             Ok(())
         });
     let worker = spawn_worker(options(4), vec![theirs], exec);
-    let mut conn = Connection::new(ours, DEFAULT_MAX_FRAME);
+    let mut conn = Connection::new(secure(ours).await, DEFAULT_MAX_FRAME);
     accept(&mut conn).await;
     let t0 = Instant::now();
     conn.write(&Message::Job(Box::new(job()))).await.unwrap();
@@ -277,7 +287,7 @@ async fn inline_session_given_pixels_and_early_tiles() {
 async fn rayon_session_over_a_duplex_gives_the_same_pixels() {
     let (ours, theirs) = tokio::io::duplex(1 << 20);
     let worker = spawn_worker(options(2), vec![theirs], RayonExec::new());
-    let mut conn = Connection::new(ours, DEFAULT_MAX_FRAME);
+    let mut conn = Connection::new(secure(ours).await, DEFAULT_MAX_FRAME);
     accept(&mut conn).await;
     conn.write(&Message::Job(Box::new(job()))).await.unwrap();
     assert!(matches!(next(&mut conn).await, Message::Ready { .. }));
@@ -313,7 +323,7 @@ async fn nonces(seed: Option<u64>) -> Vec<[u8; NONCE_LEN]> {
     );
     let mut got = Vec::new();
     for (i, end) in [a, b].into_iter().enumerate() {
-        let mut conn = Connection::new(end, DEFAULT_MAX_FRAME);
+        let mut conn = Connection::new(secure(end).await, DEFAULT_MAX_FRAME);
         let Some(Message::Hello { nonce, .. }) = conn.read().await.unwrap() else {
             panic!("expected Hello");
         };

@@ -1,8 +1,14 @@
 //! The master/worker wire protocol (DESIGN §8): what the messages are ([`message`]), how they are
-//! framed and encoded ([`codec`]), how a tile's pixels travel ([`pixels`]), how master and
+//! framed and encoded ([`codec`]), how a tile's pixels travel ([`pixels`]), the encrypted
+//! channel keyed by the token that every connection runs inside ([`channel`]), how master and
 //! worker prove to each other that they know the shared token ([`auth`]), the one type that
 //! touches a socket ([`connection`]), and the named limits on everything a peer controls
 //! ([`limits`]).
+//!
+//! ## Layers
+//! A connection first runs a Noise handshake keyed by the token ([`channel::connect`] on the
+//! worker, [`channel::accept`] on the master); everything below, frames included, travels
+//! encrypted and authenticated inside the [`channel::SecureStream`] it gives.
 //!
 //! ## Wire format
 //! Every message is one frame: a 4-byte big-endian length, then the message encoded with
@@ -36,14 +42,15 @@
 //! version that does not decode as ours is reported as [`ProtocolError::OtherVersion`]).
 //!
 //! ## What the handshake proves, and what it does not
-//! Each side proves it knows the token, over nonces both chose, so neither ever MACs a value a
-//! peer picked alone: a peer without the token that a worker dials (a wrong address, a squatted
-//! port) gets no MAC to replay or to test guesses of the token against, and the worker stops
-//! with a clear error. Nothing is encrypted, so it does not stop a man in the middle that relays
-//! both directions of a real conversation on an unencrypted link (it can read the scene and the
-//! pixels); across untrusted networks, tunnel the port over ssh (docs/distributed.md).
+//! The channel's handshake already proves the token both ways (a peer without it gets a
+//! refusal or nothing, and never a byte of the conversation); the HMAC exchange inside it
+//! proves it again, over nonces both chose, as it did before the channel existed. A relay
+//! between the two sees only the handshake's ephemeral keys and ciphertext: it learns the
+//! endpoints, the timing and the sizes of messages, and any byte it changes ends the
+//! connection (docs/distributed.md).
 
 pub mod auth;
+pub mod channel;
 pub mod codec;
 pub mod connection;
 pub mod limits;
@@ -51,6 +58,7 @@ pub mod message;
 pub mod pixels;
 
 pub use auth::{AuthError, Token};
+pub use channel::{ChannelError, LinkKey, SecureStream};
 
 /// The environment variable that carries the shared token to a worker (and a master): how a
 /// master hands it to the workers it starts without putting it on a command line.
@@ -66,5 +74,6 @@ pub use pixels::{PixelError, PixelFormat, TilePixels};
 
 /// The protocol version spoken by this build; bumped on any incompatible change (2: mutual
 /// authentication, a nonce in Hello and the master's proof in Challenge; pixels as the output
-/// needs them; batches of tiles; 3: the worker's instruction-set tier in Hello).
+/// needs them; batches of tiles; 3: every connection inside a Noise channel keyed by the token,
+/// and the worker's instruction-set tier in Hello).
 pub const PROTOCOL_VERSION: u32 = 3;

@@ -1,5 +1,7 @@
-//! One connection task per peer: the handshake (version and thread checks, the master's proof,
-//! the worker's MAC check), then the relay between the socket and the scheduler. It owns the
+//! One connection task per peer: the encrypted channel keyed by the token
+//! ([`parrt::protocol::channel`]: a wrong token or another version refused at its first
+//! message), the handshake inside it (version and thread checks, the master's proof, the
+//! worker's MAC check), then the relay between the socket and the scheduler. It owns the
 //! [`Connection`]; the scheduler talks to it through an outbox channel and hears from it
 //! through [`Event`]s. A peer that fails the
 //! handshake, breaks the protocol, falls silent or sends garbage ends only its own task. A peer's
@@ -9,6 +11,7 @@
 use super::scheduler::{Event, WorkerId};
 use super::server::HandshakeSlot;
 use parrt::isa::Isa;
+use parrt::protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt::protocol::limits::{self, MAX_THREADS};
 use parrt::protocol::message::NONCE_LEN;
 use parrt::protocol::{
@@ -72,19 +75,18 @@ pub async fn serve<S: AsyncRead + AsyncWrite + Unpin + Send>(
     slot: HandshakeSlot,
 ) {
     let peer = peer.to_string();
-    let mut conn = Connection::new(stream, HANDSHAKE_MAX_FRAME);
     let hs = tokio::select! {
         biased;
         _ = stop.cancelled() => return,
-        r = timeout(ctx.handshake_timeout, handshake(&mut conn, &ctx, id)) => match r {
+        r = timeout(ctx.handshake_timeout, open(stream, &ctx, id)) => match r {
             Ok(h) => h,
-            Err(_) => Handshake::Refused(format!("handshake not finished within {}", seconds(ctx.handshake_timeout))),
+            Err(_) => Err(format!("handshake not finished within {}", seconds(ctx.handshake_timeout))),
         },
     };
     drop(slot);
-    let (name, threads, isa) = match hs {
-        Handshake::Accepted(n, t, i) => (n, t, i),
-        Handshake::Refused(reason) => {
+    let (mut conn, name, threads, isa) = match hs {
+        Ok(accepted) => accepted,
+        Err(reason) => {
             let _ = events.send(Event::Refused { peer, reason });
             return;
         }
@@ -103,6 +105,36 @@ pub async fn serve<S: AsyncRead + AsyncWrite + Unpin + Send>(
     let reason = relay(&mut conn, id, &ctx, &events, &mut inbox, &stop).await;
     debug!(worker = id, %name, %peer, %reason, "connection closed");
     let _ = events.send(Event::Gone { id, reason });
+}
+
+/// Opens the encrypted channel keyed by the token, then runs the handshake inside it: the
+/// connection with the worker's name, threads and tier, or the reason for refusing it.
+async fn open<S: AsyncRead + AsyncWrite + Unpin>(
+    stream: S,
+    ctx: &ConnContext,
+    id: WorkerId,
+) -> Result<(Connection<SecureStream<S>>, String, u32, Isa), String> {
+    let ephemeral = ctx
+        .seed
+        .map(|seed| channel::seeded_ephemeral(seed ^ id.wrapping_mul(0xD1B5_4A32_D192_ED03)));
+    let secure = match channel::accept(stream, &LinkKey::from_token(&ctx.token), ephemeral).await {
+        Ok(s) => s,
+        Err(ChannelError::WrongKey) => {
+            return Err("wrong token (the encrypted handshake failed)".into())
+        }
+        Err(ChannelError::OtherVersion(v)) => {
+            return Err(format!(
+                "protocol version {v}; this master speaks {PROTOCOL_VERSION}"
+            ))
+        }
+        Err(ChannelError::Closed) => return Err("closed before the encrypted handshake".into()),
+        Err(e) => return Err(format!("bad bytes in handshake: {e}")),
+    };
+    let mut conn = Connection::new(secure, HANDSHAKE_MAX_FRAME);
+    match handshake(&mut conn, ctx, id).await {
+        Handshake::Accepted(name, threads, isa) => Ok((conn, name, threads, isa)),
+        Handshake::Refused(reason) => Err(reason),
+    }
 }
 
 /// Sends Refused (best effort, briefly) and returns the refusal.

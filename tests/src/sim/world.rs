@@ -249,6 +249,9 @@ async fn hostile(kind: Hostile, seed: u64, trace: &Trace) -> turmoil::Result {
 /// tile it was never given, with too few pixels, and keeps reading until dropped.
 async fn impossible_results(addr: String, seed: u64) -> turmoil::Result {
     let stream = turmoil::net::TcpStream::connect(addr).await?;
+    let key = parrt::protocol::LinkKey::from_token(&token());
+    let eph = parrt::protocol::channel::seeded_ephemeral(seed);
+    let stream = parrt::protocol::channel::connect(stream, &key, Some(eph)).await?;
     let mut c = Connection::new(stream, parrt::protocol::HANDSHAKE_MAX_FRAME);
     let ours = [seed as u8; parrt::protocol::message::NONCE_LEN];
     c.write(&Message::Hello {

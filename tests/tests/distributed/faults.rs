@@ -159,7 +159,7 @@ async fn worker_reports_a_job_it_cannot_build() {
     let addr = listener.local_addr().unwrap();
     let worker = start_worker(worker_options(addr, 1, "w"));
     let (s, _) = listener.accept().await.unwrap();
-    let mut c = Connection::new(s, 1 << 20);
+    let mut c = Connection::new(secure_server(s).await, 1 << 20);
     let Some(Message::Hello { nonce: theirs, .. }) = c.read().await.unwrap() else {
         panic!("no hello")
     };

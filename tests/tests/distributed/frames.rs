@@ -79,7 +79,7 @@ async fn worker_gives_up_on_a_master_that_stops_reading() {
     // Now never read, but keep beating: the worker cannot take the master for silent (as it
     // would if filling the socket buffers took longer than the timeout on a loaded machine),
     // so only its stalled writes can end it.
-    let (_unread, mut w) = c.into_inner().into_split();
+    let (_unread, mut w) = tokio::io::split(c.into_inner());
     let beats = tokio::spawn(async move {
         while w.write_all(&frame(&Message::Heartbeat)).await.is_ok() {
             sleep(Duration::from_millis(100)).await;
@@ -96,7 +96,7 @@ async fn worker_gives_up_on_a_master_that_stops_reading() {
 
 /// Reads frames from a raw read half until `want` arrives; false on close or error.
 async fn read_until(
-    r: &mut tokio::net::tcp::OwnedReadHalf,
+    r: &mut (impl tokio::io::AsyncRead + Unpin),
     want: fn(&Message) -> bool,
 ) -> Option<Message> {
     let mut codec = MessageCodec::new(1 << 28);
@@ -154,14 +154,16 @@ async fn worker_takes_a_slow_job_but_not_a_stalled_one() {
         (600 * 1024, 32 * 1024, 100, true),
         (300 * 1024, 1024, 100, false),
     ] {
+        // Made before the worker starts: the fake master sends no heartbeats, so a job that
+        // took longer than the 1 s timeout to build would read as silence.
+        let bytes = frame(&big_job(size));
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
         let addr = listener.local_addr().unwrap();
         let mut w = worker_options(addr, 1, "w");
         w.master_timeout = Duration::from_secs(1);
         let worker = start_worker(w);
         let c = welcome_one(&listener).await;
-        let (mut r, mut wr) = c.into_inner().into_split();
-        let bytes = frame(&big_job(size));
+        let (mut r, mut wr) = tokio::io::split(c.into_inner());
         let began = std::time::Instant::now();
         let trickle = tokio::spawn(async move {
             for part in bytes.chunks(chunk) {
@@ -253,7 +255,7 @@ async fn master_takes_a_slow_result() {
         seconds: 0.0,
     });
     assert!(result.len() > 700_000, "a {}-byte result", result.len());
-    let (_r, mut w) = c.into_inner().into_split();
+    let (_r, mut w) = tokio::io::split(c.into_inner());
     let began = std::time::Instant::now();
     for part in result.chunks(16 * 1024) {
         if let Err(e) = w.write_all(part).await {

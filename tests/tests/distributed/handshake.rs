@@ -1,7 +1,8 @@
-//! The handshake: authentication is mutual (issue 20). The master proves the token over the
-//! worker's nonce and its own before the worker answers with its own MAC (labels per role), so a
-//! worker with another token, or one that dialled a peer without it, stops at once having sent
-//! no MAC; a peer with a wrong MAC, another protocol version, garbage, a 4 GiB length prefix or
+//! The handshake: authentication is mutual (issue 20), inside the encrypted channel keyed by
+//! the token (issue 31). A worker with another token is refused as a wrong token at its first
+//! message; one that dialled a peer without the token stops at once having sent nothing
+//! more; inside the channel the master proves the token over the worker's nonce and its own
+//! before the worker answers with its own MAC (labels per role); a peer with a wrong MAC, another protocol version, garbage, a 4 GiB length prefix or
 //! too many threads is refused with a reason while a good worker finishes the render; a cut
 //! handshake is dialled again, a refusal is not.
 
@@ -10,18 +11,20 @@ use crate::peers::{authenticate, hello, v1_hello_frame, welcome_one};
 use crate::token::SECRET;
 use crate::EXE;
 use parrt::protocol::limits::MAX_THREADS;
-use parrt::protocol::{Connection, Message, Token, PROTOCOL_VERSION};
+use parrt::protocol::{Connection, Message, PROTOCOL_VERSION};
 use parrt_tests::*;
 use parrt_worker::WorkerError;
 use std::io::{BufRead, BufReader, Read};
 use std::process::{Command, Stdio};
 use std::time::Duration;
-use tokio::io::AsyncWriteExt;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::time::timeout;
 
+/// Issue 31 (c): the channel's first message tells the master the token is wrong; it says so,
+/// and the worker stops at once with that reason.
 #[test]
-fn a_worker_with_another_token_stops_at_once_without_answering() {
+fn a_worker_with_another_token_is_refused_as_a_wrong_token() {
     let dir = tempfile::tempdir().unwrap();
     let mut master = Command::new(EXE)
         .args([
@@ -53,35 +56,43 @@ fn a_worker_with_another_token_stops_at_once_without_answering() {
         .expect("run worker");
     let log = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{log}");
-    assert!(log.contains("did not prove it knows the token"), "{log}");
+    assert!(log.contains("refused the connection: wrong token"), "{log}");
     let mut master_log = String::new();
     err.read_to_string(&mut master_log).unwrap();
-    // No worker came: the master gives up (exit 1), having seen the worker hang up before Auth.
+    // No worker came: the master gives up (exit 1), having refused a wrong token.
     assert_eq!(master.wait().unwrap().code(), Some(1));
-    assert!(master_log.contains("closed before Auth"), "{master_log}");
+    assert!(master_log.contains("wrong token"), "{master_log}");
 }
 
-/// Item 3: a peer without the token that a worker dials gets no MAC: the worker checks the
-/// master's proof over its own nonce first, and stops with a clear error.
+/// Item 3: a peer without the token that a worker dials gets nothing past the channel's first
+/// message: the worker checks the master's answer first, and stops with a clear error.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn worker_answers_no_peer_that_cannot_prove_the_token() {
     let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = listener.local_addr().unwrap();
     let worker = start_worker(worker_options(addr, 1, "w"));
-    let (s, _) = listener.accept().await.unwrap();
-    let mut c = Connection::new(s, 1 << 20);
-    let Some(Message::Hello { nonce: theirs, .. }) = c.read().await.unwrap() else {
-        panic!("no hello")
-    };
-    // A squatter relaying some master's nonce, with a proof it cannot make.
-    let nonce = [9u8; 32];
-    let proof = Token::new("a guess").unwrap().master_proof(&theirs, &nonce);
-    c.write(&Message::Challenge { nonce, proof }).await.unwrap();
+    let (mut s, _) = listener.accept().await.unwrap();
+    let mut len = [0u8; 4];
+    s.read_exact(&mut len).await.unwrap();
+    let mut greeting = vec![0u8; u32::from_be_bytes(len) as usize];
+    s.read_exact(&mut greeting).await.unwrap();
+    assert_eq!(
+        &greeting[..2],
+        &[0, PROTOCOL_VERSION as u8],
+        "variant 0, then the version"
+    );
+    // A squatter answering with a handshake message it could not make without the token.
+    let mut answer = 49u32.to_be_bytes().to_vec();
+    answer.push(0xFF);
+    answer.extend_from_slice(&[9u8; 48]);
+    s.write_all(&answer).await.unwrap();
     let mut after = Vec::new();
-    while let Ok(Some(m)) = c.read().await {
-        after.push(m.kind());
-    }
-    assert!(after.is_empty(), "the worker sent {after:?}");
+    let _ = s.read_to_end(&mut after).await;
+    assert!(
+        after.is_empty(),
+        "the worker sent {} more bytes",
+        after.len()
+    );
     let err = worker.await.unwrap().unwrap_err();
     assert!(matches!(err, WorkerError::MasterUnproven(_)), "{err}");
     assert!(err.to_string().contains("did not prove"), "{err}");
@@ -96,7 +107,7 @@ async fn master_proves_the_token_bound_to_both_nonces() {
     let mut proofs = Vec::new();
     for ours in [[1u8; 32], [2u8; 32]] {
         let s = TcpStream::connect(m.addr).await.unwrap();
-        let mut c = Connection::new(s, 1 << 20);
+        let mut c = Connection::new(secure_client(s).await, 1 << 20);
         c.write(&hello("prober", 1, ours)).await.unwrap();
         let Some(Message::Challenge { nonce, proof }) = c.read().await.unwrap() else {
             panic!("no challenge")
@@ -159,7 +170,7 @@ async fn a_cut_handshake_is_retried_but_a_refusal_is_not() {
 
     let worker = start_worker(worker_options(addr, 1, "w"));
     let (s, _) = listener.accept().await.unwrap();
-    let mut c = Connection::new(s, 1 << 20);
+    let mut c = Connection::new(secure_server(s).await, 1 << 20);
     assert!(matches!(
         c.read().await.unwrap(),
         Some(Message::Hello { .. })
@@ -190,7 +201,7 @@ async fn too_many_threads_are_refused() {
     let m = start_master(&desc, &settings_for(&desc), &test_options(8)).await;
     for threads in [MAX_THREADS + 1, u32::MAX] {
         let s = TcpStream::connect(m.addr).await.unwrap();
-        let mut c = Connection::new(s, 1 << 20);
+        let mut c = Connection::new(secure_client(s).await, 1 << 20);
         c.write(&hello("greedy", threads, [1; 32])).await.unwrap();
         match c.read().await.unwrap() {
             Some(Message::Refused { reason }) => assert!(reason.contains("threads"), "{reason}"),
@@ -228,15 +239,17 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     good.tile_delay = Some(Duration::from_millis(20));
     let good = start_worker(good);
 
-    // Wrong token: the worker finds the master's proof wrong and stops without answering.
+    // Wrong token: refused at the channel's first message, with that reason.
     let mut wrong = worker_options(m.addr, 1, "wrong-token");
     wrong.token = parrt::protocol::Token::new("not the token").unwrap();
     let err = start_worker(wrong).await.unwrap().unwrap_err();
-    assert!(err.to_string().contains("did not prove"), "{err}");
+    assert!(matches!(err, WorkerError::Refused(_)), "{err}");
+    assert!(err.to_string().contains("wrong token"), "{err}");
 
-    // A raw peer that answers with a wrong MAC is refused with the master's reason.
+    // A peer inside the channel that answers with a wrong MAC is refused with the master's
+    // reason.
     let s = TcpStream::connect(m.addr).await.unwrap();
-    let mut c = Connection::new(s, 1 << 20);
+    let mut c = Connection::new(secure_client(s).await, 1 << 20);
     c.write(&Message::Hello {
         version: PROTOCOL_VERSION,
         name: "guesser".into(),
@@ -299,7 +312,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
 
     // An authenticated peer sending a result for a tile it was never given.
     let s = TcpStream::connect(m.addr).await.unwrap();
-    let mut c = Connection::new(s, 1 << 28);
+    let mut c = Connection::new(secure_client(s).await, 1 << 28);
     let ours = [2u8; 32];
     c.write(&Message::Hello {
         version: PROTOCOL_VERSION,

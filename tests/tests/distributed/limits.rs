@@ -15,6 +15,7 @@ use std::time::Duration;
 use tokio::io::AsyncWriteExt;
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
 use tokio::time::timeout;
+use tokio_util::either::Either;
 
 fn vm_kib(pid: u32, field: &str) -> u64 {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
@@ -89,9 +90,20 @@ fn refusal_flood_keeps_master_memory_and_log_bounded() {
             tasks.push(tokio::spawn(async move {
                 for i in 0..125 {
                     let s = TcpStream::connect(addr).await.unwrap();
-                    let mut c = Connection::new(s, 1 << 20);
-                    let f = &frames[(lane + i) % frames.len()];
-                    c.get_mut().write_all(f).await.unwrap();
+                    let k = (lane + i) % frames.len();
+                    let f = &frames[k];
+                    // Other versions are refused in clear, before the channel; our own
+                    // version's Hello travels inside it.
+                    let mut c = if k == 2 {
+                        let mut c = Connection::new(Either::Right(secure_client(s).await), 1 << 20);
+                        c.get_mut().write_all(f).await.unwrap();
+                        c.get_mut().flush().await.unwrap();
+                        c
+                    } else {
+                        let mut c = Connection::new(Either::Left(s), 1 << 20);
+                        c.get_mut().write_all(f).await.unwrap();
+                        c
+                    };
                     // Refused with a reason (not merely turned away), then closed.
                     let got = timeout(Duration::from_secs(5), c.read()).await;
                     match got {
@@ -128,10 +140,12 @@ async fn refused_names_are_shown_cut() {
     let desc = test_scene(16, 16);
     let m = start_master(&desc, &settings_for(&desc), &test_options(8)).await;
     let name = "\u{1}".repeat(60_000);
-    let mut s = TcpStream::connect(m.addr).await.unwrap();
+    let s = TcpStream::connect(m.addr).await.unwrap();
+    let mut s = secure_client(s).await;
     s.write_all(&frame(&hello(&name, 0, [0; 32])))
         .await
         .unwrap();
+    s.flush().await.unwrap();
     let mut c = Connection::new(s, 1 << 20);
     let Some(Message::Refused { reason }) = c.read().await.unwrap() else {
         panic!("not refused")

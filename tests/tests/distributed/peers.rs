@@ -1,8 +1,9 @@
 //! Raw peers for the handshake, frame and limit tests: a Hello (ours, and version 1's bytes), a
 //! raw client through the whole handshake, a raw fake master that welcomes one worker, and a
-//! job. Written with `parrt::protocol` directly, never a real worker.
+//! job. Written with `parrt::protocol` directly, never a real worker; the raw client and the
+//! fake master speak inside the encrypted channel, as real peers do.
 
-use parrt::protocol::{Connection, JobSpec, Message, PROTOCOL_VERSION};
+use parrt::protocol::{Connection, JobSpec, Message, SecureStream, PROTOCOL_VERSION};
 use parrt_tests::*;
 use std::net::SocketAddr;
 use tokio::net::{TcpListener, TcpStream};
@@ -41,9 +42,13 @@ pub fn v1_hello_frame(version: u32, name: &[u8], threads: u32) -> Vec<u8> {
 }
 
 /// A raw client through the whole handshake with the test token: Welcome received.
-pub async fn authenticate(addr: SocketAddr, name: &str, threads: u32) -> Connection {
+pub async fn authenticate(
+    addr: SocketAddr,
+    name: &str,
+    threads: u32,
+) -> Connection<SecureStream<TcpStream>> {
     let s = TcpStream::connect(addr).await.unwrap();
-    let mut c = Connection::new(s, 1 << 28);
+    let mut c = Connection::new(secure_client(s).await, 1 << 28);
     let ours = [0x5a; 32];
     c.write(&hello(name, threads, ours)).await.unwrap();
     let Some(Message::Challenge { nonce, proof }) = c.read().await.unwrap() else {
@@ -60,9 +65,9 @@ pub async fn authenticate(addr: SocketAddr, name: &str, threads: u32) -> Connect
 }
 
 /// A raw fake master with the test token: accepts one worker and welcomes it.
-pub async fn welcome_one(listener: &TcpListener) -> Connection {
+pub async fn welcome_one(listener: &TcpListener) -> Connection<SecureStream<TcpStream>> {
     let (s, _) = listener.accept().await.unwrap();
-    let mut c = Connection::new(s, 1 << 20);
+    let mut c = Connection::new(secure_server(s).await, 1 << 20);
     let Some(Message::Hello { nonce: theirs, .. }) = c.read().await.unwrap() else {
         panic!("no hello")
     };
