@@ -26,8 +26,9 @@ pub enum ReadError {
     Io(std::io::Error),
 }
 
-/// What kind of thing a non-regular file is, for messages.
-fn kind_of(t: FileType) -> &'static str {
+/// What kind of thing a non-regular file is, for messages (shared with the master's file
+/// guard, which also meets links: it opens without following them).
+pub fn kind_of(t: FileType) -> &'static str {
     use std::os::unix::fs::FileTypeExt;
     if t.is_dir() {
         "a directory"
@@ -39,8 +40,10 @@ fn kind_of(t: FileType) -> &'static str {
         "a block device"
     } else if t.is_socket() {
         "a socket"
+    } else if t.is_symlink() {
+        "a symbolic link"
     } else {
-        "not a file"
+        "not a regular file"
     }
 }
 

@@ -60,27 +60,6 @@ pub enum Privacy {
     OwnerOnly,
 }
 
-/// What a file's type is, in words.
-fn kind(m: &std::fs::Metadata) -> &'static str {
-    use std::os::unix::fs::FileTypeExt;
-    let t = m.file_type();
-    if t.is_dir() {
-        "a directory"
-    } else if t.is_fifo() {
-        "a FIFO"
-    } else if t.is_char_device() {
-        "a character device"
-    } else if t.is_block_device() {
-        "a block device"
-    } else if t.is_socket() {
-        "a socket"
-    } else if t.is_symlink() {
-        "a symbolic link"
-    } else {
-        "not a regular file"
-    }
-}
-
 /// This process's effective user id.
 pub fn effective_uid() -> u32 {
     // SAFETY: geteuid has no preconditions and cannot fail.
@@ -91,7 +70,9 @@ pub fn effective_uid() -> u32 {
 /// that `privacy` forbids.
 pub fn check(m: &std::fs::Metadata, privacy: Privacy) -> Result<(), Refusal> {
     if !m.file_type().is_file() {
-        return Err(Refusal::NotRegular(kind(m)));
+        return Err(Refusal::NotRegular(parrt::nff::read::kind_of(
+            m.file_type(),
+        )));
     }
     let ours = effective_uid();
     if m.uid() != ours {
