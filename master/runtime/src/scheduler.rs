@@ -141,6 +141,9 @@ pub struct AcceptedTile {
     pub seconds: f64,
 }
 
+/// A backup candidate: when its one live assignment was made, by whom, which tile.
+type Candidate = (Instant, WorkerId, u32);
+
 /// One assignment of a tile to a worker.
 #[derive(Clone, Copy, Debug)]
 struct Assignment {
@@ -245,6 +248,10 @@ pub struct Scheduler {
     tiles: Vec<Tile>,
     state: Vec<TileState>,
     attempts: Vec<u32>,
+    /// Per tile, the workers holding it in a live (unexpired) assignment: kept as assignments
+    /// come and go so that the question costs nothing (a scan of every worker per tile made
+    /// the tail of a 4 096-worker frame quadratic and more).
+    holders: Vec<u16>,
     queue: VecDeque<u32>,
     done: usize,
     film: Film,
@@ -285,6 +292,7 @@ impl Scheduler {
             lights,
             state: vec![TileState::Queued; n],
             attempts: vec![0; n],
+            holders: vec![0; n],
             queue: (0..n as u32).collect(),
             tiles,
             done: 0,
@@ -562,6 +570,9 @@ impl Scheduler {
             return;
         };
         w.inflight.remove(&tile_id);
+        if !a.expired {
+            self.holders[tile_id as usize] -= 1;
+        }
         if a.single && !a.backup && seconds.is_finite() {
             let turnaround = now.saturating_duration_since(a.since).as_secs_f64();
             let rt = (turnaround - seconds).max(0.0);
@@ -690,6 +701,11 @@ impl Scheduler {
             return;
         };
         self.observers.each(|o| o.left(id, &reason));
+        for (&t, a) in &w.inflight {
+            if !a.expired {
+                self.holders[t as usize] -= 1;
+            }
+        }
         let mut held: Vec<u32> = w.inflight.keys().copied().collect();
         if mutation::is(Mutation::ForgetDeadWorkersTiles) {
             held.clear();
@@ -719,10 +735,17 @@ impl Scheduler {
     }
 
     fn active_holders(&self, tile_id: u32) -> usize {
-        self.workers
-            .values()
-            .filter(|w| w.inflight.get(&tile_id).is_some_and(|a| !a.expired))
-            .count()
+        let n = self.holders[tile_id as usize] as usize;
+        // Tests and the simulation's debug build check the count against a scan.
+        debug_assert_eq!(
+            n,
+            self.workers
+                .values()
+                .filter(|w| w.inflight.get(&tile_id).is_some_and(|a| !a.expired))
+                .count(),
+            "holders of tile {tile_id}"
+        );
+        n
     }
 
     /// Marks assignments past their deadline as expired and requeues their tiles; each worker
@@ -735,6 +758,7 @@ impl Scheduler {
             for (&tile_id, a) in w.inflight.iter_mut() {
                 if !a.expired && now.duration_since(a.since) > deadline {
                     a.expired = true;
+                    self.holders[tile_id as usize] -= 1;
                     tiles.push(tile_id);
                 }
             }
@@ -787,6 +811,8 @@ impl Scheduler {
             .filter(|(_, w)| w.ready_at.is_some())
             .map(|(&id, _)| id)
             .collect();
+        // The backup candidates, built once per fill when the queue runs dry.
+        let mut backups = None;
         for id in ids {
             // Tiles this worker already holds (expired) are left for someone else.
             let mut skipped = Vec::new();
@@ -827,7 +853,7 @@ impl Scheduler {
                 if !self.opts.backups || !idle || w.active(true) >= w.threads.max(1) as usize {
                     break;
                 }
-                match self.backup_candidate(id) {
+                match self.backup_candidate(id, &mut backups) {
                     Some(tile_id) => {
                         self.faults.backups += 1;
                         self.assign(id, &[tile_id], now, true);
@@ -850,28 +876,38 @@ impl Scheduler {
         None
     }
 
-    /// The oldest in-flight tile with a single active holder, not held by `id`.
-    fn backup_candidate(&self, id: WorkerId) -> Option<u32> {
+    /// The oldest in-flight tile with a single active holder, not held by `id` (the oldest
+    /// assignment first; equal times by worker, then tile). `list` caches, for one fill, the
+    /// live assignments of singly held tiles in that order, with how many at its front are
+    /// spent: a tile given out as a backup has two holders from then on, so each idle worker
+    /// looks at the next candidates instead of every worker's every tile.
+    fn backup_candidate(&self, id: WorkerId, list: &mut Option<(Vec<Candidate>, usize)>) -> Option<u32> {
         let mine = &self.workers.get(&id)?.inflight;
-        let mut best: Option<(Instant, u32)> = None;
-        for (&wid, w) in &self.workers {
-            if wid == id {
-                continue;
-            }
-            for (&tile_id, a) in &w.inflight {
-                if a.expired
-                    || mine.contains_key(&tile_id)
-                    || self.state[tile_id as usize] != TileState::InFlight
-                    || self.active_holders(tile_id) != 1
-                {
-                    continue;
-                }
-                if best.is_none_or(|(since, _)| a.since < since) {
-                    best = Some((a.since, tile_id));
-                }
-            }
+        let (list, spent) = list.get_or_insert_with(|| {
+            let mut v: Vec<Candidate> = self
+                .workers
+                .iter()
+                .flat_map(|(&wid, w)| {
+                    w.inflight
+                        .iter()
+                        .filter(|(_, a)| !a.expired)
+                        .map(move |(&t, a)| (a.since, wid, t))
+                })
+                .filter(|&(_, _, t)| self.holders[t as usize] == 1)
+                .collect();
+            v.sort_unstable();
+            (v, 0)
+        });
+        let usable = |t: u32| {
+            self.state[t as usize] == TileState::InFlight && self.active_holders(t) == 1
+        };
+        while list.get(*spent).is_some_and(|&(_, _, t)| !usable(t)) {
+            *spent += 1;
         }
-        best.map(|(_, t)| t)
+        list[*spent..]
+            .iter()
+            .find(|&&(_, wid, t)| wid != id && !mine.contains_key(&t) && usable(t))
+            .map(|&(_, _, t)| t)
     }
 
     /// Assigns `tiles` to worker `id` in one message (`Assign` for one, `AssignBatch` for
@@ -890,7 +926,7 @@ impl Scheduler {
         for &(tile, attempt) in &sent {
             self.observers
                 .each(|o| o.assigned(id, &tile, attempt, backup, now));
-            w.inflight.insert(
+            let old = w.inflight.insert(
                 tile.id,
                 Assignment {
                     attempt,
@@ -900,6 +936,10 @@ impl Scheduler {
                     single: sent.len() == 1,
                 },
             );
+            self.holders[tile.id as usize] += 1;
+            if old.is_some_and(|a| !a.expired) {
+                self.holders[tile.id as usize] -= 1;
+            }
         }
         let msg = match sent[..] {
             [(tile, attempt)] => Message::Assign {
