@@ -102,6 +102,7 @@ fn small_config(work_s: f64, dilation: Option<f64>) -> Config {
         max_batch: 8,
         dilation,
         costly_first: false,
+        hosts: None,
     }
 }
 
@@ -123,6 +124,30 @@ fn a_frame_of_microsecond_tiles_runs_dilated_with_its_image() {
         "efficiency {:.3}, model {:.3}",
         row.efficiency,
         row.predicted
+    );
+}
+
+#[test]
+fn workers_sharing_a_simulated_host_measure_what_workers_apart_do() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    // Four workers on four hosts, then all four sessions on one: each keeps its connection
+    // and its link, so the frame takes the same virtual time.
+    let apart = run(&path, &small_config(15.36, None)).expect("the run on four hosts");
+    let shared = run(
+        &path,
+        &Config {
+            hosts: Some(1),
+            ..small_config(15.36, None)
+        },
+    )
+    .expect("the run on one host");
+    assert!(apart.identical && shared.identical);
+    assert!(
+        (apart.efficiency - shared.efficiency).abs() <= 0.005,
+        "efficiency {:.4} on four hosts, {:.4} on one",
+        apart.efficiency,
+        shared.efficiency
     );
 }
 

@@ -87,6 +87,7 @@ fn scale(args: &[String]) -> Result<ExitCode, String> {
                     max_batch,
                     dilation: None,
                     costly_first: args.iter().any(|a| a == "--costly-first"),
+                    hosts: None,
                 };
                 let row = run(&path, &cfg).map_err(|e| format!("{c}: {e:#}"))?;
                 println!(
