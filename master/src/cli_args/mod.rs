@@ -12,6 +12,7 @@
 //! - [`output`]: the outputs a command writes, checked before any work.
 //! - [`listen`]: `--listen ADDR`.
 //! - [`live`]: the live view's flags (`--http`, ...).
+//! - [`tile_order`]: `--costly-first FILE`, the handout order from a previous render's costs.
 
 pub mod durations;
 pub mod limits;
@@ -21,6 +22,7 @@ pub mod output;
 pub mod render_flags;
 pub mod scene_arg;
 pub mod size;
+pub mod tile_order;
 
 pub use limits::LimitArgs;
 pub use render_flags::{AccelArg, ExecutorArg, RenderFlags};

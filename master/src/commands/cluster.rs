@@ -79,6 +79,9 @@ pub struct ClusterArgs {
     /// Live view in a browser (off loopback: the master's token is required).
     #[command(flatten)]
     pub live: crate::cli_args::live::LiveArgs,
+    /// The order tiles are handed out in.
+    #[command(flatten)]
+    pub order: crate::cli_args::tile_order::OrderArgs,
     /// Render settings (the same flags as `parrt render`, so the same bits).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -214,6 +217,7 @@ fn run_master(
     config.schedule.wait_workers = wait_workers;
     config.schedule.pixel_format = parrt_runtime::pixel_format_for(&args.output);
     config.schedule.await_all_workers = true;
+    config.schedule.order = args.order.order(settings.width, settings.height, args.tile)?;
     config.net.listen = args.listen.clone();
     config.net.token = Some(token);
     let (w, h) = (settings.width, settings.height);

@@ -90,6 +90,9 @@ pub struct MasterArgs {
     /// Live view in a browser (off loopback: the master's token is required).
     #[command(flatten)]
     pub live: crate::cli_args::live::LiveArgs,
+    /// The order tiles are handed out in.
+    #[command(flatten)]
+    pub order: crate::cli_args::tile_order::OrderArgs,
     /// Render settings (the same flags as `parrt render`, so the same bits).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -194,6 +197,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     s.window = args.window;
     s.max_batch = args.max_batch.max(1);
     s.backups = !args.no_backups;
+    s.order = args.order.order(settings.width, settings.height, args.tile)?;
     s.pixel_format = parrt_runtime::pixel_format_for(&args.output);
     config.net.listen = args.listen.clone();
     config.net.token = Some(token);

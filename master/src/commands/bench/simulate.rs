@@ -5,7 +5,7 @@
 use crate::exit::input_error;
 use crate::plot::{save_chart, Chart, Reference, Series};
 use clap::Args;
-use parrt::efficiency::{aggregate_costs, read_tile_costs};
+use parrt::efficiency::aggregate_costs;
 use parrt::simulate::{simulate, SimParams};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -103,18 +103,7 @@ fn limit_note(p: &SimParams, r: &parrt::simulate::SimResult, costs: &[f64], tile
 
 /// Runs `parrt bench simulate`.
 pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
-    let bytes = crate::cli_args::limits::read_path(
-        &args.tile_costs,
-        parrt::nff::limits::DEFAULT_MAX_FILE_BYTES,
-    )?;
-    let text = String::from_utf8(bytes).map_err(|_| {
-        input_error(anyhow::anyhow!(
-            "{}: not UTF-8 text",
-            args.tile_costs.display()
-        ))
-    })?;
-    let fine = read_tile_costs(&text)
-        .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", args.tile_costs.display())))?;
+    let fine = crate::cli_args::tile_order::read_costs(&args.tile_costs)?;
     let Some(first) = fine.first() else {
         return Err(input_error(anyhow::anyhow!(
             "{}: no tiles",
