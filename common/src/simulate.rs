@@ -2,7 +2,8 @@
 //! workers × threads, a window of assignments in flight per worker, each a batch of tiles sized
 //! by the master's own rule ([`crate::batch::batch_size`]) and answered in one message when its
 //! last tile is done, one-way latency, link bandwidth, the master's per-result work and the
-//! scene transfer. It predicts the makespan and efficiency
+//! scene transfer; and, as the master does once its queue is empty, backup copies of tiles in
+//! flight for idle workers (the first result counts). It predicts the makespan and efficiency
 //! of configurations larger than this machine, and says where the time goes.
 
 use std::cmp::Ordering;
@@ -48,6 +49,10 @@ pub struct SimParams {
     pub result_bytes_per_pixel: f64,
     /// Fixed bytes per message (frame header, ids, statistics).
     pub message_bytes: f64,
+    /// Once the queue is empty, a worker with no tiles of its own left takes copies of tiles
+    /// in flight elsewhere, up to one per thread, the longest held first (the master's
+    /// backups): the first result of a tile counts, the other is ignored.
+    pub backups: bool,
 }
 
 impl SimParams {
@@ -69,6 +74,7 @@ impl SimParams {
             build_s: 0.0,
             result_bytes_per_pixel: 12.0,
             message_bytes: 0.0,
+            backups: false,
         }
     }
 }
@@ -135,9 +141,18 @@ struct Sim<'a> {
     pixels: &'a [u64],
     heap: BinaryHeap<Event>,
     seq: u64,
-    /// Every batch handed out: its tiles (consecutive in the queue) and how many are not
-    /// done yet.
-    batches: Vec<(Range<usize>, usize)>,
+    /// Every batch handed out: its tiles (consecutive in the queue), how many are not
+    /// done yet, and whether it is a backup copy.
+    batches: Vec<(Range<usize>, usize, bool)>,
+    /// Per tile (queue index): live copies out, and whether its first result is in.
+    holders: Vec<u32>,
+    accepted: Vec<bool>,
+    /// Per worker: tiles of its own (not backups) out, and backups out.
+    primaries: Vec<usize>,
+    backups_out: Vec<usize>,
+    /// Tiles out with one copy, by when and to whom they went (earliest first, ties by
+    /// worker then tile, as the master picks them); stale entries are skipped when popped.
+    candidates: BinaryHeap<std::cmp::Reverse<(u64, usize, usize)>>,
     /// Tiles each worker holds (assigned, not yet answered).
     held: Vec<usize>,
     /// Tiles not yet handed out (the next is `next`), and the costs seen by the master.
@@ -221,14 +236,51 @@ impl Sim<'_> {
                 break;
             }
             let take = size.min(free).min(self.costs.len() - self.next);
-            self.batches.push((self.next..self.next + take, take));
+            for t in self.next..self.next + take {
+                self.holders[t] = 1;
+                if p.backups {
+                    self.candidates
+                        .push(std::cmp::Reverse((at.max(0.0).to_bits(), worker, t)));
+                }
+            }
+            self.assign(worker, self.next..self.next + take, false, at);
             self.next += take;
-            self.held[worker] += take;
-            self.bytes += p.message_bytes;
-            let batch = self.batches.len() - 1;
-            let arrive = self.host(at, 0.5 * p.host_per_tile_s * take as f64);
-            self.push(arrive, Kind::Assign { worker, batch });
+            self.primaries[worker] += take;
         }
+        // The queue is empty: a worker with nothing of its own takes backups.
+        if !p.backups || self.next < self.costs.len() || self.primaries[worker] > 0 {
+            return;
+        }
+        while self.backups_out[worker] < p.threads.max(1) {
+            let Some(t) = self.backup_candidate() else {
+                break;
+            };
+            self.holders[t] += 1;
+            self.backups_out[worker] += 1;
+            self.assign(worker, t..t + 1, true, at);
+        }
+    }
+
+    /// Sends `tiles` to `worker` as one message leaving the master at `at`.
+    fn assign(&mut self, worker: usize, tiles: Range<usize>, backup: bool, at: f64) {
+        let take = tiles.len();
+        self.batches.push((tiles, take, backup));
+        self.held[worker] += take;
+        self.bytes += self.p.message_bytes;
+        let batch = self.batches.len() - 1;
+        let arrive = self.host(at, 0.5 * self.p.host_per_tile_s * take as f64);
+        self.push(arrive, Kind::Assign { worker, batch });
+    }
+
+    /// The tile out the longest with a single copy and no result yet. A worker asking has
+    /// none of its own out, so the copy is always another's.
+    fn backup_candidate(&mut self) -> Option<usize> {
+        while let Some(std::cmp::Reverse((_, _, t))) = self.candidates.pop() {
+            if !self.accepted[t] && self.holders[t] == 1 {
+                return Some(t);
+            }
+        }
+        None
     }
 }
 
@@ -245,6 +297,11 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         heap: BinaryHeap::new(),
         seq: 0,
         batches: Vec::new(),
+        holders: vec![0; costs.len()],
+        accepted: vec![false; costs.len()],
+        primaries: vec![0; workers],
+        backups_out: vec![0; workers],
+        candidates: BinaryHeap::new(),
         held: vec![0; workers],
         next: 0,
         seen: (0.0, 0),
@@ -305,15 +362,33 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
                 }
             }
             Kind::Result { worker, batch } => {
-                let tiles = sim.batches[batch].0.clone();
+                let (tiles, _, backup) = sim.batches[batch].clone();
                 let per = p.master_per_tile_s * tiles.len() as f64;
                 master_free = master_free.max(now) + per;
                 master_busy += per;
-                done += tiles.len();
+                let mut first = 0;
+                for t in tiles.clone() {
+                    sim.holders[t] -= 1;
+                    if !std::mem::replace(&mut sim.accepted[t], true) {
+                        first += 1;
+                        sim.seen.0 += costs[t];
+                    }
+                }
+                done += first;
+                sim.seen.1 += first;
                 sim.held[worker] -= tiles.len();
-                sim.seen.1 += tiles.len();
-                sim.seen.0 += costs[tiles].iter().sum::<f64>();
-                makespan = makespan.max(master_free);
+                if backup {
+                    sim.backups_out[worker] -= 1;
+                } else {
+                    sim.primaries[worker] -= tiles.len();
+                }
+                if first > 0 {
+                    makespan = makespan.max(master_free);
+                }
+                if done == costs.len() {
+                    // The image is whole: copies still out are never waited for.
+                    break;
+                }
                 let arrive = master_free + p.latency_s + sim.transfer(p.message_bytes);
                 sim.fill(worker, arrive);
             }
@@ -348,6 +423,31 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn idle_workers_copy_a_tile_queued_behind_another() {
+        // Worker 0 holds two 3 s tiles, one after the other; workers 1 and 2 are done with
+        // theirs at 1 s. As the master does, each takes a copy of the oldest tile out with a
+        // single copy: worker 2 gets the second 3 s tile, and it is in at 4 s, not 6.
+        let costs = [3.0, 3.0, 0.5, 0.5, 0.5, 0.5];
+        let px = [1; 6];
+        let p = SimParams {
+            window: 2,
+            ..SimParams::ideal(3, 1)
+        };
+        let plain = simulate(&costs, &px, &p);
+        let copied = simulate(
+            &costs,
+            &px,
+            &SimParams {
+                backups: true,
+                ..p.clone()
+            },
+        );
+        assert_eq!(plain.makespan, 6.0);
+        assert_eq!(copied.makespan, 4.0);
+        assert_eq!(copied.work, plain.work, "a copy's work is not the frame's");
+    }
 
     #[test]
     fn equal_costs_zero_latency_is_ceil_n_over_p() {

@@ -779,15 +779,19 @@ impl Scheduler {
         }
     }
 
-    /// Tiles per assignment message now ([`parrt::batch::batch_size`]), from the queue, the
-    /// ready render threads and the mean tile cost seen so far.
-    fn batch_size(&self) -> usize {
-        let threads: usize = self
-            .workers
+    /// The render threads of every ready worker.
+    fn ready_threads(&self) -> usize {
+        self.workers
             .values()
             .filter(|w| w.ready_at.is_some())
             .map(|w| w.threads.max(1) as usize)
-            .sum();
+            .sum()
+    }
+
+    /// Tiles per assignment message now ([`parrt::batch::batch_size`]), from the queue, the
+    /// ready render threads (`threads`, counted once per fill: a sum over every worker for
+    /// every batch made the fill quadratic in workers) and the mean tile cost seen so far.
+    fn batch_size(&self, threads: usize) -> usize {
         parrt::batch::batch_size(
             self.opts.max_batch,
             self.queue.len(),
@@ -813,11 +817,12 @@ impl Scheduler {
             .collect();
         // The backup candidates, built once per fill when the queue runs dry.
         let mut backups = None;
+        let threads = self.ready_threads();
         for id in ids {
             // Tiles this worker already holds (expired) are left for someone else.
             let mut skipped = Vec::new();
             loop {
-                let batch_size = self.batch_size();
+                let batch_size = self.batch_size(threads);
                 let Some(w) = self.workers.get(&id) else {
                     break;
                 };

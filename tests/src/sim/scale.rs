@@ -201,6 +201,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         config.schedule.order = Some(order.clone());
     }
     config.schedule.pixel_format = PixelFormat::Rgb8;
+    let config_backups = config.schedule.backups;
     config.schedule.wait_workers = Duration::from_secs(3_600);
     config.schedule.tile_deadline = Duration::from_secs(86_400);
     config.net.token = Some(token.clone());
@@ -316,6 +317,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         master_per_tile_s: c.master_s_per_byte * 3.0 * (tile * tile) as f64,
         result_bytes_per_pixel: 3.0,
         message_bytes: 64.0,
+        // The master's default: idle workers take copies of tiles out once the queue is empty.
+        backups: config_backups,
         ..SimParams::ideal(c.workers, c.threads)
     };
     let in_order = |v: &[f64]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();

@@ -446,6 +446,8 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 build_s: 0.0,
                 result_bytes_per_pixel: m.bytes_received as f64 / pixels.max(1) as f64,
                 message_bytes: 0.0,
+                // The master's default: idle workers take copies of tiles out once the queue is empty.
+                backups: true,
             };
             let sim = simulate(&costs, &px, &p);
             let as_run = simulate(&m.tile_seconds, &px, &p);

@@ -198,6 +198,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
                 scene_bytes: args.scene_bytes,
                 build_s: args.build_s,
                 result_bytes_per_pixel: 12.0,
+                // The model of tile size and window alone: no backup copies.
+                backups: false,
                 message_bytes: 64.0,
             };
             let r = simulate(&costs, &px, &p);
