@@ -260,8 +260,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         sim.host(format!("h{h}"), move || {
             let (replay, token, ids) = (replay.clone(), token.clone(), ids.clone());
             async move {
-                let mut sessions = tokio::task::JoinSet::new();
-                for i in ids {
+                let session = |i: usize| {
                     let mut o = WorkerOptions::new("master:7878", token.clone());
                     o.name = format!("w{i}");
                     o.threads = threads;
@@ -270,7 +269,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
                     o.dial_timeout = Duration::from_secs(3_600).mul_f64(k);
                     o.master_timeout = Duration::from_secs(3_600).mul_f64(k);
                     let exec = InlineExec::replaying(replay.clone());
-                    sessions.spawn_local(async move {
+                    async move {
                         let _ = parrt_worker::session::run_with(
                             &o,
                             CancellationToken::new(),
@@ -278,7 +277,17 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
                             exec,
                         )
                         .await;
-                    });
+                    }
+                };
+                // One session runs as the host's software itself, as up to 64 workers always
+                // did; more are tasks of it.
+                if let [i] = ids[..] {
+                    session(i).await;
+                    return Ok(());
+                }
+                let mut sessions = tokio::task::JoinSet::new();
+                for i in ids {
+                    sessions.spawn_local(session(i));
                 }
                 while sessions.join_next().await.is_some() {}
                 Ok(())
