@@ -1,6 +1,8 @@
-//! Build script: records what build this is for `parrt --version` — the git commit (when the
-//! source is a git checkout and `git` runs; never an error outside one), the cargo profile and
-//! the target triple — as compile-time environment variables read by `src/version.rs`.
+//! Build script of both binaries' packages (`parrt-master`, and `parrt-worker` through its
+//! manifest's `build = "../master/build.rs"`): records what build this is for `--version` — the
+//! git commit (when the source is a git checkout and `git` runs; never an error outside one),
+//! the cargo profile and the target triple — as compile-time environment variables that
+//! `parrt::build_info!` reads in the package being built.
 
 use std::path::PathBuf;
 use std::process::Command;
