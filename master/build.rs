@@ -36,7 +36,10 @@ fn main() {
             }
         }
     }
-    println!("cargo:rerun-if-changed=build.rs");
+    // This file, by a path that exists from both packages: a bare "build.rs" is missing in
+    // worker/, and a missing watched path reruns the script (and rebuilds the worker) every time.
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../master/build.rs");
+    println!("cargo:rerun-if-changed={}", script.display());
     let profile = std::env::var("PROFILE").unwrap_or_default();
     println!("cargo:rustc-env=PARRT_BUILD_PROFILE={profile}");
     let target = std::env::var("TARGET").unwrap_or_default();
