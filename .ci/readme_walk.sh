@@ -25,8 +25,9 @@ SKIP_PREFIXES=("cargo test --workspace")
 SKIP_REASONS=("CI's test step has just run it")
 # docs/*.md not walked, with the reason.
 SKIP_DOCS=("docs/simulation.md")
-SKIP_DOCS_REASONS=("minutes to hours of simulation (explore 10 000 seeds, scale in virtual time) \
-after a release build of the simulator; CI runs \`sim explore --seeds 2000\` instead")
+SKIP_DOCS_REASONS=("its lines are synopses with placeholders (FILE, [--first S]) for minutes to \
+hours of simulation (explore 10 000 seeds, scale in virtual time) after a release build of the \
+simulator; CI runs \`sim explore --seeds 2000\` instead")
 
 if [ $# -gt 0 ]; then
     FILES=("$@")

@@ -1,6 +1,8 @@
-//! Build script: records what build this is for `parrt --version` — the git commit (when the
-//! source is a git checkout and `git` runs; never an error outside one), the cargo profile and
-//! the target triple — as compile-time environment variables read by `src/version.rs`.
+//! Build script of both binaries' packages (`parrt-master`, and `parrt-worker` through its
+//! manifest's `build = "../master/build.rs"`): records what build this is for `--version` — the
+//! git commit (when the source is a git checkout and `git` runs; never an error outside one),
+//! the cargo profile and the target triple — as compile-time environment variables that
+//! `parrt::build_info!` reads in the package being built.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -34,7 +36,10 @@ fn main() {
             }
         }
     }
-    println!("cargo:rerun-if-changed=build.rs");
+    // This file, by a path that exists from both packages: a bare "build.rs" is missing in
+    // worker/, and a missing watched path reruns the script (and rebuilds the worker) every time.
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../master/build.rs");
+    println!("cargo:rerun-if-changed={}", script.display());
     let profile = std::env::var("PROFILE").unwrap_or_default();
     println!("cargo:rustc-env=PARRT_BUILD_PROFILE={profile}");
     let target = std::env::var("TARGET").unwrap_or_default();

@@ -14,6 +14,8 @@
 //!   `f32` or `f64` a scene needs.
 //! - [`protocol`]: the master/worker wire protocol (messages, codec, auth, connection).
 //! - [`isa`]: the instruction-set tier every SIMD kernel follows, chosen once per process.
+//! - [`build_info`]: what build a binary is, the one `--version` text of `parrt` and
+//!   `parrt-worker`.
 //! - [`window`], [`simulate`]: how much work a worker holds at once, and a model of the
 //!   master/worker schedule.
 #![deny(missing_docs)]
@@ -23,6 +25,7 @@
 pub mod accel;
 pub mod batch;
 pub mod bits;
+pub mod build_info;
 pub mod camera;
 pub mod cast;
 pub mod description;

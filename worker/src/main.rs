@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 /// parrt render worker: connects to a master and renders the tiles it assigns.
 #[derive(Debug, Parser)]
-#[command(name = "parrt-worker", version, about)]
+#[command(name = "parrt-worker", version = parrt::version_text!(), about)]
 struct Cli {
     #[command(flatten)]
     args: parrt_worker::cli::WorkerArgs,

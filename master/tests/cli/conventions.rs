@@ -54,6 +54,8 @@ fn version_names_the_build() {
     let o = parrt(&["--version"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v = String::from_utf8_lossy(&o.stdout).into_owned();
+    // The text parrt-worker prints too (worker/tests/version.rs), from this package's build.
+    assert_eq!(v, format!("parrt {}\n", parrt::version_text!()));
     assert!(
         v.starts_with(&format!("parrt {} (", env!("CARGO_PKG_VERSION"))),
         "{v}"
