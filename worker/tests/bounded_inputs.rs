@@ -106,7 +106,10 @@ fn a_replay_header_claiming_more_than_its_bytes_is_refused_in_bounded_memory() {
 #[test]
 fn a_closed_stderr_keeps_the_exit_status() {
     use std::os::fd::FromRawFd;
-    for (isa, token_file) in [("no-such-tier", "/nonexistent/tok"), ("", "/nonexistent/tok")] {
+    for (isa, token_file) in [
+        ("no-such-tier", "/nonexistent/tok"),
+        ("", "/nonexistent/tok"),
+    ] {
         let mut fds = [0; 2];
         // SAFETY: pipe fills two descriptors; the reading end is closed at once and the
         // writing end owned once, by the OwnedFd.

@@ -183,7 +183,12 @@ fn run_one(dir: &Path, env: &[(&str, String)], extra: &[&str]) -> (Output, Strin
 
 /// [`run_one`], killed and failed if it runs past `limit` (a rank blocked on a FIFO never
 /// returns by itself).
-fn run_one_within(dir: &Path, env: &[(&str, String)], extra: &[&str], limit: Duration) -> (Output, String) {
+fn run_one_within(
+    dir: &Path,
+    env: &[(&str, String)],
+    extra: &[&str],
+    limit: Duration,
+) -> (Output, String) {
     let mut child = cluster(dir, env, extra)
         .arg("-o")
         .arg(dir.join("out.png"))
