@@ -22,7 +22,8 @@ fn main() -> ExitCode {
     // The instruction-set tier, once for the process: an unknown or unsupported PARRT_ISA is
     // bad input.
     if let Err(e) = parrt::isa::init() {
-        eprintln!("parrt-worker: {e}");
+        // Not eprintln!: a closed stderr would turn exit 2 into a panic's 101.
+        let _ = writeln!(std::io::stderr(), "parrt-worker: {e}");
         return ExitCode::from(2);
     }
     match parrt_worker::cli::run(cli.args) {

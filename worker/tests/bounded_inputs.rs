@@ -99,3 +99,37 @@ fn a_replay_header_claiming_more_than_its_bytes_is_refused_in_bounded_memory() {
     assert!(err.contains("lying.replay"), "{err}");
     assert!(!err.contains("memory allocation"), "{err}");
 }
+
+/// Issue 31 item 17 for `parrt-worker`: with stderr closed (`parrt-worker … 2>&1 | true`), bad
+/// input still ends in exit 2, not in a panic's 101: an unknown `PARRT_ISA` (refused before
+/// anything else) and a missing token file.
+#[test]
+fn a_closed_stderr_keeps_the_exit_status() {
+    use std::os::fd::FromRawFd;
+    for (isa, token_file) in [
+        ("no-such-tier", "/nonexistent/tok"),
+        ("", "/nonexistent/tok"),
+    ] {
+        let mut fds = [0; 2];
+        // SAFETY: pipe fills two descriptors; the reading end is closed at once and the
+        // writing end owned once, by the OwnedFd.
+        let write_end = unsafe {
+            assert_eq!(libc::pipe(fds.as_mut_ptr()), 0);
+            libc::close(fds[0]);
+            std::os::fd::OwnedFd::from_raw_fd(fds[1])
+        };
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_parrt-worker"));
+        cmd.args(["--connect", "127.0.0.1:9", "--token-file", token_file])
+            .env("RUST_BACKTRACE", "0")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::from(write_end));
+        if isa.is_empty() {
+            cmd.env_remove("PARRT_ISA");
+        } else {
+            cmd.env("PARRT_ISA", isa);
+        }
+        let status = cmd.status().expect("parrt-worker runs");
+        assert_eq!(status.code(), Some(2), "PARRT_ISA={isa:?}");
+    }
+}

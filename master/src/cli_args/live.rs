@@ -13,8 +13,10 @@ use std::time::Duration;
 #[derive(Debug, Clone, Args)]
 pub struct LiveArgs {
     /// Serve a live view of the render at ADDR (HOST:PORT; port 0 picks one). Loopback
-    /// addresses are open to local users; any other address needs the token, as
-    /// `Authorization: Bearer TOKEN` or `?token=TOKEN`. Without this flag no port is opened.
+    /// addresses are open to local users (through a Host naming them); any other address
+    /// needs the view key, derived one way from the token (not the token), as
+    /// `Authorization: Bearer KEY` or `?key=KEY`: printed on a terminal, else written to a
+    /// file only you can read. Without this flag no port is opened.
     #[arg(long, value_name = "ADDR")]
     pub http: Option<String>,
     /// With --http: keep serving the finished image this many seconds after the render

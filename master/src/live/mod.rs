@@ -112,7 +112,7 @@ impl Live {
             self.state.finished(complete, tokio::time::Instant::now());
         }
         if !self.linger.is_zero() {
-            eprintln!(
+            crate::errln!(
                 "parrt: live view stays up {:.0} s more (Ctrl-C ends it)",
                 self.linger.as_secs_f64()
             );

@@ -224,6 +224,11 @@ fn a_closed_stdout_and_stderr_do_not_stop_the_render() {
     for (name, extra) in [
         ("smp.png", vec!["--stats"]),
         ("dist.png", vec!["--stats", "--workers", "1"]),
+        // The live view's last words ("stays up 1 s more") come after the image is written.
+        (
+            "live.png",
+            vec!["--http", "127.0.0.1:0", "--http-linger", "1"],
+        ),
     ] {
         let out = dir.path().join(name);
         let pipe = broken_pipe();
