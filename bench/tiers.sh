@@ -29,7 +29,7 @@ head="| scene |"
 rule="|---|"
 for t in $TIERS; do head="$head $t s |"; rule="$rule---:|"; done
 for t in $TIERS; do [ "$t" = scalar ] || { head="$head $t / scalar |"; rule="$rule---:|"; }; done
-case " $TIERS " in *" avx2 "*" avx512 "*) head="$head avx512 / avx2 |"; rule="$rule---:|" ;; esac
+case " $TIERS " in *" avx2 "*) case " $TIERS " in *" avx512 "*) head="$head avx512 / avx2 |"; rule="$rule---:|" ;; esac ;; esac
 echo "$head images |"
 echo "$rule---|"
 for s in "$@"; do
