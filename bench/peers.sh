@@ -9,7 +9,9 @@
 #   usage: bench/peers.sh [scene ...]        scenes as names in ../shared/spd/pov (e.g. mount-6)
 #   env:   RUNS (default 3: medians), MINTIME (casting seconds per figure, default 1),
 #          SHARED (default: ../shared beside the repository), OUT (default bench-out/peers),
-#          TABLES (default "render cast efficiency": which tables to print)
+#          TABLES (default "render cast efficiency": which tables to print),
+#          PARRT (a parrt binary to measure instead of building one; the build honours
+#          CARGO_TARGET_DIR)
 set -euo pipefail
 REPO=$(cd "$(dirname "$0")/.." && pwd)
 SHARED=${SHARED:-$(cd "$REPO/../shared" && pwd)}
@@ -30,8 +32,10 @@ if [ -n "$need_apt" ]; then
 fi
 NFFCAST=${NFFCAST:-/tmp/embreework/nffcast}
 [ -x "$NFFCAST" ] || sh "$SHARED/anchors/embree/build.sh" "$(dirname "$NFFCAST")" >/dev/null
-(cd "$REPO" && cargo build --release -q -p parrt-master)
-PARRT=$REPO/target/release/parrt
+if [ -z "${PARRT:-}" ]; then
+    (cd "$REPO" && cargo build --release -q -p parrt-master)
+    PARRT=${CARGO_TARGET_DIR:-$REPO/target}/release/parrt
+fi
 
 if [ $# -eq 0 ]; then
     set -- mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5 jacks-4
@@ -99,6 +103,8 @@ print(", ".join(notes))
 PY
 }
 median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
+# The min–max spread of a file of figures, each less an offset (default 0), for the tables.
+spread() { sort -g "$1" | awk -v o="${2:-0}" '{a[NR]=$1 - o} END {printf "%.3f–%.3f", a[1], a[NR]}'; }
 runs() { for _ in $(seq "$RUNS"); do cpu "$@"; done | median; }
 
 cd "$OUT"
@@ -115,6 +121,8 @@ echo "Medians of $RUNS runs, the three renderers interleaved."
 echo
 if want render; then
 echo "## Full render, one thread, 512×512, one eye ray per pixel centre, depth 5 (CPU seconds)"
+echo
+echo "Medians, with the min–max spread of the $RUNS runs in parentheses."
 echo
 echo "| scene | POV-Ray 3.7 | Tachyon 0.99 | parrt | parrt / POV-Ray | goal ≤ 0.25 | parrt / Tachyon | goal ≤ 0.5 | Tachyon's image |"
 echo "|---|---:|---:|---:|---:|---|---:|---|---|"
@@ -138,28 +146,35 @@ for s in "$@"; do
     "$PARRT" render "$nff" --threads 1 --width 512 --height 512 --max-depth 5 -o "$OUT/$s.parrt.ppm" >/dev/null 2>&1
     note=$(tachyon_note "$OUT/$s.tachyon.ppm" "$nff" "$OUT/$s.parrt.ppm")
     okt=$(awk -v r="$rt" -v n="$note" 'BEGIN {print (n != "") ? "—" : (r <= 0.5) ? "met" : "not met"}')
-    echo "| $s | $p | $t | $q | $r | $ok | $rt | $okt | ${note:-comparable} |"
+    echo "| $s | $p ($(spread p.txt "$pov_empty")) | $t ($(spread t.txt "$tach_empty")) | $q ($(spread q.txt)) | $r | $ok | $rt | $okt | ${note:-comparable} |"
 done
 fi
 if want cast; then
 echo
 echo "## Ray casting, one thread: eye + shadow rays per CPU second (Mrays/s)"
 echo
-echo "| scene | Embree 3 (single rays) | Embree 16-wide packets | parrt | parrt / Embree single | goal ≥ 1.0 | parrt / Embree packets | goal ≥ 0.5 |"
+echo "Medians of $RUNS interleaved runs (Embree, then parrt), min–max spread in parentheses."
+echo
+echo "| scene | Embree 3 (single rays) | Embree 16-wide packets | parrt | parrt / Embree single | goal ≥ 1.0 | parrt / Embree packets | goal ≥ 0.75 |"
 echo "|---|---:|---:|---:|---:|---|---:|---|"
 for s in "$@"; do
     nff=$SPD/$s.nff
     [ -f "$nff" ] || continue
     cones=""
     grep -q '^c ' "$nff" && cones="-cones user"
-    e=$("$NFFCAST" -threads 1 -mintime "$MINTIME" $cones "$nff" | grep '^RESULT')
-    est=$(echo "$e" | tr ' ' '\n' | awk -F= '$1=="st_cpu_mrays" {print $2}')
-    epk=$(echo "$e" | tr ' ' '\n' | awk -F= '$1=="pk16_st_cpu_mrays" {print $2}')
-    q=$("$PARRT" bench cast "$nff" --size 512 --mintime "$MINTIME" | tail -1 | awk -F'|' '{gsub(/ /,"",$10); print $10}')
+    : > es.txt; : > ep.txt; : > qc.txt
+    for _ in $(seq "$RUNS"); do
+        e=$("$NFFCAST" -threads 1 -mintime "$MINTIME" $cones "$nff" | grep '^RESULT')
+        echo "$e" | tr ' ' '\n' | awk -F= '$1=="st_cpu_mrays" {print $2}' >> es.txt
+        echo "$e" | tr ' ' '\n' | awk -F= '$1=="pk16_st_cpu_mrays" {print $2}' >> ep.txt
+        "$PARRT" bench cast "$nff" --size 512 --mintime "$MINTIME" | tail -1 | awk -F'|' '{gsub(/ /,"",$10); print $10}' >> qc.txt
+    done
+    est=$(median < es.txt); epk=$(median < ep.txt); q=$(median < qc.txt)
     r=$(awk -v a="$q" -v b="$est" 'BEGIN {printf "%.3f", a / b}')
     ok=$(awk -v r="$r" 'BEGIN {print (r >= 1.0) ? "met" : "not met"}')
     rp=$(awk -v a="$q" -v b="$epk" 'BEGIN {printf "%.3f", a / b}')
-    okp=$(awk -v r="$rp" 'BEGIN {print (r >= 0.5) ? "met" : "not met"}')
+    okp=$(awk -v r="$rp" 'BEGIN {print (r >= 0.75) ? "met" : "not met"}')
+    est="$est ($(spread es.txt))"; epk="$epk ($(spread ep.txt))"; q="$q ($(spread qc.txt))"
     echo "| $s | $est | $epk | $q | $r | $ok | $rp | $okp |"
 done
 fi

@@ -2,7 +2,8 @@
 # Each instruction-set tier's speed on the SPD scenes of the peers table (issue 33): CPU seconds
 # of a full render (one thread, 512×512, depth 5, as bench/peers.sh renders) with `PARRT_ISA`
 # set to each tier this CPU runs, tiers interleaved run by run; medians with the min–max spread,
-# each tier's median over the scalar tier's, and whether every tier wrote the same image bytes.
+# each tier's median over the scalar tier's (and avx512's over avx2's: the AVX-512 kernels against
+# the AVX ones on one binary), and whether every tier wrote the same image bytes.
 # Prints a Markdown table.
 #
 #   usage: bench/tiers.sh [PARRT_BINARY] [scene ...]   (names in ../shared/spd)
@@ -28,6 +29,7 @@ head="| scene |"
 rule="|---|"
 for t in $TIERS; do head="$head $t s |"; rule="$rule---:|"; done
 for t in $TIERS; do [ "$t" = scalar ] || { head="$head $t / scalar |"; rule="$rule---:|"; }; done
+case " $TIERS " in *" avx2 "*) case " $TIERS " in *" avx512 "*) head="$head avx512 / avx2 |"; rule="$rule---:|" ;; esac ;; esac
 echo "$head images |"
 echo "$rule---|"
 for s in "$@"; do
@@ -47,6 +49,8 @@ v = {t: [float(x) for x in open(f"{d}/{t}")] for t in tiers}
 cells = ["%.3f (%.3f–%.3f)" % (st.median(v[t]), min(v[t]), max(v[t])) for t in tiers]
 base = st.median(v["scalar"]) if "scalar" in v else None
 ratios = ["%.3f" % (st.median(v[t]) / base) for t in tiers if t != "scalar" and base]
+if "avx2" in v and "avx512" in v:
+    ratios.append("%.3f" % (st.median(v["avx512"]) / st.median(v["avx2"])))
 print("| %s | %s | %s | %s |" % (scene, " | ".join(cells), " | ".join(ratios), same))
 PY
 done

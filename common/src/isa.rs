@@ -1,8 +1,8 @@
 //! The instruction-set tier of this process, chosen in this one place: `scalar` (one lane at a
 //! time, the portable definition of every answer), `sse2` (four-lane SSE2 kernels, the x86-64
 //! baseline), `avx2` (the AVX kernels of the leaf tests and the AVX2 film conversion) and
-//! `avx512` (a CPU with AVX-512 F, BW, DQ and VL; it runs the `avx2` kernels until a kernel of
-//! its own lands). Every tier gives the same bits: the kernels do the scalar test's IEEE
+//! `avx512` (a CPU with AVX-512 F, BW, DQ and VL: the sixteen-ray packet kernels in one
+//! AVX-512 register, the `avx2` kernels elsewhere). Every tier gives the same bits: the kernels do the scalar test's IEEE
 //! operations lane by lane, with no FMA and no approximate reciprocal.
 //!
 //! The tier is the best this CPU runs, or the one `PARRT_ISA` names. The binaries call [`init`]
@@ -28,7 +28,8 @@ pub enum Isa {
     Sse2,
     /// The AVX kernels (and AVX2 where one is written for it).
     Avx2,
-    /// AVX-512 F, BW, DQ and VL present; the `avx2` kernels otherwise.
+    /// AVX-512 F, BW, DQ and VL: the sixteen-ray kernels in one register, the `avx2` kernels
+    /// otherwise.
     Avx512,
 }
 
@@ -125,6 +126,12 @@ impl Isa {
     #[inline(always)]
     pub fn avx(self) -> bool {
         self >= Isa::Avx2
+    }
+
+    /// Whether the AVX-512 kernels run (`avx512`).
+    #[inline(always)]
+    pub fn avx512(self) -> bool {
+        self >= Isa::Avx512
     }
 
     /// `self` if this CPU runs it, else why not.
@@ -247,6 +254,7 @@ mod tests {
         assert!(Isa::Scalar < Isa::Sse2 && Isa::Sse2 < Isa::Avx2 && Isa::Avx2 < Isa::Avx512);
         assert!(!Isa::Scalar.sse2() && Isa::Sse2.sse2() && !Isa::Sse2.avx());
         assert!(Isa::Avx2.avx() && Isa::Avx512.avx());
+        assert!(Isa::Avx512.avx512() && !Isa::Avx2.avx512());
     }
 
     #[test]

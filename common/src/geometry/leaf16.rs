@@ -5,10 +5,10 @@
 //! redone in `f64` lane by lane), so each lane's answer is bit for bit what
 //! [`super::triangle::intersect_triangle`] or [`super::sphere::Sphere::intersect`] gives that
 //! ray. The rays' axis permutations may differ: each lane picks its vertex components with
-//! masks. The rays go in two halves of eight AVX lanes: AVX-512 intrinsics need Rust 1.89,
-//! past the MSRV (a sixteen-lane AVX-512F build of these kernels measured 5-12 % faster).
-//! [`Rays16::new`] is `None` unless the process's tier ([`crate::isa`]) runs AVX; the portable kernels
-//! ([`triangle16_lanes`], [`sphere16_lanes`]) define the answers and serve the tests.
+//! masks. The `avx512` tier ([`crate::isa`]) runs the sixteen rays in one AVX-512 register
+//! ([`avx512`]); the `avx2` tier in two halves of eight AVX lanes. [`Rays16::new`] is `None`
+//! unless the process's tier runs AVX; the portable kernels ([`triangle16_lanes`],
+//! [`sphere16_lanes`]) define the answers and serve the tests.
 
 use super::ray::PreparedRay;
 use super::sphere::Sphere;
@@ -37,6 +37,9 @@ pub struct Rays16 {
     /// it is axis 1 (lane masks for the kernels' selects).
     k0: [[f32; LANES]; 3],
     k1: [[f32; LANES]; 3],
+    /// The same lane masks as bits (bit `i` is lane `i`), for the AVX-512 kernels.
+    k0_bits: [u16; 3],
+    k1_bits: [u16; 3],
     /// The address and length of the rays these lanes were made from.
     src: usize,
     n: usize,
@@ -90,6 +93,8 @@ impl Rays16 {
             a: [0.0; LANES],
             k0: [[0.0; LANES]; 3],
             k1: [[0.0; LANES]; 3],
+            k0_bits: [0; 3],
+            k1_bits: [0; 3],
             src: rays.as_ptr() as usize,
             n: rays.len(),
         };
@@ -106,6 +111,8 @@ impl Rays16 {
                 let ones = |on: bool| f32::from_bits(if on { u32::MAX } else { 0 });
                 l.k0[a][i] = ones(k[a] == 0);
                 l.k1[a][i] = ones(k[a] == 1);
+                l.k0_bits[a] |= u16::from(k[a] == 0) << i;
+                l.k1_bits[a] |= u16::from(k[a] == 1) << i;
             }
             l.t_min[i] = pr.ray.t_min;
             l.a[i] = pr.ray.d.length_squared();
@@ -137,6 +144,10 @@ pub fn triangle16(
 ) -> Hits16 {
     #[cfg(target_arch = "x86_64")]
     if available() {
+        if crate::isa::current().avx512() {
+            // SAFETY: the avx512 tier is only chosen on a CPU that has AVX-512 F, BW, DQ, VL.
+            return unsafe { avx512::triangle16(rays, tri, active, t_max) };
+        }
         // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
         return unsafe { x86::triangle16(rays, tri, active, t_max) };
     }
@@ -154,6 +165,10 @@ pub fn sphere16(
 ) -> Hits16 {
     #[cfg(target_arch = "x86_64")]
     if available() {
+        if crate::isa::current().avx512() {
+            // SAFETY: the avx512 tier is only chosen on a CPU that has AVX-512 F, BW, DQ, VL.
+            return unsafe { avx512::sphere16(rays, s, active, t_max) };
+        }
         // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
         return unsafe { x86::sphere16(rays, s, active, t_max) };
     }
@@ -199,6 +214,9 @@ pub fn sphere16_lanes(
     }
     h
 }
+
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
@@ -534,8 +552,50 @@ mod tests {
     use crate::geometry::ray::Ray;
     use proptest::prelude::*;
 
-    /// Asserts that the AVX kernels (where this CPU runs them) give the portable kernels'
-    /// answers bit for bit; returns the rays hit.
+    /// The answers of every kernel this CPU runs, the process's tier aside: the dispatched
+    /// kernel, the AVX halves and the AVX-512 kernel.
+    fn kernels(
+        lanes: &Rays16,
+        rays: &[PreparedRay<f32>],
+        tri: &[V3<f32>; 3],
+        s: &Sphere<f32>,
+        active: u32,
+        t_max: &[f32; LANES],
+    ) -> Vec<(&'static str, Hits16, Hits16)> {
+        let mut out = vec![(
+            "dispatched",
+            triangle16(lanes, rays, tri, active, t_max),
+            sphere16(lanes, rays, s, active, t_max),
+        )];
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::isa::Isa;
+            if Isa::Avx2.supported() {
+                // SAFETY: this CPU has AVX.
+                let got = unsafe {
+                    (
+                        x86::triangle16(lanes, tri, active, t_max),
+                        x86::sphere16(lanes, s, active, t_max),
+                    )
+                };
+                out.push(("avx", got.0, got.1));
+            }
+            if Isa::Avx512.supported() {
+                // SAFETY: this CPU has AVX-512 F, BW, DQ and VL.
+                let got = unsafe {
+                    (
+                        avx512::triangle16(lanes, tri, active, t_max),
+                        avx512::sphere16(lanes, s, active, t_max),
+                    )
+                };
+                out.push(("avx512", got.0, got.1));
+            }
+        }
+        out
+    }
+
+    /// Asserts that every SIMD kernel this CPU runs gives the portable kernels' answers bit for
+    /// bit; returns the rays hit.
     fn check(
         rays: &[PreparedRay<f32>],
         tri: &[V3<f32>; 3],
@@ -549,15 +609,18 @@ mod tests {
             radius: (tri[1] - tri[0]).length().max(1e-3),
         };
         let want_s = sphere16_lanes(rays, &s, active, t_max);
-        let got = triangle16(&lanes, rays, tri, active, t_max);
-        let got_s = sphere16(&lanes, rays, &s, active, t_max);
-        for (got, want) in [(got, want), (got_s, want_s)] {
-            assert_eq!(got.mask, want.mask, "{rays:?} {tri:?} {active:#x}");
-            for i in 0..LANES {
-                if want.mask & (1 << i) != 0 {
-                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits());
-                    assert_eq!(got.b1[i].to_bits(), want.b1[i].to_bits());
-                    assert_eq!(got.b2[i].to_bits(), want.b2[i].to_bits());
+        for (kernel, got, got_s) in kernels(&lanes, rays, tri, &s, active, t_max) {
+            for (got, want) in [(got, want), (got_s, want_s)] {
+                assert_eq!(
+                    got.mask, want.mask,
+                    "{kernel}: {rays:?} {tri:?} {active:#x}"
+                );
+                for i in 0..LANES {
+                    if want.mask & (1 << i) != 0 {
+                        assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "{kernel}");
+                        assert_eq!(got.b1[i].to_bits(), want.b1[i].to_bits(), "{kernel}");
+                        assert_eq!(got.b2[i].to_bits(), want.b2[i].to_bits(), "{kernel}");
+                    }
                 }
             }
         }

@@ -1,7 +1,8 @@
 //! One box against sixteen rays at once: the leaf test of packet traversal
 //! ([`crate::accel::bvh::packet`]). The rays of a packet share their direction signs, so the
 //! near and far planes are the same for all of them; each lane computes exactly what the scalar
-//! [`super::aabb::slab`] computes, with SSE for `f32` on x86-64 and lane by lane otherwise.
+//! [`super::aabb::slab`] computes, with SSE for `f32` on x86-64 (AVX-512, one register for the
+//! sixteen rays, on the `avx512` tier) and lane by lane otherwise.
 
 use super::ray::PreparedRay;
 use crate::real::Real;
@@ -120,6 +121,43 @@ pub fn enter16_f32(l: &RayLanes<f32>, lo: &[f32; 3], hi: &[f32; 3], reach: &[f32
     mask
 }
 
+/// The `f32` test with AVX-512 for the `avx512` tier: the sixteen rays in one register, the same
+/// operations as [`enter16_f32`] (`vmaxps`/`vminps` keep the interval when the new bound is
+/// NaN).
+///
+/// # Safety
+/// The CPU must support AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub unsafe fn enter16_avx512(
+    l: &RayLanes<f32>,
+    lo: &[f32; 3],
+    hi: &[f32; 3],
+    reach: &[f32; LANES],
+) -> u32 {
+    use std::arch::x86_64::*;
+    let w = _mm512_set1_ps(1.0 + 2.0 * <f32 as Real>::gamma(3));
+    // SAFETY: every load reads sixteen `f32` of a `[f32; 16]` (unaligned loads).
+    let load = |a: &[f32; LANES]| unsafe { _mm512_loadu_ps(a.as_ptr()) };
+    let mut t0 = load(&l.t_min);
+    let mut t1 = load(reach);
+    for a in 0..3 {
+        let (near, far) = if l.neg[a] {
+            (hi[a], lo[a])
+        } else {
+            (lo[a], hi[a])
+        };
+        let o = load(&l.o[a]);
+        let inv = load(&l.inv[a]);
+        let t_near = _mm512_mul_ps(_mm512_sub_ps(_mm512_set1_ps(near), o), inv);
+        let t_far = _mm512_mul_ps(_mm512_mul_ps(_mm512_sub_ps(_mm512_set1_ps(far), o), inv), w);
+        t0 = _mm512_max_ps(t_near, t0);
+        t1 = _mm512_min_ps(t_far, t1);
+    }
+    u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OS>(t0, t1))
+}
+
 /// The `f32` test on targets without the SSE path.
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
@@ -181,6 +219,12 @@ mod tests {
             let m_simd = enter16_f32(&lanes, &lo, &hi, &reach);
             let m_lanes = enter16_lanes(&lanes, &lo, &hi, &reach);
             prop_assert_eq!(m_simd, m_lanes);
+            #[cfg(target_arch = "x86_64")]
+            if crate::isa::Isa::Avx512.supported() {
+                // SAFETY: this CPU runs the avx512 tier.
+                let m_512 = unsafe { enter16_avx512(&lanes, &lo, &hi, &reach) };
+                prop_assert_eq!(m_512, m_lanes);
+            }
             for (i, pr) in prs.iter().enumerate() {
                 let scalar = slab(&lo, &hi, pr, pr.ray.t_max).is_some();
                 prop_assert_eq!(m_simd & (1 << i) != 0, scalar, "ray {}", i);

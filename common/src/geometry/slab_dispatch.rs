@@ -1,7 +1,8 @@
 //! Which slab kernel a precision runs: the SSE kernels for `f32` rays on x86-64 on every tier but
-//! `scalar` ([`crate::isa`]), the lane-by-lane ones otherwise (`f64`, the `scalar` tier, other
-//! targets). Lives above [`crate::real`] so the scalar trait knows nothing of the SIMD code; the
-//! choice by type folds away at compile time, the tier is one predictable branch.
+//! `scalar` ([`crate::isa`]; the sixteen-ray test in one AVX-512 register on `avx512`), the
+//! lane-by-lane ones otherwise (`f64`, the `scalar` tier, other targets). Lives above
+//! [`crate::real`] so the scalar trait knows nothing of the SIMD code; the choice by type folds
+//! away at compile time, the tier is one predictable branch.
 
 use std::any::Any;
 
@@ -30,12 +31,19 @@ pub fn slab4<R: Real>(b: &Box4, r: &SlabRay<R>, t_max: R) -> (u32, [R; 4]) {
 pub fn enter16<R: Real>(l: &RayLanes<R>, lo: &[f32; 3], hi: &[f32; 3], reach: &[R; LANES]) -> u32 {
     let any_l = l as &dyn Any;
     let any_reach = reach as &dyn Any;
-    if let (Some(l32), Some(reach32), true) = (
+    if let (Some(l32), Some(reach32)) = (
         any_l.downcast_ref::<RayLanes<f32>>(),
         any_reach.downcast_ref::<[f32; LANES]>(),
-        crate::isa::current().sse2(),
     ) {
-        return enter16_f32(l32, lo, hi, reach32);
+        let tier = crate::isa::current();
+        #[cfg(target_arch = "x86_64")]
+        if tier.avx512() {
+            // SAFETY: the avx512 tier is only chosen on a CPU that has AVX-512 F.
+            return unsafe { super::slab16::enter16_avx512(l32, lo, hi, reach32) };
+        }
+        if tier.sse2() {
+            return enter16_f32(l32, lo, hi, reach32);
+        }
     }
     enter16_lanes(l, lo, hi, reach)
 }

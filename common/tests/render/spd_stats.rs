@@ -24,7 +24,7 @@ fn spd_settings(size: u32, two_sided: bool, accel: AccelKind) -> RenderSettings 
 
 fn render(desc: &SceneDescription, s: &RenderSettings, threads: usize, tile: u32) -> SmpResult {
     let r = Renderer::new(desc, s).expect("scene builds");
-    let executor = if threads % 2 == 0 {
+    let executor = if threads.is_multiple_of(2) {
         Executor::Rayon
     } else {
         Executor::Queue
