@@ -886,7 +886,11 @@ impl Scheduler {
     /// live assignments of singly held tiles in that order, with how many at its front are
     /// spent: a tile given out as a backup has two holders from then on, so each idle worker
     /// looks at the next candidates instead of every worker's every tile.
-    fn backup_candidate(&self, id: WorkerId, list: &mut Option<(Vec<Candidate>, usize)>) -> Option<u32> {
+    fn backup_candidate(
+        &self,
+        id: WorkerId,
+        list: &mut Option<(Vec<Candidate>, usize)>,
+    ) -> Option<u32> {
         let mine = &self.workers.get(&id)?.inflight;
         let (list, spent) = list.get_or_insert_with(|| {
             let mut v: Vec<Candidate> = self
@@ -903,9 +907,8 @@ impl Scheduler {
             v.sort_unstable();
             (v, 0)
         });
-        let usable = |t: u32| {
-            self.state[t as usize] == TileState::InFlight && self.active_holders(t) == 1
-        };
+        let usable =
+            |t: u32| self.state[t as usize] == TileState::InFlight && self.active_holders(t) == 1;
         while list.get(*spent).is_some_and(|&(_, _, t)| !usable(t)) {
             *spent += 1;
         }

@@ -55,8 +55,7 @@ pub fn costly_first(costs: &[(Tile, f64)]) -> Vec<u32> {
 /// Reads a `--tile-costs` file (at most the default file limit, UTF-8, every line checked);
 /// errors are bad input naming the path and line.
 pub fn read_costs(path: &Path) -> anyhow::Result<Vec<(Tile, f64)>> {
-    let bytes =
-        super::limits::read_path(path, parrt::nff::limits::DEFAULT_MAX_FILE_BYTES)?;
+    let bytes = super::limits::read_path(path, parrt::nff::limits::DEFAULT_MAX_FILE_BYTES)?;
     let text = String::from_utf8(bytes)
         .map_err(|_| input_error(anyhow::anyhow!("{}: not UTF-8 text", path.display())))?;
     let costs = parrt::efficiency::read_tile_costs(&text)
@@ -104,7 +103,10 @@ mod tests {
         let e = args.order(64, 64, 32).unwrap_err();
         assert_eq!(crate::exit::code_for(&e), 2);
         let text = format!("{e:#}");
-        assert!(text.contains("costs.csv") && text.contains("16 tiles"), "{text}");
+        assert!(
+            text.contains("costs.csv") && text.contains("16 tiles"),
+            "{text}"
+        );
         let e = args.order(128, 64, 16).unwrap_err();
         assert!(format!("{e:#}").contains("32 tiles"), "{e:#}");
     }

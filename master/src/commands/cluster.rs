@@ -217,7 +217,9 @@ fn run_master(
     config.schedule.wait_workers = wait_workers;
     config.schedule.pixel_format = parrt_runtime::pixel_format_for(&args.output);
     config.schedule.await_all_workers = true;
-    config.schedule.order = args.order.order(settings.width, settings.height, args.tile)?;
+    config.schedule.order = args
+        .order
+        .order(settings.width, settings.height, args.tile)?;
     config.net.listen = args.listen.clone();
     config.net.token = Some(token);
     let (w, h) = (settings.width, settings.height);

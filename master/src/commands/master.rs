@@ -197,7 +197,9 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     s.window = args.window;
     s.max_batch = args.max_batch.max(1);
     s.backups = !args.no_backups;
-    s.order = args.order.order(settings.width, settings.height, args.tile)?;
+    s.order = args
+        .order
+        .order(settings.width, settings.height, args.tile)?;
     s.pixel_format = parrt_runtime::pixel_format_for(&args.output);
     config.net.listen = args.listen.clone();
     config.net.token = Some(token);

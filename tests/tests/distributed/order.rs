@@ -30,7 +30,14 @@ fn the_costliest_tile_goes_out_first_and_the_image_is_the_smp_image() {
     let mut master = std::process::Command::new(EXE)
         .args(["master", "--scene-json"])
         .arg(&scene)
-        .args(["--listen", "127.0.0.1:0", "--tile", "8", "--wait-workers", "30"])
+        .args([
+            "--listen",
+            "127.0.0.1:0",
+            "--tile",
+            "8",
+            "--wait-workers",
+            "30",
+        ])
         .args(["--max-batch", "1", "--window", "1"])
         .arg("--costly-first")
         .arg(&costs)
@@ -66,7 +73,12 @@ fn the_costliest_tile_goes_out_first_and_the_image_is_the_smp_image() {
         .as_array()
         .unwrap()
         .iter()
-        .map(|r| (r["assigned_s"].as_f64().unwrap(), r["tile"].as_u64().unwrap()))
+        .map(|r| {
+            (
+                r["assigned_s"].as_f64().unwrap(),
+                r["tile"].as_u64().unwrap(),
+            )
+        })
         .collect();
     assert_eq!(handed.len(), tiles.len());
     handed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -86,7 +98,14 @@ fn a_cost_file_of_another_tiling_is_refused_with_exit_2() {
     let out = std::process::Command::new(EXE)
         .args(["master", "--scene-json"])
         .arg(&scene)
-        .args(["--listen", "127.0.0.1:0", "--tile", "8", "--wait-workers", "30"])
+        .args([
+            "--listen",
+            "127.0.0.1:0",
+            "--tile",
+            "8",
+            "--wait-workers",
+            "30",
+        ])
         .arg("--costly-first")
         .arg(&costs)
         .arg("-o")
