@@ -138,7 +138,8 @@ fn master_and_workers_on_the_command_line_write_the_smp_image() {
     std::fs::write(&token_file, format!("{TEST_TOKEN}\n")).unwrap();
     let out = dir.path().join("out.exr");
     let report = dir.path().join("report.json");
-    let mut master = std::process::Command::new(EXE)
+    let mut master = std::process::Command::new(EXE);
+    master
         .args(["master", "--scene-json"])
         .arg(&scene)
         .args([
@@ -155,22 +156,8 @@ fn master_and_workers_on_the_command_line_write_the_smp_image() {
         .arg(&out)
         .arg("--report-json")
         .arg(&report)
-        .env_remove("PARRT_TOKEN")
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // The master prints the port it bound.
-    let mut stderr = std::io::BufReader::new(master.stderr.take().unwrap());
-    let addr = read_listen_addr(&mut stderr);
-    let _w1 = spawn_worker_process(EXE.as_ref(), addr, 1, None, TEST_TOKEN);
-    let _w2 = spawn_worker_process(EXE.as_ref(), addr, 2, None, TEST_TOKEN);
-    let rest = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut stderr, &mut s).unwrap();
-        s
-    });
-    let status = master.wait().unwrap();
-    let log = rest.join().unwrap();
+        .env_remove("PARRT_TOKEN");
+    let (status, log) = run_master_with_workers(&mut master, &[1, 2]);
     assert!(status.success(), "master failed: {log}");
     let img = image::open(&out).unwrap().into_rgb32f();
     let film = parrt::film::Film::from_pixels(
@@ -183,6 +170,30 @@ fn master_and_workers_on_the_command_line_write_the_smp_image() {
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(rep["tiles"], 48);
     assert!(rep["bytes_per_tile"].as_f64().unwrap() > 0.0);
+}
+
+/// Runs `master` (a `parrt master` command line listening on port 0), starts one worker
+/// process per entry of `threads` (that many threads each) once it listens, and returns its
+/// exit status and the rest of its stderr.
+pub fn run_master_with_workers(
+    master: &mut Command,
+    threads: &[usize],
+) -> (std::process::ExitStatus, String) {
+    let mut master = master.stderr(std::process::Stdio::piped()).spawn().unwrap();
+    // The master prints the port it bound.
+    let mut stderr = std::io::BufReader::new(master.stderr.take().unwrap());
+    let addr = read_listen_addr(&mut stderr);
+    let _workers: Vec<_> = threads
+        .iter()
+        .map(|&t| spawn_worker_process(EXE.as_ref(), addr, t, None, TEST_TOKEN))
+        .collect();
+    let rest = std::thread::spawn(move || {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut stderr, &mut s).unwrap();
+        s
+    });
+    let status = master.wait().unwrap();
+    (status, rest.join().unwrap())
 }
 
 /// Reads the master's stderr up to its "listening on ADDR" line.

@@ -2,7 +2,7 @@
 //! `--tile-costs` ranks them, costliest first, and the image stays the SMP image bit for bit; a
 //! file of another tiling is refused (exit 2) before anyone waits for workers.
 
-use crate::identical::read_listen_addr;
+use crate::identical::run_master_with_workers;
 use crate::EXE;
 use parrt_tests::*;
 
@@ -27,40 +27,17 @@ fn the_costliest_tile_goes_out_first_and_the_image_is_the_smp_image() {
     std::fs::write(&token_file, format!("{TEST_TOKEN}\n")).unwrap();
     let out = dir.path().join("out.png");
     let timeline = dir.path().join("timeline.json");
-    let mut master = std::process::Command::new(EXE)
-        .args(["master", "--scene-json"])
-        .arg(&scene)
-        .args([
-            "--listen",
-            "127.0.0.1:0",
-            "--tile",
-            "8",
-            "--wait-workers",
-            "30",
-        ])
+    let mut master = master_command(&scene, &costs);
+    master
         .args(["--max-batch", "1", "--window", "1"])
-        .arg("--costly-first")
-        .arg(&costs)
         .arg("--token-file")
         .arg(&token_file)
         .arg("--timeline")
         .arg(&timeline)
         .arg("-o")
         .arg(&out)
-        .env_remove("PARRT_TOKEN")
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = std::io::BufReader::new(master.stderr.take().unwrap());
-    let addr = read_listen_addr(&mut stderr);
-    let _w = spawn_worker_process(EXE.as_ref(), addr, 1, None, TEST_TOKEN);
-    let rest = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut stderr, &mut s).unwrap();
-        s
-    });
-    let status = master.wait().unwrap();
-    let log = rest.join().unwrap();
+        .env_remove("PARRT_TOKEN");
+    let (status, log) = run_master_with_workers(&mut master, &[1]);
     assert!(status.success(), "master failed: {log}");
     assert_eq!(
         image::open(&out).unwrap().into_rgb8().into_raw(),
@@ -95,19 +72,7 @@ fn a_cost_file_of_another_tiling_is_refused_with_exit_2() {
     let tiles = parrt::tile::tiles(64, 48, 16);
     let costs = dir.path().join("costs.csv");
     parrt::efficiency::write_tile_costs(&costs, &tiles, &vec![0.01; tiles.len()]).unwrap();
-    let out = std::process::Command::new(EXE)
-        .args(["master", "--scene-json"])
-        .arg(&scene)
-        .args([
-            "--listen",
-            "127.0.0.1:0",
-            "--tile",
-            "8",
-            "--wait-workers",
-            "30",
-        ])
-        .arg("--costly-first")
-        .arg(&costs)
+    let out = master_command(&scene, &costs)
         .arg("-o")
         .arg(dir.path().join("out.png"))
         .env("PARRT_TOKEN", TEST_TOKEN)
@@ -119,4 +84,22 @@ fn a_cost_file_of_another_tiling_is_refused_with_exit_2() {
         err.contains("costs.csv") && err.contains("12 tiles") && err.contains("48 tiles"),
         "{err}"
     );
+}
+
+/// `parrt master` on `scene`, tiles of 8, on a free loopback port, ordered by `costs`.
+fn master_command(scene: &std::path::Path, costs: &std::path::Path) -> std::process::Command {
+    let mut c = std::process::Command::new(EXE);
+    c.args(["master", "--scene-json"])
+        .arg(scene)
+        .args([
+            "--listen",
+            "127.0.0.1:0",
+            "--tile",
+            "8",
+            "--wait-workers",
+            "30",
+        ])
+        .arg("--costly-first")
+        .arg(costs);
+    c
 }
