@@ -147,14 +147,13 @@ struct Sim<'a> {
     /// Per tile (queue index): live copies out, and whether its first result is in.
     holders: Vec<u32>,
     accepted: Vec<bool>,
-    /// Per worker: tiles of its own (not backups) out, and backups out.
+    /// Per worker: tiles of its own (not backups) out, and backups out; together, what its
+    /// window holds.
     primaries: Vec<usize>,
     backups_out: Vec<usize>,
     /// Tiles out with one copy, by when and to whom they went (earliest first, ties by
     /// worker then tile, as the master picks them); stale entries are skipped when popped.
     candidates: BinaryHeap<std::cmp::Reverse<(u64, usize, usize)>>,
-    /// Tiles each worker holds (assigned, not yet answered).
-    held: Vec<usize>,
     /// Tiles not yet handed out (the next is `next`), and the costs seen by the master.
     next: usize,
     seen: (f64, usize),
@@ -231,8 +230,9 @@ impl Sim<'_> {
                 mean,
                 p.batch_seconds,
             );
-            let free = (p.window.max(1) * size).saturating_sub(self.held[worker]);
-            if free == 0 || (free < size && self.held[worker] > 0) {
+            let held = self.primaries[worker] + self.backups_out[worker];
+            let free = (p.window.max(1) * size).saturating_sub(held);
+            if free == 0 || (free < size && held > 0) {
                 break;
             }
             let take = size.min(free).min(self.costs.len() - self.next);
@@ -265,7 +265,6 @@ impl Sim<'_> {
     fn assign(&mut self, worker: usize, tiles: Range<usize>, backup: bool, at: f64) {
         let take = tiles.len();
         self.batches.push((tiles, take, backup));
-        self.held[worker] += take;
         self.bytes += self.p.message_bytes;
         let batch = self.batches.len() - 1;
         let arrive = self.host(at, 0.5 * self.p.host_per_tile_s * take as f64);
@@ -302,7 +301,6 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         primaries: vec![0; workers],
         backups_out: vec![0; workers],
         candidates: BinaryHeap::new(),
-        held: vec![0; workers],
         next: 0,
         seen: (0.0, 0),
         queue: vec![VecDeque::new(); workers],
@@ -376,7 +374,6 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
                 }
                 done += first;
                 sim.seen.1 += first;
-                sim.held[worker] -= tiles.len();
                 if backup {
                     sim.backups_out[worker] -= 1;
                 } else {
