@@ -5,7 +5,7 @@
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
-use crate::geometry::{offset_ray_origin, prepare16, PreparedRay, Ray};
+use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
 use crate::real::Real;
 use crate::scene::Surface;
 use crate::shade::Integrator;
@@ -82,11 +82,15 @@ pub fn cast_tile<R: Real>(
     // Made once: every light's packet overwrites what it uses (occluded_packet writes every
     // answer).
     let mut shadow = rays;
-    let mut shadow_rays = [rays[0].ray; PACKET];
     let mut occ = [false; PACKET];
     for (bx, by, bw, bh) in tile.blocks() {
-        // The block's eye rays, made and prepared together (sixteen lanes at a time).
-        let n = prepare16::eye_block(camera, bx, by, bw, bh, &mut rays);
+        let mut n = 0;
+        for y in by..by + bh {
+            for x in bx..bx + bw {
+                rays[n] = PreparedRay::new(eye(x, y));
+                n += 1;
+            }
+        }
         stats.eye_rays += n as u64;
         integrator.intersect_packet(&rays[..n], &mut hits[..n], stats);
         for i in 0..n {
@@ -97,11 +101,10 @@ pub fn cast_tile<R: Real>(
             for i in 0..n {
                 let Some(s) = &surfaces[i] else { continue };
                 if let Some(r) = shadow_ray(integrator, &rays[i].ray, s, light, cull) {
-                    shadow_rays[k] = r;
+                    shadow[k] = PreparedRay::new(r);
                     k += 1;
                 }
             }
-            prepare16::prepare(&shadow_rays[..k], &mut shadow[..k]);
             integrator.occluded_packet(&shadow[..k], &mut occ[..k], stats);
             stats.shadow_rays += k as u64;
             stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;

@@ -7,7 +7,7 @@
 //! same order, so the colours are the same bits as tracing each eye ray on its own.
 
 use crate::accel::bvh::packet::PACKET;
-use crate::geometry::{prepare16, PreparedRay, PrimHit, Ray};
+use crate::geometry::{PreparedRay, PrimHit, Ray};
 use crate::packet_leaf::PacketLeaf;
 use crate::real::Real;
 use crate::shade::{Integrator, Lit, RayKind};
@@ -92,7 +92,9 @@ impl<R: Real> Integrator<R> {
             RayKind::Refraction => stats.refraction_rays += n as u64,
         }
         let mut prs = [PreparedRay::new(first); PACKET];
-        prepare16::prepare(rays, &mut prs[..n]);
+        for (pr, r) in prs.iter_mut().zip(rays) {
+            *pr = PreparedRay::new(*r);
+        }
         let mut hits = [None; PACKET];
         self.intersect_packet(&prs[..n], &mut hits[..n], stats);
         let mut lits: [Option<Lit<R>>; PACKET] = [None; PACKET];
@@ -116,7 +118,6 @@ impl<R: Real> Integrator<R> {
         }
         // Made once for all the lights: every light's packet overwrites what it uses.
         let mut shadow = [prs[0]; PACKET];
-        let mut shadow_rays = [first; PACKET];
         let mut owner = [0usize; PACKET];
         let mut toward = [(R::ZERO, R::ZERO); PACKET];
         let mut occ = [false; PACKET];
@@ -126,13 +127,12 @@ impl<R: Real> Integrator<R> {
                 if let Some((r, n_dot_l_raw, dist)) =
                     lit.as_ref().and_then(|l| self.shadow_ray(l, li))
                 {
-                    shadow_rays[k] = r;
+                    shadow[k] = PreparedRay::new(r);
                     owner[k] = i;
                     toward[k] = (n_dot_l_raw, dist);
                     k += 1;
                 }
             }
-            prepare16::prepare(&shadow_rays[..k], &mut shadow[..k]);
             self.occluded_packet(&shadow[..k], &mut occ[..k], stats);
             stats.shadow_rays += k as u64;
             for j in 0..k {

@@ -8,7 +8,6 @@ pub mod cone4;
 pub mod hit;
 pub mod hits4;
 pub mod leaf16;
-pub mod prepare16;
 pub mod ray;
 pub mod slab16;
 pub mod slab4;
