@@ -79,12 +79,6 @@ impl Rays16 {
         if rays.is_empty() || rays.len() > LANES || !available() {
             return None;
         }
-        #[cfg(target_arch = "x86_64")]
-        if crate::isa::current().avx512() {
-            // SAFETY: the avx512 tier is only chosen on a CPU that has AVX-512 F, BW, DQ, VL;
-            // `rays` holds 1 to 16 rays.
-            return Some(unsafe { avx512::lanes(rays) });
-        }
         Some(Self::lanes(rays))
     }
 
@@ -609,11 +603,6 @@ mod tests {
         t_max: &[f32; LANES],
     ) -> u32 {
         let lanes = Rays16::lanes(rays);
-        #[cfg(target_arch = "x86_64")]
-        if crate::isa::Isa::Avx512.supported() {
-            // SAFETY: this CPU has AVX-512 F; `rays` holds 1 to 16 rays.
-            same_lanes(&unsafe { avx512::lanes(rays) }, &lanes);
-        }
         let want = triangle16_lanes(rays, tri, active, t_max);
         let s = Sphere {
             center: tri[0],
@@ -636,26 +625,6 @@ mod tests {
             }
         }
         want.mask | want_s.mask
-    }
-
-    /// Asserts that the gathered lanes are the scalar loop's, field by field and bit for bit.
-    #[cfg(target_arch = "x86_64")]
-    fn same_lanes(got: &Rays16, want: &Rays16) {
-        let rows = |l: &Rays16| {
-            let mut v: Vec<[f32; LANES]> = Vec::new();
-            for a in 0..3 {
-                v.extend([l.o[a], l.d[a], l.ok[a], l.s[a], l.k0[a], l.k1[a]]);
-            }
-            v.extend([l.t_min, l.a]);
-            v.into_iter()
-                .map(|r| r.map(f32::to_bits))
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(rows(got), rows(want), "lanes");
-        assert_eq!(
-            (got.k0_bits, got.k1_bits, got.src, got.n),
-            (want.k0_bits, want.k1_bits, want.src, want.n)
-        );
     }
 
     /// Rays through a unit triangle's vertices, edges and inside from all sides, with every

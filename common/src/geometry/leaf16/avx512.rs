@@ -5,7 +5,6 @@
 //! `f64` lane by lane.
 
 use super::{Hits16, Rays16, LANES};
-use crate::geometry::ray::PreparedRay;
 use crate::geometry::sphere::Sphere;
 use crate::geometry::triangle::edges_f64;
 use crate::real::Real;
@@ -217,97 +216,4 @@ pub unsafe fn sphere16(r: &Rays16, s: &Sphere<f32>, active: u32, t_max: &[f32; L
     put(&mut out.t, _mm512_mask_blend_ps(ok0, t1, t0));
     out.mask = u32::from(!reject & (ok0 | ok1) & live);
     out
-}
-
-/// [`Rays16::lanes`] with gathers: each component of the sixteen rays is read from the array
-/// of prepared rays straight into one register (lanes past the packet read ray 0), instead of
-/// sixteen rays times three axes of scalar stores. The same values bit for bit: only `a` is
-/// computed, as `d · d` left to right like the scalar `length_squared`.
-///
-/// # Safety
-/// The CPU must support AVX-512 F; `rays` must hold 1 to 16 rays.
-#[target_feature(enable = "avx512f")]
-pub(super) unsafe fn lanes(rays: &[PreparedRay<f32>]) -> Rays16 {
-    use std::mem::{offset_of, size_of};
-    debug_assert!(!rays.is_empty() && rays.len() <= LANES);
-    type P = PreparedRay<f32>;
-    const STRIDE: i32 = (size_of::<P>() / 4) as i32;
-    // Every field read is an `f32` or the low half of a `usize` (little-endian), so offsets
-    // are whole `f32`s.
-    const _: () = assert!(size_of::<P>() % 4 == 0);
-    let word = |off: usize| _mm512_set1_epi32((off / 4) as i32);
-    let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    let inside = ((1u32 << rays.len()) - 1) as __mmask16;
-    let ray = _mm512_mullo_epi32(
-        _mm512_maskz_mov_epi32(inside, lane),
-        _mm512_set1_epi32(STRIDE),
-    );
-    let base = rays.as_ptr().cast::<f32>();
-    // SAFETY (both): every index is a whole `f32` inside one of `rays`' items.
-    let gather = |off: usize| unsafe {
-        _mm512_i32gather_ps::<4>(_mm512_add_epi32(ray, word(off)), base)
-    };
-    let gather_i = |off: usize| unsafe {
-        _mm512_i32gather_epi32::<4>(_mm512_add_epi32(ray, word(off)), base.cast())
-    };
-    let o_off = [
-        offset_of!(P, ray.o.x),
-        offset_of!(P, ray.o.y),
-        offset_of!(P, ray.o.z),
-    ];
-    let d_off = [
-        offset_of!(P, ray.d.x),
-        offset_of!(P, ray.d.y),
-        offset_of!(P, ray.d.z),
-    ];
-    let s_off = [
-        offset_of!(P, shear.x),
-        offset_of!(P, shear.y),
-        offset_of!(P, shear.z),
-    ];
-    let k_off = [offset_of!(P, kx), offset_of!(P, ky), offset_of!(P, kz)];
-    let mut l = Rays16 {
-        o: [[0.0; LANES]; 3],
-        d: [[0.0; LANES]; 3],
-        ok: [[0.0; LANES]; 3],
-        s: [[0.0; LANES]; 3],
-        t_min: [0.0; LANES],
-        a: [0.0; LANES],
-        k0: [[0.0; LANES]; 3],
-        k1: [[0.0; LANES]; 3],
-        k0_bits: [0; 3],
-        k1_bits: [0; 3],
-        src: rays.as_ptr() as usize,
-        n: rays.len(),
-    };
-    let d = d_off.map(|off| gather(off));
-    for a in 0..3 {
-        put(&mut l.o[a], gather(o_off[a]));
-        put(&mut l.d[a], d[a]);
-        put(&mut l.s[a], gather(s_off[a]));
-        let k = gather_i(k_off[a]);
-        let m0 = _mm512_cmpeq_epi32_mask(k, _mm512_setzero_si512());
-        let m1 = _mm512_cmpeq_epi32_mask(k, _mm512_set1_epi32(1));
-        // The origin's component on axis k: o.x, o.y or o.z of each lane's ray.
-        let ok_word = _mm512_mask_blend_epi32(
-            m0,
-            _mm512_mask_blend_epi32(m1, word(o_off[2]), word(o_off[1])),
-            word(o_off[0]),
-        );
-        // SAFETY: as for `gather`.
-        let ok = unsafe { _mm512_i32gather_ps::<4>(_mm512_add_epi32(ray, ok_word), base) };
-        put(&mut l.ok[a], ok);
-        let ones = _mm512_set1_epi32(-1);
-        put(&mut l.k0[a], _mm512_castsi512_ps(_mm512_maskz_mov_epi32(m0, ones)));
-        put(&mut l.k1[a], _mm512_castsi512_ps(_mm512_maskz_mov_epi32(m1, ones)));
-        l.k0_bits[a] = m0;
-        l.k1_bits[a] = m1;
-    }
-    put(&mut l.t_min, gather(offset_of!(P, ray.t_min)));
-    let dd = _mm512_add_ps(
-        _mm512_add_ps(_mm512_mul_ps(d[0], d[0]), _mm512_mul_ps(d[1], d[1])),
-        _mm512_mul_ps(d[2], d[2]),
-    );
-    put(&mut l.a, dd);
-    l
 }
