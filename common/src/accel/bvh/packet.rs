@@ -194,18 +194,18 @@ impl Bvh {
     /// Whether `rays` would be traced together (more than one ray, bounds the interval test
     /// can take, origins close enough) rather than one by one.
     pub fn takes_as_packet<R: Real>(&self, rays: &[PreparedRay<R>]) -> bool {
-        self.packet_bounds(rays).is_some()
+        self.packet_bounds(rays, &mut None).is_some()
     }
 
-    /// The bounds `rays` are traced together with and their lanes, or `None` when they go one
-    /// by one.
+    /// The bounds `rays` are traced together with, or `None` when they go one by one; their
+    /// lanes, when the bounds needed them, into `lanes` (made in place, not moved).
     fn packet_bounds<R: Real>(
         &self,
         rays: &[PreparedRay<R>],
-    ) -> Option<(Frustum<R>, RayLanes<R>)> {
+        lanes: &mut Option<RayLanes<R>>,
+    ) -> Option<Frustum<R>> {
         if rays.len() > 1 && rays.len() <= PACKET && !self.nodes.is_empty() {
-            let lanes = RayLanes::new(rays, rays[0].neg);
-            Some((Frustum::new(rays, &lanes)?, lanes))
+            Frustum::new(rays, lanes.insert(RayLanes::new(rays, rays[0].neg)))
         } else {
             None
         }
@@ -225,7 +225,9 @@ impl Bvh {
         mut test: T,
     ) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
-        let Some((frustum, lanes)) = self.packet_bounds(rays) else {
+        let mut lanes = None;
+        let frustum = self.packet_bounds(rays, &mut lanes);
+        let (Some(frustum), Some(lanes)) = (frustum, &lanes) else {
             for (pr, o) in rays.iter().zip(out.iter_mut()) {
                 *o = self.intersect(
                     pr,
@@ -277,7 +279,7 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += n as u64;
-                let enter = slab_dispatch::enter16(&lanes, &lo, &hi, &reach_ray) & all;
+                let enter = slab_dispatch::enter16(lanes, &lo, &hi, &reach_ray) & all;
                 if enter == 0 {
                     continue;
                 }
@@ -328,7 +330,9 @@ impl Bvh {
         mut test: T,
     ) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
-        let Some((frustum, lanes)) = self.packet_bounds(rays) else {
+        let mut lanes = None;
+        let frustum = self.packet_bounds(rays, &mut lanes);
+        let (Some(frustum), Some(lanes)) = (frustum, &lanes) else {
             for (pr, o) in rays.iter().zip(out.iter_mut()) {
                 *o = self.occluded(
                     pr,
@@ -367,7 +371,7 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += u64::from((all & !done).count_ones());
-                let open = slab_dispatch::enter16(&lanes, &lo, &hi, &reach) & all & !done;
+                let open = slab_dispatch::enter16(lanes, &lo, &hi, &reach) & all & !done;
                 if open == 0 {
                     continue;
                 }
