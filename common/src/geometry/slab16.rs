@@ -46,79 +46,6 @@ impl<R: Real> RayLanes<R> {
     }
 }
 
-/// The extent of a packet's lanes per axis: the smallest and largest origin and reciprocal
-/// direction component, the smallest start, and whether all of them are finite.
-#[derive(Clone, Copy, Debug)]
-pub struct LaneBounds {
-    /// Smallest origin component per axis.
-    pub o_lo: [f32; 3],
-    /// Largest origin component per axis.
-    pub o_hi: [f32; 3],
-    /// Smallest reciprocal direction component per axis.
-    pub inv_lo: [f32; 3],
-    /// Largest reciprocal direction component per axis.
-    pub inv_hi: [f32; 3],
-    /// Smallest start.
-    pub t_min: f32,
-    /// Whether every origin, reciprocal direction and start is finite.
-    pub finite: bool,
-}
-
-impl RayLanes<f32> {
-    /// The lanes' extent with AVX-512 reductions on the `avx512` tier ([`crate::isa`]); `None`
-    /// on the other tiers, whose callers take the rays one by one. Lanes past the packet repeat
-    /// its first ray, so they change no bound. With finite values the bounds are those of a
-    /// `min`/`max` fold over the rays in any order, up to the sign of a zero.
-    #[inline]
-    pub fn bounds(&self) -> Option<LaneBounds> {
-        #[cfg(target_arch = "x86_64")]
-        if crate::isa::current().avx512() {
-            // SAFETY: the avx512 tier is only chosen on a CPU that has AVX-512 F, BW, DQ, VL.
-            return Some(unsafe { bounds_avx512(self) });
-        }
-        None
-    }
-}
-
-/// [`RayLanes::bounds`] with AVX-512.
-///
-/// # Safety
-/// The CPU must support AVX-512 F.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-pub unsafe fn bounds_avx512(l: &RayLanes<f32>) -> LaneBounds {
-    use std::arch::x86_64::*;
-    // SAFETY: every load reads sixteen `f32` of a `[f32; 16]` (unaligned loads).
-    let load = |a: &[f32; LANES]| unsafe { _mm512_loadu_ps(a.as_ptr()) };
-    let inf = _mm512_set1_ps(f32::INFINITY);
-    let mut finite = 0xffffu16;
-    let mut is_finite = |v: __m512| {
-        finite &= _mm512_cmp_ps_mask::<_CMP_LT_OQ>(_mm512_abs_ps(v), inf);
-    };
-    let mut b = LaneBounds {
-        o_lo: [0.0; 3],
-        o_hi: [0.0; 3],
-        inv_lo: [0.0; 3],
-        inv_hi: [0.0; 3],
-        t_min: 0.0,
-        finite: false,
-    };
-    for a in 0..3 {
-        let (o, inv) = (load(&l.o[a]), load(&l.inv[a]));
-        is_finite(o);
-        is_finite(inv);
-        b.o_lo[a] = _mm512_reduce_min_ps(o);
-        b.o_hi[a] = _mm512_reduce_max_ps(o);
-        b.inv_lo[a] = _mm512_reduce_min_ps(inv);
-        b.inv_hi[a] = _mm512_reduce_max_ps(inv);
-    }
-    let t_min = load(&l.t_min);
-    is_finite(t_min);
-    b.t_min = _mm512_reduce_min_ps(t_min);
-    b.finite = finite == 0xffff;
-    b
-}
-
 /// Lane by lane, in any precision: bit `i` is set when ray `i` enters the box `lo`..`hi`
 /// within `[t_min, reach[i]]`.
 #[inline(always)]
@@ -257,46 +184,6 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(1000))]
-        /// The lanes' AVX-512 extent is the min/max fold over the rays (equal as numbers: the
-        /// sign of a zero bound decides nothing), and `finite` says whether every origin,
-        /// reciprocal direction and start is finite (zero direction components included).
-        #[test]
-        fn lane_bounds_are_the_folds(
-            rays in proptest::collection::vec(
-                (proptest::array::uniform3(coord()), proptest::array::uniform3(coord()),
-                 prop_oneof![Just(0.0f32), 0.0f32..1.0, Just(f32::INFINITY)]),
-                1..=LANES),
-        ) {
-            let prs: Vec<_> = rays
-                .iter()
-                .map(|(o, d, t_min)| {
-                    PreparedRay::new(Ray { o: V3::from_array(*o), d: V3::from_array(*d), t_min: *t_min, t_max: 10.0 })
-                })
-                .collect();
-            let lanes = RayLanes::new(&prs, prs[0].neg);
-            #[cfg(target_arch = "x86_64")]
-            if crate::isa::Isa::Avx512.supported() {
-                // SAFETY: this CPU runs the avx512 tier.
-                let b = unsafe { bounds_avx512(&lanes) };
-                let finite = prs.iter().all(|p| {
-                    p.ray.o.is_finite() && p.inv_d.is_finite() && p.ray.t_min.is_finite()
-                });
-                prop_assert_eq!(b.finite, finite);
-                if finite {
-                    let fold = |f: fn(f32, f32) -> f32, v: &dyn Fn(&PreparedRay<f32>) -> f32| {
-                        prs.iter().map(v).fold(v(&prs[0]), f)
-                    };
-                    for a in 0..3 {
-                        prop_assert_eq!(b.o_lo[a], fold(f32::min, &|p| p.ray.o.get(a)));
-                        prop_assert_eq!(b.o_hi[a], fold(f32::max, &|p| p.ray.o.get(a)));
-                        prop_assert_eq!(b.inv_lo[a], fold(f32::min, &|p| p.inv_d.get(a)));
-                        prop_assert_eq!(b.inv_hi[a], fold(f32::max, &|p| p.inv_d.get(a)));
-                    }
-                    prop_assert_eq!(b.t_min, fold(f32::min, &|p| p.ray.t_min));
-                }
-            }
-        }
-
         /// SSE, lane-by-lane and the scalar slab test agree for every ray of a packet, rays in
         /// a box face and axis-parallel rays included.
         #[test]

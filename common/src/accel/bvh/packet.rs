@@ -26,7 +26,6 @@ use crate::geometry::slab_dispatch;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
-use std::any::Any;
 
 /// Most rays in a packet (a 4 × 4 block of pixels).
 pub const PACKET: usize = crate::geometry::slab16::LANES;
@@ -52,29 +51,8 @@ impl<R: Real> Frustum<R> {
     /// The bounds of `rays`, or `None` when they cannot be bounded this way: mixed direction
     /// signs on an axis, a zero (infinite reciprocal) direction component, or a non-finite
     /// origin or start.
-    fn new(rays: &[PreparedRay<R>], lanes: &RayLanes<R>) -> Option<Self> {
+    fn new(rays: &[PreparedRay<R>]) -> Option<Self> {
         let first = rays.first()?;
-        if let Some(b) = (lanes as &dyn Any)
-            .downcast_ref::<RayLanes<f32>>()
-            .and_then(|l| l.bounds())
-        {
-            // The bounds from the rays' lanes in SIMD registers: the loop below, reduced.
-            let mut ok = b.finite;
-            let mut shortest = R::INFINITY;
-            for r in rays {
-                ok &= r.neg == first.neg;
-                shortest = shortest.min(r.ray.t_max);
-            }
-            let f = Frustum {
-                o_lo: b.o_lo.map(R::from_f32),
-                o_hi: b.o_hi.map(R::from_f32),
-                inv_lo: b.inv_lo.map(R::from_f32),
-                inv_hi: b.inv_hi.map(R::from_f32),
-                neg: first.neg,
-                t_min: R::from_f32(b.t_min),
-            };
-            return f.coherent(ok, shortest);
-        }
         let o = |r: &PreparedRay<R>| [r.ray.o.x, r.ray.o.y, r.ray.o.z];
         let inv = |r: &PreparedRay<R>| [r.inv_d.x, r.inv_d.y, r.inv_d.z];
         let mut f = Frustum {
@@ -102,14 +80,6 @@ impl<R: Real> Frustum<R> {
             f.t_min = f.t_min.min(r.ray.t_min);
             shortest = shortest.min(r.ray.t_max);
         }
-        f.coherent(ok, shortest)
-    }
-
-    /// `self` when every ray could be bounded (`ok`) and the origins lie close enough for the
-    /// `shortest` ray.
-    #[inline(always)]
-    fn coherent(self, ok: bool, shortest: R) -> Option<Self> {
-        let f = self;
         if !ok {
             return None;
         }
@@ -194,18 +164,13 @@ impl Bvh {
     /// Whether `rays` would be traced together (more than one ray, bounds the interval test
     /// can take, origins close enough) rather than one by one.
     pub fn takes_as_packet<R: Real>(&self, rays: &[PreparedRay<R>]) -> bool {
-        self.packet_bounds(rays, &mut None).is_some()
+        self.packet_bounds(rays).is_some()
     }
 
-    /// The bounds `rays` are traced together with, or `None` when they go one by one; their
-    /// lanes, when the bounds needed them, into `lanes` (made in place, not moved).
-    fn packet_bounds<R: Real>(
-        &self,
-        rays: &[PreparedRay<R>],
-        lanes: &mut Option<RayLanes<R>>,
-    ) -> Option<Frustum<R>> {
+    /// The bounds `rays` are traced together with, or `None` when they go one by one.
+    fn packet_bounds<R: Real>(&self, rays: &[PreparedRay<R>]) -> Option<Frustum<R>> {
         if rays.len() > 1 && rays.len() <= PACKET && !self.nodes.is_empty() {
-            Frustum::new(rays, lanes.insert(RayLanes::new(rays, rays[0].neg)))
+            Frustum::new(rays)
         } else {
             None
         }
@@ -225,9 +190,7 @@ impl Bvh {
         mut test: T,
     ) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
-        let mut lanes = None;
-        let frustum = self.packet_bounds(rays, &mut lanes);
-        let (Some(frustum), Some(lanes)) = (frustum, &lanes) else {
+        let Some(frustum) = self.packet_bounds(rays) else {
             for (pr, o) in rays.iter().zip(out.iter_mut()) {
                 *o = self.intersect(
                     pr,
@@ -241,6 +204,7 @@ impl Bvh {
             return;
         };
         let n = rays.len();
+        let lanes = RayLanes::new(rays, frustum.neg);
         let mut best = [Nearest::new(R::ZERO); PACKET];
         let mut slack = [R::ZERO; PACKET];
         // Per ray: its best hit plus the slack (lanes past `n` never reach anything).
@@ -279,7 +243,7 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += n as u64;
-                let enter = slab_dispatch::enter16(lanes, &lo, &hi, &reach_ray) & all;
+                let enter = slab_dispatch::enter16(&lanes, &lo, &hi, &reach_ray) & all;
                 if enter == 0 {
                     continue;
                 }
@@ -330,9 +294,7 @@ impl Bvh {
         mut test: T,
     ) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
-        let mut lanes = None;
-        let frustum = self.packet_bounds(rays, &mut lanes);
-        let (Some(frustum), Some(lanes)) = (frustum, &lanes) else {
+        let Some(frustum) = self.packet_bounds(rays) else {
             for (pr, o) in rays.iter().zip(out.iter_mut()) {
                 *o = self.occluded(
                     pr,
@@ -348,6 +310,7 @@ impl Bvh {
         let n = rays.len();
         let all: u32 = (1 << n) - 1;
         let mut done = 0u32;
+        let lanes = RayLanes::new(rays, frustum.neg);
         let mut reach = [R::from_f64(-1.0); PACKET];
         for i in 0..n {
             reach[i] = rays[i].ray.t_max + R::from_f64(self.margin) / rays[i].ray.d.length();
@@ -371,7 +334,7 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += u64::from((all & !done).count_ones());
-                let open = slab_dispatch::enter16(lanes, &lo, &hi, &reach) & all & !done;
+                let open = slab_dispatch::enter16(&lanes, &lo, &hi, &reach) & all & !done;
                 if open == 0 {
                     continue;
                 }
