@@ -172,3 +172,38 @@ fn dilating_a_frame_leaves_its_efficiency_as_it_was() {
         stretched.efficiency
     );
 }
+
+#[test]
+fn the_masters_link_and_cpu_work_side_by_side() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    // A slow link: a tile's result (about 150 bytes) takes some 5 ms to cross it, while the
+    // eight threads finish a tile every 1.25 ms, so the master's link binds the frame.
+    let link_bps = 240e3;
+    let link_only = Config {
+        link_bps,
+        master_s_per_byte: 0.0,
+        ..small_config(2.56, None)
+    };
+    // The master's CPU then takes as long per byte as its link: the card receives the next
+    // message while the CPU handles the last, so the link still binds, not their sum.
+    let both = Config {
+        master_s_per_byte: 8.0 / link_bps,
+        ..link_only.clone()
+    };
+    let a = run(&path, &link_only).expect("the run with a free master");
+    let b = run(&path, &both).expect("the run with a busy master");
+    assert!(a.identical && b.identical);
+    assert!(
+        a.efficiency < 0.5,
+        "the link should bind: efficiency {:.3}",
+        a.efficiency
+    );
+    assert!(
+        b.efficiency >= 0.85 * a.efficiency,
+        "efficiency {:.3} with the master's CPU as slow as its link, {:.3} without: the two \
+         worked one after the other",
+        b.efficiency,
+        a.efficiency
+    );
+}
