@@ -358,10 +358,6 @@ fn same_bytes(a: &Film, b: &Film) -> bool {
     a.width == b.width && a.height == b.height && a.to_rgb8() == b.to_rgb8()
 }
 
-/// Bytes a master-side stream reads, and queues at the master's gates, at a time: one
-/// Ethernet frame's payload.
-const FRAME_PAYLOAD: usize = 1500;
-
 /// When one resource (a link, the master's CPU) is next free: it serves one byte after
 /// another.
 #[derive(Default)]
@@ -457,9 +453,9 @@ impl AsyncRead for Paced {
                 me.pos += n;
                 return Poll::Ready(Ok(()));
             }
-            // A frame's payload at a time: each stream then takes its turn at the master's
-            // gates, as TCP flows share a link, rather than one stream's backlog at once.
-            me.held.resize(FRAME_PAYLOAD, 0);
+            // What has arrived, up to a window's worth. A stream queues at the master's gates
+            // again only once this is through, so the streams with bytes waiting take turns.
+            me.held.resize(64 * 1024, 0);
             let mut rb = ReadBuf::new(&mut me.held);
             match Pin::new(&mut me.inner).poll_read(cx, &mut rb) {
                 Poll::Pending => {
