@@ -207,3 +207,34 @@ fn the_masters_link_and_cpu_work_side_by_side() {
         a.efficiency
     );
 }
+
+#[test]
+fn a_dilated_frame_stretches_the_workers_heartbeats_too() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    // The link test's frame: the master's link binds, and the run is dilated ×5 for its
+    // 10 ms tiles. Dilated ×64 with the workers' heartbeats left at one a second, they would
+    // send 13 times as many and take the link from the results.
+    let slow = Config {
+        link_bps: 240e3,
+        master_s_per_byte: 0.0,
+        ..small_config(2.56, None)
+    };
+    let plain = run(&path, &slow).expect("the plain run");
+    let stretched = run(
+        &path,
+        &Config {
+            dilation: Some(64.0),
+            ..slow.clone()
+        },
+    )
+    .expect("the dilated run");
+    assert!(plain.identical && stretched.identical);
+    let bound = 2.0 * plain.rounding + 0.01;
+    assert!(
+        (plain.efficiency - stretched.efficiency).abs() <= bound,
+        "efficiency {:.4} plain, {:.4} dilated ×64: more than {bound:.4} apart",
+        plain.efficiency,
+        stretched.efficiency
+    );
+}
