@@ -1,8 +1,8 @@
 //! Eight slab tests at once: one ray against the eight child boxes of a wide BVH node
-//! ([`crate::accel::bvh::wide`]). Four kernels, one per tier ([`super::slab_dispatch`] picks):
-//! lane by lane in any precision (the `scalar` tier, `f64` rays, other targets), SSE in two
-//! halves of four (`sse2`), AVX in one register (`avx2`) and AVX-512VL, the same register with
-//! the comparison into a mask register (`avx512`). Every lane computes exactly what the scalar
+//! ([`crate::accel::bvh::wide`]). Three kernels ([`super::slab_dispatch`] picks by tier): lane
+//! by lane in any precision (the `scalar` tier, `f64` rays, other targets), SSE in two halves of
+//! four (`sse2`) and AVX in one register (`avx2` and `avx512`: an AVX-512VL version, the
+//! comparison into a mask register, was no faster). Every lane computes exactly what the scalar
 //! [`super::aabb::slab`] computes — the same operations in the same order, a NaN (0·∞ for a
 //! ray lying in a slab plane) leaving the interval as it was — so a box is accepted by one
 //! exactly when it is accepted by any other, at the same entry distance.
@@ -167,37 +167,6 @@ pub unsafe fn slab8_avx(b: &Box8, r: &SlabRay<f32>, t_max: f32) -> (u32, [f32; W
     (mask, out)
 }
 
-/// The `f32` test with AVX-512VL: [`slab8_avx`]'s register, the comparison straight into a
-/// mask register.
-///
-/// # Safety
-/// The CPU must support AVX-512 F and VL.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,avx512f,avx512vl")]
-#[inline]
-pub unsafe fn slab8_avx512(b: &Box8, r: &SlabRay<f32>, t_max: f32) -> (u32, [f32; WIDTH]) {
-    use std::arch::x86_64::*;
-    let w = _mm256_set1_ps(1.0 + 2.0 * <f32 as Real>::gamma(3));
-    let mut t0 = _mm256_set1_ps(r.t_min);
-    let mut t1 = _mm256_set1_ps(t_max);
-    for a in 0..3 {
-        let (near, far) = rows(b, &r.neg, a);
-        let o = _mm256_set1_ps(r.o[a]);
-        let inv = _mm256_set1_ps(r.inv[a]);
-        // SAFETY: 32 bytes of a `[f32; 8]` row of `Box8`, which is `align(32)`.
-        let (near, far) = unsafe { (_mm256_load_ps(near.as_ptr()), _mm256_load_ps(far.as_ptr())) };
-        let t_near = _mm256_mul_ps(_mm256_sub_ps(near, o), inv);
-        let t_far = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far, o), inv), w);
-        t0 = _mm256_max_ps(t_near, t0);
-        t1 = _mm256_min_ps(t_far, t1);
-    }
-    let mask = u32::from(_mm256_cmp_ps_mask::<_CMP_LE_OS>(t0, t1));
-    let mut out = [0.0f32; WIDTH];
-    // SAFETY: writes eight `f32` into `out`.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), t0) };
-    (mask, out)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -241,13 +210,6 @@ mod tests {
             if Isa::Avx2.supported() {
                 // SAFETY: this CPU runs AVX.
                 k.push(("avx", Box::new(|b, r, t| unsafe { slab8_avx(b, r, t) })));
-            }
-            if Isa::Avx512.supported() {
-                // SAFETY: this CPU runs AVX-512 F and VL.
-                k.push((
-                    "avx512",
-                    Box::new(|b, r, t| unsafe { slab8_avx512(b, r, t) }),
-                ));
             }
         }
         k

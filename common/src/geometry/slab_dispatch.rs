@@ -1,9 +1,9 @@
 //! Which slab kernel a precision runs: for `f32` rays on x86-64 the SSE kernels on the `sse2`
-//! tier, the AVX ones on `avx2`, and on `avx512` the AVX-512 ones (the node test with its
-//! comparison into a mask register, the sixteen-ray test in one register) ([`crate::isa`]);
-//! the lane-by-lane ones otherwise (`f64`, the `scalar` tier, other targets). Lives above
-//! [`crate::real`] so the scalar trait knows nothing of the SIMD code; the choice by type folds
-//! away at compile time, the tier is one predictable branch.
+//! tier, the AVX node test on `avx2` and `avx512`, and on `avx512` the sixteen-ray test in one
+//! AVX-512 register ([`crate::isa`]); the lane-by-lane ones otherwise (`f64`, the `scalar`
+//! tier, other targets). Lives above [`crate::real`] so the scalar trait knows nothing of the
+//! SIMD code; the choice by type folds away at compile time, the tier is one predictable
+//! branch.
 
 use std::any::Any;
 
@@ -28,11 +28,8 @@ pub fn slab8_on<R: Real>(tier: Isa, b: &Box8, r: &SlabRay<R>, t_max: R) -> (u32,
     if let Some(r32) = (r as &dyn Any).downcast_ref::<SlabRay<f32>>() {
         let t_max = t_max.to_f32();
         // R is f32 here: the conversions are the identity.
-        let (mask, t) = if tier.avx512() {
-            // SAFETY: the avx512 tier is only chosen on a CPU with AVX-512 F and VL.
-            unsafe { super::slab8::slab8_avx512(b, r32, t_max) }
-        } else if tier.avx() {
-            // SAFETY: the avx2 tier is only chosen on a CPU with AVX.
+        let (mask, t) = if tier.avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX.
             unsafe { super::slab8::slab8_avx(b, r32, t_max) }
         } else if tier.sse2() {
             super::slab8::slab8_sse2(b, r32, t_max)

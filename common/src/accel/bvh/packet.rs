@@ -197,44 +197,21 @@ impl Bvh {
         let tier = crate::isa::current();
         #[cfg(target_arch = "x86_64")]
         if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() {
-            if tier.avx512() {
-                // SAFETY: the avx512 tier is only chosen on a CPU with AVX2 and AVX-512 F, VL.
-                return unsafe {
-                    self.intersect_packet_walk_avx512(rays, out, stats, test, frustum)
-                };
-            }
             if tier.avx() {
-                // SAFETY: the avx2 tier is only chosen on a CPU with AVX and AVX2.
+                // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
                 return unsafe { self.intersect_packet_walk_avx(rays, out, stats, test, frustum) };
             }
         }
         self.intersect_packet_walk(rays, out, stats, test, frustum);
     }
 
-    /// [`Bvh::intersect_packet`]'s walk compiled for the `avx2` tier.
+    /// [`Bvh::intersect_packet`]'s walk compiled for the `avx2` and `avx512` tiers.
     ///
     /// # Safety
     /// The CPU must support AVX and AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,avx2")]
     unsafe fn intersect_packet_walk_avx<R: Real, T: RayPrimTest<R>>(
-        &self,
-        rays: &[PreparedRay<R>],
-        out: &mut [Option<PrimHit<R>>],
-        stats: &mut RayStats,
-        test: T,
-        frustum: Frustum<R>,
-    ) {
-        self.intersect_packet_walk(rays, out, stats, test, frustum)
-    }
-
-    /// [`Bvh::intersect_packet`]'s walk compiled for the `avx512` tier.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F and VL.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,avx512f,avx512vl")]
-    unsafe fn intersect_packet_walk_avx512<R: Real, T: RayPrimTest<R>>(
         &self,
         rays: &[PreparedRay<R>],
         out: &mut [Option<PrimHit<R>>],
@@ -362,44 +339,21 @@ impl Bvh {
         let tier = crate::isa::current();
         #[cfg(target_arch = "x86_64")]
         if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() {
-            if tier.avx512() {
-                // SAFETY: the avx512 tier is only chosen on a CPU with AVX2 and AVX-512 F, VL.
-                return unsafe {
-                    self.occluded_packet_walk_avx512(rays, out, stats, test, frustum)
-                };
-            }
             if tier.avx() {
-                // SAFETY: the avx2 tier is only chosen on a CPU with AVX and AVX2.
+                // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
                 return unsafe { self.occluded_packet_walk_avx(rays, out, stats, test, frustum) };
             }
         }
         self.occluded_packet_walk(rays, out, stats, test, frustum);
     }
 
-    /// [`Bvh::occluded_packet`]'s walk compiled for the `avx2` tier.
+    /// [`Bvh::occluded_packet`]'s walk compiled for the `avx2` and `avx512` tiers.
     ///
     /// # Safety
     /// The CPU must support AVX and AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,avx2")]
     unsafe fn occluded_packet_walk_avx<R: Real, T: RayPrimTest<R>>(
-        &self,
-        rays: &[PreparedRay<R>],
-        out: &mut [bool],
-        stats: &mut RayStats,
-        test: T,
-        frustum: Frustum<R>,
-    ) {
-        self.occluded_packet_walk(rays, out, stats, test, frustum)
-    }
-
-    /// [`Bvh::occluded_packet`]'s walk compiled for the `avx512` tier.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F and VL.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,avx512f,avx512vl")]
-    unsafe fn occluded_packet_walk_avx512<R: Real, T: RayPrimTest<R>>(
         &self,
         rays: &[PreparedRay<R>],
         out: &mut [bool],

@@ -8,10 +8,12 @@
 //! leaf's primitives go to the primitive test together ([`crate::accel::PrimTest`]), which may
 //! test them four at a time.
 //!
-//! For `f32` rays on the `avx2` and `avx512` tiers the whole walk is compiled a second (third)
-//! time with those instruction sets enabled, so the node's AVX slab test is inlined into it
-//! rather than called per node; the walk is the same code, and the primitive tests inlined into
-//! it do the same IEEE operations (no FMA is enabled), so every tier gives the same bits.
+//! For `f32` rays on the `avx2` and `avx512` tiers the whole walk is compiled a second time
+//! with AVX and AVX2 enabled, so the node's AVX slab test is inlined into it rather than called
+//! per node; the walk is the same code, and the primitive tests inlined into it do the same IEEE
+//! operations (no FMA is enabled), so every tier gives the same bits. A third copy with
+//! AVX-512 enabled, and an AVX-512VL node test with its comparison into a mask register, were
+//! measured 2–4 % slower on the `avx512` tier (BENCHMARKS.md, issue 33, eight-wide nodes).
 
 use super::build::STACK_SIZE;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
@@ -120,41 +122,21 @@ impl Bvh {
         let tier = isa::current();
         #[cfg(target_arch = "x86_64")]
         if TypeId::of::<R>() == TypeId::of::<f32>() {
-            if tier.avx512() {
-                // SAFETY: the avx512 tier is only chosen on a CPU with AVX2 and AVX-512 F, VL.
-                return unsafe { self.intersect_avx512(pr, stats, test, tier) };
-            }
             if tier.avx() {
-                // SAFETY: the avx2 tier is only chosen on a CPU with AVX and AVX2.
+                // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
                 return unsafe { self.intersect_avx(pr, stats, test, tier) };
             }
         }
         self.intersect_walk(pr, stats, test, tier)
     }
 
-    /// [`Bvh::intersect`]'s walk compiled for the `avx2` tier.
+    /// [`Bvh::intersect`]'s walk compiled for the `avx2` and `avx512` tiers.
     ///
     /// # Safety
     /// The CPU must support AVX and AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,avx2")]
     unsafe fn intersect_avx<R: Real, T: PrimTest<R>>(
-        &self,
-        pr: &PreparedRay<R>,
-        stats: &mut RayStats,
-        test: T,
-        tier: Isa,
-    ) -> Option<PrimHit<R>> {
-        self.intersect_walk(pr, stats, test, tier)
-    }
-
-    /// [`Bvh::intersect`]'s walk compiled for the `avx512` tier.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F and VL.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,avx512f,avx512vl")]
-    unsafe fn intersect_avx512<R: Real, T: PrimTest<R>>(
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
@@ -235,41 +217,21 @@ impl Bvh {
         let tier = isa::current();
         #[cfg(target_arch = "x86_64")]
         if TypeId::of::<R>() == TypeId::of::<f32>() {
-            if tier.avx512() {
-                // SAFETY: the avx512 tier is only chosen on a CPU with AVX2 and AVX-512 F, VL.
-                return unsafe { self.occluded_avx512(pr, stats, test, tier) };
-            }
             if tier.avx() {
-                // SAFETY: the avx2 tier is only chosen on a CPU with AVX and AVX2.
+                // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
                 return unsafe { self.occluded_avx(pr, stats, test, tier) };
             }
         }
         self.occluded_walk(pr, stats, test, tier)
     }
 
-    /// [`Bvh::occluded`]'s walk compiled for the `avx2` tier.
+    /// [`Bvh::occluded`]'s walk compiled for the `avx2` and `avx512` tiers.
     ///
     /// # Safety
     /// The CPU must support AVX and AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,avx2")]
     unsafe fn occluded_avx<R: Real, T: PrimTest<R>>(
-        &self,
-        pr: &PreparedRay<R>,
-        stats: &mut RayStats,
-        test: T,
-        tier: Isa,
-    ) -> bool {
-        self.occluded_walk(pr, stats, test, tier)
-    }
-
-    /// [`Bvh::occluded`]'s walk compiled for the `avx512` tier.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F and VL.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,avx512f,avx512vl")]
-    unsafe fn occluded_avx512<R: Real, T: PrimTest<R>>(
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
