@@ -193,23 +193,18 @@ mod tests {
         ]
     }
 
+    /// A slab kernel for `f32` rays.
+    type Kernel = fn(&Box8, &SlabRay<f32>, f32) -> (u32, [f32; WIDTH]);
+
     /// Every kernel this CPU runs, by name, with the lane-by-lane one first.
-    #[allow(clippy::type_complexity)]
-    fn kernels() -> Vec<(
-        &'static str,
-        Box<dyn Fn(&Box8, &SlabRay<f32>, f32) -> (u32, [f32; 8])>,
-    )> {
-        let mut k: Vec<(
-            &'static str,
-            Box<dyn Fn(&Box8, &SlabRay<f32>, f32) -> (u32, [f32; 8])>,
-        )> = vec![("lanes", Box::new(|b, r, t| slab8_lanes(b, r, t)))];
+    fn kernels() -> Vec<(&'static str, Kernel)> {
+        let mut k: Vec<(&'static str, Kernel)> = vec![("lanes", slab8_lanes::<f32>)];
         #[cfg(target_arch = "x86_64")]
         {
-            use crate::isa::Isa;
-            k.push(("sse2", Box::new(|b, r, t| slab8_sse2(b, r, t))));
-            if Isa::Avx2.supported() {
+            k.push(("sse2", slab8_sse2));
+            if crate::isa::Isa::Avx2.supported() {
                 // SAFETY: this CPU runs AVX.
-                k.push(("avx", Box::new(|b, r, t| unsafe { slab8_avx(b, r, t) })));
+                k.push(("avx", |b, r, t| unsafe { slab8_avx(b, r, t) }));
             }
         }
         k
@@ -245,11 +240,11 @@ mod tests {
             let sr = slab_ray(&pr);
             for (name, k) in kernels() {
                 let (mask, t) = k(&b, &sr, t_max);
-                for i in 0..WIDTH {
+                for (i, t_i) in t.iter().enumerate() {
                     let scalar = boxes.get(i).and_then(|(lo, hi)| slab(lo, hi, &pr, t_max));
                     prop_assert_eq!(mask & (1 << i) != 0, scalar.is_some(), "{} lane {}", name, i);
                     if let Some(t_s) = scalar {
-                        prop_assert_eq!(t[i].to_bits(), t_s.to_bits(), "{} lane {}", name, i);
+                        prop_assert_eq!(t_i.to_bits(), t_s.to_bits(), "{} lane {}", name, i);
                     }
                 }
             }

@@ -194,13 +194,12 @@ impl Bvh {
             }
             return;
         };
-        let tier = crate::isa::current();
         #[cfg(target_arch = "x86_64")]
-        if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() {
-            if tier.avx() {
-                // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
-                return unsafe { self.intersect_packet_walk_avx(rays, out, stats, test, frustum) };
-            }
+        if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>()
+            && crate::isa::current().avx()
+        {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.intersect_packet_walk_avx(rays, out, stats, test, frustum) };
         }
         self.intersect_packet_walk(rays, out, stats, test, frustum);
     }
@@ -336,13 +335,12 @@ impl Bvh {
             }
             return;
         };
-        let tier = crate::isa::current();
         #[cfg(target_arch = "x86_64")]
-        if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() {
-            if tier.avx() {
-                // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
-                return unsafe { self.occluded_packet_walk_avx(rays, out, stats, test, frustum) };
-            }
+        if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>()
+            && crate::isa::current().avx()
+        {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.occluded_packet_walk_avx(rays, out, stats, test, frustum) };
         }
         self.occluded_packet_walk(rays, out, stats, test, frustum);
     }

@@ -121,11 +121,9 @@ impl Bvh {
         }
         let tier = isa::current();
         #[cfg(target_arch = "x86_64")]
-        if TypeId::of::<R>() == TypeId::of::<f32>() {
-            if tier.avx() {
-                // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
-                return unsafe { self.intersect_avx(pr, stats, test, tier) };
-            }
+        if TypeId::of::<R>() == TypeId::of::<f32>() && tier.avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.intersect_avx(pr, stats, test, tier) };
         }
         self.intersect_walk(pr, stats, test, tier)
     }
@@ -216,11 +214,9 @@ impl Bvh {
         }
         let tier = isa::current();
         #[cfg(target_arch = "x86_64")]
-        if TypeId::of::<R>() == TypeId::of::<f32>() {
-            if tier.avx() {
-                // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
-                return unsafe { self.occluded_avx(pr, stats, test, tier) };
-            }
+        if TypeId::of::<R>() == TypeId::of::<f32>() && tier.avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.occluded_avx(pr, stats, test, tier) };
         }
         self.occluded_walk(pr, stats, test, tier)
     }
