@@ -40,7 +40,8 @@ for s in "$@"; do
 import statistics as st, sys
 name, old, new, same = sys.argv[1], *(list(map(float, open(f))) for f in sys.argv[2:4]), sys.argv[4]
 pairs = [b / a for a, b in zip(old, new)]
-print(f"| {name} | {st.median(old):.4f} | {st.median(new):.4f} | {st.median(pairs):.3f} | "
+print(f"| {name} | {st.median(old):.4f} ({min(old):.4f}–{max(old):.4f}) | "
+      f"{st.median(new):.4f} ({min(new):.4f}–{max(new):.4f}) | {st.median(pairs):.3f} | "
       f"{min(new) / min(old):.3f} | {same} |")
 PY
 done

@@ -1,6 +1,7 @@
 //! The instruction-set tier of this process, chosen in this one place: `scalar` (one lane at a
 //! time, the portable definition of every answer), `sse2` (four-lane SSE2 kernels, the x86-64
-//! baseline), `avx2` (the AVX kernels of the leaf tests and the AVX2 film conversion) and
+//! baseline), `avx2` (the AVX kernels of the leaf tests, the BVH walks compiled with AVX around
+//! the eight-box node test, and the AVX2 film conversion) and
 //! `avx512` (a CPU with AVX-512 F, BW, DQ and VL: the sixteen-ray packet kernels in one
 //! AVX-512 register, the `avx2` kernels elsewhere). Every tier gives the same bits: the kernels do the scalar test's IEEE
 //! operations lane by lane, with no FMA and no approximate reciprocal.

@@ -1,11 +1,15 @@
 //! A discrete-event model of the master/worker schedule (DESIGN §8, §9): measured per-tile costs,
 //! workers × threads, a window of assignments in flight per worker, each a batch of tiles sized
 //! by the master's own rule ([`crate::batch::batch_size`]) and answered in one message when its
-//! last tile is done, one-way latency, link bandwidth, the master's per-result work and the
+//! last tile is done, one-way latency, link bandwidth (the master's link shared by the workers
+//! in turns, [`shared_link`]), the master's per-result work and the
 //! scene transfer; and, as the master does once its queue is empty, backup copies of tiles in
 //! flight for idle workers (the first result counts). It predicts the makespan and efficiency
 //! of configurations larger than this machine, and says where the time goes.
 
+mod shared_link;
+
+use shared_link::SharedLink;
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, VecDeque};
 use std::ops::Range;
@@ -106,6 +110,10 @@ enum Kind {
     Assign { worker: usize, batch: usize },
     /// A thread of a worker finishes a tile of a batch.
     Done { worker: usize, batch: usize },
+    /// A batch's results have crossed the worker's link and wait for the master's.
+    AtMaster { worker: usize, batch: usize },
+    /// The master's link has received a batch's results.
+    Received { worker: usize, batch: usize },
     /// A batch's results reach the master.
     Result { worker: usize, batch: usize },
 }
@@ -160,7 +168,7 @@ struct Sim<'a> {
     queue: Vec<VecDeque<(usize, usize)>>,
     idle: Vec<usize>,
     link_free: Vec<f64>,
-    master_link_free: f64,
+    master_link: SharedLink,
     host_free: Vec<f64>,
     bytes: f64,
     first_idle: f64,
@@ -194,6 +202,20 @@ impl Sim<'_> {
             self.idle[worker] -= 1;
             self.push(now + self.costs[tile], Kind::Done { worker, batch });
         }
+    }
+
+    /// Starts the next waiting message across the master's link, if it is free.
+    fn serve_master_link(&mut self, now: f64) {
+        if let Some((worker, batch, bytes)) = self.master_link.start() {
+            let done = now + bytes / self.p.master_link_bps;
+            self.push(done, Kind::Received { worker, batch });
+        }
+    }
+
+    /// The bytes of `batch`'s results message.
+    fn result_bytes(&self, batch: usize) -> f64 {
+        let px: u64 = self.pixels[self.batches[batch].0.clone()].iter().sum();
+        self.p.message_bytes + self.p.result_bytes_per_pixel * px as f64
     }
 
     /// When a message that reaches the shared host at `at` and needs `cpu` seconds of it is
@@ -306,7 +328,7 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         queue: vec![VecDeque::new(); workers],
         idle: vec![threads; workers],
         link_free: vec![0.0; workers],
-        master_link_free: 0.0,
+        master_link: SharedLink::new(workers),
         host_free: vec![0.0; p.host_cores.max(1)],
         bytes: 0.0,
         first_idle: f64::INFINITY,
@@ -338,25 +360,34 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
                 sim.start(worker, now);
                 sim.batches[batch].1 -= 1;
                 if sim.batches[batch].1 == 0 {
-                    // The batch's last tile: its results go back in one message.
-                    let tiles = sim.batches[batch].0.clone();
-                    let px: u64 = sim.pixels[tiles.clone()].iter().sum();
-                    let count = tiles.len() as f64;
-                    let bytes = p.message_bytes + p.result_bytes_per_pixel * px as f64;
+                    // The batch's last tile: its results go back in one message, across
+                    // the worker's link and then the master's.
+                    let bytes = sim.result_bytes(batch);
                     sim.bytes += bytes;
                     let sent = sim.link_free[worker].max(now) + sim.transfer(bytes);
                     sim.link_free[worker] = sent;
-                    let sent = if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
-                        sim.master_link_free.max(sent) + bytes / p.master_link_bps
+                    if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
+                        sim.push(sent, Kind::AtMaster { worker, batch });
                     } else {
-                        sent
-                    };
-                    sim.master_link_free = sent;
-                    let sent = sim.host(sent, 0.5 * p.host_per_tile_s * count);
-                    sim.push(sent + p.latency_s, Kind::Result { worker, batch });
+                        sim.push(sent, Kind::Received { worker, batch });
+                    }
                 }
                 if sim.idle[worker] > 0 && sim.next >= costs.len() {
                     sim.first_idle = sim.first_idle.min(now);
+                }
+            }
+            Kind::AtMaster { worker, batch } => {
+                let bytes = sim.result_bytes(batch);
+                sim.master_link.arrive(worker, batch, bytes);
+                sim.serve_master_link(now);
+            }
+            Kind::Received { worker, batch } => {
+                let count = sim.batches[batch].0.len() as f64;
+                let sent = sim.host(now, 0.5 * p.host_per_tile_s * count);
+                sim.push(sent + p.latency_s, Kind::Result { worker, batch });
+                if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
+                    sim.master_link.done();
+                    sim.serve_master_link(now);
                 }
             }
             Kind::Result { worker, batch } => {

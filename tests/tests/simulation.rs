@@ -172,3 +172,69 @@ fn dilating_a_frame_leaves_its_efficiency_as_it_was() {
         stretched.efficiency
     );
 }
+
+#[test]
+fn the_masters_link_and_cpu_work_side_by_side() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    // A slow link: a tile's result (about 150 bytes) takes some 5 ms to cross it, while the
+    // eight threads finish a tile every 1.25 ms, so the master's link binds the frame.
+    let link_bps = 240e3;
+    let link_only = Config {
+        link_bps,
+        master_s_per_byte: 0.0,
+        ..small_config(2.56, None)
+    };
+    // The master's CPU then takes as long per byte as its link: the card receives the next
+    // message while the CPU handles the last, so the link still binds, not their sum.
+    let both = Config {
+        master_s_per_byte: 8.0 / link_bps,
+        ..link_only.clone()
+    };
+    let a = run(&path, &link_only).expect("the run with a free master");
+    let b = run(&path, &both).expect("the run with a busy master");
+    assert!(a.identical && b.identical);
+    assert!(
+        a.efficiency < 0.5,
+        "the link should bind: efficiency {:.3}",
+        a.efficiency
+    );
+    assert!(
+        b.efficiency >= 0.85 * a.efficiency,
+        "efficiency {:.3} with the master's CPU as slow as its link, {:.3} without: the two \
+         worked one after the other",
+        b.efficiency,
+        a.efficiency
+    );
+}
+
+#[test]
+fn a_dilated_frame_stretches_the_workers_heartbeats_too() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    // The link test's frame: the master's link binds, and the run is dilated ×5 for its
+    // 10 ms tiles. Dilated ×64 with the workers' heartbeats left at one a second, they would
+    // send 13 times as many and take the link from the results.
+    let slow = Config {
+        link_bps: 240e3,
+        master_s_per_byte: 0.0,
+        ..small_config(2.56, None)
+    };
+    let plain = run(&path, &slow).expect("the plain run");
+    let stretched = run(
+        &path,
+        &Config {
+            dilation: Some(64.0),
+            ..slow.clone()
+        },
+    )
+    .expect("the dilated run");
+    assert!(plain.identical && stretched.identical);
+    let bound = 2.0 * plain.rounding + 0.01;
+    assert!(
+        (plain.efficiency - stretched.efficiency).abs() <= bound,
+        "efficiency {:.4} plain, {:.4} dilated ×64: more than {bound:.4} apart",
+        plain.efficiency,
+        stretched.efficiency
+    );
+}

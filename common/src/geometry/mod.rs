@@ -10,7 +10,7 @@ pub mod hits4;
 pub mod leaf16;
 pub mod ray;
 pub mod slab16;
-pub mod slab4;
+pub mod slab8;
 pub mod slab_dispatch;
 pub mod sphere;
 pub mod sphere4;

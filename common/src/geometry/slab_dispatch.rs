@@ -1,28 +1,46 @@
-//! Which slab kernel a precision runs: the SSE kernels for `f32` rays on x86-64 on every tier but
-//! `scalar` ([`crate::isa`]; the sixteen-ray test in one AVX-512 register on `avx512`), the
-//! lane-by-lane ones otherwise (`f64`, the `scalar` tier, other targets). Lives above
-//! [`crate::real`] so the scalar trait knows nothing of the SIMD code; the choice by type folds
-//! away at compile time, the tier is one predictable branch.
+//! Which slab kernel a precision runs: for `f32` rays on x86-64 the SSE kernels on the `sse2`
+//! tier, the AVX node test on `avx2` and `avx512`, and on `avx512` the sixteen-ray test in one
+//! AVX-512 register ([`crate::isa`]); the lane-by-lane ones otherwise (`f64`, the `scalar`
+//! tier, other targets). Lives above [`crate::real`] so the scalar trait knows nothing of the
+//! SIMD code; the choice by type folds away at compile time, the tier is one predictable
+//! branch.
 
 use std::any::Any;
 
 use super::slab16::{enter16_f32, enter16_lanes, RayLanes, LANES};
-use super::slab4::{slab4_f32, slab4_lanes, Box4, SlabRay};
+use super::slab8::{slab8_lanes, Box8, SlabRay, WIDTH};
+use crate::isa::Isa;
 use crate::real::Real;
 
-/// Four slab tests at once ([`super::slab4`]): both kernels compute exactly what the scalar slab
-/// test computes.
+/// Eight slab tests at once ([`super::slab8`]) with the kernel of the process's tier: every
+/// kernel computes exactly what the scalar slab test computes.
 #[inline(always)]
-pub fn slab4<R: Real>(b: &Box4, r: &SlabRay<R>, t_max: R) -> (u32, [R; 4]) {
-    if let Some(r32) = (r as &dyn Any)
-        .downcast_ref::<SlabRay<f32>>()
-        .filter(|_| crate::isa::current().sse2())
-    {
-        // R is f32 here: both conversions are the identity.
-        let (mask, t) = slab4_f32(b, r32, t_max.to_f32());
+pub fn slab8<R: Real>(b: &Box8, r: &SlabRay<R>, t_max: R) -> (u32, [R; WIDTH]) {
+    slab8_on(crate::isa::current(), b, r, t_max)
+}
+
+/// [`slab8`] with the kernel of `tier`, which must be a tier this CPU runs. The traversal
+/// reads the tier once per ray; in a walk compiled for the tier's instruction set the AVX
+/// kernels inline.
+#[inline(always)]
+pub fn slab8_on<R: Real>(tier: Isa, b: &Box8, r: &SlabRay<R>, t_max: R) -> (u32, [R; WIDTH]) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(r32) = (r as &dyn Any).downcast_ref::<SlabRay<f32>>() {
+        let t_max = t_max.to_f32();
+        // R is f32 here: the conversions are the identity.
+        let (mask, t) = if tier.avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX.
+            unsafe { super::slab8::slab8_avx(b, r32, t_max) }
+        } else if tier.sse2() {
+            super::slab8::slab8_sse2(b, r32, t_max)
+        } else {
+            slab8_lanes(b, r32, t_max)
+        };
         return (mask, t.map(R::from_f32));
     }
-    slab4_lanes(b, r, t_max)
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = tier;
+    slab8_lanes(b, r, t_max)
 }
 
 /// One box against the sixteen rays of a packet ([`super::slab16`]): both kernels compute what
@@ -53,24 +71,30 @@ mod tests {
     use super::*;
 
     #[test]
-    fn both_precisions_agree_with_the_lane_kernel() {
-        let mut b = Box4::EMPTY;
+    fn every_tier_and_both_precisions_agree_with_the_lane_kernel() {
+        let mut b = Box8::EMPTY;
         b.set(0, [-1.0; 3], [1.0; 3]);
         b.set(2, [2.0, -1.0, -1.0], [3.0, 1.0, 1.0]);
+        b.set(6, [4.0, -1.0, -1.0], [5.0, 1.0, 1.0]);
+        b.set(7, [4.0, 2.0, -1.0], [5.0, 3.0, 1.0]);
         let r32 = SlabRay::<f32> {
             o: [-5.0, 0.25, 0.5],
             inv: [1.0, f32::INFINITY, f32::INFINITY],
             neg: [false; 3],
             t_min: 0.0,
         };
-        assert_eq!(slab4(&b, &r32, 100.0), slab4_lanes(&b, &r32, 100.0));
+        let want = slab8_lanes(&b, &r32, 100.0);
+        assert_eq!(want.0, 0b0100_0101);
+        for tier in Isa::supported_tiers() {
+            assert_eq!(slab8_on(tier, &b, &r32, 100.0), want, "{tier}");
+        }
         let r64 = SlabRay::<f64> {
             o: [-5.0, 0.25, 0.5],
             inv: [1.0, f64::INFINITY, f64::INFINITY],
             neg: [false; 3],
             t_min: 0.0,
         };
-        let (mask, _) = slab4(&b, &r64, 100.0);
-        assert_eq!(mask, 0b101);
+        let (mask, _) = slab8(&b, &r64, 100.0);
+        assert_eq!(mask, 0b0100_0101);
     }
 }

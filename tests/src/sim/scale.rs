@@ -213,7 +213,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     // Dilated: a byte takes k times as long on a link and in the master.
     let link_bytes_per_s = c.link_bps / 8.0;
     let sim_link_bytes_per_s = link_bytes_per_s / k;
-    let master_gate = Arc::new(Mutex::new(Gate::default()));
+    let master_gates = Arc::new(Mutex::new(MasterGates::default()));
     let mut sim = turmoil::Builder::new()
         .rng_seed(1)
         .epoch(UNIX_EPOCH + Duration::from_secs(1_700_000_000))
@@ -227,9 +227,11 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         .build();
     {
         let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
-        let (config, token, gate) = (config.clone(), token.clone(), master_gate.clone());
-        let per_byte = 1.0 / sim_link_bytes_per_s + c.master_s_per_byte * k;
-        let worker_link = 1.0 / sim_link_bytes_per_s;
+        let (config, token, gate) = (config.clone(), token.clone(), master_gates.clone());
+        let per_byte = PerByte {
+            link: 1.0 / sim_link_bytes_per_s,
+            cpu: c.master_s_per_byte * k,
+        };
         sim.host("master", move || {
             let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
             let (config, token, gate) = (config.clone(), token.clone(), gate.clone());
@@ -239,7 +241,6 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
                     inner: l,
                     master: gate,
                     per_byte,
-                    worker_link,
                 };
                 let m = Master::with_listener(listener, &config, token)?;
                 let r = m.render(&desc, &settings, CancellationToken::new()).await?;
@@ -268,6 +269,10 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
                     o.nonce_seed = Some(i as u64);
                     o.dial_timeout = Duration::from_secs(3_600).mul_f64(k);
                     o.master_timeout = Duration::from_secs(3_600).mul_f64(k);
+                    // A worker's heartbeats stretch with everything else: at 1 s in a frame
+                    // dilated ×4 096, 4 096 workers' heartbeats alone would fill a 1 Gbit/s
+                    // master link.
+                    o.heartbeat = o.heartbeat.mul_f64(k);
                     let exec = InlineExec::replaying(replay.clone());
                     async move {
                         let _ = parrt_worker::session::run_with(
@@ -357,7 +362,8 @@ fn same_bytes(a: &Film, b: &Film) -> bool {
     a.width == b.width && a.height == b.height && a.to_rgb8() == b.to_rgb8()
 }
 
-/// When the master side is next free: its link, then its CPU, one byte after another.
+/// When one resource (a link, the master's CPU) is next free: it serves one byte after
+/// another.
 #[derive(Default)]
 struct Gate {
     free: Option<Instant>,
@@ -373,12 +379,28 @@ impl Gate {
     }
 }
 
+/// The master's two resources every worker's results queue for, one after the other: its
+/// link (the network card receives the next message while the CPU handles the last one, as
+/// a real host's does) and its CPU.
+#[derive(Default)]
+struct MasterGates {
+    link: Gate,
+    cpu: Gate,
+}
+
+/// Seconds a byte takes on a link (each worker's and the master's are alike) and in the
+/// master's CPU.
+#[derive(Clone, Copy)]
+struct PerByte {
+    link: f64,
+    cpu: f64,
+}
+
 /// The master's listener whose streams deliver bytes as the links and the master's CPU allow.
 struct PacedListener {
     inner: turmoil::net::TcpListener,
-    master: Arc<Mutex<Gate>>,
-    per_byte: f64,
-    worker_link: f64,
+    master: Arc<Mutex<MasterGates>>,
+    per_byte: PerByte,
 }
 
 impl parrt_runtime::net::Listener for PacedListener {
@@ -392,7 +414,6 @@ impl parrt_runtime::net::Listener for PacedListener {
                 link: Gate::default(),
                 master: self.master.clone(),
                 per_byte: self.per_byte,
-                worker_link: self.worker_link,
                 held: Vec::new(),
                 pos: 0,
                 wait: None,
@@ -406,13 +427,13 @@ impl parrt_runtime::net::Listener for PacedListener {
     }
 }
 
-/// A master-side stream: bytes read cross the worker's link, then the master's link and CPU.
+/// A master-side stream: bytes read cross the worker's link, then the master's link, then
+/// wait for the master's CPU.
 pub struct Paced {
     inner: turmoil::net::TcpStream,
     link: Gate,
-    master: Arc<Mutex<Gate>>,
-    per_byte: f64,
-    worker_link: f64,
+    master: Arc<Mutex<MasterGates>>,
+    per_byte: PerByte,
     held: Vec<u8>,
     pos: usize,
     wait: Option<Pin<Box<Sleep>>>,
@@ -436,6 +457,8 @@ impl AsyncRead for Paced {
                 me.pos += n;
                 return Poll::Ready(Ok(()));
             }
+            // What has arrived, up to a window's worth. A stream queues at the master's gates
+            // again only once this is through, so the streams with bytes waiting take turns.
             me.held.resize(64 * 1024, 0);
             let mut rb = ReadBuf::new(&mut me.held);
             match Pin::new(&mut me.inner).poll_read(cx, &mut rb) {
@@ -457,12 +480,12 @@ impl AsyncRead for Paced {
                 return Poll::Ready(Ok(()));
             }
             let now = Instant::now();
-            let crossed = me.link.reserve(now, n as f64 * me.worker_link);
-            let handled = me
-                .master
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .reserve(crossed, n as f64 * me.per_byte);
+            let bytes = n as f64;
+            let crossed = me.link.reserve(now, bytes * me.per_byte.link);
+            let mut master = me.master.lock().unwrap_or_else(|p| p.into_inner());
+            let received = master.link.reserve(crossed, bytes * me.per_byte.link);
+            let handled = master.cpu.reserve(received, bytes * me.per_byte.cpu);
+            drop(master);
             me.wait = Some(Box::pin(sleep_until(handled)));
         }
     }

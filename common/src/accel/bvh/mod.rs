@@ -1,5 +1,5 @@
 //! The bounding volume hierarchy: built with binned SAH ([`build`]) into a binary tree
-//! ([`binary`]) of 32-byte nodes ([`node`]), collapsed into 4-wide nodes ([`wide`]) and
+//! ([`binary`]) of 32-byte nodes ([`node`]), collapsed into 8-wide nodes ([`wide`]) and
 //! traversed nearest child first with a fixed stack ([`traverse`]), one ray at a time or in
 //! packets of coherent rays ([`packet`]).
 
@@ -18,7 +18,7 @@ pub use wide::WideNode;
 use crate::accel::{margin, AccelStats};
 use crate::geometry::Aabb;
 
-/// A built BVH: 4-wide nodes and the primitive order its leaves index into.
+/// A built BVH: 8-wide nodes and the primitive order its leaves index into.
 #[derive(Debug)]
 pub struct Bvh {
     /// Wide nodes; node 0 is the root (none for an empty scene).

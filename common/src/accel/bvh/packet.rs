@@ -1,4 +1,4 @@
-//! Packet traversal: up to [`PACKET`] rays walk the 4-wide BVH together. A node is tested once
+//! Packet traversal: up to [`PACKET`] rays walk the 8-wide BVH together. A node is tested once
 //! for the whole packet, with interval bounds of the rays' origins and reciprocal directions
 //! (the rays must agree in direction signs and have no zero direction component, and rays whose
 //! origins spread too far for their length, [`COHERENCE`], go one by one); at a leaf each
@@ -16,12 +16,12 @@
 //! primitive, distance and parameters as alone.
 
 use super::traverse::Stack;
-use super::wide::{is_leaf, leaf_range, ChildRef};
+use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
 use crate::accel::prim_test::{OneRay, RayPrimTest};
 use crate::bits::SetBits;
 use crate::geometry::slab16::RayLanes;
-use crate::geometry::slab4::Box4;
+use crate::geometry::slab8::Box8;
 use crate::geometry::slab_dispatch;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
@@ -96,14 +96,14 @@ impl<R: Real> Frustum<R> {
         Some(f)
     }
 
-    /// The four children of a node against the packet: bit `i` is set when some ray of the
-    /// packet may enter lane `i` before `t_max`; the distances are lower bounds of every ray's
-    /// entry distance into the lane.
+    /// The children of a node against the packet: bit `i` is set when some ray of the packet
+    /// may enter lane `i` before `t_max`; the distances are lower bounds of every ray's entry
+    /// distance into the lane.
     #[inline(always)]
-    fn test4(&self, b: &Box4, t_max: R) -> (u32, [R; 4]) {
+    fn test8(&self, b: &Box8, t_max: R) -> (u32, [R; WIDTH]) {
         let widen = R::ONE + R::TWO * R::gamma(3);
-        let mut t0 = [self.t_min; 4];
-        let mut t1 = [t_max; 4];
+        let mut t0 = [self.t_min; WIDTH];
+        let mut t1 = [t_max; WIDTH];
         for a in 0..3 {
             let (near, far) = if self.neg[a] {
                 (&b.hi[a], &b.lo[a])
@@ -111,7 +111,7 @@ impl<R: Real> Frustum<R> {
                 (&b.lo[a], &b.hi[a])
             };
             let (il, ih) = (self.inv_lo[a], self.inv_hi[a]);
-            for i in 0..4 {
+            for i in 0..WIDTH {
                 let n = R::from_f32(near[i]);
                 let (xl, xh) = (n - self.o_hi[a], n - self.o_lo[a]);
                 let lo = (xl * il).min(xl * ih).min((xh * il).min(xh * ih));
@@ -123,7 +123,7 @@ impl<R: Real> Frustum<R> {
             }
         }
         let mut mask = 0;
-        for i in 0..4 {
+        for i in 0..WIDTH {
             if t0[i] <= t1[i] {
                 mask |= 1 << i;
             }
@@ -132,20 +132,11 @@ impl<R: Real> Frustum<R> {
     }
 }
 
-/// Lane `i`'s box as corner arrays.
-#[inline(always)]
-fn lane_box(b: &Box4, i: usize) -> ([f32; 3], [f32; 3]) {
-    (
-        [b.lo[0][i], b.lo[1][i], b.lo[2][i]],
-        [b.hi[0][i], b.hi[1][i], b.hi[2][i]],
-    )
-}
-
 /// The hit children of a node in ascending bound (insertion sort; ties keep lane order), with
 /// their lanes.
 #[inline(always)]
-fn sorted_lanes<R: Real>(mask: u32, t: &[R; 4]) -> ([(R, usize); 4], usize) {
-    let mut hits = [(R::ZERO, 0); 4];
+fn sorted_lanes<R: Real>(mask: u32, t: &[R; WIDTH]) -> ([(R, usize); WIDTH], usize) {
+    let mut hits = [(R::ZERO, 0); WIDTH];
     let mut k = 0;
     for i in SetBits(mask) {
         let e = (t[i], i);
@@ -203,6 +194,43 @@ impl Bvh {
             }
             return;
         };
+        #[cfg(target_arch = "x86_64")]
+        if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>()
+            && crate::isa::current().avx()
+        {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.intersect_packet_walk_avx(rays, out, stats, test, frustum) };
+        }
+        self.intersect_packet_walk(rays, out, stats, test, frustum);
+    }
+
+    /// [`Bvh::intersect_packet`]'s walk compiled for the `avx2` and `avx512` tiers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX and AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn intersect_packet_walk_avx<R: Real, T: RayPrimTest<R>>(
+        &self,
+        rays: &[PreparedRay<R>],
+        out: &mut [Option<PrimHit<R>>],
+        stats: &mut RayStats,
+        test: T,
+        frustum: Frustum<R>,
+    ) {
+        self.intersect_packet_walk(rays, out, stats, test, frustum)
+    }
+
+    /// The walk of [`Bvh::intersect_packet`] for a packet its bounds can take.
+    #[inline(always)]
+    fn intersect_packet_walk<R: Real, T: RayPrimTest<R>>(
+        &self,
+        rays: &[PreparedRay<R>],
+        out: &mut [Option<PrimHit<R>>],
+        stats: &mut RayStats,
+        mut test: T,
+        frustum: Frustum<R>,
+    ) {
         let n = rays.len();
         let lanes = RayLanes::new(rays, frustum.neg);
         let mut best = [Nearest::new(R::ZERO); PACKET];
@@ -224,10 +252,10 @@ impl Bvh {
         'walk: loop {
             let node = &self.nodes[cur as usize];
             box_tests += u64::from(node.used);
-            let (mask, t) = frustum.test4(&node.bounds, reach);
+            let (mask, t) = frustum.test8(&node.bounds, reach);
             let mask = mask & node.lanes();
             let (hits, k) = sorted_lanes(mask, &t);
-            let mut inner = [(R::ZERO, 0 as ChildRef); 4];
+            let mut inner = [(R::ZERO, 0 as ChildRef); WIDTH];
             let mut inner_n = 0;
             for &(t_lane, lane) in &hits[..k] {
                 let c = node.child[lane];
@@ -239,7 +267,7 @@ impl Bvh {
                 if t_lane > reach {
                     continue;
                 }
-                let (lo, hi) = lane_box(&node.bounds, lane);
+                let (lo, hi) = node.bounds.lane(lane);
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += n as u64;
@@ -307,6 +335,43 @@ impl Bvh {
             }
             return;
         };
+        #[cfg(target_arch = "x86_64")]
+        if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>()
+            && crate::isa::current().avx()
+        {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.occluded_packet_walk_avx(rays, out, stats, test, frustum) };
+        }
+        self.occluded_packet_walk(rays, out, stats, test, frustum);
+    }
+
+    /// [`Bvh::occluded_packet`]'s walk compiled for the `avx2` and `avx512` tiers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX and AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn occluded_packet_walk_avx<R: Real, T: RayPrimTest<R>>(
+        &self,
+        rays: &[PreparedRay<R>],
+        out: &mut [bool],
+        stats: &mut RayStats,
+        test: T,
+        frustum: Frustum<R>,
+    ) {
+        self.occluded_packet_walk(rays, out, stats, test, frustum)
+    }
+
+    /// The walk of [`Bvh::occluded_packet`] for a packet its bounds can take.
+    #[inline(always)]
+    fn occluded_packet_walk<R: Real, T: RayPrimTest<R>>(
+        &self,
+        rays: &[PreparedRay<R>],
+        out: &mut [bool],
+        stats: &mut RayStats,
+        mut test: T,
+        frustum: Frustum<R>,
+    ) {
         let n = rays.len();
         let all: u32 = (1 << n) - 1;
         let mut done = 0u32;
@@ -323,14 +388,14 @@ impl Bvh {
         'walk: loop {
             let node = &self.nodes[cur as usize];
             box_tests += u64::from(node.used);
-            let (mask, _) = frustum.test4(&node.bounds, reach_max);
+            let (mask, _) = frustum.test8(&node.bounds, reach_max);
             for lane in SetBits(mask & node.lanes()) {
                 let c = node.child[lane];
                 if !is_leaf(c) {
                     stack.push(c, R::ZERO);
                     continue;
                 }
-                let (lo, hi) = lane_box(&node.bounds, lane);
+                let (lo, hi) = node.bounds.lane(lane);
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += u64::from((all & !done).count_ones());

@@ -1,4 +1,4 @@
-//! BVH traversal over 4-wide nodes. One SIMD slab test gives the entry distances of all of a
+//! BVH traversal over 8-wide nodes. One SIMD slab test gives the entry distances of all of a
 //! node's children: the nearest hit child is visited next, the others are pushed farthest first
 //! with their entry distances and skipped when popped if a hit closer than that was found
 //! meanwhile. Pruning allows a slack of the scene's margin beyond the best hit: box entry
@@ -7,17 +7,27 @@
 //! The stack is fixed-size and never zeroed per ray; `occluded` returns at the first hit. A
 //! leaf's primitives go to the primitive test together ([`crate::accel::PrimTest`]), which may
 //! test them four at a time.
+//!
+//! For `f32` rays on the `avx2` and `avx512` tiers the whole walk is compiled a second time
+//! with AVX and AVX2 enabled, so the node's AVX slab test is inlined into it rather than called
+//! per node; the walk is the same code, and the primitive tests inlined into it do the same IEEE
+//! operations (no FMA is enabled), so every tier gives the same bits. A third copy with
+//! AVX-512 enabled, and an AVX-512VL node test with its comparison into a mask register, were
+//! measured 2–4 % slower on the `avx512` tier (BENCHMARKS.md, issue 33, eight-wide nodes).
 
 use super::build::STACK_SIZE;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
 use crate::accel::prim_test::PrimTest;
 use crate::bits::SetBits;
-use crate::geometry::slab4::SlabRay;
+use crate::geometry::slab8::SlabRay;
 use crate::geometry::slab_dispatch;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
+use crate::isa::{self, Isa};
 use crate::real::Real;
 use crate::stats::RayStats;
+#[cfg(target_arch = "x86_64")]
+use std::any::TypeId;
 use std::mem::MaybeUninit;
 
 /// Stack entries: a wide node pushes at most `WIDTH − 1` children, and the collapsed tree is no
@@ -62,10 +72,10 @@ impl<R: Real> Stack<R> {
 #[inline(always)]
 fn sorted_hits<R: Real>(
     mask: u32,
-    t: &[R; 4],
-    child: &[ChildRef; 4],
-) -> ([(R, ChildRef); 4], usize) {
-    let mut hits = [(R::ZERO, 0); 4];
+    t: &[R; WIDTH],
+    child: &[ChildRef; WIDTH],
+) -> ([(R, ChildRef); WIDTH], usize) {
+    let mut hits = [(R::ZERO, 0); WIDTH];
     let mut k = 0;
     for i in SetBits(mask) {
         let e = (t[i], child[i]);
@@ -104,11 +114,45 @@ impl Bvh {
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
-        mut test: T,
+        test: T,
     ) -> Option<PrimHit<R>> {
         if self.nodes.is_empty() {
             return None;
         }
+        let tier = isa::current();
+        #[cfg(target_arch = "x86_64")]
+        if TypeId::of::<R>() == TypeId::of::<f32>() && tier.avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.intersect_avx(pr, stats, test, tier) };
+        }
+        self.intersect_walk(pr, stats, test, tier)
+    }
+
+    /// [`Bvh::intersect`]'s walk compiled for the `avx2` and `avx512` tiers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX and AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn intersect_avx<R: Real, T: PrimTest<R>>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        test: T,
+        tier: Isa,
+    ) -> Option<PrimHit<R>> {
+        self.intersect_walk(pr, stats, test, tier)
+    }
+
+    /// The closest-hit walk of a non-empty tree, with the slab kernel of `tier`.
+    #[inline(always)]
+    fn intersect_walk<R: Real, T: PrimTest<R>>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        mut test: T,
+        tier: Isa,
+    ) -> Option<PrimHit<R>> {
         let sr = Self::slab_ray(pr);
         let mut box_tests = 0u64;
         let mut prim_tests = 0u64;
@@ -124,7 +168,7 @@ impl Bvh {
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
-                let (mask, t) = slab_dispatch::slab4(&n.bounds, &sr, best.t + slack);
+                let (mask, t) = slab_dispatch::slab8_on(tier, &n.bounds, &sr, best.t + slack);
                 // Empty lanes are never entered; the mask makes that independent of the ray.
                 let mask = mask & n.lanes();
                 if mask != 0 {
@@ -163,11 +207,45 @@ impl Bvh {
         &self,
         pr: &PreparedRay<R>,
         stats: &mut RayStats,
-        mut test: T,
+        test: T,
     ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
+        let tier = isa::current();
+        #[cfg(target_arch = "x86_64")]
+        if TypeId::of::<R>() == TypeId::of::<f32>() && tier.avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.occluded_avx(pr, stats, test, tier) };
+        }
+        self.occluded_walk(pr, stats, test, tier)
+    }
+
+    /// [`Bvh::occluded`]'s walk compiled for the `avx2` and `avx512` tiers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX and AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn occluded_avx<R: Real, T: PrimTest<R>>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        test: T,
+        tier: Isa,
+    ) -> bool {
+        self.occluded_walk(pr, stats, test, tier)
+    }
+
+    /// The any-hit walk of a non-empty tree, with the slab kernel of `tier`.
+    #[inline(always)]
+    fn occluded_walk<R: Real, T: PrimTest<R>>(
+        &self,
+        pr: &PreparedRay<R>,
+        stats: &mut RayStats,
+        mut test: T,
+        tier: Isa,
+    ) -> bool {
         let sr = Self::slab_ray(pr);
         let t_max = pr.ray.t_max;
         let reach = t_max + self.slack(pr);
@@ -189,7 +267,7 @@ impl Bvh {
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
-                let (mask, t) = slab_dispatch::slab4(&n.bounds, &sr, reach);
+                let (mask, t) = slab_dispatch::slab8_on(tier, &n.bounds, &sr, reach);
                 let mut mask = mask & n.lanes();
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;

@@ -1,15 +1,15 @@
-//! The 4-wide BVH the traversal walks: the binary SAH tree collapsed so that each node holds up
-//! to four children's boxes side by side ([`Box4`]) and one ray tests all four in a single SIMD
-//! slab test. A child is an inner node or a leaf (a run of at most [`MAX_LEAF`] primitives in
+//! The 8-wide BVH the traversal walks: the binary SAH tree collapsed so that each node holds up
+//! to eight children's boxes side by side ([`Box8`]) and one ray tests all eight in a single
+//! SIMD slab test. A child is an inner node or a leaf (a run of at most [`MAX_LEAF`] primitives in
 //! the primitive order), packed into one `u32` ([`ChildRef`]).
 
 use super::build::MAX_LEAF;
 use super::node::BvhNode;
-use crate::geometry::slab4::Box4;
+use crate::geometry::slab8::Box8;
 use crate::geometry::Aabb;
 
 /// Children per node.
-pub const WIDTH: usize = 4;
+pub const WIDTH: usize = crate::geometry::slab8::WIDTH;
 
 /// A packed child reference: an inner node's index (top bit clear), or a leaf (top bit set, two
 /// bits of `count − 1`, 29 bits of first position in the primitive order), or [`EMPTY`].
@@ -45,20 +45,20 @@ pub fn leaf_range(c: ChildRef) -> (usize, usize) {
     )
 }
 
-/// A node: its children's boxes, their references, and how many are used. 128 bytes, aligned
-/// to a cache-line pair.
+/// A node: its children's boxes, their references, and how many are used. 256 bytes, aligned
+/// to a cache line.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub struct WideNode {
     /// The children's boxes (unused lanes empty).
-    pub bounds: Box4,
+    pub bounds: Box8,
     /// The children (unused slots [`EMPTY`]), used ones first.
     pub child: [ChildRef; WIDTH],
-    /// Children in use (1..=4).
+    /// Children in use (1..=8).
     pub used: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
+const _: () = assert!(std::mem::size_of::<WideNode>() == 256);
 
 impl WideNode {
     /// The mask of used lanes.
@@ -73,7 +73,7 @@ impl WideNode {
 pub struct TooManyReferences(pub usize);
 
 /// Collapses a binary tree: each wide node takes its binary node's two children and, while it
-/// has fewer than four, replaces the inner child with the largest surface by that child's own
+/// has fewer than eight, replaces the inner child with the largest surface by that child's own
 /// two children. No nodes for an empty tree; a tree that is a single leaf gets one node with
 /// one leaf child.
 ///
@@ -93,7 +93,7 @@ pub fn collapse(
     };
     if root.is_leaf() {
         let mut n = WideNode {
-            bounds: Box4::EMPTY,
+            bounds: Box8::EMPTY,
             child: [EMPTY; WIDTH],
             used: 1,
         };
@@ -141,13 +141,13 @@ pub fn collapse(
 
 fn placeholder() -> WideNode {
     WideNode {
-        bounds: Box4::EMPTY,
+        bounds: Box8::EMPTY,
         child: [EMPTY; WIDTH],
         used: 0,
     }
 }
 
-/// Up to four binary descendants of inner node `b` that together hold its whole subtree.
+/// Up to eight binary descendants of inner node `b` that together hold its whole subtree.
 fn gather(nodes: &[BvhNode], b: u32) -> Vec<u32> {
     let n = &nodes[b as usize];
     let mut kids = vec![b + 1, n.offset];
@@ -208,7 +208,7 @@ mod tests {
             let mut stack = vec![(0u32, None::<([f32; 3], [f32; 3])>)];
             while let Some((i, parent)) = stack.pop().filter(|_| n > 0) {
                 let node = &wide[i as usize];
-                assert!((1..=4).contains(&node.used));
+                assert!((1..=WIDTH as u32).contains(&node.used));
                 for lane in 0..WIDTH {
                     let c = node.child[lane];
                     if lane >= node.used as usize {
@@ -237,12 +237,20 @@ mod tests {
                 }
             }
             assert!(seen.iter().all(|&s| s == 1), "n = {n}");
+            // A node stops gathering only when it is full or none of its children is inner.
+            for node in &wide {
+                if (node.used as usize) < WIDTH {
+                    assert!(node.child[..node.used as usize].iter().all(|&c| is_leaf(c)));
+                }
+            }
             if n == 1000 {
-                // At least two binary inner nodes folded into each wide node on average.
+                // Full eight-child nodes exist, and fewer nodes than binary inner nodes / 2.
+                assert!(wide.iter().any(|node| node.used == 8));
                 let wide_nodes = wide.len();
                 assert!(
                     wide_nodes * 2 < bin.nodes.len() / 2,
-                    "{wide_nodes} wide nodes"
+                    "{wide_nodes} wide nodes for {} binary ones",
+                    bin.nodes.len()
                 );
             }
         }
