@@ -57,6 +57,10 @@ pub struct SimParams {
     /// in flight elsewhere, up to one per thread, the longest held first (the master's
     /// backups): the first result of a tile counts, the other is ignored.
     pub backups: bool,
+    /// The tiles come costliest first and the first windows are dealt in rounds, one batch to
+    /// each worker a round, as the master deals an order given by cost; otherwise (raster
+    /// order) each worker's window is filled in turn, as the master does.
+    pub rounds: bool,
 }
 
 impl SimParams {
@@ -79,6 +83,7 @@ impl SimParams {
             result_bytes_per_pixel: 12.0,
             message_bytes: 0.0,
             backups: false,
+            rounds: false,
         }
     }
 }
@@ -242,34 +247,47 @@ impl Sim<'_> {
     /// batch goes whole or, when the worker holds nothing, as much of it as fits. Each
     /// reaches the worker at `at`.
     fn fill(&mut self, worker: usize, at: f64) {
+        while self.deal(worker, at) {}
+        self.take_backups(worker, at);
+    }
+
+    /// Hands `worker` one batch if the queue has tiles and its window room for them; says
+    /// whether it did.
+    fn deal(&mut self, worker: usize, at: f64) -> bool {
         let p = self.p;
-        while self.next < self.costs.len() {
-            let mean = (self.seen.1 > 0).then(|| self.seen.0 / self.seen.1 as f64);
-            let size = crate::batch::batch_size(
-                p.max_batch,
-                self.costs.len() - self.next,
-                p.workers.max(1) * p.threads.max(1),
-                mean,
-                p.batch_seconds,
-            );
-            let held = self.primaries[worker] + self.backups_out[worker];
-            let free = (p.window.max(1) * size).saturating_sub(held);
-            if free == 0 || (free < size && held > 0) {
-                break;
-            }
-            let take = size.min(free).min(self.costs.len() - self.next);
-            for t in self.next..self.next + take {
-                self.holders[t] = 1;
-                if p.backups {
-                    self.candidates
-                        .push(std::cmp::Reverse((at.max(0.0).to_bits(), worker, t)));
-                }
-            }
-            self.assign(worker, self.next..self.next + take, false, at);
-            self.next += take;
-            self.primaries[worker] += take;
+        if self.next >= self.costs.len() {
+            return false;
         }
-        // The queue is empty: a worker with nothing of its own takes backups.
+        let mean = (self.seen.1 > 0).then(|| self.seen.0 / self.seen.1 as f64);
+        let size = crate::batch::batch_size(
+            p.max_batch,
+            self.costs.len() - self.next,
+            p.workers.max(1) * p.threads.max(1),
+            mean,
+            p.batch_seconds,
+        );
+        let held = self.primaries[worker] + self.backups_out[worker];
+        let free = (p.window.max(1) * size).saturating_sub(held);
+        if free == 0 || (free < size && held > 0) {
+            return false;
+        }
+        let take = size.min(free).min(self.costs.len() - self.next);
+        for t in self.next..self.next + take {
+            self.holders[t] = 1;
+            if p.backups {
+                self.candidates
+                    .push(std::cmp::Reverse((at.max(0.0).to_bits(), worker, t)));
+            }
+        }
+        self.assign(worker, self.next..self.next + take, false, at);
+        self.next += take;
+        self.primaries[worker] += take;
+        true
+    }
+
+    /// Once the queue is empty, a worker with nothing of its own takes backups.
+    fn take_backups(&mut self, worker: usize, at: f64) {
+        let p = self.p;
         if !p.backups || self.next < self.costs.len() || self.primaries[worker] > 0 {
             return;
         }
@@ -334,14 +352,23 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
         first_idle: f64::INFINITY,
         tail_idle: 0.0,
     };
-    let mut startup: f64 = 0.0;
-    // The job and the first window of assignments go out at time 0.
-    for w in 0..workers {
-        let job = p.scene_bytes + p.message_bytes;
-        sim.bytes += job;
-        let ready = p.latency_s + sim.transfer(job) + p.build_s;
-        startup = startup.max(ready);
-        sim.fill(w, ready);
+    // The job goes out at time 0; every worker is ready after the same time, and the first
+    // windows are filled in turn or, for an order by cost, dealt in rounds ([`SimParams::rounds`]).
+    let job = p.scene_bytes + p.message_bytes;
+    sim.bytes += job * workers as f64;
+    let startup = p.latency_s + sim.transfer(job) + p.build_s;
+    if p.rounds {
+        let mut open: Vec<usize> = (0..workers).collect();
+        while !open.is_empty() {
+            open.retain(|&w| sim.deal(w, startup));
+        }
+        for w in 0..workers {
+            sim.take_backups(w, startup);
+        }
+    } else {
+        for w in 0..workers {
+            sim.fill(w, startup);
+        }
     }
     let mut master_free = 0.0f64;
     let mut master_busy = 0.0f64;
@@ -475,6 +502,21 @@ mod tests {
         assert_eq!(plain.makespan, 6.0);
         assert_eq!(copied.makespan, 4.0);
         assert_eq!(copied.work, plain.work, "a copy's work is not the frame's");
+    }
+
+    #[test]
+    fn an_order_by_cost_is_dealt_in_rounds() {
+        // Two one-thread workers with windows of two. Filled in turn (raster order), both 4 s
+        // tiles go into the first window (8 s); dealt in rounds, as the master deals an order
+        // by cost, one to each (5 s).
+        let p = SimParams {
+            window: 2,
+            ..SimParams::ideal(2, 1)
+        };
+        let costs = [4.0, 4.0, 1.0, 1.0];
+        assert_eq!(simulate(&costs, &[1; 4], &p).makespan, 8.0);
+        let rounds = SimParams { rounds: true, ..p };
+        assert_eq!(simulate(&costs, &[1; 4], &rounds).makespan, 5.0);
     }
 
     #[test]

@@ -333,6 +333,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         message_bytes: 64.0,
         // The master's default: idle workers take copies of tiles out once the queue is empty.
         backups: config_backups,
+        // An order by cost is dealt in rounds (`Scheduler::fill`).
+        rounds: c.costly_first,
         ..SimParams::ideal(c.workers, c.threads)
     };
     let in_order = |v: &[f64]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();

@@ -442,6 +442,8 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                 host_per_tile_s: (m.own_cpu_s - m.master_cpu_s).max(0.0) / m.tiles.max(1) as f64,
                 host_cores: machine_cores,
                 // Every worker is ready before the first tile: the trace has no start-up.
+                // Raster order: the master fills each window in turn.
+                rounds: false,
                 scene_bytes: 0.0,
                 build_s: 0.0,
                 result_bytes_per_pixel: m.bytes_received as f64 / pixels.max(1) as f64,

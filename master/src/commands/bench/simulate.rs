@@ -195,6 +195,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
                 host_per_tile_s: 0.0,
                 host_cores: 1,
                 master_per_tile_s: args.master_us / 1e6,
+                // Raster order: the master fills each window in turn.
+                rounds: false,
                 scene_bytes: args.scene_bytes,
                 build_s: args.build_s,
                 result_bytes_per_pixel: 12.0,
