@@ -323,6 +323,7 @@ fn run_planted(seed: u64) -> Outcome {
         ..MasterConfig::default()
     };
     config.schedule.tile = TILE;
+    config.schedule.order = plan.order.clone();
     config.schedule.min_workers = plan.min_workers;
     config.schedule.wait_workers = Duration::from_secs(20);
     config.schedule.tile_deadline = Duration::from_secs(5);
