@@ -9,7 +9,7 @@
 #   env:   RUNS (default 3), MINTIME (default 1), SHARED (default: ../shared beside the repository)
 #
 # For the least noise run it alone under `chrt -r 1` (root):
-#   chrt -r 1 bench/ab_cast.sh /tmp/parrt-before target/release/parrt gears-4
+#   chrt -r 1 bench/ab_cast.sh ../parrt-before/target/release/parrt target/release/parrt gears-4
 set -euo pipefail
 [ $# -ge 2 ] || { sed -n '2,12p' "$0" >&2; exit 2; }
 REPO=$(cd "$(dirname "$0")/.." && pwd)
