@@ -149,10 +149,28 @@ pub fn try_lock(file: &File) -> std::io::Result<Option<String>> {
 
 /// The process holding a `flock` on inode `ino`, from `/proc/locks` (lines such as
 /// `1: FLOCK  ADVISORY  WRITE 1234 fd:01:5678 0 EOF`).
+///
+/// The kernel lists the locks afresh on each `read`, so a file read in several calls can skip
+/// a line when other locks come and go between them. The file is therefore read in one large
+/// call, and read again (a few times) when the lock, known to be held, is not in it.
 fn lock_holder(ino: u64) -> Option<u32> {
-    let text = std::fs::read_to_string("/proc/locks").ok()?;
+    use std::io::Read;
+    const ONE_READ: usize = 1 << 20;
+    let mut buf = vec![0u8; ONE_READ];
+    (0..4).find_map(|_| {
+        let n = File::open("/proc/locks").ok()?.read(&mut buf).ok()?;
+        holder_in(std::str::from_utf8(&buf[..n]).ok()?, ino)
+    })
+}
+
+/// The pid of the `FLOCK` holder of inode `ino` in a `/proc/locks` text (lines marked `->`
+/// are processes waiting for a lock, not holding it).
+fn holder_in(text: &str, ino: u64) -> Option<u32> {
     text.lines().find_map(|line| {
         let f: Vec<&str> = line.split_whitespace().collect();
+        if f.contains(&"->") {
+            return None;
+        }
         let at = f.iter().position(|w| *w == "FLOCK")?;
         let pid: u32 = f.get(at + 3)?.parse().ok()?;
         let inode: u64 = f.get(at + 4)?.rsplit(':').next()?.parse().ok()?;
@@ -208,5 +226,21 @@ mod tests {
         assert_eq!(held, format!("process {}", std::process::id()));
         drop(a);
         assert_eq!(try_lock(&b).unwrap(), None);
+    }
+
+    #[test]
+    fn the_holder_is_read_from_flock_lines_only() {
+        let text = "1: POSIX  ADVISORY  WRITE 77 fd:01:42 0 EOF\n\
+                    2: -> FLOCK  ADVISORY  WRITE 99 fd:01:5678 0 EOF\n\
+                    2: FLOCK  ADVISORY  WRITE 1234 fd:01:5678 0 EOF\n\
+                    3: FLOCK  ADVISORY  WRITE -1 fd:01:7 0 EOF\n";
+        assert_eq!(
+            holder_in(text, 5678),
+            Some(1234),
+            "the holder, not the waiter"
+        );
+        assert_eq!(holder_in(text, 42), None, "a POSIX lock is not a flock");
+        assert_eq!(holder_in(text, 7), None, "a pid hidden from this namespace");
+        assert_eq!(holder_in(text, 8), None);
     }
 }
