@@ -1,6 +1,9 @@
-//! Exit codes: 0 success, 2 bad input or usage, 1 any other failure. A command marks an error as
-//! bad input by wrapping it in [`InputError`]; everything else exits 1.
+//! Exit codes: 0 success, 2 bad input or usage, 1 any other failure. An error is bad input when
+//! its chain holds a [`crate::cli_args::ArgError`] (the command line's own checks) or an
+//! [`InputError`] (a command's wrapping of a library error it knows to be the user's input);
+//! everything else exits 1.
 
+use crate::cli_args::ArgError;
 use std::fmt;
 
 /// An error caused by the user's input (a malformed file, a bad flag value): exit status 2.
@@ -20,9 +23,10 @@ pub fn input_error(e: impl Into<anyhow::Error>) -> anyhow::Error {
     anyhow::Error::new(InputError(e.into()))
 }
 
-/// The exit status for an error: 2 when any cause in its chain is an [`InputError`], else 1.
+/// The exit status for an error: 2 when any cause in its chain is an [`InputError`] or an
+/// [`ArgError`], else 1.
 pub fn code_for(e: &anyhow::Error) -> u8 {
-    if e.chain().any(|c| c.is::<InputError>()) {
+    if e.chain().any(|c| c.is::<InputError>() || c.is::<ArgError>()) {
         2
     } else {
         1

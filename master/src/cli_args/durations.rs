@@ -4,7 +4,7 @@
 //! overflow. The ceiling is the protocol's ([`parrt::protocol::limits::MAX_FLAG_SECONDS`]), the
 //! one the worker's `--dial-timeout` is held to; this adds a floor per flag.
 
-use crate::exit::input_error;
+use super::ArgError;
 use parrt_runtime::options::DEFAULT_HEARTBEAT;
 use std::time::Duration;
 
@@ -28,9 +28,10 @@ pub fn seconds_flag(flag: &str, v: f64, min: Duration, max: Duration) -> anyhow:
         // In range, so the conversion cannot panic.
         Ok(Duration::from_secs_f64(v).clamp(min, max))
     } else {
-        Err(input_error(anyhow::anyhow!(
+        Err(ArgError::Value(format!(
             "{flag} {v:?} is not a number of seconds in {lo}..={hi}"
-        )))
+        ))
+        .into())
     }
 }
 

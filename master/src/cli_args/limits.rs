@@ -3,7 +3,7 @@
 //! count, and the files a user names. Every refusal is bad input (exit 2) with the flag that
 //! raises the limit; nothing here reads more than the limit allows.
 
-use crate::exit::input_error;
+use super::ArgError;
 use clap::Args;
 use parrt::nff::Limits;
 use std::path::Path;
@@ -46,23 +46,25 @@ impl LimitArgs {
     pub fn check_image(&self, width: u32, height: u32, tile: u32) -> anyhow::Result<()> {
         let pixels = width as u64 * height as u64;
         if pixels > self.max_pixels {
-            return Err(input_error(anyhow::anyhow!(
+            return Err(ArgError::Value(format!(
                 "{width}x{height} is {pixels} pixels, over the limit of {} (raise it with --max-pixels)",
                 self.max_pixels
-            )));
+            ))
+            .into());
         }
         if tile == 0 {
-            return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
+            return Err(ArgError::Value("--tile must be at least 1".into()).into());
         }
         let count = |t: u32| (width as u64).div_ceil(t as u64) * (height as u64).div_ceil(t as u64);
         if count(tile) > MAX_TILES {
             let fits = (tile..=width.max(height).max(tile))
                 .find(|&t| count(t) <= MAX_TILES)
                 .unwrap_or(tile);
-            return Err(input_error(anyhow::anyhow!(
+            return Err(ArgError::Value(format!(
                 "--tile {tile} cuts {width}x{height} into {} tiles, over the limit of {MAX_TILES}; use --tile {fits} or larger",
                 count(tile)
-            )));
+            ))
+            .into());
         }
         Ok(())
     }
@@ -77,6 +79,5 @@ impl LimitArgs {
 
 /// [`LimitArgs::read_file`] with an explicit limit, for commands without the limit flags.
 pub fn read_path(path: &Path, max_bytes: u64) -> anyhow::Result<Vec<u8>> {
-    parrt::nff::read_bounded(path, max_bytes)
-        .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", path.display())))
+    parrt::nff::read_bounded(path, max_bytes).map_err(|e| ArgError::file(path, e).into())
 }

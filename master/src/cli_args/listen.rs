@@ -2,21 +2,19 @@
 //! before the scene is read; whether it can be bound (a port in use) is found when binding,
 //! and is not the user's typo.
 
-use crate::exit::input_error;
+use super::ArgError;
 use parrt_runtime::DEFAULT_LISTEN;
 
 /// Checks that `--listen` is an address that can be resolved (bad input otherwise).
 pub fn check_listen(listen: &str) -> anyhow::Result<()> {
     use std::net::ToSocketAddrs;
     let mut addrs = listen.to_socket_addrs().map_err(|e| {
-        input_error(anyhow::anyhow!(
+        ArgError::Value(format!(
             "--listen {listen}: not an address to listen on ({e}); use HOST:PORT, e.g. {DEFAULT_LISTEN}"
         ))
     })?;
     if addrs.next().is_none() {
-        return Err(input_error(anyhow::anyhow!(
-            "--listen {listen}: resolves to no address"
-        )));
+        return Err(ArgError::Value(format!("--listen {listen}: resolves to no address")).into());
     }
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! `cluster`, checked here into the [`LiveOptions`] a live view starts from; a bad value is bad
 //! input (exit 2) naming the flag. The live view itself never sees a flag.
 
-use crate::exit::input_error;
+use super::ArgError;
 use crate::live::limits::{FULL_RATE, MAX_LINGER};
 use crate::live::LiveOptions;
 use clap::Args;
@@ -39,23 +39,25 @@ impl LiveArgs {
         };
         let linger = self.http_linger;
         if !linger.is_finite() || linger < 0.0 || linger > MAX_LINGER.as_secs_f64() {
-            return Err(input_error(anyhow::anyhow!(
+            return Err(ArgError::Value(format!(
                 "--http-linger {linger}: must be between 0 and {} seconds",
                 MAX_LINGER.as_secs()
-            )));
+            ))
+            .into());
         }
         let rate = self.http_full_rate;
         if !rate.is_finite() || rate <= 0.0 || rate > 1e6 {
-            return Err(input_error(anyhow::anyhow!(
+            return Err(ArgError::Value(format!(
                 "--http-full-rate {rate}: must be more than 0 and at most 1000000 megapixels a second"
-            )));
+            ))
+            .into());
         }
         let addr = http
             .to_socket_addrs()
             .ok()
             .and_then(|mut a| a.next())
             .ok_or_else(|| {
-                input_error(anyhow::anyhow!(
+                ArgError::Value(format!(
                     "--http {http}: not an address to listen on; use HOST:PORT, e.g. 127.0.0.1:8080"
                 ))
             })?;

@@ -3,6 +3,7 @@
 //! flatten these into their own `Args`; nothing here runs a render or reads more than a flag
 //! allows.
 //!
+//! - [`arg_error`]: the one error type here (`ArgError`), bad input by its type.
 //! - [`scene_arg`]: the scene (NFF file, JSON description or `NAME[:SIZE]`).
 //! - [`render_flags`]: the render settings (`RenderFlags`) and the accelerator and executor
 //!   choices.
@@ -14,6 +15,7 @@
 //! - [`live`]: the live view's flags (`--http`, ...).
 //! - [`tile_order`]: `--costly-first FILE`, the handout order from a previous render's costs.
 
+pub mod arg_error;
 pub mod durations;
 pub mod limits;
 pub mod listen;
@@ -24,6 +26,7 @@ pub mod scene_arg;
 pub mod size;
 pub mod tile_order;
 
+pub use arg_error::ArgError;
 pub use limits::LimitArgs;
 pub use render_flags::{AccelArg, ExecutorArg, RenderFlags};
 pub use scene_arg::SceneSpec;

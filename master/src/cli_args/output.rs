@@ -4,18 +4,18 @@
 //! render that could take hours rather than after it. No two of a command's files may be one
 //! file ([`check_distinct`]).
 
-use crate::exit::input_error;
+use super::ArgError;
 use std::path::Path;
 
 /// Checks an image output (`-o`): a format parrt writes and a place it can be written.
 pub fn check_image_output(path: &Path) -> anyhow::Result<()> {
-    parrt::film::check_output(path).map_err(input_error)?;
+    parrt::film::check_output(path).map_err(ArgError::refused)?;
     Ok(())
 }
 
 /// Checks a non-image output file: a place it can be written.
 pub fn check_file_output(path: &Path) -> anyhow::Result<()> {
-    parrt::film::check_writable(path).map_err(input_error)
+    Ok(parrt::film::check_writable(path).map_err(ArgError::refused)?)
 }
 
 /// What a path is, as the file system sees it: an existing file by device and inode (so
@@ -54,11 +54,12 @@ pub fn check_distinct(files: &[(&str, Option<&Path>)]) -> anyhow::Result<()> {
     for (i, (flag_a, a, id_a)) in given.iter().enumerate() {
         for (flag_b, b, id_b) in &given[i + 1..] {
             if id_a.is_some() && id_a == id_b {
-                return Err(input_error(anyhow::anyhow!(
+                return Err(ArgError::Conflict(format!(
                     "{flag_a} {} and {flag_b} {} are the same file; give each its own",
                     a.display(),
                     b.display()
-                )));
+                ))
+                .into());
             }
         }
     }
@@ -68,6 +69,6 @@ pub fn check_distinct(files: &[(&str, Option<&Path>)]) -> anyhow::Result<()> {
 /// Creates an output directory (and its parents) and checks that files can be written in it.
 pub fn prepare_out_dir(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir)
-        .map_err(|e| input_error(anyhow::anyhow!("cannot create {}: {e}", dir.display())))?;
+        .map_err(|e| ArgError::Value(format!("cannot create {}: {e}", dir.display())))?;
     check_file_output(&dir.join("probe"))
 }

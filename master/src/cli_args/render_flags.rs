@@ -4,7 +4,7 @@
 //! [`RenderSettings`] here, once, so that every command renders the same bits from the same
 //! flags; a bad value is bad input (exit 2).
 
-use crate::exit::input_error;
+use super::ArgError;
 use clap::{Args, ValueEnum};
 use parrt::description::SceneDescription;
 use parrt::precision::Choice;
@@ -141,7 +141,7 @@ impl RenderFlags {
             PrecisionArg::F32 => Precision::F32,
             PrecisionArg::F64 => Precision::F64,
         };
-        parrt::render::validate_settings(&s).map_err(input_error)?;
+        parrt::render::validate_settings(&s).map_err(ArgError::refused)?;
         let choice = parrt::precision::resolve(requested, desc);
         s.precision = choice.precision;
         Ok((s, choice))

@@ -3,7 +3,7 @@
 //! `NAME[:SIZE]`; none is the built-in default (mount at its default size). The one parser, and
 //! the one set of errors (bad input, exit 2), for render, master, cluster and every bench study.
 
-use crate::exit::input_error;
+use super::ArgError;
 use anyhow::Context;
 use parrt::description::SceneDescription;
 use parrt::nff::Limits;
@@ -38,12 +38,14 @@ impl SceneSpec {
         json: Option<PathBuf>,
     ) -> anyhow::Result<Self> {
         match (file, scene, json) {
-            (Some(_), Some(_), _) => Err(input_error(anyhow::anyhow!(
-                "give either an NFF file or --scene, not both"
-            ))),
-            (Some(_), None, Some(_)) | (None, Some(_), Some(_)) => Err(input_error(
-                anyhow::anyhow!("give one of an NFF file, --scene and --scene-json"),
-            )),
+            (Some(_), Some(_), _) => Err(ArgError::Conflict(
+                "give either an NFF file or --scene, not both".into(),
+            )
+            .into()),
+            (Some(_), None, Some(_)) | (None, Some(_), Some(_)) => Err(ArgError::Conflict(
+                "give one of an NFF file, --scene and --scene-json".into(),
+            )
+            .into()),
             (None, None, Some(j)) => Ok(SceneSpec::Json(j)),
             (Some(f), None, None) => Ok(Self::file(f)),
             (None, Some(s), None) => Self::generated(s),
@@ -79,7 +81,7 @@ impl SceneSpec {
         let (name, size) = match s.split_once(':') {
             Some((n, z)) => {
                 let size: u32 = z.parse().map_err(|_| {
-                    input_error(anyhow::anyhow!(
+                    ArgError::Value(format!(
                         "--scene {s}: size '{z}' is not a whole number (use NAME or NAME:SIZE)"
                     ))
                 })?;
@@ -88,9 +90,7 @@ impl SceneSpec {
             None => (s, None),
         };
         if name.is_empty() {
-            return Err(input_error(anyhow::anyhow!(
-                "--scene needs a generator name"
-            )));
+            return Err(ArgError::Value("--scene needs a generator name".into()).into());
         }
         Ok(SceneSpec::Generated {
             name: name.to_string(),
@@ -116,18 +116,17 @@ impl SceneSpec {
         let desc = match self {
             SceneSpec::File(p) => parrt::nff::parse_file(p, limits).map_err(|e| {
                 if e.kind == parrt::nff::NffErrorKind::Io {
-                    input_error(anyhow::anyhow!("{}: {}", e.file, e.message))
+                    ArgError::file(&e.file, &e.message)
                 } else {
-                    input_error(e)
+                    ArgError::refused(e)
                 }
             })?,
             SceneSpec::Json(p) => {
                 let bytes = super::limits::read_path(p, limits.max_file_bytes)?;
-                serde_json::from_slice(&bytes)
-                    .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", p.display())))?
+                serde_json::from_slice(&bytes).map_err(|e| ArgError::file(p, e))?
             }
             SceneSpec::Generated { name, size } => parrt_scenes::generate(name, *size)
-                .map_err(input_error)
+                .map_err(ArgError::refused)
                 .with_context(|| format!("cannot generate scene {}", self.label()))?,
         };
         Ok((desc, t0.elapsed().as_secs_f64()))

@@ -1,16 +1,16 @@
 //! Image sizes given as one flag (`--size WxH` of the accuracy and precision studies): both
 //! sides whole numbers of at least 1, else bad input (exit 2) naming the flag.
 
-use crate::exit::input_error;
+use super::ArgError;
 
 /// Parses `WxH` (both at least 1).
 pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
-    let bad = || input_error(anyhow::anyhow!("--size {s}: expected WxH, e.g. 256x256"));
+    let bad = || ArgError::Value(format!("--size {s}: expected WxH, e.g. 256x256"));
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;
     let h: u32 = h.trim().parse().map_err(|_| bad())?;
     if w == 0 || h == 0 {
-        return Err(bad());
+        return Err(bad().into());
     }
     Ok((w, h))
 }

@@ -3,7 +3,7 @@
 //! in raster order can end waiting on one costly tile that started late; started first, it
 //! overlaps the rest. The order changes when tiles are rendered, never their pixels.
 
-use crate::exit::input_error;
+use super::ArgError;
 use clap::Args;
 use parrt::tile::Tile;
 use std::path::{Path, PathBuf};
@@ -32,13 +32,14 @@ impl OrderArgs {
             (t.id, t.x, t.y, t.w, t.h) == (w.id, w.x, w.y, w.w, w.h)
         };
         if costs.len() != want.len() || !costs.iter().zip(&want).all(|(c, w)| same(c, w)) {
-            return Err(input_error(anyhow::anyhow!(
+            return Err(ArgError::Value(format!(
                 "--costly-first {}: its {} tiles are not this render's {} tiles of {tile} px at \
                  {width}x{height}; record it with --tile-costs at the same size and --tile",
                 path.display(),
                 costs.len(),
                 want.len()
-            )));
+            ))
+            .into());
         }
         Ok(Some(costly_first(&costs)))
     }
@@ -56,12 +57,10 @@ pub fn costly_first(costs: &[(Tile, f64)]) -> Vec<u32> {
 /// errors are bad input naming the path and line.
 pub fn read_costs(path: &Path) -> anyhow::Result<Vec<(Tile, f64)>> {
     let bytes = super::limits::read_path(path, parrt::nff::limits::DEFAULT_MAX_FILE_BYTES)?;
-    let text = String::from_utf8(bytes)
-        .map_err(|_| input_error(anyhow::anyhow!("{}: not UTF-8 text", path.display())))?;
-    let costs = parrt::efficiency::read_tile_costs(&text)
-        .map_err(|e| input_error(anyhow::anyhow!("{}: {e}", path.display())))?;
+    let text = String::from_utf8(bytes).map_err(|_| ArgError::file(path, "not UTF-8 text"))?;
+    let costs = parrt::efficiency::read_tile_costs(&text).map_err(|e| ArgError::file(path, e))?;
     if costs.is_empty() {
-        return Err(input_error(anyhow::anyhow!("{}: no tiles", path.display())));
+        return Err(ArgError::file(path, "no tiles").into());
     }
     Ok(costs)
 }
