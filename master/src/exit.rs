@@ -26,7 +26,9 @@ pub fn input_error(e: impl Into<anyhow::Error>) -> anyhow::Error {
 /// The exit status for an error: 2 when any cause in its chain is an [`InputError`] or an
 /// [`ArgError`], else 1.
 pub fn code_for(e: &anyhow::Error) -> u8 {
-    if e.chain().any(|c| c.is::<InputError>() || c.is::<ArgError>()) {
+    if e.chain()
+        .any(|c| c.is::<InputError>() || c.is::<ArgError>())
+    {
         2
     } else {
         1
