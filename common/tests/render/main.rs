@@ -10,3 +10,4 @@ mod precision_auto;
 mod scene_owned;
 mod spd_stats;
 mod stats_plausible;
+mod streams;
