@@ -7,8 +7,7 @@
 //! - [`nff`]: the strict token-based reader and the round-tripping writer.
 //! - [`real`], [`vec3`]: the scalar trait (`f32` fast path, `f64` reference path) and vectors.
 //! - [`render`]: builds a render-ready scene and accelerator, renders tiles ([`packet_trace`]:
-//!   eye rays and their shadow rays in packets; [`stream_trace`]: a tile's secondary and shadow
-//!   rays gathered, sorted by direction and traced in packets).
+//!   eye rays and their shadow rays in packets).
 //! - [`tile`], [`smp`], [`film`]: tile tasks, shared-memory executors, the image.
 //! - [`settings`], [`stats`]: what decides pixels, and what was counted.
 //! - [`frame`], [`precision`]: the camera-relative origin scenes are built in, and the choice of
@@ -51,7 +50,6 @@ pub mod shade;
 pub mod simulate;
 pub mod smp;
 pub mod stats;
-pub mod stream_trace;
 pub mod tile;
 pub mod vec3;
 pub mod vertices;

@@ -13,10 +13,8 @@ use crate::scene::{Scene, SceneError};
 use crate::settings::{Precision, RenderSettings, MAX_GRID_DENSITY};
 use crate::shade::{Integrator, RayKind, ShadeOptions};
 use crate::stats::RayStats;
-use crate::stream_trace::{Stream, STREAM_BLOCKS};
 use crate::tile::Tile;
 use crate::vec3::V3;
-use std::cell::RefCell;
 use std::time::Instant;
 use thiserror::Error;
 
@@ -24,12 +22,6 @@ use thiserror::Error;
 pub const MAX_DEPTH_LIMIT: u32 = 64;
 /// Most samples per pixel a render may ask for.
 pub const MAX_SPP: u32 = 4096;
-
-thread_local! {
-    /// Each thread's stream buffers ([`crate::stream_trace`]), reused from tile to tile.
-    static STREAM_F32: RefCell<Stream<f32>> = RefCell::new(Stream::new());
-    static STREAM_F64: RefCell<Stream<f64>> = RefCell::new(Stream::new());
-}
 
 /// Errors building a renderer.
 #[derive(Debug, Error)]
@@ -252,7 +244,6 @@ impl<R: Real> Core<R> {
         tile: &Tile,
         out: &mut Vec<Rgb>,
         stats: &mut RayStats,
-        stream: &mut Stream<R>,
     ) {
         out.clear();
         out.reserve(tile.pixel_count());
@@ -288,27 +279,11 @@ impl<R: Real> Core<R> {
             return;
         }
         if packets && s.spp == 1 {
-            // The tile's parts of the image's 4 × 4 blocks, a packet each, traced in streams
-            // of up to STREAM_BLOCKS blocks whose secondary and shadow rays go together.
+            // The tile's parts of the image's 4 × 4 blocks, a packet each.
             let w = tile.w as usize;
             out.resize(tile.pixel_count(), [0.0; 3]);
             let mut rays = [self.camera.ray(R::HALF, R::HALF); PACKET];
-            let mut rects = [(0, 0, 0, 0); STREAM_BLOCKS];
-            let mut flush = |stream: &mut Stream<R>, rects: &[(u32, u32, u32, u32)]| {
-                stream.trace(&self.integrator, stats);
-                let mut colors = stream.eye_colors();
-                for &(bx, by, bw, bh) in rects {
-                    for y in by..by + bh {
-                        for x in bx..bx + bw {
-                            let c = colors.next().unwrap_or_else(V3::zero);
-                            out[(y - tile.y) as usize * w + (x - tile.x) as usize] = finish(c);
-                        }
-                    }
-                }
-                drop(colors);
-                stream.clear();
-            };
-            stream.clear();
+            let mut colors = [V3::zero(); PACKET];
             for (bx, by, bw, bh) in tile.blocks() {
                 let mut n = 0;
                 for y in by..by + bh {
@@ -318,15 +293,15 @@ impl<R: Real> Core<R> {
                         n += 1;
                     }
                 }
-                rects[stream.blocks()] = (bx, by, bw, bh);
-                stream.push_block(&rays[..n]);
-                if stream.blocks() == crate::stream_trace::stream_blocks() {
-                    flush(stream, &rects);
+                self.integrator
+                    .trace_eye_packet(&rays[..n], &mut colors[..n], stats);
+                let mut k = 0;
+                for y in by..by + bh {
+                    for x in bx..bx + bw {
+                        out[(y - tile.y) as usize * w + (x - tile.x) as usize] = finish(colors[k]);
+                        k += 1;
+                    }
                 }
-            }
-            let b = stream.blocks();
-            if b > 0 {
-                flush(stream, &rects[..b]);
             }
             return;
         }
@@ -417,10 +392,8 @@ impl Renderer {
     pub fn render_tile(&self, tile: &Tile, out: &mut Vec<Rgb>, stats: &mut RayStats) {
         let p = self.packets;
         match &self.inner {
-            Inner::F32(c) => STREAM_F32
-                .with_borrow_mut(|st| c.render_tile(&self.settings, p, tile, out, stats, st)),
-            Inner::F64(c) => STREAM_F64
-                .with_borrow_mut(|st| c.render_tile(&self.settings, p, tile, out, stats, st)),
+            Inner::F32(c) => c.render_tile(&self.settings, p, tile, out, stats),
+            Inner::F64(c) => c.render_tile(&self.settings, p, tile, out, stats),
         }
     }
 

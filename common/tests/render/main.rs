@@ -10,4 +10,3 @@ mod precision_auto;
 mod scene_owned;
 mod spd_stats;
 mod stats_plausible;
-mod streams;
