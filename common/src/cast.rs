@@ -1,11 +1,17 @@
 //! Casting only, for comparing raw ray throughput with other kernels (Embree's `nffcast`): one eye
 //! ray through each pixel centre and, for every hit, one shadow ray per light — to every light,
 //! or (culling) only to lights in front of the surface. No shading, no secondary rays. The rays
-//! go in 4 × 4 packets like a render's eye rays, or one by one.
+//! go in 4 × 4 packets like a render's eye rays, or one by one. In `f32`, a packet's rays live
+//! in lanes ([`Lanes16`]) from the camera through the traversal and the leaf kernels, and each
+//! light's shadow packet is written into lanes from the hits.
+
+use std::any::Any;
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
+use crate::geometry::lanes16::Lanes16;
 use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
+use crate::packet_leaf::LanesLeaf;
 use crate::real::Real;
 use crate::scene::Surface;
 use crate::shade::Integrator;
@@ -76,6 +82,12 @@ pub fn cast_tile<R: Real>(
         }
         return;
     }
+    if let (Some(integrator), Some(camera)) = (
+        (integrator as &dyn Any).downcast_ref::<Integrator<f32>>(),
+        (camera as &dyn Any).downcast_ref::<Camera<f32>>(),
+    ) {
+        return cast_tile_lanes(integrator, camera, tile, cull, stats);
+    }
     let mut rays = [PreparedRay::new(eye(tile.x, tile.y)); PACKET];
     let mut hits = [None; PACKET];
     let mut surfaces = [None; PACKET];
@@ -106,6 +118,54 @@ pub fn cast_tile<R: Real>(
                 }
             }
             integrator.occluded_packet(&shadow[..k], &mut occ[..k], stats);
+            stats.shadow_rays += k as u64;
+            stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;
+        }
+        stats.eye_hits += hits[..n].iter().filter(|h| h.is_some()).count() as u64;
+    }
+}
+
+/// [`cast_tile`]'s packets in `f32`, their rays in lanes: the same rays, hits and counts.
+fn cast_tile_lanes(
+    integrator: &Integrator<f32>,
+    camera: &Camera<f32>,
+    tile: &Tile,
+    cull: bool,
+    stats: &mut RayStats,
+) {
+    let scene = &integrator.scene;
+    let accel = &integrator.accel;
+    let mut eye = Lanes16::new();
+    let mut shadow = Lanes16::new();
+    // Rays a leaf test takes one by one are prepared into this, once per packet.
+    let mut prepared = [PreparedRay::new(camera.ray(0.5, 0.5)); PACKET];
+    let mut hits = [None; PACKET];
+    let mut surfaces = [None; PACKET];
+    let mut occ = [false; PACKET];
+    for (bx, by, bw, bh) in tile.blocks() {
+        eye.eye(camera, bx, by, bw, bh);
+        let n = eye.len();
+        stats.eye_rays += n as u64;
+        let test = LanesLeaf::new(scene, &mut prepared);
+        accel.intersect_lanes(&eye, &mut hits[..n], stats, test);
+        for i in 0..n {
+            surfaces[i] = hits[i].map(|h| scene.surface(&eye.ray(i), &h));
+        }
+        for light in 0..scene.lights.len() {
+            shadow.clear();
+            for (i, s) in surfaces[..n].iter().enumerate() {
+                let Some(s) = s else { continue };
+                if let Some(r) = shadow_ray(integrator, &eye.ray(i), s, light, cull) {
+                    shadow.push(&r);
+                }
+            }
+            let k = shadow.len();
+            if k == 0 {
+                continue;
+            }
+            shadow.prepare();
+            let test = LanesLeaf::new(scene, &mut prepared);
+            accel.occluded_lanes(&shadow, &mut occ[..k], stats, test);
             stats.shadow_rays += k as u64;
             stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;
         }
