@@ -178,6 +178,60 @@ impl<R: Real> Frustum<R> {
     }
 }
 
+/// [`Frustum::from_lanes`] for the `avx512` tier: each bound a reduction of one register
+/// (`vminps`/`vmaxps`: the bounds of finite lanes, where the order of the reduction changes
+/// at most the sign of a zero bound, which no comparison of the walk sees), each check one
+/// mask. An end that is NaN counts as +∞ for the shortest ray, as `f32::min` takes it.
+///
+/// # Safety
+/// The CPU must support AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn frustum_avx512(l: &Lanes16) -> Option<Frustum<f32>> {
+    use std::arch::x86_64::*;
+    let s = &l.slab;
+    // SAFETY: every load reads sixteen `f32` of a `[f32; 16]` (unaligned loads).
+    let load = |a: &[f32; PACKET]| unsafe { _mm512_loadu_ps(a.as_ptr()) };
+    let inf = _mm512_set1_ps(f32::INFINITY);
+    let finite = |v: __m512| _mm512_cmp_ps_mask::<_CMP_LT_OQ>(_mm512_abs_ps(v), inf);
+    let zero = _mm512_setzero_ps();
+    let mut ok = 0xffffu16;
+    let mut f = Frustum {
+        o_lo: [0.0; 3],
+        o_hi: [0.0; 3],
+        inv_lo: [0.0; 3],
+        inv_hi: [0.0; 3],
+        neg: s.neg,
+        t_min: 0.0,
+    };
+    for a in 0..3 {
+        let (o, inv) = (load(&s.o[a]), load(&s.inv[a]));
+        let neg = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(inv, zero);
+        ok &= finite(o) & finite(inv) & if s.neg[a] { neg } else { !neg };
+        f.o_lo[a] = _mm512_reduce_min_ps(o);
+        f.o_hi[a] = _mm512_reduce_max_ps(o);
+        f.inv_lo[a] = _mm512_reduce_min_ps(inv);
+        f.inv_hi[a] = _mm512_reduce_max_ps(inv);
+    }
+    let t_min = load(&s.t_min);
+    ok &= finite(t_min);
+    if ok != 0xffff {
+        return None;
+    }
+    f.t_min = _mm512_reduce_min_ps(t_min);
+    let t_max = load(&l.t_max);
+    let nan = _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(t_max, t_max);
+    let shortest = _mm512_reduce_min_ps(_mm512_mask_blend_ps(nan, t_max, inf));
+    let mut spread = 0.0f32;
+    for a in 0..3 {
+        spread = spread.max(f.o_hi[a] - f.o_lo[a]);
+    }
+    if spread > COHERENCE as f32 * shortest {
+        return None;
+    }
+    Some(f)
+}
+
 /// The hit children of a node in ascending bound (insertion sort; ties keep lane order), with
 /// their lanes.
 #[inline(always)]
@@ -322,11 +376,15 @@ impl Bvh {
     /// The bounds a packet in lanes is traced together with, or `None` when its rays go one by
     /// one (the same decision as [`Bvh::takes_as_packet`] on its prepared rays).
     fn lanes_bounds(&self, rays: &Lanes16) -> Option<Frustum<f32>> {
-        if rays.len() > 1 && !self.nodes.is_empty() {
-            Frustum::<f32>::from_lanes(rays)
-        } else {
-            None
+        if rays.len() <= 1 || self.nodes.is_empty() {
+            return None;
         }
+        #[cfg(target_arch = "x86_64")]
+        if crate::isa::current().avx512() {
+            // SAFETY: the avx512 tier is only chosen on a CPU with AVX-512 F, BW, DQ, VL.
+            return unsafe { frustum_avx512(rays) };
+        }
+        Frustum::<f32>::from_lanes(rays)
     }
 
     /// Closest hits of a packet of at most [`PACKET`] rays into `out` (same indexing);
@@ -696,5 +754,64 @@ impl Bvh {
         }
         stats.box_tests += box_tests;
         stats.primitive_tests += prim_tests;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Ray;
+    use crate::vec3::V3;
+    use proptest::prelude::*;
+
+    fn comp() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            6 => 0.1f32..4.0,
+            1 => Just(0.0f32),
+            1 => Just(-0.0f32),
+            1 => Just(f32::INFINITY),
+            1 => Just(f32::NAN),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        /// The AVX-512 bounds of a packet in lanes are the portable ones: the same decision
+        /// (signs, finiteness, coherence) and the same bound values.
+        #[test]
+        fn avx512_bounds_are_the_portable_bounds(
+            base in proptest::array::uniform3(-5.0f32..5.0),
+            signs in proptest::array::uniform3(any::<bool>()),
+            rays in proptest::collection::vec(
+                (proptest::array::uniform3(prop_oneof![4 => 0.0f32..0.01, 1 => 0.0f32..2.0]),
+                 proptest::array::uniform3(comp()), any::<bool>(),
+                 prop_oneof![Just(f32::INFINITY), Just(f32::NAN), 0.0f32..50.0, 0.0f32..0.5],
+                 prop_oneof![4 => Just(0.0f32), 1 => 0.0f32..1.0, 1 => Just(f32::NAN)]),
+                1..=PACKET),
+        ) {
+            #[cfg(target_arch = "x86_64")]
+            if crate::isa::Isa::Avx512.supported() {
+                let mut l = Lanes16::new();
+                for &(jitter, d, flip, t_max, t_min) in &rays {
+                    let o = V3::from_array([0, 1, 2].map(|a| base[a] + jitter[a]));
+                    let mut d = [0, 1, 2].map(|a| if signs[a] { -d[a] } else { d[a] });
+                    if flip {
+                        d[0] = -d[0];
+                    }
+                    l.push(&Ray { o, d: V3::from_array(d), t_min, t_max });
+                }
+                l.prepare();
+                let want = Frustum::<f32>::from_lanes(&l);
+                // SAFETY: this CPU has AVX-512 F.
+                let got = unsafe { frustum_avx512(&l) };
+                prop_assert_eq!(want.is_some(), got.is_some(), "{:?} {:?}", want, got);
+                if let (Some(w), Some(g)) = (want, got) {
+                    // Values, not bits: the sign of a zero bound may differ (see frustum_avx512).
+                    prop_assert!(w.o_lo == g.o_lo && w.o_hi == g.o_hi, "{:?} {:?}", w, g);
+                    prop_assert!(w.inv_lo == g.inv_lo && w.inv_hi == g.inv_hi, "{:?} {:?}", w, g);
+                    prop_assert!(w.neg == g.neg && w.t_min == g.t_min, "{:?} {:?}", w, g);
+                }
+            }
+        }
     }
 }
