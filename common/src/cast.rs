@@ -15,20 +15,20 @@ use crate::packet_leaf::LanesLeaf;
 use crate::real::Real;
 use crate::scene::Surface;
 use crate::shade::Integrator;
+use crate::shadow16::{shadow_lanes, SurfaceLanes};
 use crate::stats::RayStats;
 use crate::tile::Tile;
+use crate::vec3::V3;
 
-/// The shadow ray from the surface `s` hit by `ray` to light `light`, or `None` when culled or
-/// the light sits on the surface.
+/// The shadow ray from the surface `s` hit by `ray` to the light at `position`, or `None` when
+/// culled or the light sits on the surface.
 #[inline]
-fn shadow_ray<R: Real>(
-    integrator: &Integrator<R>,
+pub(crate) fn shadow_ray<R: Real>(
+    position: V3<R>,
     ray: &Ray<R>,
     s: &Surface<R>,
-    light: usize,
     cull: bool,
 ) -> Option<Ray<R>> {
-    let position = integrator.scene.lights[light].position;
     let ng = s.ng.face_forward(-ray.d);
     let to_light = position - s.p;
     if cull && ng.dot(to_light) <= R::ZERO {
@@ -71,7 +71,9 @@ pub fn cast_tile<R: Real>(
                 stats.eye_hits += 1;
                 let s = integrator.scene.surface(&ray, &hit);
                 for light in 0..lights {
-                    if let Some(shadow) = shadow_ray(integrator, &ray, &s, light, cull) {
+                    if let Some(shadow) =
+                        shadow_ray(integrator.scene.lights[light].position, &ray, &s, cull)
+                    {
                         stats.shadow_rays += 1;
                         if integrator.occluded(&shadow, stats) {
                             stats.shadow_hits += 1;
@@ -112,7 +114,12 @@ pub fn cast_tile<R: Real>(
             let mut k = 0;
             for i in 0..n {
                 let Some(s) = &surfaces[i] else { continue };
-                if let Some(r) = shadow_ray(integrator, &rays[i].ray, s, light, cull) {
+                if let Some(r) = shadow_ray(
+                    integrator.scene.lights[light].position,
+                    &rays[i].ray,
+                    s,
+                    cull,
+                ) {
                     shadow[k] = PreparedRay::new(r);
                     k += 1;
                 }
@@ -140,7 +147,7 @@ fn cast_tile_lanes(
     // Rays a leaf test takes one by one are prepared into this, once per packet.
     let mut prepared = [PreparedRay::new(camera.ray(0.5, 0.5)); PACKET];
     let mut hits = [None; PACKET];
-    let mut surfaces = [None; PACKET];
+    let mut surfaces = SurfaceLanes::default();
     let mut occ = [false; PACKET];
     for (bx, by, bw, bh) in tile.blocks() {
         eye.eye(camera, bx, by, bw, bh);
@@ -148,22 +155,18 @@ fn cast_tile_lanes(
         stats.eye_rays += n as u64;
         let test = LanesLeaf::new(scene, &mut prepared);
         accel.intersect_lanes(&eye, &mut hits[..n], stats, test);
-        for i in 0..n {
-            surfaces[i] = hits[i].map(|h| scene.surface(&eye.ray(i), &h));
-        }
-        for light in 0..scene.lights.len() {
-            shadow.clear();
-            for (i, s) in surfaces[..n].iter().enumerate() {
-                let Some(s) = s else { continue };
-                if let Some(r) = shadow_ray(integrator, &eye.ray(i), s, light, cull) {
-                    shadow.push(&r);
-                }
+        surfaces.mask = 0;
+        for (i, h) in hits[..n].iter().enumerate() {
+            if let Some(h) = h {
+                surfaces.set(i, &scene.surface(&eye.ray(i), h));
             }
+        }
+        for light in &scene.lights {
+            shadow_lanes(&mut shadow, &eye, &surfaces, light.position, cull);
             let k = shadow.len();
             if k == 0 {
                 continue;
             }
-            shadow.prepare();
             let test = LanesLeaf::new(scene, &mut prepared);
             accel.occluded_lanes(&shadow, &mut occ[..k], stats, test);
             stats.shadow_rays += k as u64;
