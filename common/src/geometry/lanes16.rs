@@ -221,6 +221,8 @@ unsafe fn prepare_avx2(l: &mut Lanes16) {
 
 /// The eye rays of pixels `(px[i], py[i])` for the packet's lanes (lanes past it take lane 0's
 /// pixel): [`Camera::ray`]'s operations lane by lane, then [`prepare_lanes`].
+// Lane loops index several arrays by lane: the form the compiler vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn eye_lanes(l: &mut Lanes16, c: &Camera<f32>, px: &[u32; LANES], py: &[u32; LANES]) {
     let n = l.n;
@@ -264,6 +266,8 @@ fn pick(k: u32, v: [f32; 3]) -> f32 {
 }
 
 /// [`PreparedRay::new`] lane by lane, into the box test's and the kernels' lanes.
+// Lane loops index several arrays by lane: the form the compiler vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn prepare_lanes(l: &mut Lanes16) {
     let n = l.n.max(1);
