@@ -1,6 +1,6 @@
 //! The shadow rays of a packet's hits towards one light, made sixteen lanes at a time straight
 //! into a [`Lanes16`] packet: the hit points, their error bounds and geometric normals in lanes
-//! ([`SurfaceLanes`]), and per lane exactly what [`crate::cast::shadow_ray`] computes for that
+//! ([`SurfaceLanes`]), and per lane exactly what `cast::shadow_ray` computes for that
 //! hit — the normal turned towards the eye, the cull test, the origin offset off the surface and
 //! rounded away from it ([`crate::geometry::offset_ray_origin`]), the unit direction and the
 //! distance — in the same IEEE operations and order. The rays that exist go into the packet in
