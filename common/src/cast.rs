@@ -1,28 +1,36 @@
 //! Casting only, for comparing raw ray throughput with other kernels (Embree's `nffcast`): one eye
 //! ray through each pixel centre and, for every hit, one shadow ray per light — to every light,
 //! or (culling) only to lights in front of the surface. No shading, no secondary rays. The rays
-//! go in 4 × 4 packets like a render's eye rays, or one by one.
+//! go in 4 × 4 packets like a render's eye rays, or one by one. In `f32` on the `avx512` tier, a
+//! packet's rays live in lanes ([`Lanes16`]) from the camera through the traversal and the leaf
+//! kernels, and each light's shadow packet is made in lanes from the hits
+//! ([`crate::shadow16`]); the other tiers trace prepared rays. Both give the same rays, hits and
+//! counts.
+
+use std::any::Any;
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
+use crate::geometry::lanes16::Lanes16;
 use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
+use crate::packet_leaf::LanesLeaf;
 use crate::real::Real;
 use crate::scene::Surface;
 use crate::shade::Integrator;
+use crate::shadow16::{shadow_lanes, SurfaceLanes};
 use crate::stats::RayStats;
 use crate::tile::Tile;
+use crate::vec3::V3;
 
-/// The shadow ray from the surface `s` hit by `ray` to light `light`, or `None` when culled or
-/// the light sits on the surface.
+/// The shadow ray from the surface `s` hit by `ray` to the light at `position`, or `None` when
+/// culled or the light sits on the surface.
 #[inline]
-fn shadow_ray<R: Real>(
-    integrator: &Integrator<R>,
+pub(crate) fn shadow_ray<R: Real>(
+    position: V3<R>,
     ray: &Ray<R>,
     s: &Surface<R>,
-    light: usize,
     cull: bool,
 ) -> Option<Ray<R>> {
-    let position = integrator.scene.lights[light].position;
     let ng = s.ng.face_forward(-ray.d);
     let to_light = position - s.p;
     if cull && ng.dot(to_light) <= R::ZERO {
@@ -65,7 +73,9 @@ pub fn cast_tile<R: Real>(
                 stats.eye_hits += 1;
                 let s = integrator.scene.surface(&ray, &hit);
                 for light in 0..lights {
-                    if let Some(shadow) = shadow_ray(integrator, &ray, &s, light, cull) {
+                    if let Some(shadow) =
+                        shadow_ray(integrator.scene.lights[light].position, &ray, &s, cull)
+                    {
                         stats.shadow_rays += 1;
                         if integrator.occluded(&shadow, stats) {
                             stats.shadow_hits += 1;
@@ -75,6 +85,15 @@ pub fn cast_tile<R: Real>(
             }
         }
         return;
+    }
+    // The lanes pay on the `avx512` tier only (BENCHMARKS.md, issue 33: 1.06–1.61 × there,
+    // 0.95–1.04 on `avx2`, 0.92–0.95 on `scalar`); the other tiers keep the prepared rays.
+    if let (Some(integrator), Some(camera), true) = (
+        (integrator as &dyn Any).downcast_ref::<Integrator<f32>>(),
+        (camera as &dyn Any).downcast_ref::<Camera<f32>>(),
+        crate::isa::current().avx512(),
+    ) {
+        return cast_tile_lanes(integrator, camera, tile, cull, stats);
     }
     let mut rays = [PreparedRay::new(eye(tile.x, tile.y)); PACKET];
     let mut hits = [None; PACKET];
@@ -100,12 +119,61 @@ pub fn cast_tile<R: Real>(
             let mut k = 0;
             for i in 0..n {
                 let Some(s) = &surfaces[i] else { continue };
-                if let Some(r) = shadow_ray(integrator, &rays[i].ray, s, light, cull) {
+                if let Some(r) = shadow_ray(
+                    integrator.scene.lights[light].position,
+                    &rays[i].ray,
+                    s,
+                    cull,
+                ) {
                     shadow[k] = PreparedRay::new(r);
                     k += 1;
                 }
             }
             integrator.occluded_packet(&shadow[..k], &mut occ[..k], stats);
+            stats.shadow_rays += k as u64;
+            stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;
+        }
+        stats.eye_hits += hits[..n].iter().filter(|h| h.is_some()).count() as u64;
+    }
+}
+
+/// [`cast_tile`]'s packets in `f32`, their rays in lanes: the same rays, hits and counts.
+fn cast_tile_lanes(
+    integrator: &Integrator<f32>,
+    camera: &Camera<f32>,
+    tile: &Tile,
+    cull: bool,
+    stats: &mut RayStats,
+) {
+    let scene = &integrator.scene;
+    let accel = &integrator.accel;
+    let mut eye = Lanes16::new();
+    let mut shadow = Lanes16::new();
+    // Rays a leaf test takes one by one are prepared into this, once per packet.
+    let mut prepared = [PreparedRay::new(camera.ray(0.5, 0.5)); PACKET];
+    let mut hits = [None; PACKET];
+    let mut surfaces = SurfaceLanes::default();
+    let mut occ = [false; PACKET];
+    for (bx, by, bw, bh) in tile.blocks() {
+        eye.eye(camera, bx, by, bw, bh);
+        let n = eye.len();
+        stats.eye_rays += n as u64;
+        let test = LanesLeaf::new(scene, &mut prepared);
+        accel.intersect_lanes(&eye, &mut hits[..n], stats, test);
+        surfaces.mask = 0;
+        for (i, h) in hits[..n].iter().enumerate() {
+            if let Some(h) = h {
+                surfaces.set(i, &scene.surface(&eye.ray(i), h));
+            }
+        }
+        for light in &scene.lights {
+            shadow_lanes(&mut shadow, &eye, &surfaces, light.position, cull);
+            let k = shadow.len();
+            if k == 0 {
+                continue;
+            }
+            let test = LanesLeaf::new(scene, &mut prepared);
+            accel.occluded_lanes(&shadow, &mut occ[..k], stats, test);
             stats.shadow_rays += k as u64;
             stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;
         }

@@ -47,6 +47,7 @@ pub mod scene_leaf;
 pub mod seconds;
 pub mod settings;
 pub mod shade;
+pub mod shadow16;
 pub mod simulate;
 pub mod smp;
 pub mod stats;

@@ -7,7 +7,9 @@
 use crate::bits::SetBits;
 use std::any::{Any, TypeId};
 
+use crate::accel::bvh::packet::LanesPrimTest;
 use crate::accel::RayPrimTest;
+use crate::geometry::lanes16::Lanes16;
 use crate::geometry::leaf16::{self, Rays16, LANES};
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
@@ -112,6 +114,63 @@ fn run(
     }
 }
 
+/// The leaf `leaf` (of a kind checked) against the rays of `mask` in `lanes`, into `best`.
+/// Every primitive with the bound each ray entered the leaf with: a hit beyond the best so far
+/// never beats it, so offering each ray its hits in leaf order picks what the one-at-a-time
+/// loop picks.
+#[inline(always)]
+fn closest16<R: Real>(
+    scene: &Scene<f32>,
+    rays: &[PreparedRay<f32>],
+    lanes: &Rays16,
+    mask: u32,
+    leaf: &[u32],
+    best: &mut [Nearest<R>],
+) {
+    let mut t_max = [0.0f32; LANES];
+    for i in SetBits(mask) {
+        t_max[i] = best[i].t.to_f32();
+    }
+    for &p in leaf {
+        let h = run(scene, rays, lanes, p, mask, &t_max);
+        for i in SetBits(h.mask) {
+            best[i].offer(Some(PrimHit {
+                t: R::from_f32(h.t[i]),
+                prim: p,
+                u: R::from_f32(h.b1[i]),
+                v: R::from_f32(h.b2[i]),
+            }));
+        }
+    }
+}
+
+/// The leaf `leaf` (of a kind checked) against the rays of `mask` in `lanes`, ray `i` within
+/// `t_max[i]`: the rays blocked, and the position of each one's first blocker in `first`.
+#[inline(always)]
+fn any16(
+    scene: &Scene<f32>,
+    rays: &[PreparedRay<f32>],
+    lanes: &Rays16,
+    mask: u32,
+    leaf: &[u32],
+    t_max: &[f32; LANES],
+    first: &mut [usize],
+) -> u32 {
+    let (mut open, mut blocked) = (mask, 0);
+    for (j, &p) in leaf.iter().enumerate() {
+        let new = run(scene, rays, lanes, p, open, t_max).mask & open;
+        for i in SetBits(new) {
+            first[i] = j;
+        }
+        blocked |= new;
+        open &= !new;
+        if open == 0 {
+            break;
+        }
+    }
+    blocked
+}
+
 /// Whether the rays of `mask` take `leaf` together.
 #[inline(always)]
 fn takes(mask: u32, leaf: &[u32]) -> bool {
@@ -148,25 +207,7 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
         if takes(mask, leaf) {
             if let Some((scene, r32, lanes)) = self.lanes(rays) {
                 if kind(&scene.prims, leaf) != Kind::Other {
-                    // Every primitive with the bound each ray entered the leaf with: a hit
-                    // beyond the best so far never beats it, so offering each ray its hits in
-                    // leaf order picks what the one-at-a-time loop picks.
-                    let mut t_max = [0.0f32; LANES];
-                    for i in SetBits(mask) {
-                        t_max[i] = best[i].t.to_f32();
-                    }
-                    for &p in leaf {
-                        let h = run(scene, r32, lanes, p, mask, &t_max);
-                        for i in SetBits(h.mask) {
-                            best[i].offer(Some(PrimHit {
-                                t: R::from_f32(h.t[i]),
-                                prim: p,
-                                u: R::from_f32(h.b1[i]),
-                                v: R::from_f32(h.b2[i]),
-                            }));
-                        }
-                    }
-                    return;
+                    return closest16(scene, r32, lanes, mask, leaf, best);
                 }
             }
         }
@@ -188,22 +229,101 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
                     for (t, r) in t_max.iter_mut().zip(r32) {
                         *t = r.ray.t_max;
                     }
-                    let (mut open, mut blocked) = (mask, 0);
-                    for (j, &p) in leaf.iter().enumerate() {
-                        let new = run(scene, r32, lanes, p, open, &t_max).mask & open;
-                        for i in SetBits(new) {
-                            first[i] = j;
-                        }
-                        blocked |= new;
-                        open &= !new;
-                        if open == 0 {
-                            break;
-                        }
-                    }
-                    return blocked;
+                    return any16(scene, r32, lanes, mask, leaf, &t_max, first);
                 }
             }
         }
         self.leaf.any_many(rays, mask, leaf, first)
+    }
+}
+
+/// The primitive test of one packet in lanes ([`LanesPrimTest`]), for an `f32` scene: a leaf of
+/// triangles or of spheres that several rays enter goes to the ray-per-lane kernels straight
+/// from the packet's lanes (where the tier runs them, as [`PacketLeaf`] decides); any other
+/// leaf goes through [`SceneLeaf`] with the rays prepared one by one from their lanes, each the
+/// first time it needs it. Make one per packet, with a buffer that outlives the packets.
+#[derive(Debug)]
+pub struct LanesLeaf<'a, 'b> {
+    leaf: SceneLeaf<'a, f32>,
+    scene: &'a Scene<f32>,
+    /// Whether the ray-per-lane kernels run on this tier.
+    simd: bool,
+    /// The packet's rays prepared so far (bits of `made`).
+    prepared: &'b mut [PreparedRay<f32>; LANES],
+    made: u32,
+}
+
+impl<'a, 'b> LanesLeaf<'a, 'b> {
+    /// The test of `scene`'s primitives for one packet, preparing rays into `buffer`.
+    #[inline]
+    pub fn new(scene: &'a Scene<f32>, buffer: &'b mut [PreparedRay<f32>; LANES]) -> Self {
+        LanesLeaf {
+            leaf: SceneLeaf::new(scene),
+            scene,
+            simd: leaf16::available(),
+            prepared: buffer,
+            made: 0,
+        }
+    }
+}
+
+/// The rays of `mask` prepared into `prepared` (each made once per packet: `made` holds the
+/// bits of those made), as the packet's slice.
+#[inline(always)]
+fn prepare<'p>(
+    prepared: &'p mut [PreparedRay<f32>; LANES],
+    made: &mut u32,
+    rays: &Lanes16,
+    mask: u32,
+) -> &'p [PreparedRay<f32>] {
+    for i in SetBits(mask & !*made) {
+        prepared[i] = rays.prepared(i);
+    }
+    *made |= mask;
+    &prepared[..rays.len()]
+}
+
+impl RayPrimTest<f32> for LanesLeaf<'_, '_> {
+    #[inline(always)]
+    fn test(&mut self, pr: &PreparedRay<f32>, prim: u32, t_max: f32) -> Option<PrimHit<f32>> {
+        self.leaf.test(pr, prim, t_max)
+    }
+
+    #[inline(always)]
+    fn closest(&mut self, pr: &PreparedRay<f32>, leaf: &[u32], best: &mut Nearest<f32>) {
+        self.leaf.closest(pr, leaf, best)
+    }
+
+    #[inline(always)]
+    fn any(&mut self, pr: &PreparedRay<f32>, leaf: &[u32], t_max: f32) -> Option<usize> {
+        self.leaf.any(pr, leaf, t_max)
+    }
+}
+
+impl LanesPrimTest for LanesLeaf<'_, '_> {
+    #[inline(always)]
+    fn closest_lanes(
+        &mut self,
+        rays: &Lanes16,
+        mask: u32,
+        leaf: &[u32],
+        best: &mut [Nearest<f32>],
+    ) {
+        if self.simd && takes(mask, leaf) && kind(&self.scene.prims, leaf) != Kind::Other {
+            // The kernels read the lanes only (the rays' slice serves the portable kernels,
+            // which this tier does not run).
+            return closest16(self.scene, &[], &rays.tri, mask, leaf, best);
+        }
+        let prs = prepare(self.prepared, &mut self.made, rays, mask);
+        self.leaf.closest_many(prs, mask, leaf, best)
+    }
+
+    #[inline(always)]
+    fn any_lanes(&mut self, rays: &Lanes16, mask: u32, leaf: &[u32], first: &mut [usize]) -> u32 {
+        if self.simd && takes(mask, leaf) && kind(&self.scene.prims, leaf) != Kind::Other {
+            return any16(self.scene, &[], &rays.tri, mask, leaf, &rays.t_max, first);
+        }
+        let prs = prepare(self.prepared, &mut self.made, rays, mask);
+        self.leaf.any_many(prs, mask, leaf, first)
     }
 }

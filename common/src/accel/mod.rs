@@ -7,6 +7,8 @@ pub mod bvh;
 pub mod grid;
 pub mod prim_test;
 
+use crate::accel::bvh::packet::LanesPrimTest;
+use crate::geometry::lanes16::Lanes16;
 use crate::geometry::{Aabb, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::settings::AccelKind;
@@ -145,6 +147,45 @@ impl Accel {
             _ => {
                 for (pr, o) in rays.iter().zip(out.iter_mut()) {
                     *o = self.intersect(pr, stats, |p, t| test.test(pr, p, t));
+                }
+            }
+        }
+    }
+
+    /// [`Accel::intersect_packet`] for a packet in lanes ([`Lanes16`]): the BVH traces it
+    /// together from its lanes; the other accelerators prepare its rays one by one.
+    pub fn intersect_lanes<T: LanesPrimTest>(
+        &self,
+        rays: &Lanes16,
+        out: &mut [Option<PrimHit<f32>>],
+        stats: &mut RayStats,
+        mut test: T,
+    ) {
+        match self {
+            Accel::Bvh(b) => b.intersect_lanes(rays, out, stats, test),
+            _ => {
+                for (i, o) in out[..rays.len()].iter_mut().enumerate() {
+                    let pr = &rays.prepared(i);
+                    *o = self.intersect(pr, stats, |p, t| test.test(pr, p, t));
+                }
+            }
+        }
+    }
+
+    /// [`Accel::occluded_packet`] for a packet in lanes ([`Lanes16`]).
+    pub fn occluded_lanes<T: LanesPrimTest>(
+        &self,
+        rays: &Lanes16,
+        out: &mut [bool],
+        stats: &mut RayStats,
+        mut test: T,
+    ) {
+        match self {
+            Accel::Bvh(b) => b.occluded_lanes(rays, out, stats, test),
+            _ => {
+                for (i, o) in out[..rays.len()].iter_mut().enumerate() {
+                    let pr = &rays.prepared(i);
+                    *o = self.occluded(pr, stats, |p, t| test.test(pr, p, t));
                 }
             }
         }

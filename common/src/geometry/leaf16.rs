@@ -23,23 +23,23 @@ pub const LANES: usize = 16;
 #[repr(C, align(64))]
 pub struct Rays16 {
     /// Origin components by axis.
-    o: [[f32; LANES]; 3],
+    pub(crate) o: [[f32; LANES]; 3],
     /// Direction components by axis.
-    d: [[f32; LANES]; 3],
+    pub(crate) d: [[f32; LANES]; 3],
     /// Origin components along each ray's permuted axes `kx`, `ky`, `kz`.
-    ok: [[f32; LANES]; 3],
+    pub(crate) ok: [[f32; LANES]; 3],
     /// Shear constants.
-    s: [[f32; LANES]; 3],
-    t_min: [f32; LANES],
+    pub(crate) s: [[f32; LANES]; 3],
+    pub(crate) t_min: [f32; LANES],
     /// `|d|²` as the scalar sphere test computes it.
-    a: [f32; LANES],
+    pub(crate) a: [f32; LANES],
     /// Per permuted axis (`kx`, `ky`, `kz`): all ones in lanes where it is axis 0, and where
     /// it is axis 1 (lane masks for the kernels' selects).
-    k0: [[f32; LANES]; 3],
-    k1: [[f32; LANES]; 3],
+    pub(crate) k0: [[f32; LANES]; 3],
+    pub(crate) k1: [[f32; LANES]; 3],
     /// The same lane masks as bits (bit `i` is lane `i`), for the AVX-512 kernels.
-    k0_bits: [u16; 3],
-    k1_bits: [u16; 3],
+    pub(crate) k0_bits: [u16; 3],
+    pub(crate) k1_bits: [u16; 3],
     /// The address and length of the rays these lanes were made from.
     src: usize,
     n: usize,
@@ -82,9 +82,9 @@ impl Rays16 {
         Some(Self::lanes(rays))
     }
 
-    /// The lanes of `rays` whatever the CPU (for the portable kernels).
-    pub fn lanes(rays: &[PreparedRay<f32>]) -> Self {
-        let mut l = Rays16 {
+    /// Lanes of zeros, made from no slice (filled by [`super::lanes16::Lanes16`]).
+    pub(crate) fn empty() -> Self {
+        Rays16 {
             o: [[0.0; LANES]; 3],
             d: [[0.0; LANES]; 3],
             ok: [[0.0; LANES]; 3],
@@ -95,8 +95,35 @@ impl Rays16 {
             k1: [[0.0; LANES]; 3],
             k0_bits: [0; 3],
             k1_bits: [0; 3],
+            src: 0,
+            n: 0,
+        }
+    }
+
+    /// Whether lane `i` holds the same bits as lane `j` of `other` (for tests).
+    #[cfg(test)]
+    pub(crate) fn same_lane(&self, i: usize, other: &Rays16, j: usize) -> bool {
+        let rows = |r: &Rays16, k: usize| {
+            let mut v = Vec::new();
+            for a in 0..3 {
+                v.extend([
+                    r.o[a][k], r.d[a][k], r.ok[a][k], r.s[a][k], r.k0[a][k], r.k1[a][k],
+                ]);
+            }
+            v.extend([r.t_min[k], r.a[k]]);
+            let bits: Vec<u32> = v.iter().map(|x| x.to_bits()).collect();
+            let masks = [0, 1, 2].map(|a| (r.k0_bits[a] >> k & 1, r.k1_bits[a] >> k & 1));
+            (bits, masks)
+        };
+        rows(self, i) == rows(other, j)
+    }
+
+    /// The lanes of `rays` whatever the CPU (for the portable kernels).
+    pub fn lanes(rays: &[PreparedRay<f32>]) -> Self {
+        let mut l = Rays16 {
             src: rays.as_ptr() as usize,
             n: rays.len(),
+            ..Self::empty()
         };
         for i in 0..LANES {
             let pr = rays.get(i).unwrap_or(&rays[0]);

@@ -7,6 +7,7 @@ pub mod cone;
 pub mod cone4;
 pub mod hit;
 pub mod hits4;
+pub mod lanes16;
 pub mod leaf16;
 pub mod ray;
 pub mod slab16;

@@ -8,6 +8,7 @@ mod support;
 mod agreement;
 mod bvh_owned;
 mod grid_rays;
+mod lanes;
 mod leaf_simd;
 mod packet_leaf;
 mod packets;

@@ -10,6 +10,7 @@
 #[path = "../support/mod.rs"]
 mod support;
 
+mod cast;
 mod dispatch;
 mod hard;
 mod spd;

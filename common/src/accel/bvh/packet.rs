@@ -20,6 +20,7 @@ use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
 use crate::accel::prim_test::{OneRay, RayPrimTest};
 use crate::bits::SetBits;
+use crate::geometry::lanes16::Lanes16;
 use crate::geometry::slab16::RayLanes;
 use crate::geometry::slab8::Box8;
 use crate::geometry::slab_dispatch;
@@ -96,6 +97,51 @@ impl<R: Real> Frustum<R> {
         Some(f)
     }
 
+    /// [`Frustum::new`] of a packet in lanes (its lanes past the packet repeat lane 0, so
+    /// the bounds over all sixteen are the bounds of its rays).
+    #[inline(always)]
+    fn from_lanes(l: &Lanes16) -> Option<Frustum<f32>> {
+        let s = &l.slab;
+        let mut f = Frustum {
+            o_lo: [0.0; 3],
+            o_hi: [0.0; 3],
+            inv_lo: [0.0; 3],
+            inv_hi: [0.0; 3],
+            neg: s.neg,
+            t_min: s.t_min[0],
+        };
+        let mut ok = true;
+        for a in 0..3 {
+            let (o, inv) = (&s.o[a], &s.inv[a]);
+            let (mut o_lo, mut o_hi, mut i_lo, mut i_hi) = (o[0], o[0], inv[0], inv[0]);
+            for i in 0..PACKET {
+                ok &= o[i].is_finite() & inv[i].is_finite() & ((inv[i] < 0.0) == s.neg[a]);
+                o_lo = o_lo.min(o[i]);
+                o_hi = o_hi.max(o[i]);
+                i_lo = i_lo.min(inv[i]);
+                i_hi = i_hi.max(inv[i]);
+            }
+            (f.o_lo[a], f.o_hi[a], f.inv_lo[a], f.inv_hi[a]) = (o_lo, o_hi, i_lo, i_hi);
+        }
+        let mut shortest = f32::INFINITY;
+        for i in 0..PACKET {
+            ok &= s.t_min[i].is_finite();
+            f.t_min = f.t_min.min(s.t_min[i]);
+            shortest = shortest.min(l.t_max[i]);
+        }
+        if !ok {
+            return None;
+        }
+        let mut spread = 0.0f32;
+        for a in 0..3 {
+            spread = spread.max(f.o_hi[a] - f.o_lo[a]);
+        }
+        if spread > COHERENCE as f32 * shortest {
+            return None;
+        }
+        Some(f)
+    }
+
     /// The children of a node against the packet: bit `i` is set when some ray of the packet
     /// may enter lane `i` before `t_max`; the distances are lower bounds of every ray's entry
     /// distance into the lane.
@@ -132,6 +178,60 @@ impl<R: Real> Frustum<R> {
     }
 }
 
+/// [`Frustum::from_lanes`] for the `avx512` tier: each bound a reduction of one register
+/// (`vminps`/`vmaxps`: the bounds of finite lanes, where the order of the reduction changes
+/// at most the sign of a zero bound, which no comparison of the walk sees), each check one
+/// mask. An end that is NaN counts as +∞ for the shortest ray, as `f32::min` takes it.
+///
+/// # Safety
+/// The CPU must support AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn frustum_avx512(l: &Lanes16) -> Option<Frustum<f32>> {
+    use std::arch::x86_64::*;
+    let s = &l.slab;
+    // SAFETY: every load reads sixteen `f32` of a `[f32; 16]` (unaligned loads).
+    let load = |a: &[f32; PACKET]| unsafe { _mm512_loadu_ps(a.as_ptr()) };
+    let inf = _mm512_set1_ps(f32::INFINITY);
+    let finite = |v: __m512| _mm512_cmp_ps_mask::<_CMP_LT_OQ>(_mm512_abs_ps(v), inf);
+    let zero = _mm512_setzero_ps();
+    let mut ok = 0xffffu16;
+    let mut f = Frustum {
+        o_lo: [0.0; 3],
+        o_hi: [0.0; 3],
+        inv_lo: [0.0; 3],
+        inv_hi: [0.0; 3],
+        neg: s.neg,
+        t_min: 0.0,
+    };
+    for a in 0..3 {
+        let (o, inv) = (load(&s.o[a]), load(&s.inv[a]));
+        let neg = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(inv, zero);
+        ok &= finite(o) & finite(inv) & if s.neg[a] { neg } else { !neg };
+        f.o_lo[a] = _mm512_reduce_min_ps(o);
+        f.o_hi[a] = _mm512_reduce_max_ps(o);
+        f.inv_lo[a] = _mm512_reduce_min_ps(inv);
+        f.inv_hi[a] = _mm512_reduce_max_ps(inv);
+    }
+    let t_min = load(&s.t_min);
+    ok &= finite(t_min);
+    if ok != 0xffff {
+        return None;
+    }
+    f.t_min = _mm512_reduce_min_ps(t_min);
+    let t_max = load(&l.t_max);
+    let nan = _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(t_max, t_max);
+    let shortest = _mm512_reduce_min_ps(_mm512_mask_blend_ps(nan, t_max, inf));
+    let mut spread = 0.0f32;
+    for a in 0..3 {
+        spread = spread.max(f.o_hi[a] - f.o_lo[a]);
+    }
+    if spread > COHERENCE as f32 * shortest {
+        return None;
+    }
+    Some(f)
+}
+
 /// The hit children of a node in ascending bound (insertion sort; ties keep lane order), with
 /// their lanes.
 #[inline(always)]
@@ -151,6 +251,112 @@ fn sorted_lanes<R: Real>(mask: u32, t: &[R; WIDTH]) -> ([(R, usize); WIDTH], usi
     (hits, k)
 }
 
+/// The primitive test of a packet in lanes ([`Lanes16`]): [`RayPrimTest`] (for rays traced one
+/// by one, prepared from their lanes) plus a leaf against several of the packet's rays, each
+/// with exactly the answer [`RayPrimTest::closest`] or [`RayPrimTest::any`] gives it alone.
+pub trait LanesPrimTest: RayPrimTest<f32> {
+    /// [`RayPrimTest::closest_many`] for the rays of `rays` whose bits are set in `mask`.
+    fn closest_lanes(
+        &mut self,
+        rays: &Lanes16,
+        mask: u32,
+        prims: &[u32],
+        best: &mut [Nearest<f32>],
+    );
+
+    /// [`RayPrimTest::any_many`] for the rays of `rays` whose bits are set in `mask`, each
+    /// within its own `t_max`.
+    fn any_lanes(&mut self, rays: &Lanes16, mask: u32, prims: &[u32], first: &mut [usize]) -> u32;
+}
+
+/// A packet's rays as the walks read them: a slice of prepared rays with their box-test lanes,
+/// or a [`Lanes16`]; `T` is the primitive test the rays go to.
+trait PacketRays<R: Real, T> {
+    /// Rays in the packet.
+    fn len(&self) -> usize;
+    /// Ray `i`'s end.
+    fn t_max(&self, i: usize) -> R;
+    /// The length of ray `i`'s direction.
+    fn d_length(&self, i: usize) -> R;
+    /// The rays' lanes for the box test.
+    fn slab(&self) -> &RayLanes<R>;
+    /// [`RayPrimTest::closest_many`].
+    fn closest(&self, test: &mut T, mask: u32, prims: &[u32], best: &mut [Nearest<R>]);
+    /// [`RayPrimTest::any_many`].
+    fn any(&self, test: &mut T, mask: u32, prims: &[u32], first: &mut [usize]) -> u32;
+}
+
+/// Prepared rays and their box-test lanes.
+struct Slice<'a, R> {
+    rays: &'a [PreparedRay<R>],
+    lanes: RayLanes<R>,
+}
+
+impl<'a, R: Real> Slice<'a, R> {
+    #[inline(always)]
+    fn new(rays: &'a [PreparedRay<R>], neg: [bool; 3]) -> Self {
+        Slice {
+            rays,
+            lanes: RayLanes::new(rays, neg),
+        }
+    }
+}
+
+impl<R: Real, T: RayPrimTest<R>> PacketRays<R, T> for Slice<'_, R> {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.rays.len()
+    }
+    #[inline(always)]
+    fn t_max(&self, i: usize) -> R {
+        self.rays[i].ray.t_max
+    }
+    #[inline(always)]
+    fn d_length(&self, i: usize) -> R {
+        self.rays[i].ray.d.length()
+    }
+    #[inline(always)]
+    fn slab(&self) -> &RayLanes<R> {
+        &self.lanes
+    }
+    #[inline(always)]
+    fn closest(&self, test: &mut T, mask: u32, prims: &[u32], best: &mut [Nearest<R>]) {
+        test.closest_many(self.rays, mask, prims, best)
+    }
+    #[inline(always)]
+    fn any(&self, test: &mut T, mask: u32, prims: &[u32], first: &mut [usize]) -> u32 {
+        test.any_many(self.rays, mask, prims, first)
+    }
+}
+
+impl<T: LanesPrimTest> PacketRays<f32, T> for Lanes16 {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        Lanes16::len(self)
+    }
+    #[inline(always)]
+    fn t_max(&self, i: usize) -> f32 {
+        self.t_max[i]
+    }
+    #[inline(always)]
+    fn d_length(&self, i: usize) -> f32 {
+        // `|d|²` as `V3::length_squared` computes it: the same square root as `d.length()`.
+        self.tri.a[i].sqrt()
+    }
+    #[inline(always)]
+    fn slab(&self) -> &RayLanes<f32> {
+        &self.slab
+    }
+    #[inline(always)]
+    fn closest(&self, test: &mut T, mask: u32, prims: &[u32], best: &mut [Nearest<f32>]) {
+        test.closest_lanes(self, mask, prims, best)
+    }
+    #[inline(always)]
+    fn any(&self, test: &mut T, mask: u32, prims: &[u32], first: &mut [usize]) -> u32 {
+        test.any_lanes(self, mask, prims, first)
+    }
+}
+
 impl Bvh {
     /// Whether `rays` would be traced together (more than one ray, bounds the interval test
     /// can take, origins close enough) rather than one by one.
@@ -165,6 +371,20 @@ impl Bvh {
         } else {
             None
         }
+    }
+
+    /// The bounds a packet in lanes is traced together with, or `None` when its rays go one by
+    /// one (the same decision as [`Bvh::takes_as_packet`] on its prepared rays).
+    fn lanes_bounds(&self, rays: &Lanes16) -> Option<Frustum<f32>> {
+        if rays.len() <= 1 || self.nodes.is_empty() {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if crate::isa::current().avx512() {
+            // SAFETY: the avx512 tier is only chosen on a CPU with AVX-512 F, BW, DQ, VL.
+            return unsafe { frustum_avx512(rays) };
+        }
+        Frustum::<f32>::from_lanes(rays)
     }
 
     /// Closest hits of a packet of at most [`PACKET`] rays into `out` (same indexing);
@@ -201,7 +421,8 @@ impl Bvh {
             // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
             return unsafe { self.intersect_packet_walk_avx(rays, out, stats, test, frustum) };
         }
-        self.intersect_packet_walk(rays, out, stats, test, frustum);
+        let src = Slice::new(rays, frustum.neg);
+        self.intersect_packet_walk(&src, out, stats, test, frustum);
     }
 
     /// [`Bvh::intersect_packet`]'s walk compiled for the `avx2` and `avx512` tiers.
@@ -218,28 +439,82 @@ impl Bvh {
         test: T,
         frustum: Frustum<R>,
     ) {
+        let src = Slice::new(rays, frustum.neg);
+        self.intersect_packet_walk(&src, out, stats, test, frustum)
+    }
+
+    /// Closest hits of a packet in lanes into `out` (same indexing): what
+    /// [`Bvh::intersect_packet`] gives the packet's prepared rays, without preparing them (a
+    /// ray is prepared only when it goes one by one).
+    ///
+    /// # Panics
+    /// When `out` is shorter than the packet.
+    pub fn intersect_lanes<T: LanesPrimTest>(
+        &self,
+        rays: &Lanes16,
+        out: &mut [Option<PrimHit<f32>>],
+        stats: &mut RayStats,
+        mut test: T,
+    ) {
+        assert!(out.len() >= rays.len());
+        let Some(frustum) = self.lanes_bounds(rays) else {
+            for (i, o) in out[..rays.len()].iter_mut().enumerate() {
+                let pr = &rays.prepared(i);
+                *o = self.intersect(
+                    pr,
+                    stats,
+                    OneRay {
+                        test: &mut test,
+                        pr,
+                    },
+                );
+            }
+            return;
+        };
+        #[cfg(target_arch = "x86_64")]
+        if crate::isa::current().avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.intersect_lanes_walk_avx(rays, out, stats, test, frustum) };
+        }
+        self.intersect_packet_walk(rays, out, stats, test, frustum);
+    }
+
+    /// [`Bvh::intersect_lanes`]'s walk compiled for the `avx2` and `avx512` tiers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX and AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn intersect_lanes_walk_avx<T: LanesPrimTest>(
+        &self,
+        rays: &Lanes16,
+        out: &mut [Option<PrimHit<f32>>],
+        stats: &mut RayStats,
+        test: T,
+        frustum: Frustum<f32>,
+    ) {
         self.intersect_packet_walk(rays, out, stats, test, frustum)
     }
 
     /// The walk of [`Bvh::intersect_packet`] for a packet its bounds can take.
     #[inline(always)]
-    fn intersect_packet_walk<R: Real, T: RayPrimTest<R>>(
+    fn intersect_packet_walk<R: Real, T, S: PacketRays<R, T>>(
         &self,
-        rays: &[PreparedRay<R>],
+        rays: &S,
         out: &mut [Option<PrimHit<R>>],
         stats: &mut RayStats,
         mut test: T,
         frustum: Frustum<R>,
     ) {
         let n = rays.len();
-        let lanes = RayLanes::new(rays, frustum.neg);
+        let lanes = rays.slab();
         let mut best = [Nearest::new(R::ZERO); PACKET];
         let mut slack = [R::ZERO; PACKET];
         // Per ray: its best hit plus the slack (lanes past `n` never reach anything).
         let mut reach_ray = [R::from_f64(-1.0); PACKET];
         for i in 0..n {
-            best[i] = Nearest::new(rays[i].ray.t_max);
-            slack[i] = R::from_f64(self.margin) / rays[i].ray.d.length();
+            best[i] = Nearest::new(rays.t_max(i));
+            slack[i] = R::from_f64(self.margin) / rays.d_length(i);
             reach_ray[i] = best[i].t + slack[i];
         }
         let reach_all = |r: &[R; PACKET]| r[..n].iter().fold(r[0], |m, &x| m.max(x));
@@ -271,13 +546,13 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += n as u64;
-                let enter = slab_dispatch::enter16(&lanes, &lo, &hi, &reach_ray) & all;
+                let enter = slab_dispatch::enter16(lanes, &lo, &hi, &reach_ray) & all;
                 if enter == 0 {
                     continue;
                 }
                 prim_tests += u64::from(enter.count_ones()) * prims.len() as u64;
                 let before = best.map(|b| b.t);
-                test.closest_many(rays, enter, prims, &mut best);
+                rays.closest(&mut test, enter, prims, &mut best);
                 let mut improved = false;
                 for i in SetBits(enter) {
                     improved |= best[i].t != before[i];
@@ -342,7 +617,8 @@ impl Bvh {
             // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
             return unsafe { self.occluded_packet_walk_avx(rays, out, stats, test, frustum) };
         }
-        self.occluded_packet_walk(rays, out, stats, test, frustum);
+        let src = Slice::new(rays, frustum.neg);
+        self.occluded_packet_walk(&src, out, stats, test, frustum);
     }
 
     /// [`Bvh::occluded_packet`]'s walk compiled for the `avx2` and `avx512` tiers.
@@ -359,14 +635,67 @@ impl Bvh {
         test: T,
         frustum: Frustum<R>,
     ) {
+        let src = Slice::new(rays, frustum.neg);
+        self.occluded_packet_walk(&src, out, stats, test, frustum)
+    }
+
+    /// Whether anything blocks each ray of a packet in lanes, into `out`: what
+    /// [`Bvh::occluded_packet`] gives the packet's prepared rays.
+    ///
+    /// # Panics
+    /// When `out` is shorter than the packet.
+    pub fn occluded_lanes<T: LanesPrimTest>(
+        &self,
+        rays: &Lanes16,
+        out: &mut [bool],
+        stats: &mut RayStats,
+        mut test: T,
+    ) {
+        assert!(out.len() >= rays.len());
+        let Some(frustum) = self.lanes_bounds(rays) else {
+            for (i, o) in out[..rays.len()].iter_mut().enumerate() {
+                let pr = &rays.prepared(i);
+                *o = self.occluded(
+                    pr,
+                    stats,
+                    OneRay {
+                        test: &mut test,
+                        pr,
+                    },
+                );
+            }
+            return;
+        };
+        #[cfg(target_arch = "x86_64")]
+        if crate::isa::current().avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { self.occluded_lanes_walk_avx(rays, out, stats, test, frustum) };
+        }
+        self.occluded_packet_walk(rays, out, stats, test, frustum);
+    }
+
+    /// [`Bvh::occluded_lanes`]'s walk compiled for the `avx2` and `avx512` tiers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX and AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn occluded_lanes_walk_avx<T: LanesPrimTest>(
+        &self,
+        rays: &Lanes16,
+        out: &mut [bool],
+        stats: &mut RayStats,
+        test: T,
+        frustum: Frustum<f32>,
+    ) {
         self.occluded_packet_walk(rays, out, stats, test, frustum)
     }
 
     /// The walk of [`Bvh::occluded_packet`] for a packet its bounds can take.
     #[inline(always)]
-    fn occluded_packet_walk<R: Real, T: RayPrimTest<R>>(
+    fn occluded_packet_walk<R: Real, T, S: PacketRays<R, T>>(
         &self,
-        rays: &[PreparedRay<R>],
+        rays: &S,
         out: &mut [bool],
         stats: &mut RayStats,
         mut test: T,
@@ -375,10 +704,10 @@ impl Bvh {
         let n = rays.len();
         let all: u32 = (1 << n) - 1;
         let mut done = 0u32;
-        let lanes = RayLanes::new(rays, frustum.neg);
+        let lanes = rays.slab();
         let mut reach = [R::from_f64(-1.0); PACKET];
-        for i in 0..n {
-            reach[i] = rays[i].ray.t_max + R::from_f64(self.margin) / rays[i].ray.d.length();
+        for (i, r) in reach[..n].iter_mut().enumerate() {
+            *r = rays.t_max(i) + R::from_f64(self.margin) / rays.d_length(i);
         }
         let reach_max = reach[..n].iter().fold(reach[0], |m, &r| m.max(r));
         let mut box_tests = 0u64;
@@ -399,12 +728,12 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += u64::from((all & !done).count_ones());
-                let open = slab_dispatch::enter16(&lanes, &lo, &hi, &reach) & all & !done;
+                let open = slab_dispatch::enter16(lanes, &lo, &hi, &reach) & all & !done;
                 if open == 0 {
                     continue;
                 }
                 let mut first = [0usize; PACKET];
-                let blocked = test.any_many(rays, open, prims, &mut first);
+                let blocked = rays.any(&mut test, open, prims, &mut first);
                 // Counted as the one-at-a-time loop counts: up to the first hit.
                 prim_tests += u64::from((open & !blocked).count_ones()) * prims.len() as u64;
                 for i in SetBits(blocked) {
@@ -425,5 +754,64 @@ impl Bvh {
         }
         stats.box_tests += box_tests;
         stats.primitive_tests += prim_tests;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Ray;
+    use crate::vec3::V3;
+    use proptest::prelude::*;
+
+    fn comp() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            6 => 0.1f32..4.0,
+            1 => Just(0.0f32),
+            1 => Just(-0.0f32),
+            1 => Just(f32::INFINITY),
+            1 => Just(f32::NAN),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        /// The AVX-512 bounds of a packet in lanes are the portable ones: the same decision
+        /// (signs, finiteness, coherence) and the same bound values.
+        #[test]
+        fn avx512_bounds_are_the_portable_bounds(
+            base in proptest::array::uniform3(-5.0f32..5.0),
+            signs in proptest::array::uniform3(any::<bool>()),
+            rays in proptest::collection::vec(
+                (proptest::array::uniform3(prop_oneof![4 => 0.0f32..0.01, 1 => 0.0f32..2.0]),
+                 proptest::array::uniform3(comp()), any::<bool>(),
+                 prop_oneof![Just(f32::INFINITY), Just(f32::NAN), 0.0f32..50.0, 0.0f32..0.5],
+                 prop_oneof![4 => Just(0.0f32), 1 => 0.0f32..1.0, 1 => Just(f32::NAN)]),
+                1..=PACKET),
+        ) {
+            #[cfg(target_arch = "x86_64")]
+            if crate::isa::Isa::Avx512.supported() {
+                let mut l = Lanes16::new();
+                for &(jitter, d, flip, t_max, t_min) in &rays {
+                    let o = V3::from_array([0, 1, 2].map(|a| base[a] + jitter[a]));
+                    let mut d = [0, 1, 2].map(|a| if signs[a] { -d[a] } else { d[a] });
+                    if flip {
+                        d[0] = -d[0];
+                    }
+                    l.push(&Ray { o, d: V3::from_array(d), t_min, t_max });
+                }
+                l.prepare();
+                let want = Frustum::<f32>::from_lanes(&l);
+                // SAFETY: this CPU has AVX-512 F.
+                let got = unsafe { frustum_avx512(&l) };
+                prop_assert_eq!(want.is_some(), got.is_some(), "{:?} {:?}", want, got);
+                if let (Some(w), Some(g)) = (want, got) {
+                    // Values, not bits: the sign of a zero bound may differ (see frustum_avx512).
+                    prop_assert!(w.o_lo == g.o_lo && w.o_hi == g.o_hi, "{:?} {:?}", w, g);
+                    prop_assert!(w.inv_lo == g.inv_lo && w.inv_hi == g.inv_hi, "{:?} {:?}", w, g);
+                    prop_assert!(w.neg == g.neg && w.t_min == g.t_min, "{:?} {:?}", w, g);
+                }
+            }
+        }
     }
 }
