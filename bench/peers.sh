@@ -10,7 +10,8 @@
 #   env:   RUNS (default 3: medians), MINTIME (casting seconds per figure, default 1),
 #          SHARED (default: ../shared beside the repository), OUT (default bench-out/peers),
 #          TABLES (default "render cast efficiency": which tables to print),
-#          PARRT (a parrt binary to measure instead of building one; the build honours
+#          NFFCAST (the Embree harness; built from ../shared/anchors into OUT/embree when
+#          missing), PARRT (a parrt binary to measure instead of building one; the build honours
 #          CARGO_TARGET_DIR)
 set -euo pipefail
 REPO=$(cd "$(dirname "$0")/.." && pwd)
@@ -30,7 +31,7 @@ command -v tachyon >/dev/null || need_apt="$need_apt tachyon"
 if [ -n "$need_apt" ]; then
     apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $need_apt >/dev/null
 fi
-NFFCAST=${NFFCAST:-/tmp/embreework/nffcast}
+NFFCAST=${NFFCAST:-$OUT/embree/nffcast}
 [ -x "$NFFCAST" ] || sh "$SHARED/anchors/embree/build.sh" "$(dirname "$NFFCAST")" >/dev/null
 if [ -z "${PARRT:-}" ]; then
     (cd "$REPO" && cargo build --release -q -p parrt-master)
