@@ -6,10 +6,15 @@
 //! code). Every ray gets the answer it gets alone, and shading is the same code summed in the
 //! same order, so the colours are the same bits as tracing each eye ray on its own.
 
+use std::any::Any;
+
 use crate::accel::bvh::packet::PACKET;
+use crate::camera::Camera;
+use crate::geometry::lanes16::Lanes16;
 use crate::geometry::{PreparedRay, PrimHit, Ray};
-use crate::packet_leaf::PacketLeaf;
+use crate::packet_leaf::{LanesLeaf, PacketLeaf};
 use crate::real::Real;
+use crate::shadow16::{shadow_lanes, SurfaceLanes};
 use crate::shade::{Integrator, Lit, RayKind};
 use crate::stats::RayStats;
 use crate::vec3::V3;
@@ -66,6 +71,40 @@ impl<R: Real> Integrator<R> {
         self.trace_packet(rays, 1, &weights, RayKind::Eye, out, stats);
     }
 
+    /// Radiance along the eye rays through the centres of the pixels `bx..bx + bw` ×
+    /// `by..by + bh` (at most [`PACKET`], row by row), into `out`'s first `bw × bh`: the colours
+    /// [`Integrator::trace_eye_packet`] gives `camera.ray(x + 0.5, y + 0.5)`. In `f32` on the
+    /// `avx512` tier the rays are made in lanes and the hits and their shadow rays found in
+    /// lanes ([`Lanes16`], [`crate::shadow16`]), as `bench cast` does; the rest (shading,
+    /// secondary rays) is the same code either way. Other tiers and `f64` make the rays one by
+    /// one (the lanes do not pay there: BENCHMARKS.md, issue 33).
+    pub fn trace_eye_block(
+        &self,
+        camera: &Camera<R>,
+        (bx, by, bw, bh): (u32, u32, u32, u32),
+        out: &mut [V3<R>; PACKET],
+        stats: &mut RayStats,
+    ) {
+        if let (Some(integrator), Some(camera), Some(out), true) = (
+            (self as &dyn Any).downcast_ref::<Integrator<f32>>(),
+            (camera as &dyn Any).downcast_ref::<Camera<f32>>(),
+            (out as &mut dyn Any).downcast_mut::<[V3<f32>; PACKET]>(),
+            crate::isa::current().avx512(),
+        ) {
+            return integrator.trace_eye_lanes(camera, (bx, by, bw, bh), out, stats);
+        }
+        let mut rays = [camera.ray(R::HALF, R::HALF); PACKET];
+        let mut n = 0;
+        for y in by..by + bh {
+            for x in bx..bx + bw {
+                let (sx, sy) = (x as f64 + 0.5, y as f64 + 0.5);
+                rays[n] = camera.ray(R::from_f64(sx), R::from_f64(sy));
+                n += 1;
+            }
+        }
+        self.trace_eye_packet(&rays[..n], &mut out[..n], stats);
+    }
+
     /// Radiance along up to [`PACKET`] rays of one kind at `depth`, ray `i` with path weight
     /// `weights[i]`, into `out`: the colours [`Integrator::trace`] gives each. The hits'
     /// reflection rays then go on as one packet, and their refraction rays as another, when
@@ -86,36 +125,14 @@ impl<R: Real> Integrator<R> {
         let Some(&first) = rays.first() else {
             return;
         };
-        match kind {
-            RayKind::Eye => stats.eye_rays += n as u64,
-            RayKind::Reflection => stats.reflection_rays += n as u64,
-            RayKind::Refraction => stats.refraction_rays += n as u64,
-        }
+        count_rays(kind, n, stats);
         let mut prs = [PreparedRay::new(first); PACKET];
         for (pr, r) in prs.iter_mut().zip(rays) {
             *pr = PreparedRay::new(*r);
         }
         let mut hits = [None; PACKET];
         self.intersect_packet(&prs[..n], &mut hits[..n], stats);
-        let mut lits: [Option<Lit<R>>; PACKET] = [None; PACKET];
-        for i in 0..n {
-            if let Some(h) = &hits[i] {
-                match kind {
-                    RayKind::Eye => stats.eye_hits += 1,
-                    RayKind::Reflection => stats.reflection_hits += 1,
-                    RayKind::Refraction => stats.refraction_hits += 1,
-                }
-                lits[i] = Some(self.lit(&rays[i], h));
-            }
-        }
-        // Direct light, light by light: each light's shadow rays go as one packet, and each
-        // ray's colour gets the terms in direct()'s order (ambient, then the lights in turn).
-        for i in 0..n {
-            out[i] = match &lits[i] {
-                None => self.scene.background,
-                Some(lit) => self.ambient(lit),
-            };
-        }
+        let lits = self.lits(rays, &hits[..n], kind, out, stats);
         // Made once for all the lights: every light's packet overwrites what it uses.
         let mut shadow = [prs[0]; PACKET];
         let mut owner = [0usize; PACKET];
@@ -134,16 +151,82 @@ impl<R: Real> Integrator<R> {
                 }
             }
             self.occluded_packet(&shadow[..k], &mut occ[..k], stats);
-            stats.shadow_rays += k as u64;
-            for j in 0..k {
-                if occ[j] {
-                    stats.shadow_hits += 1;
-                } else if let Some(lit) = &lits[owner[j]] {
-                    let (n_dot_l_raw, dist) = toward[j];
-                    out[owner[j]] += self.from_light(&rays[owner[j]], lit, li, n_dot_l_raw, dist);
+            self.add_light(rays, &lits, li, &occ[..k], &owner, &toward, out, stats);
+        }
+        self.trace_secondary(rays, &lits, depth, weights, out, stats);
+    }
+
+    /// The lit hits of a packet's rays (counted in `stats` by `kind`), and each ray's colour
+    /// started in `out`: the background, or the hit's ambient term (direct()'s first term).
+    fn lits(
+        &self,
+        rays: &[Ray<R>],
+        hits: &[Option<PrimHit<R>>],
+        kind: RayKind,
+        out: &mut [V3<R>],
+        stats: &mut RayStats,
+    ) -> [Option<Lit<R>>; PACKET] {
+        let mut lits: [Option<Lit<R>>; PACKET] = [None; PACKET];
+        for (i, h) in hits.iter().enumerate() {
+            if let Some(h) = h {
+                match kind {
+                    RayKind::Eye => stats.eye_hits += 1,
+                    RayKind::Reflection => stats.reflection_hits += 1,
+                    RayKind::Refraction => stats.refraction_hits += 1,
                 }
+                lits[i] = Some(self.lit(&rays[i], h));
             }
         }
+        // Direct light, light by light: each light's shadow rays go as one packet, and each
+        // ray's colour gets the terms in direct()'s order (ambient, then the lights in turn).
+        for i in 0..hits.len() {
+            out[i] = match &lits[i] {
+                None => self.scene.background,
+                Some(lit) => self.ambient(lit),
+            };
+        }
+        lits
+    }
+
+    /// Light `li`'s terms for the shadow rays whose occlusion is `occ`, ray `j` from the hit of
+    /// ray `owner[j]` with `toward[j]` its `n·l` and distance ([`Integrator::shadow_ray`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn add_light(
+        &self,
+        rays: &[Ray<R>],
+        lits: &[Option<Lit<R>>; PACKET],
+        li: usize,
+        occ: &[bool],
+        owner: &[usize; PACKET],
+        toward: &[(R, R); PACKET],
+        out: &mut [V3<R>],
+        stats: &mut RayStats,
+    ) {
+        stats.shadow_rays += occ.len() as u64;
+        for (j, &o) in occ.iter().enumerate() {
+            if o {
+                stats.shadow_hits += 1;
+            } else if let Some(lit) = &lits[owner[j]] {
+                let (n_dot_l_raw, dist) = toward[j];
+                out[owner[j]] += self.from_light(&rays[owner[j]], lit, li, n_dot_l_raw, dist);
+            }
+        }
+    }
+
+    /// The reflection and refraction rays of a packet's lit hits at `depth`, traced and added
+    /// to `out` (in shade()'s order).
+    fn trace_secondary(
+        &self,
+        rays: &[Ray<R>],
+        lits: &[Option<Lit<R>>; PACKET],
+        depth: u32,
+        weights: &[R],
+        out: &mut [V3<R>],
+        stats: &mut RayStats,
+    ) {
+        let n = rays.len();
+        let first = rays[0];
         if depth >= self.opts.max_depth {
             return;
         }
@@ -203,5 +286,96 @@ impl<R: Real> Integrator<R> {
                 out[owner[j]] += colors[j] * w_of[j];
             }
         }
+    }
+}
+
+impl Integrator<f32> {
+    /// [`Integrator::trace_eye_block`] in lanes: the eye rays made straight into a [`Lanes16`],
+    /// their hits by [`Accel::intersect_lanes`], each light's shadow rays made in lanes
+    /// ([`shadow_lanes`]) and answered by [`Accel::occluded_lanes`]. The same rays, hits,
+    /// colours and counts as the prepared rays.
+    ///
+    /// [`Accel::intersect_lanes`]: crate::accel::Accel::intersect_lanes
+    /// [`Accel::occluded_lanes`]: crate::accel::Accel::occluded_lanes
+    fn trace_eye_lanes(
+        &self,
+        camera: &Camera<f32>,
+        (bx, by, bw, bh): (u32, u32, u32, u32),
+        out: &mut [V3<f32>],
+        stats: &mut RayStats,
+    ) {
+        let mut eye = Lanes16::new();
+        eye.eye(camera, bx, by, bw, bh);
+        let n = eye.len();
+        count_rays(RayKind::Eye, n, stats);
+        let mut rays = [Ray {
+            o: V3::zero(),
+            d: V3::zero(),
+            t_min: 0.0,
+            t_max: 0.0,
+        }; PACKET];
+        for (i, r) in rays[..n].iter_mut().enumerate() {
+            *r = eye.ray(i);
+        }
+        let rays = &rays[..n];
+        // Rays a leaf test takes one by one are prepared into this, once per packet.
+        let mut prepared = [PreparedRay::new(rays[0]); PACKET];
+        let mut hits = [None; PACKET];
+        let test = LanesLeaf::new(&self.scene, &mut prepared);
+        self.accel.intersect_lanes(&eye, &mut hits[..n], stats, test);
+        let lits = self.lits(rays, &hits[..n], RayKind::Eye, out, stats);
+        let mut surfaces = SurfaceLanes::default();
+        for (i, lit) in lits[..n].iter().enumerate() {
+            if let Some(lit) = lit {
+                surfaces.set(i, &lit.s);
+            }
+        }
+        let mut shadow = Lanes16::new();
+        let mut owner = [0usize; PACKET];
+        let mut toward = [(0.0, 0.0); PACKET];
+        let mut occ = [false; PACKET];
+        for (li, light) in self.scene.lights.iter().enumerate() {
+            // The lanes that cast a shadow ray, by shadow_ray()'s test (the shading normal
+            // towards the light, the light off the surface); shadow_lanes() then makes
+            // shadow_ray()'s rays for exactly those lanes, in lane order.
+            let mut mask = 0u32;
+            let mut k = 0;
+            for (i, lit) in lits[..n].iter().enumerate() {
+                let Some(lit) = lit else { continue };
+                let to_light = light.position - lit.s.p;
+                let n_dot_l_raw = lit.ns.dot(to_light);
+                if n_dot_l_raw <= 0.0 {
+                    continue;
+                }
+                let dist = to_light.length();
+                if !(dist > 0.0) {
+                    continue;
+                }
+                mask |= 1 << i;
+                owner[k] = i;
+                toward[k] = (n_dot_l_raw, dist);
+                k += 1;
+            }
+            surfaces.mask = mask;
+            shadow_lanes(&mut shadow, &eye, &surfaces, light.position, false);
+            debug_assert_eq!(shadow.len(), k);
+            if k > 0 {
+                let test = LanesLeaf::new(&self.scene, &mut prepared);
+                self.accel
+                    .occluded_lanes(&shadow, &mut occ[..k], stats, test);
+            }
+            self.add_light(rays, &lits, li, &occ[..k], &owner, &toward, out, stats);
+        }
+        let weights = [1.0; PACKET];
+        self.trace_secondary(rays, &lits, 1, &weights, out, stats);
+    }
+}
+
+/// Counts `n` rays of `kind` in `stats`.
+fn count_rays(kind: RayKind, n: usize, stats: &mut RayStats) {
+    match kind {
+        RayKind::Eye => stats.eye_rays += n as u64,
+        RayKind::Reflection => stats.reflection_rays += n as u64,
+        RayKind::Refraction => stats.refraction_rays += n as u64,
     }
 }

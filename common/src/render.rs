@@ -282,19 +282,14 @@ impl<R: Real> Core<R> {
             // The tile's parts of the image's 4 × 4 blocks, a packet each.
             let w = tile.w as usize;
             out.resize(tile.pixel_count(), [0.0; 3]);
-            let mut rays = [self.camera.ray(R::HALF, R::HALF); PACKET];
             let mut colors = [V3::zero(); PACKET];
             for (bx, by, bw, bh) in tile.blocks() {
-                let mut n = 0;
-                for y in by..by + bh {
-                    for x in bx..bx + bw {
-                        let (sx, sy) = (x as f64 + 0.5, y as f64 + 0.5);
-                        rays[n] = self.camera.ray(R::from_f64(sx), R::from_f64(sy));
-                        n += 1;
-                    }
-                }
-                self.integrator
-                    .trace_eye_packet(&rays[..n], &mut colors[..n], stats);
+                self.integrator.trace_eye_block(
+                    &self.camera,
+                    (bx, by, bw, bh),
+                    &mut colors,
+                    stats,
+                );
                 let mut k = 0;
                 for y in by..by + bh {
                     for x in bx..bx + bw {

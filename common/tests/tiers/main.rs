@@ -12,6 +12,7 @@ mod support;
 
 mod cast;
 mod dispatch;
+mod eye_lanes;
 mod hard;
 mod spd;
 mod tiers;
