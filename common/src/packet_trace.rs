@@ -14,8 +14,8 @@ use crate::geometry::lanes16::Lanes16;
 use crate::geometry::{PreparedRay, PrimHit, Ray};
 use crate::packet_leaf::{LanesLeaf, PacketLeaf};
 use crate::real::Real;
-use crate::shadow16::{shadow_lanes, SurfaceLanes};
 use crate::shade::{Integrator, Lit, RayKind};
+use crate::shadow16::{shadow_lanes, SurfaceLanes};
 use crate::stats::RayStats;
 use crate::vec3::V3;
 
@@ -322,7 +322,8 @@ impl Integrator<f32> {
         let mut prepared = [PreparedRay::new(rays[0]); PACKET];
         let mut hits = [None; PACKET];
         let test = LanesLeaf::new(&self.scene, &mut prepared);
-        self.accel.intersect_lanes(&eye, &mut hits[..n], stats, test);
+        self.accel
+            .intersect_lanes(&eye, &mut hits[..n], stats, test);
         let lits = self.lits(rays, &hits[..n], RayKind::Eye, out, stats);
         let mut surfaces = SurfaceLanes::default();
         for (i, lit) in lits[..n].iter().enumerate() {

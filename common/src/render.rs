@@ -284,12 +284,8 @@ impl<R: Real> Core<R> {
             out.resize(tile.pixel_count(), [0.0; 3]);
             let mut colors = [V3::zero(); PACKET];
             for (bx, by, bw, bh) in tile.blocks() {
-                self.integrator.trace_eye_block(
-                    &self.camera,
-                    (bx, by, bw, bh),
-                    &mut colors,
-                    stats,
-                );
+                self.integrator
+                    .trace_eye_block(&self.camera, (bx, by, bw, bh), &mut colors, stats);
                 let mut k = 0;
                 for y in by..by + bh {
                     for x in bx..bx + bw {
