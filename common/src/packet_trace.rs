@@ -4,7 +4,9 @@
 //! and their refraction rays as another, level by level (mirror reflections off a flat floor
 //! stay as coherent as the eye rays; incoherent ones are traced one by one inside the packet
 //! code). Every ray gets the answer it gets alone, and shading is the same code summed in the
-//! same order, so the colours are the same bits as tracing each eye ray on its own.
+//! same order, so the colours are the same bits as tracing each eye ray on its own. In `f32` on
+//! the `avx512` tier the eye packet and its shadow packets live in lanes
+//! ([`Integrator::trace_eye_block`]).
 
 use std::any::Any;
 
