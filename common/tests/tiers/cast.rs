@@ -23,12 +23,7 @@ fn cast(r: &mut Renderer, packets: bool, cull: bool) -> RayStats {
 
 #[test]
 fn casting_counts_the_same_on_every_tier_and_as_one_by_one() {
-    let files = crate::support::spd_files();
-    assert_eq!(files.len(), 27, "the SPD set has 27 files");
-    for path in files {
-        let name = path.file_stem().unwrap().to_string_lossy().into_owned();
-        let desc = parrt::nff::parse_file(&path, &Default::default())
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    for (name, desc) in crate::support::spd_scenes() {
         for precision in [Precision::F32, Precision::F64] {
             let mut s = RenderSettings::new(SIZE, SIZE);
             s.precision = precision;

@@ -15,17 +15,12 @@ const SIZE: u32 = 38;
 
 #[test]
 fn eye_packets_render_the_same_bits_on_every_tier_and_as_one_by_one() {
-    let files = crate::support::spd_files();
-    assert_eq!(files.len(), 27, "the SPD set has 27 files");
     let opts = SmpOptions {
         threads: 2,
         tile: 16,
         executor: Executor::Rayon,
     };
-    for path in files {
-        let name = path.file_stem().unwrap().to_string_lossy().into_owned();
-        let desc = parrt::nff::parse_file(&path, &Default::default())
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    for (name, desc) in crate::support::spd_scenes() {
         let s = RenderSettings::new(SIZE, SIZE);
         let mut r = Renderer::new(&desc, &s).unwrap_or_else(|e| panic!("{name}: {e}"));
         r.set_packets(true);
