@@ -26,9 +26,7 @@ pub fn input_error(e: impl Into<anyhow::Error>) -> anyhow::Error {
 /// The exit status for an error: 2 when any cause in its chain is an [`InputError`] or an
 /// [`ArgError`], else 1.
 pub fn code_for(e: &anyhow::Error) -> u8 {
-    if e.chain()
-        .any(|c| c.is::<InputError>() || c.is::<ArgError>())
-    {
+    if ArgError::is_in(e) || e.chain().any(|c| c.is::<InputError>()) {
         2
     } else {
         1
@@ -53,5 +51,18 @@ pub fn worker_error(e: anyhow::Error) -> anyhow::Error {
         input_error(e)
     } else {
         e
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_command_lines_errors_and_marked_input_exit_2_and_the_rest_1() {
+        let arg = anyhow::Error::new(ArgError::Value("--tile 0".into())).context("starting");
+        assert_eq!(code_for(&arg), 2);
+        assert_eq!(code_for(&input_error(anyhow::anyhow!("bad file"))), 2);
+        assert_eq!(code_for(&anyhow::anyhow!("disk full")), 1);
     }
 }

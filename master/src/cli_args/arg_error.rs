@@ -1,6 +1,6 @@
 //! Why a command line cannot be used: the one error type of [`crate::cli_args`]. Every variant
-//! is bad input, exit status 2 ([`crate::exit::code_for`] finds it anywhere in an error's
-//! chain), and its message names the flag, file or argument at fault.
+//! is bad input (exit status 2 wherever [`ArgError::is_in`] finds one in an error's chain), and
+//! its message names the flag, file or argument at fault.
 
 use std::path::PathBuf;
 
@@ -33,6 +33,11 @@ impl ArgError {
         ArgError::Refused(e.into())
     }
 
+    /// Whether an `ArgError` is anywhere in `e`'s chain: the command line was at fault.
+    pub fn is_in(e: &anyhow::Error) -> bool {
+        e.chain().any(|c| c.is::<ArgError>())
+    }
+
     /// A named file that cannot be used, and why.
     pub fn file(path: impl Into<PathBuf>, why: impl std::fmt::Display) -> Self {
         ArgError::File {
@@ -47,7 +52,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_variant_exits_2_and_keeps_its_message() {
+    fn every_variant_is_found_in_the_chain_and_keeps_its_message() {
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
         let cases = [
             (
@@ -63,7 +68,7 @@ mod tests {
         ];
         for (e, text) in cases {
             let e = anyhow::Error::new(e).context("while starting");
-            assert_eq!(crate::exit::code_for(&e), 2, "{e:#}");
+            assert!(ArgError::is_in(&e), "{e:#}");
             assert!(format!("{e:#}").ends_with(text), "{e:#}");
         }
     }
