@@ -5,8 +5,8 @@
 
 use bytes::BytesMut;
 use libfuzzer_sys::fuzz_target;
-use parrt::protocol::codec::{decode_payload, encode_payload};
-use parrt::protocol::MessageCodec;
+use parrt_protocol::codec::{decode_payload, encode_payload};
+use parrt_protocol::MessageCodec;
 use tokio_util::codec::Decoder;
 
 fuzz_target!(|data: &[u8]| {

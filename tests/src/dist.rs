@@ -3,7 +3,7 @@
 
 use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
 use parrt::film::Film;
-use parrt::protocol::Token;
+use parrt_protocol::Token;
 use parrt::render::Renderer;
 use parrt::settings::RenderSettings;
 use parrt::smp::{render_smp, Executor, SmpOptions};
@@ -29,23 +29,23 @@ pub fn token() -> Token {
 
 /// The worker's side of the encrypted channel over `s`, with the test token: what a raw
 /// test peer speaks inside, as a worker does.
-pub async fn secure_client<S>(s: S) -> parrt::protocol::SecureStream<S>
+pub async fn secure_client<S>(s: S) -> parrt_protocol::SecureStream<S>
 where
     S: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin,
 {
-    let key = parrt::protocol::LinkKey::from_token(&token());
-    parrt::protocol::channel::connect(s, &key, None)
+    let key = parrt_protocol::LinkKey::from_token(&token());
+    parrt_protocol::channel::connect(s, &key, None)
         .await
         .expect("the channel opens with the test token")
 }
 
 /// The master's side of the encrypted channel over `s`, with the test token (a fake master).
-pub async fn secure_server<S>(s: S) -> parrt::protocol::SecureStream<S>
+pub async fn secure_server<S>(s: S) -> parrt_protocol::SecureStream<S>
 where
     S: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin,
 {
-    let key = parrt::protocol::LinkKey::from_token(&token());
-    parrt::protocol::channel::accept(s, &key, None)
+    let key = parrt_protocol::LinkKey::from_token(&token());
+    parrt_protocol::channel::accept(s, &key, None)
         .await
         .expect("the channel opens with the test token")
 }
@@ -150,7 +150,7 @@ pub fn smp_reference(
     (out.film, out.stats)
 }
 
-#[path = "../../common/tests/support/film.rs"]
+#[path = "../../render/tests/support/film.rs"]
 mod film;
 pub use film::assert_same_bits;
 
@@ -261,8 +261,8 @@ pub fn spawn_worker_process(
         .env("PARRT_TOKEN", token)
         .stdin(Stdio::null())
         .stdout(Stdio::null());
-    match std::env::var_os(parrt::protocol::LOG_ENV) {
-        Some(level) => cmd.env(parrt::protocol::LOG_ENV, level),
+    match std::env::var_os(parrt_protocol::LOG_ENV) {
+        Some(level) => cmd.env(parrt_protocol::LOG_ENV, level),
         None => cmd.stderr(Stdio::null()),
     };
     match delay_ms {
@@ -273,10 +273,10 @@ pub fn spawn_worker_process(
 }
 
 /// `msg` as one frame on the wire (length prefix and postcard payload), for raw-byte peers.
-pub fn frame(msg: &parrt::protocol::Message) -> bytes::BytesMut {
+pub fn frame(msg: &parrt_protocol::Message) -> bytes::BytesMut {
     use tokio_util::codec::Encoder;
     let mut buf = bytes::BytesMut::new();
-    parrt::protocol::MessageCodec::new(1 << 28)
+    parrt_protocol::MessageCodec::new(1 << 28)
         .encode(msg, &mut buf)
         .expect("a test message encodes");
     buf

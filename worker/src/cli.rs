@@ -5,8 +5,8 @@ use crate::options::WorkerOptions;
 use crate::session::{self, SessionEnd};
 use anyhow::Context;
 use clap::Args;
-use parrt::protocol::limits::{duration_from_secs, MAX_THREADS};
-use parrt::protocol::Token;
+use parrt_protocol::limits::{duration_from_secs, MAX_THREADS};
+use parrt_protocol::Token;
 use std::net::ToSocketAddrs;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,8 +27,8 @@ pub const LOG_ENV: &str = "PARRT_LOG";
 #[error("{0}")]
 pub struct UsageError(pub String);
 
-/// A duration flag given in seconds, checked against [`parrt::protocol::limits`]: finite, not
-/// negative, at most [`parrt::protocol::limits::MAX_FLAG_SECONDS`], and not zero when
+/// A duration flag given in seconds, checked against [`parrt_protocol::limits`]: finite, not
+/// negative, at most [`parrt_protocol::limits::MAX_FLAG_SECONDS`], and not zero when
 /// `positive`. Out of range is a [`UsageError`] (exit 2) naming the flag. Shared with `parrt
 /// master`'s duration flags.
 pub fn seconds_flag(flag: &str, secs: f64, positive: bool) -> Result<Duration, UsageError> {

@@ -136,7 +136,7 @@ impl<'a, D: Dial> Dialer<'a, D> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::protocol::Token;
+    use parrt_protocol::Token;
 
     /// A loopback port with nothing listening (bound, then released).
     fn dead_port() -> String {

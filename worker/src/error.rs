@@ -1,8 +1,8 @@
 //! The worker's error type. Every failure a worker can meet, with the master's reason when the
 //! master gave one.
 
-use parrt::protocol::ProtocolError;
-use parrt::seconds::seconds;
+use parrt_protocol::ProtocolError;
+use parrt_protocol::seconds::seconds;
 use std::time::Duration;
 use thiserror::Error;
 
@@ -56,7 +56,7 @@ pub enum WorkerError {
     ClosedInHandshake,
     /// The encrypted channel could not be set up (bytes that are not a parrt master's).
     #[error("encrypted channel: {0}")]
-    Channel(parrt::protocol::ChannelError),
+    Channel(parrt_protocol::ChannelError),
     /// The task building the rayon pool failed (panicked).
     #[error("cannot start the render threads: {0}")]
     PoolTask(String),

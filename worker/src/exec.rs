@@ -15,7 +15,7 @@ pub use pool::RayonExec;
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;
 use crate::tiles::JobHandle;
-use parrt::protocol::{JobSpec, Message};
+use parrt_protocol::{JobSpec, Message};
 use parrt::render::Renderer;
 use parrt::tile::Tile;
 use std::future::Future;

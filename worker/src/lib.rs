@@ -21,7 +21,7 @@
 //!
 //! ## Example
 //! ```no_run
-//! use parrt::protocol::Token;
+//! use parrt_protocol::Token;
 //! use parrt_worker::{options::WorkerOptions, session};
 //! # async fn f() -> Result<(), parrt_worker::error::WorkerError> {
 //! let opts = WorkerOptions::new("127.0.0.1:7878", Token::new("secret").unwrap());

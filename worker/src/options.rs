@@ -1,7 +1,7 @@
 //! Worker options: everything a worker is told before it dials. Defaults suit a LAN; the test
 //! hook [`TILE_DELAY_ENV`] exists only to make fault tests deterministic.
 
-use parrt::protocol::{Token, DEFAULT_MAX_FRAME};
+use parrt_protocol::{Token, DEFAULT_MAX_FRAME};
 use std::time::Duration;
 
 /// Testing aid: when set to a number of milliseconds, the worker sleeps that long before each
@@ -14,7 +14,7 @@ pub const TILE_DELAY_ENV: &str = "PARRT_WORKER_TILE_DELAY_MS";
 pub struct WorkerOptions {
     /// The master's address, `host:port`.
     pub connect: String,
-    /// Render threads (the size of the rayon pool); 1 to [`parrt::protocol::limits::MAX_THREADS`].
+    /// Render threads (the size of the rayon pool); 1 to [`parrt_protocol::limits::MAX_THREADS`].
     pub threads: usize,
     /// The shared secret.
     pub token: Token,
@@ -33,7 +33,7 @@ pub struct WorkerOptions {
     /// Give up when the master sends nothing (not even a heartbeat) for this long.
     pub master_timeout: Duration,
     /// Largest frame accepted from the master until the Job has arrived (then
-    /// [`parrt::protocol::limits::MASTER_FRAME_AFTER_JOB`]), and largest frame sent.
+    /// [`parrt_protocol::limits::MASTER_FRAME_AFTER_JOB`]), and largest frame sent.
     pub max_frame: usize,
     /// Sleep before each tile (testing aid, see [`TILE_DELAY_ENV`]).
     pub tile_delay: Option<Duration>,
@@ -50,7 +50,7 @@ impl WorkerOptions {
             connect: connect.into(),
             threads: std::thread::available_parallelism()
                 .map_or(1, |n| n.get())
-                .min(parrt::protocol::limits::MAX_THREADS as usize),
+                .min(parrt_protocol::limits::MAX_THREADS as usize),
             token,
             name: default_name(),
             dial_timeout: Duration::from_secs(30),
@@ -66,10 +66,10 @@ impl WorkerOptions {
     }
 
     /// Render threads: [`WorkerOptions::threads`] kept within 1 ..=
-    /// [`parrt::protocol::limits::MAX_THREADS`]. What Hello announces and the pool is built with.
+    /// [`parrt_protocol::limits::MAX_THREADS`]. What Hello announces and the pool is built with.
     pub fn render_threads(&self) -> usize {
         self.threads
-            .clamp(1, parrt::protocol::limits::MAX_THREADS as usize)
+            .clamp(1, parrt_protocol::limits::MAX_THREADS as usize)
     }
 }
 

@@ -1,5 +1,5 @@
 //! One worker session: dial, open the encrypted channel keyed by the token
-//! ([`parrt::protocol::channel`]), handshake inside it (Hello with our nonce → Challenge with
+//! ([`parrt_protocol::channel`]), handshake inside it (Hello with our nonce → Challenge with
 //! the master's proof, checked before we answer → Auth → Welcome), then the message loop. A handshake cut
 //! short is retried within the dial budget; a refusal or a master that cannot prove the token
 //! ends the session at once. The loop owns the connection; renderer builds and tiles go to an
@@ -15,10 +15,10 @@ use crate::exec::{ExecEvent, Execute, RayonExec};
 use crate::net::{Dial, TcpDial};
 use crate::options::WorkerOptions;
 use crate::tiles::JobHandle;
-use parrt::protocol::channel::{self, ChannelError, LinkKey, SecureStream};
-use parrt::protocol::limits::{self, MASTER_FRAME_AFTER_JOB};
-use parrt::protocol::message::NONCE_LEN;
-use parrt::protocol::{
+use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
+use parrt_protocol::limits::{self, MASTER_FRAME_AFTER_JOB};
+use parrt_protocol::message::NONCE_LEN;
+use parrt_protocol::{
     Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
 use parrt::tile::Tile;
@@ -60,7 +60,7 @@ struct CurrentJob {
     width: u32,
     height: u32,
     cancelled: Arc<AtomicBool>,
-    pixel_format: parrt::protocol::PixelFormat,
+    pixel_format: parrt_protocol::PixelFormat,
     handle: Option<JobHandle>,
     /// Batches of tiles assigned before the renderer was ready.
     waiting: Vec<Vec<(Tile, u32)>>,

@@ -6,7 +6,7 @@
 //! with the inline executor ([`crate::exec::InlineExec`]).
 
 use parrt::film::Rgb;
-use parrt::protocol::{Message, PixelFormat, TilePixels};
+use parrt_protocol::{Message, PixelFormat, TilePixels};
 use parrt::render::Renderer;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;

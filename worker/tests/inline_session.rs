@@ -5,8 +5,8 @@
 //! speaks inside the encrypted channel the worker opens, as a real master does.
 
 use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
-use parrt::protocol::message::NONCE_LEN;
-use parrt::protocol::{
+use parrt_protocol::message::NONCE_LEN;
+use parrt_protocol::{
     Connection, JobSpec, LinkKey, Message, PixelFormat, SecureStream, TilePixels, Token,
     DEFAULT_MAX_FRAME, PROTOCOL_VERSION,
 };
@@ -74,7 +74,7 @@ fn token() -> Token {
 type Secure = SecureStream<DuplexStream>;
 
 async fn secure(end: DuplexStream) -> Secure {
-    parrt::protocol::channel::accept(end, &LinkKey::from_token(&token()), None)
+    parrt_protocol::channel::accept(end, &LinkKey::from_token(&token()), None)
         .await
         .expect("the worker opens the channel with our token")
 }

@@ -37,7 +37,7 @@ use super::file_guard::{self, GuardError, Privacy};
 use super::scheduler::AcceptedTile;
 use hmac::{Hmac, Mac};
 use parrt::description::SceneDescription;
-use parrt::protocol::{PixelFormat, TilePixels};
+use parrt_protocol::{PixelFormat, TilePixels};
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;

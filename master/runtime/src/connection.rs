@@ -1,5 +1,5 @@
 //! One connection task per peer: the encrypted channel keyed by the token
-//! ([`parrt::protocol::channel`]: a wrong token or another version refused at its first
+//! ([`parrt_protocol::channel`]: a wrong token or another version refused at its first
 //! message), the handshake inside it (version and thread checks, the master's proof, the
 //! worker's MAC check), then the relay between the socket and the scheduler. It owns the
 //! [`Connection`]; the scheduler talks to it through an outbox channel and hears from it
@@ -11,13 +11,13 @@
 use super::scheduler::{Event, WorkerId};
 use super::server::HandshakeSlot;
 use parrt::isa::Isa;
-use parrt::protocol::channel::{self, ChannelError, LinkKey, SecureStream};
-use parrt::protocol::limits::{self, MAX_THREADS};
-use parrt::protocol::message::NONCE_LEN;
-use parrt::protocol::{
+use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
+use parrt_protocol::limits::{self, MAX_THREADS};
+use parrt_protocol::message::NONCE_LEN;
+use parrt_protocol::{
     Connection, Encoded, Message, ProtocolError, Token, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
-use parrt::seconds::seconds;
+use parrt_protocol::seconds::seconds;
 use rand::{RngCore, SeedableRng};
 use std::net::SocketAddr;
 use std::sync::Arc;

@@ -80,7 +80,7 @@ pub enum DistError {
     Runtime(std::io::Error),
     /// The job message could not be encoded.
     #[error("cannot encode the job: {0}")]
-    EncodeJob(parrt::protocol::ProtocolError),
+    EncodeJob(parrt_protocol::ProtocolError),
     /// The job (its scene) is larger than a frame may be.
     #[error(
         "the job (scene and settings) is {bytes} bytes, more than the {max_frame}-byte frame limit"
@@ -158,8 +158,8 @@ fn no_workers_message(waited: Duration, wanted: usize, ready: usize, failed: &[S
     )
 }
 
-/// Durations in messages: the one helper every crate shares (`parrt::seconds`).
-pub use parrt::seconds::seconds;
+/// Durations in messages: the one helper every crate shares (`parrt_protocol::seconds`).
+pub use parrt_protocol::seconds::seconds;
 
 #[cfg(test)]
 mod tests {

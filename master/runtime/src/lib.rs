@@ -23,6 +23,8 @@
 //! - [`launcher`]: rank, size and job id from `srun`/`mpirun`/`mpiexec`'s environment.
 //! - [`rendezvous`]: the file through which the ranks of `parrt cluster` meet.
 //! - [`file_guard`]: opening users' files safely (no links, FIFOs or others' files) and locking them.
+//! - [`batch`], [`window`]: how many tiles go in one message, and how much work a worker holds at
+//!   once (rules the analytic model in `parrt bench` follows too).
 //! - [`mutation`]: planted bugs (feature `mutations`) that the simulation must catch.
 //! - [`net`], [`clock`]: the seams; [`cpu_time`]: CPU clocks; [`error`]: what goes wrong.
 //!
@@ -40,6 +42,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod batch;
 pub mod checkpoint;
 pub mod clock;
 pub mod connection;
@@ -58,6 +61,7 @@ pub mod scheduler;
 pub mod server;
 pub mod sink;
 pub mod spawn;
+pub mod window;
 
 pub use error::DistError;
 pub use options::{CheckpointAt, MasterConfig, Net, Schedule, Spawn, WorkerCommand};
@@ -67,10 +71,10 @@ pub use spawn::{spawn_workers, LocalWorkers};
 
 use parrt::description::SceneDescription;
 use parrt::film::Film;
-use parrt::protocol::{PixelFormat, Token};
+use parrt_protocol::{PixelFormat, Token};
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
-pub use parrt::window::Window;
+pub use crate::window::Window;
 use rand::Rng;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use tokio_util::sync::CancellationToken;

@@ -5,8 +5,8 @@
 //! nothing here does I/O.
 
 use crate::observer::Observers;
-use parrt::protocol::{PixelFormat, Token, DEFAULT_MAX_FRAME};
-use parrt::window::Window;
+use parrt_protocol::{PixelFormat, Token, DEFAULT_MAX_FRAME};
+use crate::window::Window;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -47,7 +47,7 @@ pub struct Schedule {
     /// (1: every tile on its own).
     pub max_batch: usize,
     /// The most work one batch may hold, in seconds at the mean tile cost seen so far
-    /// ([`parrt::batch::BATCH_SECONDS`], 2 ms, by default). The deterministic simulation
+    /// ([`crate::batch::BATCH_SECONDS`], 2 ms, by default). The deterministic simulation
     /// stretches it with the rest of time when it dilates a frame too short for its timers.
     pub batch_seconds: f64,
     /// The order tiles are handed out in, by tile id (`None`: raster order). A render that
@@ -80,7 +80,7 @@ impl Default for Schedule {
             tile: 32,
             window: Window::default(),
             max_batch: 8,
-            batch_seconds: parrt::batch::BATCH_SECONDS,
+            batch_seconds: crate::batch::BATCH_SECONDS,
             order: None,
             tile_deadline: Duration::from_secs(120),
             max_failures: 3,
@@ -109,7 +109,7 @@ pub struct Net {
     pub handshake_timeout: Duration,
     /// Largest frame sent to a worker (the Job with its scene is the large one); what the
     /// master accepts from a worker is the smaller of this and what a result of the job's
-    /// tile size needs ([`parrt::protocol::limits::worker_frame_limit`]).
+    /// tile size needs ([`parrt_protocol::limits::worker_frame_limit`]).
     pub max_frame: usize,
     /// Most simultaneous connections (handshaking or working).
     pub max_connections: usize,

@@ -2,7 +2,7 @@
 //! to a bounded length by the connection task), and a WARN log line at most once a second
 //! (the rest at DEBUG), so a flood of bad peers costs neither memory nor disk.
 
-use parrt::protocol::limits;
+use parrt_protocol::limits;
 use std::time::Duration;
 use tokio::time::Instant;
 use tracing::{debug, warn};

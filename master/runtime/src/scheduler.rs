@@ -18,11 +18,11 @@ use crate::mutation::{self, Mutation};
 use parrt::film::Film;
 use parrt::film::Rgb;
 use parrt::isa::Isa;
-use parrt::protocol::{Message, PixelFormat, TilePixels, WireCounters};
+use parrt_protocol::{Message, PixelFormat, TilePixels, WireCounters};
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
-use parrt::window::Window;
+use crate::window::Window;
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
@@ -30,7 +30,7 @@ use tokio::sync::mpsc::UnboundedSender;
 use tokio::time::Instant;
 use tracing::{debug, info, warn};
 
-pub use parrt::batch::BATCH_SECONDS;
+pub use crate::batch::BATCH_SECONDS;
 
 /// A worker's id, unique within one master run.
 pub type WorkerId = u64;
@@ -120,7 +120,7 @@ pub struct SchedOptions {
     /// on its own.
     pub max_batch: usize,
     /// The most work one batch may hold, seconds at the mean tile cost seen
-    /// ([`parrt::batch::BATCH_SECONDS`] by default).
+    /// ([`crate::batch::BATCH_SECONDS`] by default).
     pub batch_seconds: f64,
     /// The pixel format the job asked results to use.
     pub pixel_format: PixelFormat,
@@ -778,7 +778,7 @@ impl Scheduler {
                 format!(
                     "{} tile(s) past the {} deadline",
                     tiles.len(),
-                    parrt::seconds::seconds(deadline)
+                    parrt_protocol::seconds::seconds(deadline)
                 ),
             );
         }
@@ -793,11 +793,11 @@ impl Scheduler {
             .sum()
     }
 
-    /// Tiles per assignment message now ([`parrt::batch::batch_size`]), from the queue, the
+    /// Tiles per assignment message now ([`crate::batch::batch_size`]), from the queue, the
     /// ready render threads (`threads`, counted once per fill: a sum over every worker for
     /// every batch made the fill quadratic in workers) and the mean tile cost seen so far.
     fn batch_size(&self, threads: usize) -> usize {
-        parrt::batch::batch_size(
+        crate::batch::batch_size(
             self.opts.max_batch,
             self.queue.len(),
             threads,

@@ -17,10 +17,10 @@ use super::scheduler::{AcceptedTile, Event, SchedOptions, Scheduler, Step, Verdi
 use super::sink::{BackgroundWriter, TileSink, WRITER_QUEUE};
 use super::{DistError, DistResult};
 use parrt::description::SceneDescription;
-use parrt::protocol::limits::{
+use parrt_protocol::limits::{
     frame_allowance, worker_frame_limit, MAX_HANDSHAKING, MAX_HANDSHAKING_PER_PEER,
 };
-use parrt::protocol::{Encoded, JobSpec, Message, Token};
+use parrt_protocol::{Encoded, JobSpec, Message, Token};
 use parrt::settings::RenderSettings;
 use parrt::tile::tiles;
 use rand::{Rng, SeedableRng};
@@ -195,7 +195,7 @@ impl<L: Listener> Master<L> {
                 backups: sched_opts.backups,
                 max_batch: sched_opts
                     .max_batch
-                    .clamp(1, parrt::protocol::limits::MAX_BATCH),
+                    .clamp(1, parrt_protocol::limits::MAX_BATCH),
                 batch_seconds: sched_opts.batch_seconds,
                 pixel_format: sched_opts.pixel_format,
                 rules: super::lifecycle::Rules {

@@ -152,7 +152,7 @@ impl Drop for BackgroundWriter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::protocol::{PixelFormat, TilePixels};
+    use parrt_protocol::{PixelFormat, TilePixels};
     use parrt::stats::RayStats;
     use std::time::{Duration, Instant};
 

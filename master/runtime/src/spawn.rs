@@ -9,7 +9,7 @@
 //! cancelled (SIGINT, SIGTERM), handing back only those it started, to be killed and reaped.
 
 use crate::options::WorkerCommand;
-use parrt::protocol::{Token, LOG_ENV, TOKEN_ENV};
+use parrt_protocol::{Token, LOG_ENV, TOKEN_ENV};
 use std::net::SocketAddr;
 use std::os::unix::process::CommandExt;
 use std::path::Path;

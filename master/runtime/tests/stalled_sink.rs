@@ -3,7 +3,7 @@
 //! stall is longer than the heartbeat timeout), every worker stays to the end, the image equals
 //! the SMP image, and the sink still receives every tile once the render is over.
 
-use parrt::protocol::Token;
+use parrt_protocol::Token;
 use parrt::render::Renderer;
 use parrt::settings::RenderSettings;
 use parrt::smp::{render_smp, Executor, SmpOptions};

@@ -1,7 +1,7 @@
 //! Duration flags (`--wait-workers`, `--tile-deadline`, `--heartbeat-timeout`, ...): one parser
 //! that turns a number of seconds from the command line into a [`Duration`] within a sane range
 //! per flag, or a bad-input error (exit 2) naming the flag — never a panic or an `Instant`
-//! overflow. The ceiling is the protocol's ([`parrt::protocol::limits::MAX_FLAG_SECONDS`]), the
+//! overflow. The ceiling is the protocol's ([`parrt_protocol::limits::MAX_FLAG_SECONDS`]), the
 //! one the worker's `--dial-timeout` is held to; this adds a floor per flag.
 
 use super::ArgError;
@@ -11,7 +11,7 @@ use std::time::Duration;
 /// The longest any duration flag may be: one week. Far beyond any sensible wait, and small
 /// enough that `Instant::now() + d` can never overflow.
 pub const MAX_FLAG_DURATION: Duration =
-    Duration::from_secs(parrt::protocol::limits::MAX_FLAG_SECONDS as u64);
+    Duration::from_secs(parrt_protocol::limits::MAX_FLAG_SECONDS as u64);
 
 /// The shortest `--heartbeat-timeout`: two heartbeats ([`DEFAULT_HEARTBEAT`]), so one late
 /// heartbeat drops no worker.

@@ -58,7 +58,7 @@ pub fn costly_first(costs: &[(Tile, f64)]) -> Vec<u32> {
 pub fn read_costs(path: &Path) -> anyhow::Result<Vec<(Tile, f64)>> {
     let bytes = super::limits::read_path(path, parrt::nff::limits::DEFAULT_MAX_FILE_BYTES)?;
     let text = String::from_utf8(bytes).map_err(|_| ArgError::file(path, "not UTF-8 text"))?;
-    let costs = parrt::efficiency::read_tile_costs(&text).map_err(|e| ArgError::file(path, e))?;
+    let costs = crate::studies::efficiency::read_tile_costs(&text).map_err(|e| ArgError::file(path, e))?;
     if costs.is_empty() {
         return Err(ArgError::file(path, "no tiles").into());
     }
@@ -94,7 +94,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("costs.csv");
         let list = parrt::tile::tiles(64, 64, 16);
-        parrt::efficiency::write_tile_costs(&path, &list, &vec![0.01; list.len()]).unwrap();
+        crate::studies::efficiency::write_tile_costs(&path, &list, &vec![0.01; list.len()]).unwrap();
         let args = OrderArgs {
             costly_first: Some(path.clone()),
         };

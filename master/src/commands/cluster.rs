@@ -13,7 +13,7 @@ use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
-use parrt::protocol::Token;
+use parrt_protocol::Token;
 use parrt_runtime::launcher::{self, Rank};
 use parrt_runtime::rendezvous::{self, Rendezvous};
 use parrt_runtime::{Job, MasterConfig};

@@ -58,7 +58,7 @@ pub struct MasterArgs {
     /// thread, or `auto`: one per thread plus what the worker's measured round trip needs (two
     /// per thread until it is measured).
     #[arg(long, value_name = "N|auto", default_value = "2")]
-    pub window: parrt::window::Window,
+    pub window: parrt_runtime::window::Window,
     /// Most tiles in one assignment. Batches are guided: large while much is queued and
     /// tiles are cheap (at most 50 ms of work), single tiles at the tail; 1 sends every tile
     /// on its own; at most 256.

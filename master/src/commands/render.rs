@@ -426,7 +426,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(path) = &args.tile_costs {
         let list = parrt::tile::tiles(settings.width, settings.height, args.tile);
-        parrt::efficiency::write_tile_costs(path, &list, &out.tile_seconds)
+        crate::studies::efficiency::write_tile_costs(path, &list, &out.tile_seconds)
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     if let (Some(path), Some(t)) = (&args.timeline, &out.timeline) {

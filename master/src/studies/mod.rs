@@ -11,3 +11,5 @@
 
 pub mod accuracy;
 pub mod cluster;
+pub mod efficiency;
+pub mod simulate;

@@ -228,7 +228,7 @@ impl Observer for Recorder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::protocol::{Message, PixelFormat, TilePixels};
+    use parrt_protocol::{Message, PixelFormat, TilePixels};
     use parrt::settings::RenderSettings;
     use parrt::tile::tiles;
     use parrt_runtime::observer::Observers;
@@ -302,12 +302,12 @@ mod tests {
             1,
             list,
             SchedOptions {
-                window: parrt::window::Window::PerThread(1),
+                window: parrt_runtime::window::Window::PerThread(1),
                 tile_deadline: Duration::from_secs(60),
                 max_failures: 3,
                 backups: true,
                 max_batch: 1,
-                batch_seconds: parrt::batch::BATCH_SECONDS,
+                batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
                 rules: Default::default(),
             },

@@ -4,7 +4,7 @@
 //! flags and files refused before any work
 //! (`careless`).
 
-#[path = "../../../common/tests/support/mod.rs"]
+#[path = "../../../render/tests/support/mod.rs"]
 mod support;
 
 mod careless;

@@ -5,7 +5,7 @@
 //! arrive at the master ([`Paced`]): each worker's link and the master's link at their
 //! bandwidth, then the master's CPU per byte received (measured on real runs), one byte after
 //! another as a single-threaded master handles them. Beside each run, the analytic simulator
-//! (`parrt::simulate`) predicts the same configuration.
+//! (`parrt_master::studies::simulate`) predicts the same configuration.
 //!
 //! tokio's timers run in whole milliseconds, so a frame whose tiles last microseconds (a
 //! 0.2 s frame cut into 16 384 tiles) is run *dilated*: every duration the world sets — tile
@@ -18,10 +18,10 @@ use super::net::SimDial;
 use super::tail::{Tail, TailTrace};
 use parrt::description::SceneDescription;
 use parrt::film::Film;
-use parrt::protocol::{PixelFormat, Token};
+use parrt_protocol::{PixelFormat, Token};
 use parrt::render::Renderer;
 use parrt::settings::RenderSettings;
-use parrt::simulate::{simulate, SimParams};
+use parrt_master::studies::simulate::{simulate, SimParams};
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt_runtime::{DistResult, Master, MasterConfig};
 use parrt_worker::exec::InlineExec;
@@ -193,7 +193,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     config.schedule.tile = tile;
     config.schedule.min_workers = c.workers;
     config.schedule.max_batch = c.max_batch;
-    config.schedule.batch_seconds = parrt::batch::BATCH_SECONDS * k;
+    config.schedule.batch_seconds = parrt_runtime::batch::BATCH_SECONDS * k;
     // The handout order, by tile id; the model is given the tiles in the same order.
     let mut order: Vec<u32> = (0..costs.len() as u32).collect();
     if c.costly_first {
@@ -316,7 +316,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let trace_s = r.trace_s / k;
     let efficiency = spent / (n as f64 * trace_s.max(1e-12));
     let mean = spent / costs.len().max(1) as f64;
-    let window = parrt::window::Window::default().assignments(
+    let window = parrt_runtime::window::Window::default().assignments(
         c.threads,
         Some(2.0 * c.latency.as_secs_f64()),
         mean,
@@ -324,7 +324,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let p = SimParams {
         window,
         max_batch: c.max_batch,
-        batch_seconds: parrt::batch::BATCH_SECONDS,
+        batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
         latency_s: c.latency.as_secs_f64(),
         bandwidth_bps: link_bytes_per_s,
         master_link_bps: link_bytes_per_s,

@@ -11,7 +11,7 @@ use super::trace::Trace;
 use crate::dist::{test_scene, token};
 use parrt::description::SceneDescription;
 use parrt::film::Film;
-use parrt::protocol::{Connection, Message, PixelFormat, TilePixels, Token, PROTOCOL_VERSION};
+use parrt_protocol::{Connection, Message, PixelFormat, TilePixels, Token, PROTOCOL_VERSION};
 use parrt::settings::RenderSettings;
 use parrt_runtime::checkpoint::{self, JobKey};
 use parrt_runtime::mutation::Mutation;
@@ -249,11 +249,11 @@ async fn hostile(kind: Hostile, seed: u64, trace: &Trace) -> turmoil::Result {
 /// tile it was never given, with too few pixels, and keeps reading until dropped.
 async fn impossible_results(addr: String, seed: u64) -> turmoil::Result {
     let stream = turmoil::net::TcpStream::connect(addr).await?;
-    let key = parrt::protocol::LinkKey::from_token(&token());
-    let eph = parrt::protocol::channel::seeded_ephemeral(seed);
-    let stream = parrt::protocol::channel::connect(stream, &key, Some(eph)).await?;
-    let mut c = Connection::new(stream, parrt::protocol::HANDSHAKE_MAX_FRAME);
-    let ours = [seed as u8; parrt::protocol::message::NONCE_LEN];
+    let key = parrt_protocol::LinkKey::from_token(&token());
+    let eph = parrt_protocol::channel::seeded_ephemeral(seed);
+    let stream = parrt_protocol::channel::connect(stream, &key, Some(eph)).await?;
+    let mut c = Connection::new(stream, parrt_protocol::HANDSHAKE_MAX_FRAME);
+    let ours = [seed as u8; parrt_protocol::message::NONCE_LEN];
     c.write(&Message::Hello {
         version: PROTOCOL_VERSION,
         name: "liar".into(),
@@ -269,7 +269,7 @@ async fn impossible_results(addr: String, seed: u64) -> turmoil::Result {
         mac: token().worker_proof(&nonce, &ours),
     })
     .await?;
-    c.set_max_frame(parrt::protocol::DEFAULT_MAX_FRAME);
+    c.set_max_frame(parrt_protocol::DEFAULT_MAX_FRAME);
     let mut job_id = 0;
     let _ = tokio::time::timeout(Duration::from_secs(10), async {
         while let Ok(Some(m)) = c.read().await {

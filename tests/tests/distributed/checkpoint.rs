@@ -6,7 +6,7 @@
 //! flipped byte in a middle record are dropped and their tiles rendered again.
 
 use crate::EXE;
-use parrt::protocol::PixelFormat;
+use parrt_protocol::PixelFormat;
 use parrt::tile::tiles;
 use parrt_runtime::checkpoint::{scan_records, scan_sealed_records, Scan, Seal, HEADER_LEN};
 use parrt_tests::{spawn_worker_process, ChildGuard, TEST_TOKEN};

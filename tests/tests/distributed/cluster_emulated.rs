@@ -40,9 +40,9 @@ fn four_replaying_workers_of_two_threads_assemble_the_smp_image_once_per_tile() 
             workers: 4,
             threads: 2,
             tile,
-            window: parrt::window::Window::default(),
+            window: parrt_runtime::window::Window::default(),
             max_batch: 8,
-            pixel_format: parrt::protocol::PixelFormat::F32,
+            pixel_format: parrt_protocol::PixelFormat::F32,
             link: LinkParams {
                 latency: Duration::from_micros(500),
                 worker_bps: 100e6 / 8.0,

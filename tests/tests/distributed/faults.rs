@@ -4,7 +4,7 @@
 //! `PARRT_WORKER_TILE_DELAY_MS` test hook so "mid-job" is certain. Bad peers are `handshake.rs`.
 
 use crate::EXE;
-use parrt::protocol::{Connection, Message};
+use parrt_protocol::{Connection, Message};
 use parrt_runtime::{DistResult, MasterConfig};
 use parrt_tests::*;
 use std::sync::Arc;
@@ -173,7 +173,7 @@ async fn worker_reports_a_job_it_cannot_build() {
     c.write(&Message::Welcome).await.unwrap();
     let mut desc = test_scene(8, 8);
     desc.view.width = 0;
-    c.write(&Message::Job(Box::new(parrt::protocol::JobSpec {
+    c.write(&Message::Job(Box::new(parrt_protocol::JobSpec {
         job_id: 42,
         scene: desc,
         settings: parrt::settings::RenderSettings::new(0, 8),

@@ -6,9 +6,9 @@
 
 use crate::peers::{authenticate, job, welcome_one};
 use bytes::BytesMut;
-use parrt::protocol::codec::MessageCodec;
-use parrt::protocol::limits;
-use parrt::protocol::{JobSpec, Message};
+use parrt_protocol::codec::MessageCodec;
+use parrt_protocol::limits;
+use parrt_protocol::{JobSpec, Message};
 use parrt::tile::Tile;
 use parrt_tests::*;
 use parrt_worker::WorkerError;
@@ -244,7 +244,7 @@ async fn master_takes_a_slow_result() {
         job_id: j.job_id,
         tile_id: tile.0.id,
         attempt: tile.1,
-        pixels: parrt::protocol::TilePixels::encode(
+        pixels: parrt_protocol::TilePixels::encode(
             &vec![[0.25, 0.5, 0.75]; tile.0.pixel_count()],
             Default::default(),
         ),

@@ -10,8 +10,8 @@ use crate::faults::finish;
 use crate::peers::{authenticate, hello, v1_hello_frame, welcome_one};
 use crate::token::SECRET;
 use crate::EXE;
-use parrt::protocol::limits::MAX_THREADS;
-use parrt::protocol::{Connection, Message, PROTOCOL_VERSION};
+use parrt_protocol::limits::MAX_THREADS;
+use parrt_protocol::{Connection, Message, PROTOCOL_VERSION};
 use parrt_tests::*;
 use parrt_worker::WorkerError;
 use std::io::{BufRead, BufReader, Read};
@@ -241,7 +241,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
 
     // Wrong token: refused at the channel's first message, with that reason.
     let mut wrong = worker_options(m.addr, 1, "wrong-token");
-    wrong.token = parrt::protocol::Token::new("not the token").unwrap();
+    wrong.token = parrt_protocol::Token::new("not the token").unwrap();
     let err = start_worker(wrong).await.unwrap().unwrap_err();
     assert!(matches!(err, WorkerError::Refused(_)), "{err}");
     assert!(err.to_string().contains("wrong token"), "{err}");
@@ -262,7 +262,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     let Some(Message::Challenge { nonce, .. }) = c.read().await.unwrap() else {
         panic!("no challenge")
     };
-    let guess = parrt::protocol::Token::new("not the token").unwrap();
+    let guess = parrt_protocol::Token::new("not the token").unwrap();
     c.write(&Message::Auth {
         mac: guess.worker_proof(&nonce, &[6; 32]),
     })
@@ -356,7 +356,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         job_id: job.job_id,
         tile_id: last,
         attempt: 1,
-        pixels: parrt::protocol::TilePixels::encode(&[[9.0; 3]; 64], Default::default()),
+        pixels: parrt_protocol::TilePixels::encode(&[[9.0; 3]; 64], Default::default()),
         stats: parrt::stats::RayStats::default(),
         seconds: 0.0,
     })

@@ -217,7 +217,7 @@ pub fn read_listen_addr(r: &mut impl std::io::BufRead) -> std::net::SocketAddr {
 /// traffic is a quarter of the f32 run's.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn rgb8_pixels_write_the_smp_png_with_a_quarter_of_the_bytes() {
-    use parrt::protocol::PixelFormat;
+    use parrt_protocol::PixelFormat;
     let desc = test_scene(96, 64);
     let settings = settings_for(&desc);
     let (reference, ref_stats) = smp_reference(&desc, &settings, 16);

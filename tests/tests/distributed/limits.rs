@@ -1,12 +1,12 @@
 //! What a peer can cost the master and a worker (issue 20): a flood of refused handshakes leaves
 //! the master's memory and log bounded, the reasons it keeps are cut; stalled handshakes cannot
 //! keep an authenticated worker out; a worker with thousands of threads heartbeats before its
-//! pool is built. Every peer is a raw client written with `parrt::protocol`, except the worker
+//! pool is built. Every peer is a raw client written with `parrt_protocol`, except the worker
 //! under test itself.
 
 use crate::peers::{hello, v1_hello_frame, welcome_one};
 use crate::EXE;
-use parrt::protocol::{Connection, Message, PROTOCOL_VERSION};
+use parrt_protocol::{Connection, Message, PROTOCOL_VERSION};
 use parrt_tests::*;
 use std::io::{BufRead, BufReader, Read};
 use std::net::SocketAddr;

@@ -24,7 +24,7 @@ mod relay;
 mod tiers;
 mod token;
 
-#[path = "../../../common/tests/support/mod.rs"]
+#[path = "../../../render/tests/support/mod.rs"]
 mod support;
 
 /// The package's `parrt` executable (master, worker, `render --workers`, cluster).

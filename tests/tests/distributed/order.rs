@@ -22,7 +22,7 @@ fn the_costliest_tile_goes_out_first_and_the_image_is_the_smp_image() {
     secs[last] = 0.5;
     secs[0] = 0.2;
     let costs = dir.path().join("costs.csv");
-    parrt::efficiency::write_tile_costs(&costs, &tiles, &secs).unwrap();
+    parrt_master::studies::efficiency::write_tile_costs(&costs, &tiles, &secs).unwrap();
     let token_file = dir.path().join("token");
     std::fs::write(&token_file, format!("{TEST_TOKEN}\n")).unwrap();
     let out = dir.path().join("out.png");
@@ -71,7 +71,7 @@ fn a_cost_file_of_another_tiling_is_refused_with_exit_2() {
     std::fs::write(&scene, serde_json::to_string(&desc).unwrap()).unwrap();
     let tiles = parrt::tile::tiles(64, 48, 16);
     let costs = dir.path().join("costs.csv");
-    parrt::efficiency::write_tile_costs(&costs, &tiles, &vec![0.01; tiles.len()]).unwrap();
+    parrt_master::studies::efficiency::write_tile_costs(&costs, &tiles, &vec![0.01; tiles.len()]).unwrap();
     let out = master_command(&scene, &costs)
         .arg("-o")
         .arg(dir.path().join("out.png"))

@@ -1,9 +1,9 @@
 //! Raw peers for the handshake, frame and limit tests: a Hello (ours, and version 1's bytes), a
 //! raw client through the whole handshake, a raw fake master that welcomes one worker, and a
-//! job. Written with `parrt::protocol` directly, never a real worker; the raw client and the
+//! job. Written with `parrt_protocol` directly, never a real worker; the raw client and the
 //! fake master speak inside the encrypted channel, as real peers do.
 
-use parrt::protocol::{Connection, JobSpec, Message, SecureStream, PROTOCOL_VERSION};
+use parrt_protocol::{Connection, JobSpec, Message, SecureStream, PROTOCOL_VERSION};
 use parrt_tests::*;
 use std::net::SocketAddr;
 use tokio::net::{TcpListener, TcpStream};

@@ -4,8 +4,8 @@
 //! ends that connection while the render finishes on another worker, to the same bits.
 
 use crate::faults::finish;
-use parrt::protocol::codec::encode_payload;
-use parrt::protocol::Message;
+use parrt_protocol::codec::encode_payload;
+use parrt_protocol::Message;
 use parrt_tests::*;
 use parrt_worker::session::SessionEnd;
 use std::net::SocketAddr;
@@ -119,7 +119,7 @@ async fn a_relay_sees_no_plaintext() {
     );
     // What a plain-text link would show: the scene as the Job encodes it, the name in Hello,
     // the Welcome frame. Each is found in the plaintext it comes from (the search works)…
-    let job = encode_payload(&Message::Job(Box::new(parrt::protocol::JobSpec {
+    let job = encode_payload(&Message::Job(Box::new(parrt_protocol::JobSpec {
         job_id: 1,
         scene: desc.clone(),
         settings: settings.clone(),

@@ -13,7 +13,7 @@ use crate::options::WorkerOptions;
 use crate::replay::Replay;
 use crate::tiles::{result_message, trace, JobHandle, Source};
 use parrt::film::Rgb;
-use parrt::protocol::{JobSpec, Message};
+use parrt_protocol::{JobSpec, Message};
 use parrt::tile::Tile;
 use std::collections::{BTreeMap, VecDeque};
 use std::panic::AssertUnwindSafe;
@@ -272,7 +272,7 @@ impl Execute for InlineExec {
 mod tests {
     use super::*;
     use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
-    use parrt::protocol::{PixelFormat, Token};
+    use parrt_protocol::{PixelFormat, Token};
     use parrt::render::Renderer;
     use parrt::settings::RenderSettings;
     use parrt::tile::tiles;

@@ -6,7 +6,7 @@ use super::{build_renderer, Built, ExecEvent, Execute};
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;
 use crate::tiles::{JobHandle, TileRenderer, UNSENT_RESULTS};
-use parrt::protocol::{JobSpec, Message};
+use parrt_protocol::{JobSpec, Message};
 use parrt::tile::Tile;
 use std::time::Duration;
 use tokio::sync::mpsc;

@@ -15,7 +15,7 @@ use anyhow::Context;
 use clap::Args;
 use parrt::render::Renderer;
 use parrt::settings::RenderSettings;
-use parrt::simulate::{simulate, SimParams};
+use crate::studies::simulate::{simulate, SimParams};
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt_worker::replay::{self, Replay};
 use serde::Serialize;
@@ -72,7 +72,7 @@ pub struct ClusterArgs {
     /// Assignments (batches of tiles) a worker holds: K per thread, or `auto` (its threads
     /// plus what its measured round trip needs), as `parrt master --window` takes.
     #[arg(long, value_name = "K|auto", default_value = "2")]
-    pub window: parrt::window::Window,
+    pub window: parrt_runtime::window::Window,
     /// Most tiles in one assignment (1: every tile alone, as before batching).
     #[arg(long, value_name = "N", default_value_t = 8)]
     pub max_batch: usize,
@@ -401,9 +401,9 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                     window: args.window,
                     max_batch: args.max_batch,
                     pixel_format: if args.exact_pixels {
-                        parrt::protocol::PixelFormat::F32
+                        parrt_protocol::PixelFormat::F32
                     } else {
-                        parrt::protocol::PixelFormat::Rgb8
+                        parrt_protocol::PixelFormat::Rgb8
                     },
                     link,
                     replay: path.clone(),
@@ -433,7 +433,7 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
                     work / costs.len().max(1) as f64,
                 ),
                 max_batch: args.max_batch,
-                batch_seconds: parrt::batch::BATCH_SECONDS,
+                batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: worker_bps,
                 master_link_bps: master_bps,
@@ -571,7 +571,7 @@ fn report(
         "# {title}\n\nCommand: `parrt {}`. Replay {} (t₁ = {t1:.3} s recorded at one thread, × {scale:.3} \
          = {:.1} s of work; {} tiles, the largest {:.1}× the mean). Link: {} ms one way, master {} Mbit/s shared, workers {} Mbit/s each; \
          window {} (assignments per thread, or auto: one per thread plus the round trip's prefetch). e = t₁·scale/(N·T·t_N), t_N from the first tile handed out (every \
-         worker ready) to the last result in. Predicted: `parrt::simulate` with the measured master \
+         worker ready) to the last result in. Predicted: `crate::studies::simulate` with the measured master \
          CPU per tile and bytes per pixel, and the rest of the emulation's measured CPU per tile \
          queued on this machine's cores; cluster predicted: the same without that shared host (every \
          node its own CPU, as in a real cluster). Limit: compute/cores ÷ max(compute/cores, bytes/master \

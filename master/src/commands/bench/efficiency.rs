@@ -11,10 +11,10 @@ use crate::plot::{range_from_zero, save_chart, Chart, Reference, Series};
 use crate::timeline::plot::save_figure;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use parrt::efficiency::{median, EfficiencyTable};
+use crate::studies::efficiency::{median, EfficiencyTable};
 use parrt::render::Renderer;
 use parrt::settings::{AccelKind, RenderSettings};
-use parrt::simulate::{simulate, SimParams};
+use crate::studies::simulate::{simulate, SimParams};
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -134,7 +134,7 @@ fn run_distributed(
     config.schedule.tile = tile;
     config.schedule.min_workers = n;
     // As `parrt render --workers N -o out.png` runs: 8-bit pixels on the wire.
-    config.schedule.pixel_format = parrt::protocol::PixelFormat::Rgb8;
+    config.schedule.pixel_format = parrt_protocol::PixelFormat::Rgb8;
     let job = Job::<parrt_runtime::DistError>::ready(desc.clone(), settings.clone());
     parrt_runtime::run(&config, job, &mut |_| Ok(None), None)
         .map(|done| done.result)
@@ -217,7 +217,7 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     crate::errln!("parrt: {}", plan(&args, &threads));
     let mut md = String::new();
     let mut csv = csv::Writer::from_writer(Vec::new());
-    csv.write_record(parrt::efficiency::CSV_HEADER)?;
+    csv.write_record(crate::studies::efficiency::CSV_HEADER)?;
     let _ = writeln!(
         md,
         "# Efficiency: {}\n\nMachine: {}. Command: `parrt {}`. Median of {} runs. e = t₁/(n·tₙ), \

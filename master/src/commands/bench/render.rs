@@ -4,7 +4,7 @@
 use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use clap::Args;
-use parrt::efficiency::median;
+use crate::studies::efficiency::median;
 use parrt::render::Renderer;
 use parrt::smp::{render_smp, Executor, SmpOptions};
 use std::process::ExitCode;

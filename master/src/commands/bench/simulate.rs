@@ -5,8 +5,8 @@
 use crate::exit::input_error;
 use crate::plot::{save_chart, Chart, Reference, Series};
 use clap::Args;
-use parrt::efficiency::aggregate_costs;
-use parrt::simulate::{simulate, SimParams};
+use crate::studies::efficiency::aggregate_costs;
+use crate::studies::simulate::{simulate, SimParams};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -61,7 +61,7 @@ pub struct SimulateArgs {
 
 /// What limits a simulated run, in words: the master, the start-up, per-tile round trips the
 /// window cannot hide, too few or too uneven tiles for the threads, or nothing much.
-fn limit_note(p: &SimParams, r: &parrt::simulate::SimResult, costs: &[f64], tile: u32) -> String {
+fn limit_note(p: &SimParams, r: &crate::studies::simulate::SimResult, costs: &[f64], tile: u32) -> String {
     let n = r.n;
     let mean = r.work / costs.len().max(1) as f64;
     let round_trip = 2.0 * p.latency_s + p.master_per_tile_s;
@@ -188,7 +188,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
                 window: args.window.unwrap_or(2 * args.threads),
                 // Every tile alone: the model of tile size and window, without batches.
                 max_batch: 1,
-                batch_seconds: parrt::batch::BATCH_SECONDS,
+                batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
                 latency_s: args.latency_ms / 1e3,
                 bandwidth_bps: args.bandwidth_mbps * 1e6 / 8.0,
                 master_link_bps: f64::INFINITY,

@@ -5,7 +5,7 @@
 use super::configs::{reference, Config, REF_SPP};
 use super::metrics::{compare, ImageError};
 use parrt::description::SceneDescription;
-use parrt::efficiency::median;
+use crate::studies::efficiency::median;
 use parrt::film::Film;
 use parrt::render::Renderer;
 use parrt::smp::{render_smp, Executor, SmpOptions};

@@ -27,11 +27,11 @@ pub struct EmulatedRun {
     /// Tile edge (must be the recording's).
     pub tile: u32,
     /// Tiles in flight per worker thread.
-    pub window: parrt::window::Window,
+    pub window: parrt_runtime::window::Window,
     /// Most tiles in one assignment.
     pub max_batch: usize,
     /// How pixels travel.
-    pub pixel_format: parrt::protocol::PixelFormat,
+    pub pixel_format: parrt_protocol::PixelFormat,
     /// The network.
     pub link: LinkParams,
     /// The recorded render the workers replay.
@@ -172,7 +172,7 @@ pub fn run(
             if timed_out.load(Ordering::Relaxed) {
                 anyhow::anyhow!(
                     "the run did not finish within {}",
-                    parrt::seconds::seconds(run.timeout)
+                    parrt_protocol::seconds::seconds(run.timeout)
                 )
             } else {
                 anyhow::Error::new(e)

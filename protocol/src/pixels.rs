@@ -1,11 +1,11 @@
 //! How a tile's pixels travel from worker to master: as the image's output needs them. An
 //! 8-bit output (PNG, PPM) needs 3 bytes a pixel, quantized on the worker by the very function
-//! the film's 8-bit writer applies ([`crate::film::to_u8`]), so the written image is the same
+//! the film's 8-bit writer applies ([`parrt::film::to_u8`]), so the written image is the same
 //! bytes as an SMP render's; a float output (EXR) and the library API get the exact f32 bits
 //! (12 bytes a pixel). Either way the pixels are one byte blob, copied in and out without a
 //! per-value encoding step.
 
-use crate::film::{to_u8_into, unit, Rgb};
+use parrt::film::{to_u8_into, unit, Rgb};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -156,7 +156,7 @@ impl TilePixels {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::film::to_u8;
+    use parrt::film::to_u8;
 
     #[test]
     fn every_byte_survives_the_round_trip_through_the_film() {

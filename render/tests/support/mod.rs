@@ -1,4 +1,4 @@
-//! Helpers shared by the test binaries of `common/tests/` (and, by path, `master/tests/` and
+//! Helpers shared by the test binaries of `render/tests/` (and, by path, `master/tests/` and
 //! `tests/src`): where the SPD scenes are and their files, the three-accelerator oracle, scenes
 //! built in code, and bit-for-bit film comparison. Test support only; never used by the renderer.
 #![allow(dead_code)] // each test binary uses a different subset

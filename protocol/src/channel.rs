@@ -506,7 +506,7 @@ impl<S: AsyncWrite + Unpin> AsyncWrite for SecureStream<S> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::Connection;
+    use crate::Connection;
     use tokio::io::duplex;
 
     fn key(t: &str) -> LinkKey {

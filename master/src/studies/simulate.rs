@@ -1,6 +1,6 @@
 //! A discrete-event model of the master/worker schedule (DESIGN §8, §9): measured per-tile costs,
 //! workers × threads, a window of assignments in flight per worker, each a batch of tiles sized
-//! by the master's own rule ([`crate::batch::batch_size`]) and answered in one message when its
+//! by the master's own rule ([`parrt_runtime::batch::batch_size`]) and answered in one message when its
 //! last tile is done, one-way latency, link bandwidth (the master's link shared by the workers
 //! in turns, [`shared_link`]), the master's per-result work and the
 //! scene transfer; and, as the master does once its queue is empty, backup copies of tiles in
@@ -24,10 +24,10 @@ pub struct SimParams {
     /// Assignments in flight per worker (sent but not yet answered).
     pub window: usize,
     /// Most tiles in one assignment (1: every tile alone); the size of each is
-    /// [`crate::batch::batch_size`] of the queue, the threads and the mean cost seen so far.
+    /// [`parrt_runtime::batch::batch_size`] of the queue, the threads and the mean cost seen so far.
     pub max_batch: usize,
     /// The most work, in seconds at the mean cost seen, one batch may hold
-    /// ([`crate::batch::BATCH_SECONDS`] unless a schedule sets another).
+    /// ([`parrt_runtime::batch::BATCH_SECONDS`] unless a schedule sets another).
     pub batch_seconds: f64,
     /// One-way network latency, seconds.
     pub latency_s: f64,
@@ -71,7 +71,7 @@ impl SimParams {
             threads,
             window: threads,
             max_batch: 1,
-            batch_seconds: crate::batch::BATCH_SECONDS,
+            batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
             latency_s: 0.0,
             bandwidth_bps: f64::INFINITY,
             master_link_bps: f64::INFINITY,
@@ -259,7 +259,7 @@ impl Sim<'_> {
             return false;
         }
         let mean = (self.seen.1 > 0).then(|| self.seen.0 / self.seen.1 as f64);
-        let size = crate::batch::batch_size(
+        let size = parrt_runtime::batch::batch_size(
             p.max_batch,
             self.costs.len() - self.next,
             p.workers.max(1) * p.threads.max(1),

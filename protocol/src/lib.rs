@@ -56,6 +56,7 @@ pub mod connection;
 pub mod limits;
 pub mod message;
 pub mod pixels;
+pub mod seconds;
 
 pub use auth::{AuthError, Token};
 pub use channel::{ChannelError, LinkKey, SecureStream};

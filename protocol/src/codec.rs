@@ -319,12 +319,12 @@ impl MessageCodec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::description::{Light, Material, Primitive, SceneDescription, Shape, View};
-    use crate::protocol::message::JobSpec;
-    use crate::settings::RenderSettings;
-    use crate::stats::RayStats;
-    use crate::tile::Tile;
-    use crate::vec3::Vec3d;
+    use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
+    use crate::message::JobSpec;
+    use parrt::settings::RenderSettings;
+    use parrt::stats::RayStats;
+    use parrt::tile::Tile;
+    use parrt::vec3::Vec3d;
 
     fn scene() -> SceneDescription {
         SceneDescription {
@@ -380,7 +380,7 @@ mod tests {
                 name: "host-1".into(),
                 threads: 4,
                 nonce: [5; 32],
-                isa: crate::isa::Isa::Avx512,
+                isa: parrt::isa::Isa::Avx512,
             },
             Message::Challenge {
                 nonce: [9; 32],
@@ -396,7 +396,7 @@ mod tests {
                 scene: scene(),
                 settings: RenderSettings::new(8, 8),
                 tile_size: 8,
-                pixel_format: crate::protocol::PixelFormat::Rgb8,
+                pixel_format: crate::PixelFormat::Rgb8,
             })),
             Message::Ready {
                 job_id: 5,
@@ -411,9 +411,9 @@ mod tests {
                 job_id: 5,
                 tile_id: 3,
                 attempt: 2,
-                pixels: crate::protocol::TilePixels::encode(
+                pixels: crate::TilePixels::encode(
                     &[[0.5, f32::MIN_POSITIVE, -0.0]; 40],
-                    crate::protocol::PixelFormat::F32,
+                    crate::PixelFormat::F32,
                 ),
                 stats: RayStats {
                     eye_rays: 40,
@@ -479,7 +479,7 @@ mod tests {
             name: String::new(),
             threads: 1,
             nonce: [0; 32],
-            isa: crate::isa::Isa::Scalar,
+            isa: parrt::isa::Isa::Scalar,
         })
         .unwrap();
         assert_eq!(&p[..2], &[0, 7]);
@@ -607,10 +607,10 @@ mod tests {
                 Message::Assign { job_id, tile: Tile { id: tile_id, x, y, w, h }, attempt },
                 Message::TileResult {
                     job_id, tile_id, attempt,
-                    pixels: crate::protocol::TilePixels::encode(&pixels, crate::protocol::PixelFormat::F32),
+                    pixels: crate::TilePixels::encode(&pixels, crate::PixelFormat::F32),
                     stats: RayStats { eye_rays: job_id, ..RayStats::default() }, seconds,
                 },
-                Message::Hello { version: attempt, name, threads: tile_id, nonce: [7; 32], isa: crate::isa::Isa::Sse2 },
+                Message::Hello { version: attempt, name, threads: tile_id, nonce: [7; 32], isa: parrt::isa::Isa::Sse2 },
             ];
             let mut codec = MessageCodec::new(1 << 20);
             let mut buf = BytesMut::new();
