@@ -178,6 +178,12 @@ struct Sim<'a> {
     bytes: f64,
     first_idle: f64,
     tail_idle: f64,
+    /// When the master is next free, and how long it has been busy, in seconds.
+    master_free: f64,
+    master_busy: f64,
+    /// Tiles with a first result, and when the last of them was accepted.
+    done: usize,
+    makespan: f64,
 }
 
 impl Sim<'_> {
@@ -325,153 +331,193 @@ impl Sim<'_> {
 
 /// Simulates rendering tiles with the given one-thread `costs` (seconds) and pixel counts.
 pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
-    let workers = p.workers.max(1);
-    let threads = p.threads.max(1);
-    let n = workers * threads;
-    let work: f64 = costs.iter().sum();
-    let mut sim = Sim {
-        p,
-        costs,
-        pixels,
-        heap: BinaryHeap::new(),
-        seq: 0,
-        batches: Vec::new(),
-        holders: vec![0; costs.len()],
-        accepted: vec![false; costs.len()],
-        primaries: vec![0; workers],
-        backups_out: vec![0; workers],
-        candidates: BinaryHeap::new(),
-        next: 0,
-        seen: (0.0, 0),
-        queue: vec![VecDeque::new(); workers],
-        idle: vec![threads; workers],
-        link_free: vec![0.0; workers],
-        master_link: SharedLink::new(workers),
-        host_free: vec![0.0; p.host_cores.max(1)],
-        bytes: 0.0,
-        first_idle: f64::INFINITY,
-        tail_idle: 0.0,
-    };
-    // The job goes out at time 0; every worker is ready after the same time, and the first
-    // windows are filled in turn or, for an order by cost, dealt in rounds ([`SimParams::rounds`]).
-    let job = p.scene_bytes + p.message_bytes;
-    sim.bytes += job * workers as f64;
-    let startup = p.latency_s + sim.transfer(job) + p.build_s;
-    if p.rounds {
-        let mut open: Vec<usize> = (0..workers).collect();
-        while !open.is_empty() {
-            open.retain(|&w| sim.deal(w, startup));
-        }
-        for w in 0..workers {
-            sim.take_backups(w, startup);
-        }
-    } else {
-        for w in 0..workers {
-            sim.fill(w, startup);
+    let mut sim = Sim::new(costs, pixels, p);
+    let startup = sim.send_job();
+    while let Some(ev) = sim.heap.pop() {
+        if sim.handle(ev) {
+            // The image is whole: copies still out are never waited for.
+            break;
         }
     }
-    let mut master_free = 0.0f64;
-    let mut master_busy = 0.0f64;
-    let mut done = 0usize;
-    let mut makespan = 0.0f64;
-    while let Some(ev) = sim.heap.pop() {
+    debug_assert_eq!(sim.done, costs.len());
+    sim.finish(startup)
+}
+
+impl<'a> Sim<'a> {
+    fn new(costs: &'a [f64], pixels: &'a [u64], p: &'a SimParams) -> Self {
+        let workers = p.workers.max(1);
+        let threads = p.threads.max(1);
+        Sim {
+            p,
+            costs,
+            pixels,
+            heap: BinaryHeap::new(),
+            seq: 0,
+            batches: Vec::new(),
+            holders: vec![0; costs.len()],
+            accepted: vec![false; costs.len()],
+            primaries: vec![0; workers],
+            backups_out: vec![0; workers],
+            candidates: BinaryHeap::new(),
+            next: 0,
+            seen: (0.0, 0),
+            queue: vec![VecDeque::new(); workers],
+            idle: vec![threads; workers],
+            link_free: vec![0.0; workers],
+            master_link: SharedLink::new(workers),
+            host_free: vec![0.0; p.host_cores.max(1)],
+            bytes: 0.0,
+            first_idle: f64::INFINITY,
+            tail_idle: 0.0,
+            master_free: 0.0,
+            master_busy: 0.0,
+            done: 0,
+            makespan: 0.0,
+        }
+    }
+
+    /// Sends the job at time 0 and fills the first windows; every worker is ready after the
+    /// same time (returned), and the first windows are filled in turn or, for an order by
+    /// cost, dealt in rounds ([`SimParams::rounds`]).
+    fn send_job(&mut self) -> f64 {
+        let p = self.p;
+        let workers = p.workers.max(1);
+        let job = p.scene_bytes + p.message_bytes;
+        self.bytes += job * workers as f64;
+        let startup = p.latency_s + self.transfer(job) + p.build_s;
+        if p.rounds {
+            let mut open: Vec<usize> = (0..workers).collect();
+            while !open.is_empty() {
+                open.retain(|&w| self.deal(w, startup));
+            }
+            for w in 0..workers {
+                self.take_backups(w, startup);
+            }
+        } else {
+            for w in 0..workers {
+                self.fill(w, startup);
+            }
+        }
+        startup
+    }
+
+    /// Runs one event; says whether the image is whole.
+    fn handle(&mut self, ev: Event) -> bool {
+        let p = self.p;
         let now = ev.time;
         match ev.kind {
             Kind::Assign { worker, batch } => {
-                let tiles = sim.batches[batch].0.clone();
-                sim.queue[worker].extend(tiles.map(|tile| (tile, batch)));
-                sim.start(worker, now);
+                let tiles = self.batches[batch].0.clone();
+                self.queue[worker].extend(tiles.map(|tile| (tile, batch)));
+                self.start(worker, now);
             }
-            Kind::Done { worker, batch } => {
-                sim.idle[worker] += 1;
-                sim.start(worker, now);
-                sim.batches[batch].1 -= 1;
-                if sim.batches[batch].1 == 0 {
-                    // The batch's last tile: its results go back in one message, across
-                    // the worker's link and then the master's.
-                    let bytes = sim.result_bytes(batch);
-                    sim.bytes += bytes;
-                    let sent = sim.link_free[worker].max(now) + sim.transfer(bytes);
-                    sim.link_free[worker] = sent;
-                    if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
-                        sim.push(sent, Kind::AtMaster { worker, batch });
-                    } else {
-                        sim.push(sent, Kind::Received { worker, batch });
-                    }
-                }
-                if sim.idle[worker] > 0 && sim.next >= costs.len() {
-                    sim.first_idle = sim.first_idle.min(now);
-                }
-            }
+            Kind::Done { worker, batch } => self.tile_done(worker, batch, now),
             Kind::AtMaster { worker, batch } => {
-                let bytes = sim.result_bytes(batch);
-                sim.master_link.arrive(worker, batch, bytes);
-                sim.serve_master_link(now);
+                let bytes = self.result_bytes(batch);
+                self.master_link.arrive(worker, batch, bytes);
+                self.serve_master_link(now);
             }
             Kind::Received { worker, batch } => {
-                let count = sim.batches[batch].0.len() as f64;
-                let sent = sim.host(now, 0.5 * p.host_per_tile_s * count);
-                sim.push(sent + p.latency_s, Kind::Result { worker, batch });
+                let count = self.batches[batch].0.len() as f64;
+                let sent = self.host(now, 0.5 * p.host_per_tile_s * count);
+                self.push(sent + p.latency_s, Kind::Result { worker, batch });
                 if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
-                    sim.master_link.done();
-                    sim.serve_master_link(now);
+                    self.master_link.done();
+                    self.serve_master_link(now);
                 }
             }
-            Kind::Result { worker, batch } => {
-                let (tiles, _, backup) = sim.batches[batch].clone();
-                let per = p.master_per_tile_s * tiles.len() as f64;
-                master_free = master_free.max(now) + per;
-                master_busy += per;
-                let mut first = 0;
-                for t in tiles.clone() {
-                    sim.holders[t] -= 1;
-                    if !std::mem::replace(&mut sim.accepted[t], true) {
-                        first += 1;
-                        sim.seen.0 += costs[t];
-                    }
-                }
-                done += first;
-                sim.seen.1 += first;
-                if backup {
-                    sim.backups_out[worker] -= 1;
-                } else {
-                    sim.primaries[worker] -= tiles.len();
-                }
-                if first > 0 {
-                    makespan = makespan.max(master_free);
-                }
-                if done == costs.len() {
-                    // The image is whole: copies still out are never waited for.
-                    break;
-                }
-                let arrive = master_free + p.latency_s + sim.transfer(p.message_bytes);
-                sim.fill(worker, arrive);
+            Kind::Result { worker, batch } => return self.result(worker, batch, now),
+        }
+        false
+    }
+
+    /// A worker's thread finished a tile of `batch`: the thread takes the next queued tile, and
+    /// the batch's last tile sends its results back in one message, across the worker's link
+    /// and then the master's.
+    fn tile_done(&mut self, worker: usize, batch: usize, now: f64) {
+        let p = self.p;
+        self.idle[worker] += 1;
+        self.start(worker, now);
+        self.batches[batch].1 -= 1;
+        if self.batches[batch].1 == 0 {
+            let bytes = self.result_bytes(batch);
+            self.bytes += bytes;
+            let sent = self.link_free[worker].max(now) + self.transfer(bytes);
+            self.link_free[worker] = sent;
+            if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
+                self.push(sent, Kind::AtMaster { worker, batch });
+            } else {
+                self.push(sent, Kind::Received { worker, batch });
             }
         }
+        if self.idle[worker] > 0 && self.next >= self.costs.len() {
+            self.first_idle = self.first_idle.min(now);
+        }
     }
-    debug_assert_eq!(done, costs.len());
-    // Idle thread-time after the first thread ran dry: n·makespan − work − idle before that.
-    if sim.first_idle.is_finite() {
-        let busy_after: f64 = n as f64 * makespan - work - n as f64 * startup;
-        sim.tail_idle = busy_after.max(0.0);
+
+    /// The master takes `batch`'s results: first results are accepted, the worker's window is
+    /// filled again. Says whether the image is whole.
+    fn result(&mut self, worker: usize, batch: usize, now: f64) -> bool {
+        let p = self.p;
+        let (tiles, _, backup) = self.batches[batch].clone();
+        let per = p.master_per_tile_s * tiles.len() as f64;
+        self.master_free = self.master_free.max(now) + per;
+        self.master_busy += per;
+        let mut first = 0;
+        for t in tiles.clone() {
+            self.holders[t] -= 1;
+            if !std::mem::replace(&mut self.accepted[t], true) {
+                first += 1;
+                self.seen.0 += self.costs[t];
+            }
+        }
+        self.done += first;
+        self.seen.1 += first;
+        if backup {
+            self.backups_out[worker] -= 1;
+        } else {
+            self.primaries[worker] -= tiles.len();
+        }
+        if first > 0 {
+            self.makespan = self.makespan.max(self.master_free);
+        }
+        if self.done == self.costs.len() {
+            return true;
+        }
+        let arrive = self.master_free + p.latency_s + self.transfer(p.message_bytes);
+        self.fill(worker, arrive);
+        false
     }
-    SimResult {
-        makespan,
-        work,
-        n,
-        efficiency: if makespan > 0.0 {
-            work / (n as f64 * makespan)
-        } else {
-            1.0
-        },
-        master_utilisation: if makespan > 0.0 {
-            master_busy / makespan
-        } else {
-            0.0
-        },
-        startup_s: startup,
-        tail_idle_s: sim.tail_idle,
-        bytes: sim.bytes,
+
+    /// The run's figures, once the image is whole.
+    fn finish(mut self, startup: f64) -> SimResult {
+        let p = self.p;
+        let n = p.workers.max(1) * p.threads.max(1);
+        let work: f64 = self.costs.iter().sum();
+        let makespan = self.makespan;
+        // Idle thread-time after the first thread ran dry: n·makespan − work − idle before that.
+        if self.first_idle.is_finite() {
+            let busy_after: f64 = n as f64 * makespan - work - n as f64 * startup;
+            self.tail_idle = busy_after.max(0.0);
+        }
+        SimResult {
+            makespan,
+            work,
+            n,
+            efficiency: if makespan > 0.0 {
+                work / (n as f64 * makespan)
+            } else {
+                1.0
+            },
+            master_utilisation: if makespan > 0.0 {
+                self.master_busy / makespan
+            } else {
+                0.0
+            },
+            startup_s: startup,
+            tail_idle_s: self.tail_idle,
+            bytes: self.bytes,
+        }
     }
 }
 
