@@ -7,6 +7,7 @@ use crate::plot::{save_chart, Chart, Reference, Series};
 use clap::Args;
 use crate::studies::efficiency::aggregate_costs;
 use crate::studies::simulate::{simulate, SimParams};
+use parrt::tile::Tile;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -101,9 +102,9 @@ fn limit_note(p: &SimParams, r: &crate::studies::simulate::SimResult, costs: &[f
     }
 }
 
-/// Runs `parrt bench simulate`.
-pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
-    let fine = crate::cli_args::tile_order::read_costs(&args.tile_costs)?;
+/// The measured tiles' size and the image's width and height, after checking that every
+/// simulated tile size is a whole number of measured tiles and the counts are at least 1.
+fn measured_grid(args: &SimulateArgs, fine: &[(Tile, f64)]) -> anyhow::Result<(u32, u32, u32)> {
     let Some(first) = fine.first() else {
         return Err(input_error(anyhow::anyhow!(
             "{}: no tiles",
@@ -125,6 +126,64 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
             )));
         }
     }
+    Ok((base, width, height))
+}
+
+/// The model's parameters for `workers` workers: every tile alone (no batches), raster order,
+/// no backup copies, so the table shows tile size and window alone.
+fn sim_params(args: &SimulateArgs, workers: usize) -> SimParams {
+    SimParams {
+        workers,
+        threads: args.threads,
+        window: args.window.unwrap_or(2 * args.threads),
+        // Every tile alone: the model of tile size and window, without batches.
+        max_batch: 1,
+        batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
+        latency_s: args.latency_ms / 1e3,
+        bandwidth_bps: args.bandwidth_mbps * 1e6 / 8.0,
+        master_link_bps: f64::INFINITY,
+        host_per_tile_s: 0.0,
+        host_cores: 1,
+        master_per_tile_s: args.master_us / 1e6,
+        // Raster order: the master fills each window in turn.
+        rounds: false,
+        scene_bytes: args.scene_bytes,
+        build_s: args.build_s,
+        result_bytes_per_pixel: 12.0,
+        // The model of tile size and window alone: no backup copies.
+        backups: false,
+        message_bytes: 64.0,
+    }
+}
+
+/// The plot of predicted efficiency against render threads, one series per tile size.
+fn chart(args: &SimulateArgs, width: u32, height: u32, series: Vec<Series>) -> Chart {
+    Chart {
+        title: format!(
+            "Predicted efficiency: {} ({width}×{height}), {} thread(s)/worker, {} ms, {} Mbit/s \
+             (simulated; machine: {})",
+            args.tile_costs.file_name().map_or_else(
+                || args.tile_costs.display().to_string(),
+                |f| f.to_string_lossy().into_owned()
+            ),
+            args.threads,
+            args.latency_ms,
+            args.bandwidth_mbps,
+            crate::machine::machine()
+        ),
+        x_label: "render threads n (workers × threads)".into(),
+        y_label: "efficiency t₁/(n·tₙ) (1 = ideal)".into(),
+        series,
+        log_x: true,
+        y_range: Some((0.0, 1.05)),
+        reference: Some(Reference::ideal_efficiency()),
+    }
+}
+
+/// Runs `parrt bench simulate`.
+pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
+    let fine = crate::cli_args::tile_order::read_costs(&args.tile_costs)?;
+    let (base, width, height) = measured_grid(&args, &fine)?;
     crate::cli_args::output::prepare_out_dir(&args.out)?;
     let mut md = String::new();
     let work: f64 = fine.iter().map(|(_, c)| c).sum();
@@ -182,28 +241,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
             let list = parrt::tile::tiles(width, height, tile);
             let costs = aggregate_costs(&fine, &list, tile);
             let px: Vec<u64> = list.iter().map(|t| t.pixel_count() as u64).collect();
-            let p = SimParams {
-                workers: w,
-                threads: args.threads,
-                window: args.window.unwrap_or(2 * args.threads),
-                // Every tile alone: the model of tile size and window, without batches.
-                max_batch: 1,
-                batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
-                latency_s: args.latency_ms / 1e3,
-                bandwidth_bps: args.bandwidth_mbps * 1e6 / 8.0,
-                master_link_bps: f64::INFINITY,
-                host_per_tile_s: 0.0,
-                host_cores: 1,
-                master_per_tile_s: args.master_us / 1e6,
-                // Raster order: the master fills each window in turn.
-                rounds: false,
-                scene_bytes: args.scene_bytes,
-                build_s: args.build_s,
-                result_bytes_per_pixel: 12.0,
-                // The model of tile size and window alone: no backup copies.
-                backups: false,
-                message_bytes: 64.0,
-            };
+            let p = sim_params(&args, w);
             let r = simulate(&costs, &px, &p);
             let _ = write!(md, " {:.3} ({:.4}s) |", r.efficiency, r.makespan);
             csv.write_record([
@@ -226,26 +264,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         let note = best.map(|(_, n)| n).unwrap_or_default();
         let _ = writeln!(md, " {note} |");
     }
-    let chart = Chart {
-        title: format!(
-            "Predicted efficiency: {} ({width}×{height}), {} thread(s)/worker, {} ms, {} Mbit/s \
-             (simulated; machine: {})",
-            args.tile_costs.file_name().map_or_else(
-                || args.tile_costs.display().to_string(),
-                |f| f.to_string_lossy().into_owned()
-            ),
-            args.threads,
-            args.latency_ms,
-            args.bandwidth_mbps,
-            crate::machine::machine()
-        ),
-        x_label: "render threads n (workers × threads)".into(),
-        y_label: "efficiency t₁/(n·tₙ) (1 = ideal)".into(),
-        series,
-        log_x: true,
-        y_range: Some((0.0, 1.05)),
-        reference: Some(Reference::ideal_efficiency()),
-    };
+    let chart = chart(&args, width, height, series);
     save_chart(
         &chart,
         &args.out.join("simulate.svg"),
