@@ -12,6 +12,7 @@ use crate::timeline::plot::save_figure;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use crate::studies::efficiency::{median, EfficiencyTable};
+use parrt::description::SceneDescription;
 use parrt::render::Renderer;
 use parrt::settings::{AccelKind, RenderSettings};
 use crate::studies::simulate::{simulate, SimParams};
@@ -187,6 +188,247 @@ fn plan(args: &EfficiencyArgs, threads: &[usize]) -> String {
     )
 }
 
+/// One size and accelerator of the study: what its measurements share, and where they go.
+struct Case<'a> {
+    args: &'a EfficiencyArgs,
+    label: String,
+    threads: &'a [usize],
+    cores: usize,
+    size: u32,
+    accel: AccelKind,
+    /// Parse and build seconds, added to every time for the whole-render tables.
+    pre: f64,
+}
+
+impl Case<'_> {
+    /// The tracing and whole-render tables of one mode, titled `title`.
+    fn tables(&self, title: &str) -> (EfficiencyTable, EfficiencyTable) {
+        let table = |what: &str| {
+            EfficiencyTable::new(
+                format!("{title}: {what}"),
+                self.threads.to_vec(),
+                self.args.tiles.clone(),
+                self.cores,
+            )
+        };
+        (table("tracing"), table("whole render"))
+    }
+
+    /// The timeline's description of a render of this case at `tile`.
+    fn job(&self, tile: u32) -> crate::timeline::Job<'_> {
+        crate::timeline::Job {
+            scene: &self.label,
+            width: self.size,
+            height: self.size,
+            tile_size: tile,
+        }
+    }
+
+    /// The plot's series of `trace`: one per thread count above 1, efficiency against tile.
+    fn series(&self, name: &str, trace: &EfficiencyTable) -> Vec<Series> {
+        self.threads
+            .iter()
+            .filter(|&&n| n > 1)
+            .map(|&n| Series {
+                label: format!("{name} n={n}"),
+                points: self
+                    .args
+                    .tiles
+                    .iter()
+                    .filter_map(|&t| trace.get(n, t).map(|c| (t as f64, c.efficiency)))
+                    .collect(),
+                line: true,
+            })
+            .collect()
+    }
+
+    /// Appends the two tables to the report and the CSV.
+    fn write_tables(
+        md: &mut String,
+        csv: &mut csv::Writer<Vec<u8>>,
+        trace: &EfficiencyTable,
+        whole: &EfficiencyTable,
+    ) -> anyhow::Result<()> {
+        md.push_str(&trace.to_markdown());
+        md.push('\n');
+        md.push_str(&whole.to_markdown());
+        md.push('\n');
+        trace.write_csv(csv)?;
+        whole.write_csv(csv)?;
+        Ok(())
+    }
+
+    /// The SMP executor `ex` at every tile size and thread count, a timeline at the most
+    /// threads, and (for the paper's queue) the schedule model's prediction beside each
+    /// measurement, as rows of `sim_lines`.
+    fn smp(
+        &self,
+        renderer: &Renderer,
+        ex: Executor,
+        out: &mut Report,
+        sim_lines: &mut String,
+    ) -> anyhow::Result<Vec<Series>> {
+        let (size, accel, repeat) = (self.size, self.accel, self.args.repeat);
+        let render = |n: usize, tile: u32| {
+            let options = SmpOptions {
+                threads: n,
+                tile,
+                executor: ex,
+            };
+            render_smp(renderer, &options, &|_, _| {})
+        };
+        let time = |n: usize, tile: u32| -> (f64, Vec<f64>) {
+            let mut ts = Vec::new();
+            let mut costs = Vec::new();
+            for _ in 0..repeat {
+                let res = render(n, tile);
+                ts.push(res.trace_s);
+                costs = res.tile_seconds;
+            }
+            (median(&ts), costs)
+        };
+        let title = format!("{} {size}px {accel:?} smp {}", self.label, ex.name());
+        let (mut trace, mut whole) = self.tables(&title);
+        for &tile in &self.args.tiles {
+            let (t1, costs1) = time(1, tile);
+            for &n in self.threads {
+                let tn = if n == 1 { t1 } else { time(n, tile).0 };
+                trace.set(n, tile, t1, tn);
+                whole.set(n, tile, self.pre + t1, self.pre + tn);
+                if ex == Executor::Queue && n > 1 {
+                    // The simulator's prediction for the paper's queue: one worker with n
+                    // threads, every tile queued locally, no network.
+                    let list = parrt::tile::tiles(size, size, tile);
+                    let px: Vec<u64> = list.iter().map(|t| t.pixel_count() as u64).collect();
+                    let mut p = SimParams::ideal(1, n);
+                    p.window = list.len();
+                    let sim = simulate(&costs1, &px, &p);
+                    let _ = writeln!(
+                        sim_lines,
+                        "| {tile} | {n} | {:.4} | {:.4} | {:+.1}% |",
+                        tn,
+                        sim.makespan,
+                        100.0 * (sim.makespan - tn) / tn
+                    );
+                }
+            }
+        }
+        Self::write_tables(&mut out.md, &mut out.csv, &trace, &whole)?;
+        // Where the time went: one more run at the most threads, drawn as a timeline.
+        let (n, tile) = timeline_case(self.threads, &self.args.tiles);
+        let res = render(n, tile);
+        let tl = crate::timeline::Timeline::from_smp(&self.job(tile), n, &res.tile_spans, res.trace_s);
+        let stem = format!("timeline-{size}-{accel:?}-{}", ex.name()).to_lowercase();
+        out.md.push_str(&save_figure(
+            &tl,
+            &self.args.out,
+            &stem,
+            &format!("{} executor, {n} threads", ex.name()),
+        )?);
+        Ok(self.series(ex.name(), &trace))
+    }
+
+    /// Local worker processes of one thread each at every tile size and count, the bytes the
+    /// protocol moved, and a timeline at the most workers.
+    fn distributed(
+        &self,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+        out: &mut Report,
+    ) -> anyhow::Result<Vec<Series>> {
+        let (size, accel) = (self.size, self.accel);
+        let title = format!(
+            "{} {size}px {accel:?} distributed (n workers × 1 thread, loopback)",
+            self.label
+        );
+        let (mut trace, mut whole) = self.tables(&title);
+        let mut overhead = String::new();
+        for &tile in &self.args.tiles {
+            let mut t1 = None;
+            for &n in self.threads {
+                let (tn, bytes, transfer) =
+                    time_distributed(desc, settings, n, tile, self.args.repeat)?;
+                let t1v = *t1.get_or_insert(tn);
+                trace.set(n, tile, t1v, tn);
+                whole.set(n, tile, self.pre + t1v, self.pre + tn);
+                let tiles = parrt::tile::tiles(size, size, tile).len() as f64;
+                let _ = writeln!(
+                    overhead,
+                    "| {tile} | {n} | {:.0} | {:.2} ms |",
+                    bytes / tiles,
+                    transfer * 1e3
+                );
+            }
+        }
+        Self::write_tables(&mut out.md, &mut out.csv, &trace, &whole)?;
+        let (n, tile) = timeline_case(self.threads, &self.args.tiles);
+        let rec = std::sync::Arc::new(crate::timeline::Recorder::new());
+        let r = run_distributed(desc, settings, n, tile, Some(rec.clone()))?;
+        let tl = rec.timeline(&self.job(tile), r.trace_s);
+        let stem = format!("timeline-{size}-{accel:?}-distributed").to_lowercase();
+        out.md.push_str(&save_figure(
+            &tl,
+            &self.args.out,
+            &stem,
+            &format!("{n} local workers × 1 thread"),
+        )?);
+        let _ = writeln!(
+            out.md,
+            "Protocol overhead (distributed):\n\n| tile | workers | bytes on the wire per tile (scene included) | scene transfer |\n|---:|---:|---:|---:|\n{overhead}"
+        );
+        Ok(self.series("distributed", &trace))
+    }
+
+    /// The plot of tracing efficiency against tile size, saved beside the report.
+    fn chart(&self, series: Vec<Series>, md: &mut String) -> anyhow::Result<()> {
+        let (size, accel) = (self.size, self.accel);
+        let stem = format!("efficiency-{size}-{accel:?}").to_lowercase();
+        let chart = Chart {
+            title: format!(
+                "{} {size}×{size} {accel:?}: tracing efficiency on {}",
+                self.label,
+                machine()
+            ),
+            x_label: "tile edge (pixels)".into(),
+            y_label: "efficiency t1/(n·tn) (1 = ideal)".into(),
+            y_range: Some(range_from_zero(&series, 1.0)),
+            series,
+            log_x: true,
+            reference: Some(Reference::ideal_efficiency()),
+        };
+        save_chart(
+            &chart,
+            &self.args.out.join(format!("{stem}.svg")),
+            &self.args.out.join(format!("{stem}.png")),
+        )?;
+        let _ = writeln!(md, "![{stem}]({stem}.png)\n");
+        Ok(())
+    }
+}
+
+/// What the study writes: the Markdown report and the CSV of every cell.
+struct Report {
+    md: String,
+    csv: csv::Writer<Vec<u8>>,
+}
+
+/// Builds the renderer `repeat` times (the build is timed too) and keeps the last; returns it
+/// with the median build seconds.
+fn build(
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    repeat: usize,
+) -> anyhow::Result<(Renderer, f64)> {
+    let mut builds = Vec::new();
+    let mut renderer = Renderer::new(desc, settings).map_err(input_error)?;
+    builds.push(renderer.build_info().build_s);
+    for _ in 1..repeat {
+        renderer = Renderer::new(desc, settings).map_err(input_error)?;
+        builds.push(renderer.build_info().build_s);
+    }
+    Ok((renderer, median(&builds)))
+}
+
 /// Runs `parrt bench efficiency`.
 pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -204,7 +446,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
             "threads, tiles, sizes and --repeat must be at least 1"
         )));
     }
-    // Every image is checked before the first is rendered (issue 31 item 11).
+    // Every image is checked before the first is rendered, so a bad size fails at once rather
+    // than after minutes of measuring the good ones.
     for &size in &args.sizes {
         for &tile in &args.tiles {
             args.limits.check_image(size, size, tile)?;
@@ -215,11 +458,13 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     let spec = SceneSpec::parse(&args.scene)?;
     crate::cli_args::output::prepare_out_dir(&args.out)?;
     crate::errln!("parrt: {}", plan(&args, &threads));
-    let mut md = String::new();
-    let mut csv = csv::Writer::from_writer(Vec::new());
-    csv.write_record(crate::studies::efficiency::CSV_HEADER)?;
+    let mut out = Report {
+        md: String::new(),
+        csv: csv::Writer::from_writer(Vec::new()),
+    };
+    out.csv.write_record(crate::studies::efficiency::CSV_HEADER)?;
     let _ = writeln!(
-        md,
+        out.md,
         "# Efficiency: {}\n\nMachine: {}. Command: `parrt {}`. Median of {} runs. e = t₁/(n·tₙ), \
          t₁ the one-thread time at the same tile size. Cells: efficiency (tₙ).\n",
         spec.label(),
@@ -232,236 +477,44 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
         for &accel in &accels {
             let mut settings = RenderSettings::new(size, size);
             settings.accel = accel;
-            let mut builds = Vec::new();
-            let mut renderer = None;
-            for _ in 0..args.repeat {
-                let r = Renderer::new(&desc, &settings).map_err(input_error)?;
-                builds.push(r.build_info().build_s);
-                renderer = Some(r);
-            }
-            let renderer = renderer.expect("repeat >= 1");
-            let build_s = median(&builds);
-            let pre = parse_s + build_s;
+            let (renderer, build_s) = build(&desc, &settings, args.repeat)?;
             let _ = writeln!(
-                md,
+                out.md,
                 "## {size}×{size}, {accel:?}\n\nPreprocessing (sequential): parse {parse_s:.4}s, build {build_s:.4}s.\n"
             );
-            let time = |n: usize, tile: u32, ex: Executor| -> (f64, Vec<f64>) {
-                let mut ts = Vec::new();
-                let mut costs = Vec::new();
-                for _ in 0..args.repeat {
-                    let res = render_smp(
-                        &renderer,
-                        &SmpOptions {
-                            threads: n,
-                            tile,
-                            executor: ex,
-                        },
-                        &|_, _| {},
-                    );
-                    ts.push(res.trace_s);
-                    costs = res.tile_seconds;
-                }
-                (median(&ts), costs)
+            let case = Case {
+                args: &args,
+                label: spec.label(),
+                threads: &threads,
+                cores,
+                size,
+                accel,
+                pre: parse_s + build_s,
             };
-            let mut chart_series = Vec::new();
+            let mut series = Vec::new();
             let mut sim_lines = String::new();
-            let smp_executors: &[Executor] = if args.mode.contains(&Mode::Smp) {
-                &executors
-            } else {
-                &[]
-            };
-            for &ex in smp_executors {
-                let title = format!("{} {size}px {accel:?} smp {}", spec.label(), ex.name());
-                let mut trace = EfficiencyTable::new(
-                    format!("{title}: tracing"),
-                    threads.clone(),
-                    args.tiles.clone(),
-                    cores,
-                );
-                let mut whole = EfficiencyTable::new(
-                    format!("{title}: whole render"),
-                    threads.clone(),
-                    args.tiles.clone(),
-                    cores,
-                );
-                for &tile in &args.tiles {
-                    let (t1, costs1) = time(1, tile, ex);
-                    for &n in &threads {
-                        let tn = if n == 1 { t1 } else { time(n, tile, ex).0 };
-                        trace.set(n, tile, t1, tn);
-                        whole.set(n, tile, pre + t1, pre + tn);
-                        if ex == Executor::Queue && n > 1 {
-                            // The simulator's prediction for the paper's queue: one worker with n
-                            // threads, every tile queued locally, no network.
-                            let list = parrt::tile::tiles(size, size, tile);
-                            let px: Vec<u64> =
-                                list.iter().map(|t| t.pixel_count() as u64).collect();
-                            let mut p = SimParams::ideal(1, n);
-                            p.window = list.len();
-                            let sim = simulate(&costs1, &px, &p);
-                            let _ = writeln!(
-                                sim_lines,
-                                "| {tile} | {n} | {:.4} | {:.4} | {:+.1}% |",
-                                tn,
-                                sim.makespan,
-                                100.0 * (sim.makespan - tn) / tn
-                            );
-                        }
-                    }
-                }
-                md.push_str(&trace.to_markdown());
-                md.push('\n');
-                md.push_str(&whole.to_markdown());
-                md.push('\n');
-                // Where the time went: one more run at the most threads, drawn as a timeline.
-                let (n, tile) = timeline_case(&threads, &args.tiles);
-                let res = render_smp(
-                    &renderer,
-                    &SmpOptions {
-                        threads: n,
-                        tile,
-                        executor: ex,
-                    },
-                    &|_, _| {},
-                );
-                let label = spec.label();
-                let job = crate::timeline::Job {
-                    scene: &label,
-                    width: size,
-                    height: size,
-                    tile_size: tile,
-                };
-                let tl = crate::timeline::Timeline::from_smp(&job, n, &res.tile_spans, res.trace_s);
-                let stem = format!("timeline-{size}-{accel:?}-{}", ex.name()).to_lowercase();
-                md.push_str(&save_figure(
-                    &tl,
-                    &args.out,
-                    &stem,
-                    &format!("{} executor, {n} threads", ex.name()),
-                )?);
-                trace.write_csv(&mut csv)?;
-                whole.write_csv(&mut csv)?;
-                for &n in threads.iter().filter(|&&n| n > 1) {
-                    chart_series.push(Series {
-                        label: format!("{} n={n}", ex.name()),
-                        points: args
-                            .tiles
-                            .iter()
-                            .filter_map(|&t| trace.get(n, t).map(|c| (t as f64, c.efficiency)))
-                            .collect(),
-                        line: true,
-                    });
+            if args.mode.contains(&Mode::Smp) {
+                for &ex in &executors {
+                    series.extend(case.smp(&renderer, ex, &mut out, &mut sim_lines)?);
                 }
             }
             if args.mode.contains(&Mode::Distributed) {
-                let title = format!(
-                    "{} {size}px {accel:?} distributed (n workers × 1 thread, loopback)",
-                    spec.label()
-                );
-                let mut trace = EfficiencyTable::new(
-                    format!("{title}: tracing"),
-                    threads.clone(),
-                    args.tiles.clone(),
-                    cores,
-                );
-                let mut whole = EfficiencyTable::new(
-                    format!("{title}: whole render"),
-                    threads.clone(),
-                    args.tiles.clone(),
-                    cores,
-                );
-                let mut overhead = String::new();
-                for &tile in &args.tiles {
-                    let mut t1 = None;
-                    for &n in &threads {
-                        let (tn, bytes, transfer) =
-                            time_distributed(&desc, &settings, n, tile, args.repeat)?;
-                        let t1v = *t1.get_or_insert(tn);
-                        trace.set(n, tile, t1v, tn);
-                        whole.set(n, tile, pre + t1v, pre + tn);
-                        let tiles = parrt::tile::tiles(size, size, tile).len() as f64;
-                        let _ = writeln!(
-                            overhead,
-                            "| {tile} | {n} | {:.0} | {:.2} ms |",
-                            bytes / tiles,
-                            transfer * 1e3
-                        );
-                    }
-                }
-                md.push_str(&trace.to_markdown());
-                md.push('\n');
-                md.push_str(&whole.to_markdown());
-                md.push('\n');
-                let (n, tile) = timeline_case(&threads, &args.tiles);
-                let rec = std::sync::Arc::new(crate::timeline::Recorder::new());
-                let r = run_distributed(&desc, &settings, n, tile, Some(rec.clone()))?;
-                let label = spec.label();
-                let job = crate::timeline::Job {
-                    scene: &label,
-                    width: size,
-                    height: size,
-                    tile_size: tile,
-                };
-                let tl = rec.timeline(&job, r.trace_s);
-                let stem = format!("timeline-{size}-{accel:?}-distributed").to_lowercase();
-                md.push_str(&save_figure(
-                    &tl,
-                    &args.out,
-                    &stem,
-                    &format!("{n} local workers × 1 thread"),
-                )?);
-                let _ = writeln!(
-                    md,
-                    "Protocol overhead (distributed):\n\n| tile | workers | bytes on the wire per tile (scene included) | scene transfer |\n|---:|---:|---:|---:|\n{overhead}"
-                );
-                trace.write_csv(&mut csv)?;
-                whole.write_csv(&mut csv)?;
-                for &n in threads.iter().filter(|&&n| n > 1) {
-                    chart_series.push(Series {
-                        label: format!("distributed n={n}"),
-                        points: args
-                            .tiles
-                            .iter()
-                            .filter_map(|&t| trace.get(n, t).map(|c| (t as f64, c.efficiency)))
-                            .collect(),
-                        line: true,
-                    });
-                }
+                series.extend(case.distributed(&desc, &settings, &mut out)?);
             }
             if !sim_lines.is_empty() {
                 let _ = writeln!(
-                    md,
+                    out.md,
                     "Simulator check (queue executor; prediction from the measured one-thread tile costs):\n\n\
                      | tile | n | measured tₙ s | predicted s | error |\n|---:|---:|---:|---:|---:|\n{sim_lines}"
                 );
             }
-            let stem = format!("efficiency-{size}-{accel:?}").to_lowercase();
-            let chart = Chart {
-                title: format!(
-                    "{} {size}×{size} {accel:?}: tracing efficiency on {}",
-                    spec.label(),
-                    machine()
-                ),
-                x_label: "tile edge (pixels)".into(),
-                y_label: "efficiency t1/(n·tn) (1 = ideal)".into(),
-                y_range: Some(range_from_zero(&chart_series, 1.0)),
-                series: chart_series,
-                log_x: true,
-                reference: Some(Reference::ideal_efficiency()),
-            };
-            save_chart(
-                &chart,
-                &args.out.join(format!("{stem}.svg")),
-                &args.out.join(format!("{stem}.png")),
-            )?;
-            let _ = writeln!(md, "![{stem}]({stem}.png)\n");
+            case.chart(series, &mut out.md)?;
             crate::errln!("parrt: measured {size}px {accel:?}");
         }
     }
-    std::fs::write(args.out.join("efficiency.md"), &md)?;
-    std::fs::write(args.out.join("efficiency.csv"), csv.into_inner()?)?;
-    crate::outln!("{md}");
+    std::fs::write(args.out.join("efficiency.md"), &out.md)?;
+    std::fs::write(args.out.join("efficiency.csv"), out.csv.into_inner()?)?;
+    crate::outln!("{}", out.md);
     crate::errln!("parrt: wrote {}", args.out.display());
     Ok(ExitCode::SUCCESS)
 }
