@@ -135,38 +135,25 @@ fn name(p: Precision) -> &'static str {
     parrt::precision::name(p)
 }
 
-/// Runs `parrt bench precision`.
-pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
-    let (width, height) = parse_size(&args.size)?;
-    // Rendered in tiles of 16 (issue 31 item 11: every bench checks its image).
-    args.limits.check_image(width, height, 16)?;
-    if args.threads == Some(0) {
-        return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
-    }
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let names = if args.scenes.is_empty() {
-        ["mount:6", "gears:2", "teapot:6", "soup:2"]
-            .map(String::from)
-            .to_vec()
-    } else {
-        args.scenes.clone()
-    };
-    let scenes = names
-        .iter()
-        .map(|n| load(n, &args.limits))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    crate::cli_args::output::prepare_out_dir(&args.out)?;
-    let modes = [Precision::F32, Precision::F64, Precision::Auto];
+/// The modes measured for every placement, in the order of the report's columns.
+const MODES: [Precision; 3] = [Precision::F32, Precision::F64, Precision::Auto];
+
+/// Renders every scene in every placement and mode, and compares each image with the
+/// untransformed scene's f64 render.
+fn measure(
+    scenes: &[(String, SceneDescription)],
+    width: u32,
+    height: u32,
+    threads: usize,
+) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::new();
-    for (scene, desc) in &scenes {
+    for (scene, desc) in scenes {
         let mut s = RenderSettings::new(width, height);
         s.precision = Precision::F64;
         let (reference, _, _) = render(desc, &s, threads)?;
         for place in placements() {
             let moved = desc.transformed(place.scale, place.shift);
-            for mode in modes {
+            for mode in MODES {
                 s.precision = mode;
                 let (film, used, trace_s) = render(&moved, &s, threads)?;
                 // Share of pixels off by more than 1/255 and the largest channel error, by the
@@ -194,9 +181,19 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
+    Ok(rows)
+}
+
+/// The plots of pixels off against the translation and against the scale, f32 and auto.
+fn plots(
+    args: &PrecisionArgs,
+    scenes: &[(String, SceneDescription)],
+    rows: &[Row],
+    (width, height): (u32, u32),
+    machine: &str,
+) -> anyhow::Result<()> {
     let labels: Vec<&str> = scenes.iter().map(|s| s.0.as_str()).collect();
     let title_scenes = labels.join(", ");
-    let machine = machine();
     for (kind, file, x_label) in [
         (
             "move",
@@ -206,7 +203,7 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
         ("scale", "precision-scale", "log10 of the scale factor"),
     ] {
         let mut series = Vec::new();
-        for (scene, _) in &scenes {
+        for (scene, _) in scenes {
             for mode in [Precision::F32, Precision::Auto] {
                 let points = rows
                     .iter()
@@ -235,6 +232,11 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
             &args.out.join(format!("{file}.png")),
         )?;
     }
+    Ok(())
+}
+
+/// `precision.csv`: a record per scene, placement and mode.
+fn csv_of(rows: &[Row]) -> anyhow::Result<Vec<u8>> {
     let mut csv = csv::Writer::from_writer(Vec::new());
     csv.write_record([
         "scene",
@@ -250,12 +252,7 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
         "max_err",
         "trace_s",
     ])?;
-    let mut md = format!(
-        "Pixels off by more than 1/255 against the untransformed scene's f64 render, largest channel \
-         error, and trace seconds; {width}×{height}, {threads} threads, {machine}. `used` is what auto \
-         chose.\n\n| scene | transform | f32 off | f32 max | f64 off | f64 max | auto (used) off | auto max | f32 s | f64 s | auto s |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
-    );
-    for r in &rows {
+    for r in rows {
         csv.write_record([
             r.scene.clone(),
             r.place.kind.to_string(),
@@ -271,7 +268,17 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
             format!("{:.4}", r.trace_s),
         ])?;
     }
-    for group in rows.chunks(modes.len()) {
+    Ok(csv.into_inner()?)
+}
+
+/// `precision.md`: a row per scene and placement, the three modes side by side.
+fn markdown(rows: &[Row], (width, height): (u32, u32), threads: usize, machine: &str) -> String {
+    let mut md = format!(
+        "Pixels off by more than 1/255 against the untransformed scene's f64 render, largest channel \
+         error, and trace seconds; {width}×{height}, {threads} threads, {machine}. `used` is what auto \
+         chose.\n\n| scene | transform | f32 off | f32 max | f64 off | f64 max | auto (used) off | auto max | f32 s | f64 s | auto s |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+    );
+    for group in rows.chunks(MODES.len()) {
         let [a, b, c] = group else { continue };
         let t = &a.place;
         let how = if t.kind == "move" {
@@ -295,10 +302,40 @@ pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
             c.trace_s
         );
     }
+    md
+}
+
+/// Runs `parrt bench precision`.
+pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
+    let (width, height) = parse_size(&args.size)?;
+    // Rendered in tiles of 16 (issue 31 item 11: every bench checks its image).
+    args.limits.check_image(width, height, 16)?;
+    if args.threads == Some(0) {
+        return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
+    }
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let names = if args.scenes.is_empty() {
+        ["mount:6", "gears:2", "teapot:6", "soup:2"]
+            .map(String::from)
+            .to_vec()
+    } else {
+        args.scenes.clone()
+    };
+    let scenes = names
+        .iter()
+        .map(|n| load(n, &args.limits))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    crate::cli_args::output::prepare_out_dir(&args.out)?;
+    let rows = measure(&scenes, width, height, threads)?;
+    let machine = machine();
+    plots(&args, &scenes, &rows, (width, height), &machine)?;
+    let md = markdown(&rows, (width, height), threads, &machine);
     let md_path = args.out.join("precision.md");
     std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
     let csv_path = args.out.join("precision.csv");
-    std::fs::write(&csv_path, csv.into_inner()?)
+    std::fs::write(&csv_path, csv_of(&rows)?)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     crate::outln!("{md}");
     crate::errln!("parrt: wrote {}", args.out.display());
