@@ -5,6 +5,7 @@
 
 use super::{Attempt, Timeline};
 use anyhow::Context;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -100,18 +101,11 @@ pub fn title(t: &Timeline) -> String {
     )
 }
 
-fn draw<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    t: &Timeline,
-    title: &str,
-) -> anyhow::Result<()>
-where
-    DB::ErrorType: 'static,
-{
-    let text = crate::plot::font_ready();
-    root.fill(&WHITE).map_err(err)?;
-    let lay = layout(t);
-    let lanes = lay.lanes.max(1);
+/// The chart's coordinates: seconds across, lanes up.
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Seconds spanned by the tiles, the trace and the faults (never an empty range).
+fn time_range(t: &Timeline) -> (f64, f64) {
     let mut x0 = 0.0f64;
     let mut x1 = t.trace_s;
     for tile in &t.tiles {
@@ -124,6 +118,64 @@ where
     if x1 <= x0 {
         x1 = x0 + 1.0;
     }
+    (x0, x1)
+}
+
+/// The lanes' geometry: lane `l` is drawn from `top(l + 1)` to `top(l + 1) + 1`, the first
+/// row at the top.
+struct Lanes<'a> {
+    lay: &'a Layout,
+    lanes: usize,
+}
+
+impl Lanes<'_> {
+    fn top(&self, l: usize) -> f64 {
+        (self.lanes - l.min(self.lanes)) as f64
+    }
+
+    /// The label of the row whose middle is at `y`; rows, not lanes, get labels.
+    fn row_label(&self, t: &Timeline, y: f64) -> String {
+        self.lay
+            .rows
+            .iter()
+            .find(|(_, first, n)| (self.top(*first + *n) + *n as f64 / 2.0 - y).abs() < 0.25)
+            .map(|(name, _, n)| {
+                if t.mode == "smp" {
+                    name.clone()
+                } else {
+                    format!("{name} ({n} thr)")
+                }
+            })
+            .unwrap_or_default()
+    }
+
+    /// From the bottom to the top of `worker`'s row, or the whole height for a fault of no
+    /// worker.
+    fn row_span(&self, w: &Option<String>) -> (f64, f64) {
+        w.as_ref()
+            .and_then(|w| self.lay.rows.iter().find(|r| &r.0 == w))
+            .map_or((0.0, self.lanes as f64), |(_, f, n)| {
+                (self.top(*f + *n), self.top(*f))
+            })
+    }
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    t: &Timeline,
+    title: &str,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let text = crate::plot::font_ready();
+    root.fill(&WHITE).map_err(err)?;
+    let lay = layout(t);
+    let lanes = Lanes {
+        lanes: lay.lanes.max(1),
+        lay: &lay,
+    };
+    let (x0, x1) = time_range(t);
     // Room on the right for the legend, clear of the bars.
     let x_end = x1 + (x1 - x0) * 0.28;
     let mut b = ChartBuilder::on(&root);
@@ -134,29 +186,13 @@ where
         b.caption(title, ("sans-serif", 16));
     }
     let mut ctx = b
-        .build_cartesian_2d(x0..x_end, 0f64..lanes as f64)
+        .build_cartesian_2d(x0..x_end, 0f64..lanes.lanes as f64)
         .map_err(err)?;
-    let rows = &lay.rows;
-    // Lane `l` is drawn from `top(l + 1)` to `top(l + 1) + 1`: the first row at the top.
-    let top = |l: usize| (lanes - l.min(lanes)) as f64;
-    // Label a row at its middle lane; only rows (not every lane) get a label.
-    let row_label = |y: &f64| -> String {
-        let y = *y;
-        rows.iter()
-            .find(|(_, first, n)| (top(*first + *n) + *n as f64 / 2.0 - y).abs() < 0.25)
-            .map(|(name, _, n)| {
-                if t.mode == "smp" {
-                    name.clone()
-                } else {
-                    format!("{name} ({n} thr)")
-                }
-            })
-            .unwrap_or_default()
-    };
     if text {
         // Label positions: the middle of every row (plotters picks from y_labels points; ask
         // for one per half lane so every middle is among them when rows are few).
-        let points = (2 * lanes).min(200);
+        let points = (2 * lanes.lanes).min(200);
+        let row_label = |y: &f64| lanes.row_label(t, *y);
         ctx.configure_mesh()
             .disable_y_mesh()
             .y_labels(points + 1)
@@ -179,13 +215,37 @@ where
             .map_err(err)?;
     }
     // Row separators.
-    ctx.draw_series(rows.iter().skip(1).map(|(_, first, _)| {
+    ctx.draw_series(lay.rows.iter().skip(1).map(|(_, first, _)| {
         PathElement::new(
-            vec![(x0, top(*first)), (x_end, top(*first))],
+            vec![(x0, lanes.top(*first)), (x_end, lanes.top(*first))],
             BLACK.mix(0.3),
         )
     }))
     .map_err(err)?;
+    draw_tiles(&mut ctx, t, &lanes, text)?;
+    draw_faults(&mut ctx, t, &lanes, text)?;
+    if text {
+        ctx.configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// A bar per tile in its lane, coloured by attempt, each kind with its legend entry.
+fn draw_tiles<DB: DrawingBackend>(
+    ctx: &mut Chart<'_, DB>,
+    t: &Timeline,
+    lanes: &Lanes,
+    text: bool,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
     for a in [
         Attempt::First,
         Attempt::Requeued,
@@ -194,45 +254,43 @@ where
     ] {
         let c = colour(a);
         let bars = t.tiles.iter().enumerate().filter(|(_, r)| r.attempt == a);
+        let corners = |(i, r): (usize, &super::TileRecord)| {
+            let lane = lanes.top(lanes.lay.lane_of[i] + 1);
+            [
+                (r.start_s, lane + 0.12),
+                (r.end_s.max(r.start_s), lane + 0.88),
+            ]
+        };
         let anno = ctx
-            .draw_series(bars.clone().map(|(i, r)| {
-                let lane = top(lay.lane_of[i] + 1);
-                Rectangle::new(
-                    [
-                        (r.start_s, lane + 0.12),
-                        (r.end_s.max(r.start_s), lane + 0.88),
-                    ],
-                    c.filled(),
-                )
-            }))
+            .draw_series(bars.clone().map(|b| Rectangle::new(corners(b), c.filled())))
             .map_err(err)?;
         if text {
             anno.label(format!("tile, {}", a.name()))
                 .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
         }
         // A thin outline so that back-to-back tiles stay apart.
-        ctx.draw_series(bars.map(|(i, r)| {
-            let lane = top(lay.lane_of[i] + 1);
-            Rectangle::new(
-                [
-                    (r.start_s, lane + 0.12),
-                    (r.end_s.max(r.start_s), lane + 0.88),
-                ],
-                WHITE.mix(0.6).stroke_width(1),
-            )
-        }))
+        ctx.draw_series(
+            bars.map(|b| Rectangle::new(corners(b), WHITE.mix(0.6).stroke_width(1))),
+        )
         .map_err(err)?;
     }
-    // Faults: a red line over the worker's row (or the whole height), a triangle on top.
-    let row_span = |w: &Option<String>| -> (f64, f64) {
-        w.as_ref()
-            .and_then(|w| rows.iter().find(|r| &r.0 == w))
-            .map_or((0.0, lanes as f64), |(_, f, n)| (top(*f + *n), top(*f)))
-    };
+    Ok(())
+}
+
+/// Faults: a red line over the worker's row (or the whole height), a triangle on top.
+fn draw_faults<DB: DrawingBackend>(
+    ctx: &mut Chart<'_, DB>,
+    t: &Timeline,
+    lanes: &Lanes,
+    text: bool,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
     let faults: Vec<_> = t.events.iter().filter(|e| e.kind.is_fault()).collect();
     let anno = ctx
         .draw_series(faults.iter().map(|e| {
-            let (lo, hi) = row_span(&e.worker);
+            let (lo, hi) = lanes.row_span(&e.worker);
             PathElement::new(vec![(e.t_s, lo), (e.t_s, hi)], FAULT.stroke_width(2))
         }))
         .map_err(err)?;
@@ -243,19 +301,10 @@ where
             });
     }
     ctx.draw_series(faults.iter().map(|e| {
-        let (_, hi) = row_span(&e.worker);
-        TriangleMarker::new((e.t_s, hi.min(lanes as f64) - 0.05), 5, FAULT.filled())
+        let (_, hi) = lanes.row_span(&e.worker);
+        TriangleMarker::new((e.t_s, hi.min(lanes.lanes as f64) - 0.05), 5, FAULT.filled())
     }))
     .map_err(err)?;
-    if text {
-        ctx.configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(err)?;
-    }
-    root.present().map_err(err)?;
     Ok(())
 }
 
