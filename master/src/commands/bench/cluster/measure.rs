@@ -71,38 +71,7 @@ impl Setup<'_> {
         let cores = workers * threads;
         let machine_cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         let master_per_tile = m.master_cpu_s / m.tiles.max(1) as f64;
-        let p = SimParams {
-            workers,
-            threads,
-            // The master's rule, fed the round trip this link and master give a result.
-            window: args.window.assignments(
-                threads,
-                Some(
-                    2.0 * args.latency_ms / 1e3
-                        + master_per_tile
-                        + (m.own_cpu_s - m.master_cpu_s).max(0.0) / m.tiles.max(1) as f64,
-                ),
-                self.work / self.costs.len().max(1) as f64,
-            ),
-            max_batch: args.max_batch,
-            batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
-            latency_s: args.latency_ms / 1e3,
-            bandwidth_bps: self.link.worker_bps,
-            master_link_bps: self.link.master_bps,
-            master_per_tile_s: master_per_tile,
-            // Everything else the emulation spent per result, on this machine's cores.
-            host_per_tile_s: (m.own_cpu_s - m.master_cpu_s).max(0.0) / m.tiles.max(1) as f64,
-            host_cores: machine_cores,
-            // Every worker is ready before the first tile: the trace has no start-up.
-            // Raster order: the master fills each window in turn.
-            rounds: false,
-            scene_bytes: 0.0,
-            build_s: 0.0,
-            result_bytes_per_pixel: m.bytes_received as f64 / self.pixels.max(1) as f64,
-            message_bytes: 0.0,
-            // The master's default: idle workers take copies of tiles out once the queue is empty.
-            backups: true,
-        };
+        let p = self.model_params(&m, workers, threads, machine_cores);
         let sim = simulate(&self.costs, &self.px, &p);
         let as_run = simulate(&m.tile_seconds, &self.px, &p);
         let cluster = simulate(
@@ -170,5 +139,51 @@ impl Setup<'_> {
             row.identical
         );
         Ok((row, (workers, threads, recorder, m.trace_s)))
+    }
+
+    /// The schedule model's parameters for a run as measured: the master's window rule fed
+    /// the round trip this link and master gave a result, the links, and the CPU the master
+    /// and the emulation spent per result on this machine's cores.
+    fn model_params(
+        &self,
+        m: &emulate::Measured,
+        workers: usize,
+        threads: usize,
+        machine_cores: usize,
+    ) -> SimParams {
+        let args = self.args;
+        let master_per_tile = m.master_cpu_s / m.tiles.max(1) as f64;
+        SimParams {
+            workers,
+            threads,
+            // The master's rule, fed the round trip this link and master give a result.
+            window: args.window.assignments(
+                threads,
+                Some(
+                    2.0 * args.latency_ms / 1e3
+                        + master_per_tile
+                        + (m.own_cpu_s - m.master_cpu_s).max(0.0) / m.tiles.max(1) as f64,
+                ),
+                self.work / self.costs.len().max(1) as f64,
+            ),
+            max_batch: args.max_batch,
+            batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
+            latency_s: args.latency_ms / 1e3,
+            bandwidth_bps: self.link.worker_bps,
+            master_link_bps: self.link.master_bps,
+            master_per_tile_s: master_per_tile,
+            // Everything else the emulation spent per result, on this machine's cores.
+            host_per_tile_s: (m.own_cpu_s - m.master_cpu_s).max(0.0) / m.tiles.max(1) as f64,
+            host_cores: machine_cores,
+            // Every worker is ready before the first tile: the trace has no start-up.
+            // Raster order: the master fills each window in turn.
+            rounds: false,
+            scene_bytes: 0.0,
+            build_s: 0.0,
+            result_bytes_per_pixel: m.bytes_received as f64 / self.pixels.max(1) as f64,
+            message_bytes: 0.0,
+            // The master's default: idle workers take copies of tiles out once the queue is empty.
+            backups: true,
+        }
     }
 }
