@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# The README walk-through (issue 32): runs the shell examples of README.md and docs/*.md as a
-# newcomer would on a fresh clone — in order, in one shell, from the repository's root — and
+# The README walk-through: runs the shell examples of README.md, docs/*.md and BENCHMARKS.md as
+# a newcomer would on a fresh clone — in order, in one shell, from the repository's root — and
 # fails when one of them fails. The commands are read from the Markdown itself, never from a
 # copy, so an example that rots fails CI.
 #
-#   usage: .ci/readme_walk.sh [FILE.md ...]   (default: README.md, then docs/*.md but those below)
+#   usage: .ci/readme_walk.sh [FILE.md ...]
+#          (default: README.md, then docs/*.md but those below, then BENCHMARKS.md)
 #
 # What counts as an example:
 # - every fenced block opened with ```sh; other blocks (```rust, bare ```) are prose;
@@ -12,10 +13,15 @@
 #   continuations are commands; the other lines are the output the doc shows;
 # - a command whose comment says `# exit N` must exit N (the docs show refusals too);
 # - a block right after `<!-- walk: skip: REASON -->` is not run: it needs what one machine in
-#   CI has not (other hosts, ssh, a cluster launcher); the reason is printed.
+#   CI has not (other hosts, ssh, a cluster launcher, root), or takes more than a minute
+#   (BENCHMARKS.md's full studies); the reason is printed.
 # Jobs a block starts with `&` are waited for at the block's end. WALK_DRY=1 lists the commands
-# without running them. Files the walk creates in the
-# checkout (images, scenes, checkpoints, bench-out/) are removed at the end unless WALK_KEEP=1.
+# without running them.
+#
+# Every example writes under out/ (ignored by git), so that it can be run twice and leaves
+# nothing else in the checkout: a file the walk leaves anywhere else that git would see is a
+# failure, named. At the end the walk removes what it made (out/ too, if it made it; the quick
+# start's parrt.png if it made it) unless WALK_KEEP=1.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
@@ -44,6 +50,7 @@ else
             FILES+=("$f")
         fi
     done
+    FILES+=(BENCHMARKS.md)
 fi
 
 # Files present before the walk, so only what it made is removed.
@@ -142,19 +149,31 @@ walk_block_end() {
     wait
 }
 walk_cleanup() {
-    local pids
+    local status=$? pids strays
     pids=$(jobs -p)
     [ -n "$pids" ] && kill $pids 2>/dev/null
     cd "$ROOT" || return
+    # What the walk made outside out/ that git would see: an example that writes there breaks
+    # the rule that examples can be run twice and leave the checkout as it was.
+    strays=$({ git ls-files --others --exclude-standard; [ -e bench-out ] && echo bench-out/; } \
+        | sort | comm -13 "$before" -)
+    if [ -n "$strays" ]; then
+        echo "walk: FAILED: examples left files outside out/ (write them under out/):" >&2
+        echo "$strays" | sed 's/^/walk:   /' >&2
+        [ "$status" = 0 ] && status=1
+    fi
     if [ "${WALK_KEEP:-0}" != 1 ]; then
-        { git ls-files --others --exclude-standard; [ -e bench-out ] && echo bench-out/; } \
-            | sort | comm -13 "$before" - | while read -r made; do rm -rf -- "$made"; done
-        # parrt.png is ignored (the quick start's output); remove it only if the walk made it.
+        [ -n "$strays" ] && echo "$strays" | while read -r made; do rm -rf -- "$made"; done
+        # parrt.png (the quick start's output) and out/ are ignored; remove them only if the
+        # walk made them.
         [ -n "${made_parrt_png:-}" ] && rm -f parrt.png
+        [ -n "${made_out:-}" ] && rm -rf out
     fi
     rm -f "$before" "$script"
+    exit "$status"
 }
 [ -e parrt.png ] || made_parrt_png=1
+[ -e out ] || made_out=1
 trap walk_cleanup EXIT
 
 start=$SECONDS
