@@ -4,8 +4,7 @@
 //! flags and files refused before any work
 //! (`careless`).
 
-#[path = "../../../common/tests/support/mod.rs"]
-mod support;
+use parrt_test_support as support;
 
 mod careless;
 mod conventions;
