@@ -1,13 +1,14 @@
 //! The `parrt` command line end to end through the real binary, one test binary with a file per
-//! subject: `parrt info` (`info`), `parrt render` (`render`), the instruction-set tier (`isa`),
-//! the bench studies (`studies`), what a Rust CLI user expects (`conventions`), and careless
-//! flags and files refused before any work
+//! subject: `parrt info` (`info`), `parrt render` (`render`), `parrt scene --format pov`
+//! (`pov`), the instruction-set tier (`isa`), the bench studies (`studies`), what a Rust CLI
+//! user expects (`conventions`), and careless flags and files refused before any work
 //! (`careless`).
 
 use parrt_test_support as support;
 
 mod careless;
 mod conventions;
+mod pov;
 mod files;
 mod info;
 mod isa;
