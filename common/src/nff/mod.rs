@@ -32,7 +32,7 @@ pub mod writer;
 pub use error::{NffError, NffErrorKind};
 pub use limits::Limits;
 pub use parser::{parse, parse_bytes, parse_file, parse_file_bytes, ParsedNff};
+pub use pov::to_pov;
 pub use read::{read_bounded, ReadError};
 pub use summary::Summary;
-pub use pov::to_pov;
 pub use writer::to_nff;

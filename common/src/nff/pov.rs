@@ -4,12 +4,12 @@
 //! `cone`s, every polygon split into `triangle`s and every patch into `smooth_triangle`s. The
 //! POV-Ray speed comparison renders these files, so POV-Ray and parrt trace the same scene.
 //!
-//! What NFF does not say is filled in as parrt shades: the ambient term is `Kd·sqrt(N)/(2N)`
-//! (the SPD readme's ambient intensity), and Ks weights both the Phong highlight (exponent
-//! `Shine`; none at SPD's "no highlight" sentinel 100000) and the mirror reflection. A
-//! transmitting material (T > 0) gets `filter T` and `refraction 1.0 ior …`, as Haines writes
-//! it; like his files, the output has no `#version`, so POV-Ray 3.7 reads it with its 3.6
-//! defaults (a warning, then max_trace_level 5 and no gamma correction).
+//! What NFF does not carry is filled in as the classic generators (balls, gears, mount, rings,
+//! teapot, tetra, tree, shells) write it: `ambient 0`, and Ks weights both the Phong highlight
+//! (exponent `Shine`; none at SPD's "no highlight" sentinel 100000) and the mirror reflection,
+//! as it does in NFF. A transmitting material (T > 0) gets `filter T` and `refraction 1.0 ior
+//! …`, as Haines writes it; like his files, the output has no `#version`, so POV-Ray 3.7 reads
+//! it with its 3.6 defaults (a warning, then max_trace_level 5 and no gamma correction).
 //!
 //! A polygon is cut into triangles by ear clipping in its own plane (concave ones too, such as
 //! the gears' 144-vertex outlines); one that cannot be cut (collinear runs, a self-touching
@@ -81,7 +81,7 @@ fn camera(out: &mut String, desc: &SceneDescription) {
 }
 
 /// Writes the texture `txtNNN` of material `m` (`index` counts from 1, as Haines names them).
-fn texture(out: &mut String, index: usize, m: &Material, ambient: f64) {
+fn texture(out: &mut String, index: usize, m: &Material) {
     let _ = writeln!(out, "#declare txt{index:03} = texture {{");
     out.push_str("    pigment {\n        color red ");
     num(out, m.color.x);
@@ -93,9 +93,7 @@ fn texture(out: &mut String, index: usize, m: &Material, ambient: f64) {
         out.push_str(" filter ");
         num(out, m.t);
     }
-    out.push_str("\n    } // pigment\n    finish {\n        ambient ");
-    num(out, m.kd * ambient);
-    out.push_str("\n        diffuse ");
+    out.push_str("\n    } // pigment\n    finish {\n        ambient 0\n        diffuse ");
     num(out, m.kd);
     if m.ks != 0.0 && m.shine < NO_HIGHLIGHT {
         out.push_str("\n        phong ");
@@ -215,7 +213,6 @@ pub fn to_pov(desc: &SceneDescription) -> String {
     camera(&mut out, desc);
     let nl = desc.lights.len().max(1) as f64;
     let scale = 1.0 / nl.sqrt();
-    let ambient = nl.sqrt() / (2.0 * nl);
     for l in &desc.lights {
         let c = l.color.unwrap_or(Vec3d::new(1.0, 1.0, 1.0)) * scale;
         out.push_str("light_source {\n    ");
@@ -229,7 +226,7 @@ pub fn to_pov(desc: &SceneDescription) -> String {
         out.push_str("\n} // light\n\n");
     }
     for (i, m) in desc.materials.iter().enumerate() {
-        texture(&mut out, i + 1, m, ambient);
+        texture(&mut out, i + 1, m);
     }
     let fallback = desc.materials.len() + 1;
     if desc
@@ -237,7 +234,7 @@ pub fn to_pov(desc: &SceneDescription) -> String {
         .iter()
         .any(|p| p.material as usize >= desc.materials.len())
     {
-        texture(&mut out, fallback, &Material::default_white(), ambient);
+        texture(&mut out, fallback, &Material::default_white());
     }
     for p in &desc.primitives {
         let tex = if (p.material as usize) < desc.materials.len() {
@@ -320,14 +317,19 @@ mod tests {
         tris.iter()
             .map(|&[a, b, c]| {
                 let (a, b, c) = (vs[a], vs[b], vs[c]);
-                ((b - a).cross(c - a)).z
+                (b - a).cross(c - a).z
             })
             .sum()
     }
 
     #[test]
     fn a_convex_square_becomes_two_triangles_of_its_area() {
-        let sq = [v(0.0, 0.0, 0.0), v(2.0, 0.0, 0.0), v(2.0, 2.0, 0.0), v(0.0, 2.0, 0.0)];
+        let sq = [
+            v(0.0, 0.0, 0.0),
+            v(2.0, 0.0, 0.0),
+            v(2.0, 2.0, 0.0),
+            v(0.0, 2.0, 0.0),
+        ];
         let t = triangulate(&sq).unwrap();
         assert_eq!(t.len(), 2);
         assert_eq!(area2(&sq, &t), 8.0);
@@ -349,7 +351,7 @@ mod tests {
         assert_eq!(area2(&l, &t), 6.0);
         // Every triangle keeps the outline's winding (none flipped across the notch).
         for &[a, b, c] in &t {
-            assert!(((l[b] - l[a]).cross(l[c] - l[a])).z > 0.0, "{a} {b} {c}");
+            assert!((l[b] - l[a]).cross(l[c] - l[a]).z > 0.0, "{a} {b} {c}");
         }
         // Clockwise, the same outline gives the same area, wound the other way.
         let mut rev = l;
@@ -365,7 +367,10 @@ mod tests {
             .find(|l| l.trim_start().starts_with(key))
             .unwrap_or_else(|| panic!("no {key} line in {text}"));
         let inner = &line[line.find('<').unwrap() + 1..line.find('>').unwrap()];
-        let v: Vec<f64> = inner.split(',').map(|x| x.trim().parse().unwrap()).collect();
+        let v: Vec<f64> = inner
+            .split(',')
+            .map(|x| x.trim().parse().unwrap())
+            .collect();
         [v[0], v[1], v[2]]
     }
 
@@ -390,7 +395,10 @@ mod tests {
         ] {
             let got = vector_after(&pov, key);
             for k in 0..3 {
-                assert!((got[k] - want[k]).abs() < 1e-6, "{key}: {got:?} vs {want:?}");
+                assert!(
+                    (got[k] - want[k]).abs() < 1e-6,
+                    "{key}: {got:?} vs {want:?}"
+                );
             }
         }
         assert!(pov.contains("background { color red 0.078 green 0.361 blue 0.753 }\n"));
@@ -399,7 +407,10 @@ mod tests {
         assert_eq!(pov.matches("light_source {").count(), 3);
         assert_eq!(pov.matches(&light).count(), 3, "{pov}");
         assert!(pov.contains("    <1, -4, 4> color red"), "{pov}");
-        assert!(pov.contains("sphere { <0, 0, 0>, 0.5  texture { txt001 } }\n"), "{pov}");
+        assert!(
+            pov.contains("sphere { <0, 0, 0>, 0.5  texture { txt001 } }\n"),
+            "{pov}"
+        );
     }
 
     #[test]
@@ -415,31 +426,33 @@ mod tests {
         )
         .unwrap();
         let pov = to_pov(&desc);
-        let ambient = |kd: f64| kd * (3f64.sqrt() / 6.0);
-        let mirror = format!(
-            "#declare txt001 = texture {{\n    pigment {{\n        color red 1 green 0.9 blue 0.7\n\
-             \x20   }} // pigment\n    finish {{\n        ambient {}\n        diffuse 0.5\n\
-             \x20       phong 0.5  phong_size 3.0827\n        reflection 0.5\n\
-             \x20   }} // finish\n}} // texture txt001\n",
-            ambient(0.5)
-        );
-        assert!(pov.contains(&mirror), "{pov}");
-        let glass = format!(
-            "        color red 1 green 0.605523 blue 0.408284 filter 0.8\n    }} // pigment\n\
-             \x20   finish {{\n        ambient {}\n        diffuse 0.2\n\
-             \x20       refraction 1.0 ior 1.1\n    }} // finish\n}} // texture txt002\n",
-            ambient(0.2)
-        );
-        assert!(pov.contains(&glass), "{pov}");
+        // Haines' own texture of balls' spheres, and of gears' glass, to the byte (but for the
+        // comment he leaves where a `normal` would go).
+        let mirror = "#declare txt001 = texture {\n    pigment {\n        color red 1 green 0.9 \
+             blue 0.7\n    } // pigment\n    finish {\n        ambient 0\n        diffuse \
+             0.5\n        phong 0.5  phong_size 3.0827\n        reflection 0.5\n    } // \
+             finish\n} // texture txt001\n";
+        assert!(pov.contains(mirror), "{pov}");
+        let glass = "        color red 1 green 0.605523 blue 0.408284 filter 0.8\n    } // \
+             pigment\n    finish {\n        ambient 0\n        diffuse 0.2\n        refraction \
+             1.0 ior 1.1\n    } // finish\n} // texture txt002\n";
+        assert!(pov.contains(glass), "{pov}");
         assert!(
-            pov.contains("cone {\n    <0, 0, 0>, 0.1,\n    <0, 0, 1>, 0.2 open\n    texture { txt003 }\n}\n"),
+            pov.contains(
+                "cone {\n    <0, 0, 0>, 0.1,\n    <0, 0, 1>, 0.2 open\n    texture { txt003 }\n}\n"
+            ),
             "{pov}"
         );
     }
 
     #[test]
     fn a_flat_outline_has_no_triangulation() {
-        let line = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(2.0, 0.0, 0.0), v(3.0, 0.0, 0.0)];
+        let line = [
+            v(0.0, 0.0, 0.0),
+            v(1.0, 0.0, 0.0),
+            v(2.0, 0.0, 0.0),
+            v(3.0, 0.0, 0.0),
+        ];
         assert_eq!(triangulate(&line), None);
     }
 }

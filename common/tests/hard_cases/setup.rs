@@ -163,4 +163,3 @@ impl<R: Real> Direct<R> {
 pub fn transform(desc: &SceneDescription, s: f64, t: Vec3d) -> SceneDescription {
     desc.transformed(s, t)
 }
-

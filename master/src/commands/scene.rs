@@ -9,9 +9,9 @@ use crate::cli_args::scene_arg::SceneSpec;
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
+use parrt::description::SceneDescription;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use parrt::description::SceneDescription;
 use std::process::ExitCode;
 
 /// What `parrt scene` writes.
@@ -165,6 +165,9 @@ mod tests {
         assert_eq!(format_for(None, Some(&p("a.POV"))), Format::Pov);
         assert_eq!(format_for(None, Some(&p("a.txt"))), Format::Nff);
         assert_eq!(format_for(Some(Format::Pov), None), Format::Pov);
-        assert_eq!(format_for(Some(Format::Nff), Some(&p("a.pov"))), Format::Nff);
+        assert_eq!(
+            format_for(Some(Format::Nff), Some(&p("a.pov"))),
+            Format::Nff
+        );
     }
 }

@@ -8,10 +8,10 @@ use parrt_test_support as support;
 
 mod careless;
 mod conventions;
-mod pov;
 mod files;
 mod info;
 mod isa;
+mod pov;
 mod render;
 mod studies;
 

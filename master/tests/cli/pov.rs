@@ -39,7 +39,9 @@ fn the_output_file_names_the_format() {
     let pov = dir.path().join("balls.pov");
     let o = parrt(&["scene", &spd("balls-3.nff"), "-o", pov.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(std::fs::read_to_string(&pov).unwrap().starts_with("// POV-Ray"));
+    assert!(std::fs::read_to_string(&pov)
+        .unwrap()
+        .starts_with("// POV-Ray"));
     // Any other name writes NFF, which reads back to the same scene.
     let nff = dir.path().join("balls.txt");
     let o = parrt(&["scene", &spd("balls-3.nff"), "-o", nff.to_str().unwrap()]);
