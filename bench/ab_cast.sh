@@ -5,15 +5,15 @@
 # Mrays per CPU second with the min–max spread, the median of the per-run ratios new/old (runs
 # paired back to back) and whether the two builds counted the same rays and hits.
 #
-#   usage: bench/ab_cast.sh OLD_BINARY NEW_BINARY [scene ...]   (names in ../shared/spd)
-#   env:   RUNS (default 3), MINTIME (default 1), SHARED (default: ../shared beside the repository)
+#   usage: bench/ab_cast.sh OLD_BINARY NEW_BINARY [scene ...]   (names in data/spd)
+#   env:   RUNS (default 3), MINTIME (default 1), PARRT_SPD_DIR (default: data/spd in the repository)
 #
 # For the least noise run it alone under `chrt -r 1` (root):
 #   chrt -r 1 bench/ab_cast.sh ../parrt-before/target/release/parrt target/release/parrt gears-4
 set -euo pipefail
 [ $# -ge 2 ] || { sed -n '2,12p' "$0" >&2; exit 2; }
 REPO=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$(cd "$REPO/../shared" && pwd)}
+SPD=$(cd "${PARRT_SPD_DIR:-$REPO/data/spd}" && pwd)
 OLD=$1 NEW=$2
 shift 2
 [ $# -gt 0 ] || set -- mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5 jacks-4
@@ -24,7 +24,7 @@ trap 'rm -rf "$T"' EXIT
 
 # The last table row of `parrt bench cast`: Mrays per CPU second last; rays per frame, eye hits
 # and shadow rays before, compared between the builds.
-cast() { "$1" bench cast "$SHARED/spd/$2.nff" --size 512 --mintime "$MINTIME" | tail -1; }
+cast() { "$1" bench cast "$SPD/$2.nff" --size 512 --mintime "$MINTIME" | tail -1; }
 
 echo "| scene | old Mrays/CPU-s | new Mrays/CPU-s | new / old, paired median | rays and hits |"
 echo "|---|---:|---:|---:|---|"

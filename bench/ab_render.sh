@@ -5,8 +5,8 @@
 # the per-run ratios new/old (runs paired back to back, so drifts of the machine's speed
 # cancel) and the ratio of the fastest runs.
 #
-#   usage: bench/ab_render.sh OLD_BINARY NEW_BINARY [scene ...]   (names in ../shared/spd)
-#   env:   RUNS (default 5), SHARED (default: ../shared beside the repository)
+#   usage: bench/ab_render.sh OLD_BINARY NEW_BINARY [scene ...]   (names in data/spd)
+#   env:   RUNS (default 5), PARRT_SPD_DIR (default: data/spd in the repository)
 #
 # For the least noise run it alone under `chrt -r 1` (root), e.g. copy the build before a
 # change to target/parrt-before, rebuild, then
@@ -14,7 +14,7 @@
 set -euo pipefail
 [ $# -ge 2 ] || { sed -n '2,13p' "$0" >&2; exit 2; }
 REPO=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$(cd "$REPO/../shared" && pwd)}
+SPD=$(cd "${PARRT_SPD_DIR:-$REPO/data/spd}" && pwd)
 OLD=$1 NEW=$2
 shift 2
 [ $# -gt 0 ] || set -- mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5 jacks-4
@@ -24,7 +24,7 @@ trap 'rm -rf "$T"' EXIT
 
 # CPU seconds (user + system) of one run (bench/cpu_seconds.py).
 cpu() { python3 "$REPO/bench/cpu_seconds.py" "$@"; }
-render() { cpu "$1" render "$SHARED/spd/$2.nff" --threads 1 --width 512 --height 512 --max-depth 5 -o "$3"; }
+render() { cpu "$1" render "$SPD/$2.nff" --threads 1 --width 512 --height 512 --max-depth 5 -o "$3"; }
 
 echo "| scene | old s (median) | new s (median) | new / old, paired median | fastest new / fastest old | image |"
 echo "|---|---:|---:|---:|---:|---|"

@@ -5,7 +5,7 @@
 # assert them). Needs `cargo build --release` first, and jq.
 #
 # Usage: bench/accel_table.sh [REPS] [DENSITIES...]
-#   PARRT_SPD_DIR  where the .nff files are (default ../shared/spd beside the repository)
+#   PARRT_SPD_DIR  where the .nff files are (default data/spd in the repository)
 #   PARRT_BIN      the parrt binary (default target/release/parrt)
 #   SLOW           a run whose trace takes longer (seconds) is not repeated (default 8)
 set -euo pipefail
@@ -14,7 +14,7 @@ reps=${1:-3}
 shift || true
 densities=("$@")
 [ ${#densities[@]} -gt 0 ] || densities=(1 3 8 27)
-spd=${PARRT_SPD_DIR:-$(cd "$(dirname "$0")/../../shared/spd" && pwd)}
+spd=${PARRT_SPD_DIR:-$(cd "$(dirname "$0")/../data/spd" && pwd)}
 bin=${PARRT_BIN:-target/release/parrt}
 slow=${SLOW:-8}
 scenes=(mount-6 balls-4 gears-4 rings-7 teapot-12 tetra-6 tree-11 lattice-12 shells-5)

@@ -8,12 +8,12 @@
 # (the build warns). Needs `cargo build --release -p parrt-master` first, and jq.
 #
 # Usage: bench/bvh_quality.sh [REPS]
-#   PARRT_SPD_DIR  where the .nff files are (default ../shared/spd beside the repository)
+#   PARRT_SPD_DIR  where the .nff files are (default data/spd in the repository)
 #   PARRT_BIN      the parrt binary (default target/release/parrt)
 set -euo pipefail
 
 reps=${1:-3}
-spd=${PARRT_SPD_DIR:-$(cd "$(dirname "$0")/../../shared/spd" && pwd)}
+spd=${PARRT_SPD_DIR:-$(cd "$(dirname "$0")/../data/spd" && pwd)}
 bin=${PARRT_BIN:-target/release/parrt}
 scenes=(mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5
     jacks-4)

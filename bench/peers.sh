@@ -6,17 +6,19 @@
 # and Tachyon (wall time, t1 / (2 t2)). Installs POV-Ray, Tachyon and libembree-dev with apt-get
 # when missing. Prints Markdown tables.
 #
-#   usage: bench/peers.sh [scene ...]        scenes as names in ../shared/spd/pov (e.g. mount-6)
+#   usage: bench/peers.sh [scene ...]        scenes as names in data/spd (e.g. mount-6)
 #   env:   RUNS (default 3: medians), MINTIME (casting seconds per figure, default 1),
-#          SHARED (default: ../shared beside the repository), OUT (default bench-out/peers),
+#          PARRT_SPD_DIR (the NFF files; default data/spd in the repository),
+#          SHARED (where the Embree harness's sources are: ../shared beside the repository),
+#          OUT (default bench-out/peers),
 #          TABLES (default "render cast efficiency": which tables to print),
 #          NFFCAST (the Embree harness; built from ../shared/anchors into OUT/embree when
 #          missing), PARRT (a parrt binary to measure instead of building one; the build honours
 #          CARGO_TARGET_DIR)
 set -euo pipefail
 REPO=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$(cd "$REPO/../shared" && pwd)}
-SPD=$SHARED/spd
+SHARED=${SHARED:-$REPO/../shared}
+SPD=$(cd "${PARRT_SPD_DIR:-$REPO/data/spd}" && pwd)
 RUNS=${RUNS:-3}
 MINTIME=${MINTIME:-1}
 OUT=${OUT:-$REPO/bench-out/peers}
@@ -130,12 +132,13 @@ echo "|---|---:|---:|---:|---:|---|---:|---|---|"
 sub() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.4f", a - b}'; }
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.3f", a / b}'; }
 for s in "$@"; do
-    pov=$SPD/pov/$s.pov; nff=$SPD/$s.nff
-    [ -f "$pov" ] && [ -f "$nff" ] || { echo "| $s | missing | | | | | | | |"; continue; }
+    pov=$OUT/pov/$s.pov; nff=$SPD/$s.nff
+    [ -f "$nff" ] || { echo "| $s | missing | | | | | | | |"; continue; }
+    # POV-Ray reads the same scene, written from the NFF file by parrt itself.
+    mkdir -p "$OUT/pov" && "$PARRT" scene "$nff" -o "$pov"
     : > p.txt; : > t.txt; : > q.txt
     for _ in $(seq "$RUNS"); do
-        # sombrero's POV file reads its height field beside it.
-        (cd "$SPD/pov" && cpu povray +I"$pov" +O"$OUT/$s.pov.png" $POVARGS) >> p.txt
+        cpu povray +I"$pov" +O"$OUT/$s.pov.png" $POVARGS >> p.txt
         cpu tachyon "$nff" $TACHARGS -numthreads 1 -o "$OUT/$s.tachyon.ppm" >> t.txt
         cpu "$PARRT" render "$nff" --threads 1 --width 512 --height 512 --max-depth 5 -o "$OUT/$s.parrt.png" >> q.txt
     done

@@ -6,14 +6,14 @@
 # measured (`--stats-json`); and `parrt --version` as the floor of starting the executable at all.
 # Scenes interleaved run by run; medians with the min–max spread. Prints a Markdown table.
 #
-#   usage: bench/startup.sh [PARRT_BINARY] [scene ...]   (names in ../shared/spd)
-#   env:   RUNS (default 7), SHARED (default: ../shared beside the repository)
+#   usage: bench/startup.sh [PARRT_BINARY] [scene ...]   (names in data/spd)
+#   env:   RUNS (default 7), PARRT_SPD_DIR (default: data/spd in the repository)
 #
 # For the least noise run it under `chrt -r 1` (root):
 #   chrt -r 1 bench/startup.sh "$CARGO_TARGET_DIR/release/parrt"
 set -euo pipefail
 REPO=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$(cd "$REPO/../shared" && pwd)}
+SPD=$(cd "${PARRT_SPD_DIR:-$REPO/data/spd}" && pwd)
 PARRT=${1:-$REPO/target/release/parrt}
 [ $# -gt 0 ] && shift
 [ $# -gt 0 ] || set -- mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5 jacks-4
@@ -21,7 +21,7 @@ RUNS=${RUNS:-7}
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 
-python3 - "$PARRT" "$SHARED/spd" "$T" "$RUNS" "$@" <<'PY'
+python3 - "$PARRT" "$SPD" "$T" "$RUNS" "$@" <<'PY'
 import json, os, statistics as st, subprocess, sys, time
 parrt, spd, tmp, runs, scenes = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4]), sys.argv[5:]
 

@@ -6,15 +6,15 @@
 # the AVX ones on one binary), and whether every tier wrote the same image bytes.
 # Prints a Markdown table.
 #
-#   usage: bench/tiers.sh [PARRT_BINARY] [scene ...]   (names in ../shared/spd)
-#   env:   RUNS (default 3), TIERS (default "scalar sse2 avx2 avx512"), SHARED (default:
-#          ../shared beside the repository)
+#   usage: bench/tiers.sh [PARRT_BINARY] [scene ...]   (names in data/spd)
+#   env:   RUNS (default 3), TIERS (default "scalar sse2 avx2 avx512"), PARRT_SPD_DIR (default:
+#          data/spd in the repository)
 #
 # For the least noise run it under `chrt -r 1` (root):
 #   chrt -r 1 bench/tiers.sh "$CARGO_TARGET_DIR/release/parrt"
 set -euo pipefail
 REPO=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$(cd "$REPO/../shared" && pwd)}
+SPD=$(cd "${PARRT_SPD_DIR:-$REPO/data/spd}" && pwd)
 PARRT=${1:-$REPO/target/release/parrt}
 [ $# -gt 0 ] && shift
 [ $# -gt 0 ] || set -- mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5 jacks-4
@@ -36,7 +36,7 @@ for s in "$@"; do
     for t in $TIERS; do : > "$T/$t"; done
     for _ in $(seq "$RUNS"); do
         for t in $TIERS; do
-            cpu env PARRT_ISA="$t" "$PARRT" render "$SHARED/spd/$s.nff" --threads 1 --width 512 \
+            cpu env PARRT_ISA="$t" "$PARRT" render "$SPD/$s.nff" --threads 1 --width 512 \
                 --height 512 --max-depth 5 -o "$T/$t.png" >> "$T/$t"
         done
     done

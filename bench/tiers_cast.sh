@@ -5,15 +5,15 @@
 # interleaved run by run; Mrays per CPU second, medians with the min–max spread, and each tier's
 # median over the first tier's. Prints a Markdown table.
 #
-#   usage: bench/tiers_cast.sh [PARRT_BINARY] [scene ...]   (names in ../shared/spd)
+#   usage: bench/tiers_cast.sh [PARRT_BINARY] [scene ...]   (names in data/spd)
 #   env:   RUNS (default 3), TIERS (default "avx2 avx512"), MINTIME (default 1),
-#          SHARED (default: ../shared beside the repository)
+#          PARRT_SPD_DIR (default: data/spd in the repository)
 #
 # For the least noise run it under `chrt -r 1` (root):
 #   chrt -r 1 bench/tiers_cast.sh "$CARGO_TARGET_DIR/release/parrt"
 set -euo pipefail
 REPO=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$(cd "$REPO/../shared" && pwd)}
+SPD=$(cd "${PARRT_SPD_DIR:-$REPO/data/spd}" && pwd)
 PARRT=${1:-$REPO/target/release/parrt}
 [ $# -gt 0 ] && shift
 [ $# -gt 0 ] || set -- mount-6 balls-4 gears-4 rings-7 teapot-6 teapot-12 tetra-6 tree-11 lattice-12 shells-5 jacks-4
@@ -34,7 +34,7 @@ for s in "$@"; do
     for t in $TIERS; do : > "$T/$t"; done
     for _ in $(seq "$RUNS"); do
         for t in $TIERS; do
-            PARRT_ISA="$t" "$PARRT" bench cast "$SHARED/spd/$s.nff" --size 512 --mintime "$MINTIME" \
+            PARRT_ISA="$t" "$PARRT" bench cast "$SPD/$s.nff" --size 512 --mintime "$MINTIME" \
                 | tail -1 | awk -F'|' '{gsub(/ /,"",$10); print $10}' >> "$T/$t"
         done
     done

@@ -8,7 +8,7 @@ set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 SECONDS_EACH=${2:-120}
 TARGETS=${1:-"parse_nff decode_frames"}
-SPD=${PARRT_SPD_DIR:-$HERE/../../shared/spd}
+SPD=${PARRT_SPD_DIR:-$HERE/../data/spd}
 for t in $TARGETS; do
     corpus=$HERE/corpus/$t
     mkdir -p "$corpus"

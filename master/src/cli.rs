@@ -28,7 +28,7 @@ pub enum Command {
     Render(commands::render::RenderArgs),
     /// Print what an NFF file contains: counts, bounds, camera, parse time.
     Info(commands::info::InfoArgs),
-    /// Write a generated SPD-style scene as NFF.
+    /// Write a generated SPD-style scene, or an NFF file, as NFF or as a POV-Ray scene.
     Scene(commands::scene::SceneArgs),
     /// Serve tile tasks to workers over TCP and assemble the image.
     Master(commands::master::MasterArgs),

@@ -1,6 +1,6 @@
 //! Parse throughput of the NFF reader on the largest SPD scenes (teapot-12: 1.5 MB of mostly
-//! `pp 3`; mount-6: 0.6 MB of `p 3`), in bytes per second. Finds the scenes like the tests do:
-//! `$PARRT_SPD_DIR`, else `shared/spd` above this crate.
+//! `pp 3`; mount-6: 0.6 MB of `p 3`), in bytes per second. Finds the scenes like the tests do
+//! (`parrt_test_support::spd_dir`: `$PARRT_SPD_DIR`, else the repository's `data/spd`).
 //!
 //! Two groups: `nff_parse` measures wall-clock time (criterion's default), `nff_parse_cpu` the
 //! time the benchmarking thread spent on a CPU (Linux `/proc/thread-self/schedstat`), which stays
@@ -9,18 +9,6 @@
 
 use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion, Throughput};
-use std::path::{Path, PathBuf};
-
-fn spd_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("PARRT_SPD_DIR") {
-        return PathBuf::from(d);
-    }
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .ancestors()
-        .map(|d| d.join("shared").join("spd"))
-        .find(|d| d.is_dir())
-        .unwrap_or_else(|| panic!("cannot find shared/spd: set PARRT_SPD_DIR"))
-}
 
 const FILES: [&str; 2] = ["teapot-12.nff", "mount-6.nff"];
 
@@ -96,7 +84,7 @@ impl Measurement for CpuTime {
 }
 
 fn run_group<M: Measurement>(mut group: BenchmarkGroup<'_, M>) {
-    let dir = spd_dir();
+    let dir = parrt_test_support::spd_dir();
     let limits = parrt::nff::Limits::default();
     for name in FILES {
         let path = dir.join(name);

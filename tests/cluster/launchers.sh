@@ -52,8 +52,8 @@ cleanup() {
 }
 trap cleanup EXIT
 
-# The scene: a small SPD file, from ../shared beside the repository, else generated.
-SCENE=$REPO/../shared/spd/balls-3.nff
+# The scene: a small SPD file from the repository's test data, else generated.
+SCENE=$REPO/data/spd/balls-3.nff
 if [ ! -f "$SCENE" ]; then
     SCENE=$T/balls.nff
     "$BIN" scene balls:3 -o "$SCENE"

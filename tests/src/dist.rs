@@ -150,9 +150,7 @@ pub fn smp_reference(
     (out.film, out.stats)
 }
 
-#[path = "../../render/tests/support/film.rs"]
-mod film;
-pub use film::assert_same_bits;
+pub use parrt_test_support::film::assert_same_bits;
 
 /// Test-friendly master options: loopback, a free port, the test token, no progress bar.
 pub fn test_options(tile: u32) -> MasterConfig {

@@ -4,7 +4,7 @@
 //! the pixels are the same. Also: a seeded nonce repeats run after run. The scripted master
 //! speaks inside the encrypted channel the worker opens, as a real master does.
 
-use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
+use parrt::description::SceneDescription;
 use parrt_protocol::message::NONCE_LEN;
 use parrt_protocol::{
     Connection, JobSpec, LinkKey, Message, PixelFormat, SecureStream, TilePixels, Token,
@@ -14,7 +14,6 @@ use parrt::render::Renderer;
 use parrt::settings::RenderSettings;
 use parrt::stats::RayStats;
 use parrt::tile::{tiles, Tile};
-use parrt::vec3::Vec3d;
 use parrt_worker::exec::{Execute, InlineExec, RayonExec};
 use parrt_worker::net::Preconnected;
 use parrt_worker::session::{self, SessionEnd, SessionSummary};
@@ -30,30 +29,7 @@ const TILE: u32 = 8;
 const JOB: u64 = 42;
 
 fn scene() -> SceneDescription {
-    SceneDescription {
-        background: Vec3d::new(0.1, 0.2, 0.3),
-        view: View {
-            from: Vec3d::new(0.0, 0.0, 5.0),
-            at: Vec3d::zero(),
-            up: Vec3d::new(0.0, 1.0, 0.0),
-            angle: 40.0,
-            hither: 0.01,
-            width: SIZE,
-            height: SIZE,
-        },
-        lights: vec![Light {
-            position: Vec3d::new(1.0, 2.0, 3.0),
-            color: None,
-        }],
-        materials: vec![Material::default_white()],
-        primitives: vec![Primitive {
-            shape: Shape::Sphere {
-                center: Vec3d::zero(),
-                radius: 1.0,
-            },
-            material: 0,
-        }],
-    }
+    parrt_test_support::scene::one_sphere(SIZE)
 }
 
 fn job() -> JobSpec {

@@ -1,17 +1,17 @@
 //! The `parrt` command line end to end through the real binary, one test binary with a file per
-//! subject: `parrt info` (`info`), `parrt render` (`render`), the instruction-set tier (`isa`),
-//! the bench studies (`studies`), what a Rust CLI user expects (`conventions`), and careless
-//! flags and files refused before any work
+//! subject: `parrt info` (`info`), `parrt render` (`render`), `parrt scene --format pov`
+//! (`pov`), the instruction-set tier (`isa`), the bench studies (`studies`), what a Rust CLI
+//! user expects (`conventions`), and careless flags and files refused before any work
 //! (`careless`).
 
-#[path = "../../../render/tests/support/mod.rs"]
-mod support;
+use parrt_test_support as support;
 
 mod careless;
 mod conventions;
 mod files;
 mod info;
 mod isa;
+mod pov;
 mod render;
 mod studies;
 

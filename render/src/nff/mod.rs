@@ -7,6 +7,7 @@
 //! - [`read`]: a named file's bytes, bounded (regular files only, a size limit).
 //! - [`summary`]: what a parsed file contains, counted (for `parrt info`).
 //! - [`writer`]: [`to_nff`], which the parser reads back to the identical description.
+//! - [`pov`]: [`to_pov`], the same scene as a POV-Ray scene (for the POV-Ray comparison).
 //!
 //! ```
 //! let text = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0.01 resolution 64 48\n\
@@ -23,6 +24,7 @@ pub mod lexer;
 pub mod limits;
 pub mod number;
 pub mod parser;
+pub mod pov;
 pub mod read;
 pub mod summary;
 pub mod writer;
@@ -30,6 +32,7 @@ pub mod writer;
 pub use error::{NffError, NffErrorKind};
 pub use limits::Limits;
 pub use parser::{parse, parse_bytes, parse_file, parse_file_bytes, ParsedNff};
+pub use pov::to_pov;
 pub use read::{read_bounded, ReadError};
 pub use summary::Summary;
 pub use writer::to_nff;

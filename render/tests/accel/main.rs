@@ -2,8 +2,7 @@
 //! and brute force agree on every ray; SIMD and scalar leaf tests agree; packets of rays get
 //! exactly the answers their rays get alone.
 
-#[path = "../support/mod.rs"]
-mod support;
+use parrt_test_support as support;
 
 mod agreement;
 mod bvh_owned;

@@ -12,8 +12,7 @@
 //! One test binary, a file per subject: [`meshes`], [`placement`], [`self_intersection`],
 //! [`refraction`], [`axis_rays`], [`degenerate`]; [`setup`] holds what they share.
 
-#[path = "../support/mod.rs"]
-mod support;
+use parrt_test_support as support;
 
 mod axis_rays;
 mod degenerate;

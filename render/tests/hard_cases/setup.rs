@@ -16,6 +16,8 @@ use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt::stats::RayStats;
 use parrt::vec3::{Vec3d, V3};
 
+pub use crate::support::film::compare;
+
 pub fn render(desc: &SceneDescription, s: &RenderSettings) -> (Film, RayStats) {
     let r = Renderer::new(desc, s).expect("scene builds");
     let res = render_smp(
@@ -160,24 +162,4 @@ impl<R: Real> Direct<R> {
 /// Applies `x ↦ s·x + t` to every position of a scene ([`SceneDescription::transformed`]).
 pub fn transform(desc: &SceneDescription, s: f64, t: Vec3d) -> SceneDescription {
     desc.transformed(s, t)
-}
-
-/// Per-pixel differences of two films on the linear values clamped to [0, 1]: (mean absolute
-/// difference per channel, share of pixels with some channel off by more than 1/255).
-pub fn compare(a: &Film, b: &Film) -> (f64, f64) {
-    let mut sum = 0.0;
-    let mut off = 0usize;
-    for (p, q) in a.pixels.iter().zip(&b.pixels) {
-        let mut worst = 0.0f64;
-        for c in 0..3 {
-            let e = (p[c].clamp(0.0, 1.0) as f64 - q[c].clamp(0.0, 1.0) as f64).abs();
-            sum += e;
-            worst = worst.max(e);
-        }
-        if worst > 1.0 / 255.0 {
-            off += 1;
-        }
-    }
-    let n = a.pixels.len() as f64;
-    (sum / (3.0 * n), off as f64 / n)
 }

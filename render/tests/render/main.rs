@@ -2,8 +2,7 @@
 //! SPD procedure's ray counts; every real tile's statistics plausible; `--precision auto` and the
 //! camera-relative frame; the memory-saving scene build equal to the borrowed one.
 
-#[path = "../support/mod.rs"]
-mod support;
+use parrt_test_support as support;
 
 mod determinism;
 mod precision_auto;

@@ -7,8 +7,7 @@
 //! One test binary of its own: the tier is process-wide, so its tests take [`tiers::LOCK`] and
 //! switch the tier with [`parrt::isa::force`] between renders; no other test shares the process.
 
-#[path = "../support/mod.rs"]
-mod support;
+use parrt_test_support as support;
 
 mod cast;
 mod dispatch;

@@ -24,8 +24,7 @@ mod relay;
 mod tiers;
 mod token;
 
-#[path = "../../../render/tests/support/mod.rs"]
-mod support;
+use parrt_test_support as support;
 
 /// The package's `parrt` executable (master, worker, `render --workers`, cluster).
 const EXE: &str = env!("CARGO_BIN_EXE_parrt-cli");

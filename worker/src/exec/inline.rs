@@ -271,39 +271,14 @@ impl Execute for InlineExec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
     use parrt_protocol::{PixelFormat, Token};
     use parrt::render::Renderer;
     use parrt::settings::RenderSettings;
     use parrt::tile::tiles;
-    use parrt::vec3::Vec3d;
     use std::sync::atomic::AtomicBool;
 
     fn job() -> JobHandle {
-        let desc = SceneDescription {
-            background: Vec3d::new(0.1, 0.2, 0.3),
-            view: View {
-                from: Vec3d::new(0.0, 0.0, 5.0),
-                at: Vec3d::zero(),
-                up: Vec3d::new(0.0, 1.0, 0.0),
-                angle: 40.0,
-                hither: 0.01,
-                width: 8,
-                height: 8,
-            },
-            lights: vec![Light {
-                position: Vec3d::new(1.0, 2.0, 3.0),
-                color: None,
-            }],
-            materials: vec![Material::default_white()],
-            primitives: vec![Primitive {
-                shape: Shape::Sphere {
-                    center: Vec3d::zero(),
-                    radius: 1.0,
-                },
-                material: 0,
-            }],
-        };
+        let desc = parrt_test_support::scene::one_sphere(8);
         JobHandle {
             job_id: 1,
             renderer: Arc::new(Renderer::new(&desc, &RenderSettings::new(8, 8)).unwrap()),

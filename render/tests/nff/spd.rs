@@ -1,6 +1,6 @@
 //! Every SPD scene parses, and survives parse → write → parse unchanged.
 
-mod support;
+use crate::support;
 
 use parrt::description::Shape;
 use parrt::nff::{self, Limits};

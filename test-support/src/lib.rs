@@ -1,39 +1,46 @@
-//! Helpers shared by the test binaries of `render/tests/` (and, by path, `master/tests/` and
-//! `tests/src`): where the SPD scenes are and their files, the three-accelerator oracle, scenes
-//! built in code, and bit-for-bit film comparison. Test support only; never used by the renderer.
-#![allow(dead_code)] // each test binary uses a different subset
+//! Test support for parrt's test binaries (a dev-dependency only; never part of a build of
+//! `parrt` or `parrt-worker`): where the SPD scenes are and their files, the tables of their
+//! README, the three-accelerator oracle, scenes built in code (the shared fixtures), and
+//! bit-for-bit film comparison.
+//!
+//! The SPD files live in the repository at `data/spd` (Haines' Standard Procedural Databases,
+//! public domain); `PARRT_SPD_DIR` points the tests at another copy.
 
 pub mod film;
+pub mod readme;
 pub mod scene;
 pub mod spd;
 
 use std::path::{Path, PathBuf};
 
-/// The SPD scene directory: `$PARRT_SPD_DIR` if set, else the first `shared/spd` found walking up
-/// from this crate's directory (the repository has `shared/` beside it). Panics with a clear
-/// message when neither exists: the tests must not pass by skipping.
+/// The environment variable that points the tests at another copy of the SPD files.
+pub const SPD_DIR_ENV: &str = "PARRT_SPD_DIR";
+
+/// The SPD scene directory: `$PARRT_SPD_DIR` if set, else the repository's `data/spd`. Panics
+/// with a clear message when the directory is missing: the tests must not pass by skipping.
 pub fn spd_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("PARRT_SPD_DIR") {
+    if let Some(d) = std::env::var_os(SPD_DIR_ENV) {
         let d = PathBuf::from(d);
         assert!(
             d.is_dir(),
-            "PARRT_SPD_DIR={} is not a directory",
+            "{SPD_DIR_ENV}={} is not a directory",
             d.display()
         );
         return d;
     }
-    let start = Path::new(env!("CARGO_MANIFEST_DIR"));
-    for dir in start.ancestors() {
-        let cand = dir.join("shared").join("spd");
-        if cand.is_dir() {
-            return cand;
-        }
-    }
-    panic!(
-        "cannot find the SPD scenes: set PARRT_SPD_DIR, or put shared/spd beside the repository \
-         (searched upward from {})",
-        start.display()
+    let dir = repository().join("data").join("spd");
+    assert!(
+        dir.is_dir(),
+        "cannot find the SPD scenes: {} is not a directory (set {SPD_DIR_ENV} to use another copy)",
+        dir.display()
     );
+    dir
+}
+
+/// The repository's root directory (the workspace this crate belongs to).
+pub fn repository() -> PathBuf {
+    let here = Path::new(env!("CARGO_MANIFEST_DIR"));
+    here.parent().unwrap_or(here).to_path_buf()
 }
 
 /// Every `*.nff` in the SPD directory, sorted by name (panics when there are none).

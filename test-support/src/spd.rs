@@ -1,8 +1,8 @@
-//! SPD scene files and the three-accelerator oracle: load the scenes of `shared/spd` (see
-//! [`super::spd_dir`]), build BVH, grid and brute force over one scene, and check that a ray gets
+//! SPD scene files and the three-accelerator oracle: load the SPD scenes (see
+//! [`crate::spd_dir`]), build BVH, grid and brute force over one scene, and check that a ray gets
 //! the same answer from all three. Test support only; never used by the renderer.
 
-use super::spd_dir;
+use crate::spd_dir;
 use parrt::accel::Accel;
 use parrt::description::SceneDescription;
 use parrt::geometry::{PreparedRay, PrimHit, Ray};

@@ -1,11 +1,9 @@
-//! Checks every generator against SPD's own outputs as `shared/spd/README.md` tabulates them:
+//! Checks every generator against SPD's own outputs as `data/spd/README.md` tabulates them:
 //! for each listed file whose generator we have, the primitive counts by kind, materials (`f`
 //! lines), lights, resolution and angle; and the camera, background and light count of the
 //! camera table.
 
-mod support;
-
-use support::{close, close3, readme, Counts};
+use parrt_test_support::readme::{close, close3, readme, Counts};
 
 /// Generators that SPD has but we do not (they ignore the size factor and are not SPD's
 /// procedural databases proper).

@@ -1,5 +1,5 @@
-//! Films compared bit for bit. Also compiled into `parrt_tests` (by path, from `tests/src/dist.rs`)
-//! so the distributed tests and these use one comparison.
+//! Films compared: bit for bit (one comparison for the library tests and the distributed tests),
+//! or by how far apart their pixels are.
 
 use parrt::film::Film;
 
@@ -22,4 +22,24 @@ pub fn assert_same_bits(a: &Film, b: &Film, what: &str) {
         a.pixels.iter().any(|p| p != &a.pixels[0]),
         "{what}: flat image"
     );
+}
+
+/// Per-pixel differences of two films on the linear values clamped to [0, 1]: (mean absolute
+/// difference per channel, share of pixels with some channel off by more than 1/255).
+pub fn compare(a: &Film, b: &Film) -> (f64, f64) {
+    let mut sum = 0.0;
+    let mut off = 0usize;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        let mut worst = 0.0f64;
+        for c in 0..3 {
+            let e = (p[c].clamp(0.0, 1.0) as f64 - q[c].clamp(0.0, 1.0) as f64).abs();
+            sum += e;
+            worst = worst.max(e);
+        }
+        if worst > 1.0 / 255.0 {
+            off += 1;
+        }
+    }
+    let n = a.pixels.len() as f64;
+    (sum / (3.0 * n), off as f64 / n)
 }

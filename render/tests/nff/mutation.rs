@@ -1,7 +1,7 @@
 //! Robustness: small SPD files with random byte and token damage never make the reader panic.
 //! Whatever it accepts must round-trip, and whatever it refuses must point inside the file.
 
-mod support;
+use crate::support;
 
 use parrt::nff::{self, Limits, NffErrorKind};
 use proptest::prelude::*;

@@ -1,7 +1,7 @@
 //! Scenes built in code: vectors, triangles, views, materials and primitives in one line each,
-//! and a scene of bare shapes for the tests that only look at hits.
+//! a scene of bare shapes for the tests that only look at hits, and the one-sphere test scene.
 
-use parrt::description::{Material, Primitive, SceneDescription, Shape, View};
+use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
 use parrt::vec3::{Vec3d, V3};
 
 /// The point or direction (x, y, z).
@@ -57,5 +57,34 @@ pub fn scene_of(shapes: Vec<Shape>, view: View) -> SceneDescription {
             .into_iter()
             .map(|shape| Primitive { shape, material: 0 })
             .collect(),
+    }
+}
+
+/// The one-sphere test scene, `size`×`size`: a white unit sphere at the origin seen from
+/// (0, 0, 5) through a 40° view, one white light at (1, 2, 3), background (0.1, 0.2, 0.3).
+pub fn one_sphere(size: u32) -> SceneDescription {
+    SceneDescription {
+        background: v(0.1, 0.2, 0.3),
+        view: View {
+            from: v(0.0, 0.0, 5.0),
+            at: v(0.0, 0.0, 0.0),
+            up: v(0.0, 1.0, 0.0),
+            angle: 40.0,
+            hither: 0.01,
+            width: size,
+            height: size,
+        },
+        lights: vec![Light {
+            position: v(1.0, 2.0, 3.0),
+            color: None,
+        }],
+        materials: vec![Material::default_white()],
+        primitives: vec![prim(
+            Shape::Sphere {
+                center: v(0.0, 0.0, 0.0),
+                radius: 1.0,
+            },
+            0,
+        )],
     }
 }

@@ -1,37 +1,9 @@
-//! Test support: finds the SPD reference directory (`shared/spd`) and reads the two Markdown
-//! tables of its README (per-file counts, default-scene cameras) so the tests compare our
-//! generators against the numbers SPD's own outputs have. Never generates anything itself.
-#![allow(dead_code)]
+//! The two Markdown tables of the SPD directory's README (per-file counts, default-scene
+//! cameras), read so the tests compare our generators and our parser against the numbers SPD's
+//! own outputs have. Never generates anything itself.
 
 use parrt::description::{SceneDescription, Shape};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-
-/// The SPD reference directory: `$PARRT_SPD_DIR`, else the first `shared/spd` found walking up
-/// from this crate. Panics with instructions when there is none.
-pub fn spd_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("PARRT_SPD_DIR") {
-        let d = PathBuf::from(d);
-        assert!(
-            d.join("README.md").is_file(),
-            "PARRT_SPD_DIR={} has no README.md",
-            d.display()
-        );
-        return d;
-    }
-    let start = Path::new(env!("CARGO_MANIFEST_DIR"));
-    for dir in start.ancestors() {
-        let cand = dir.join("shared").join("spd");
-        if cand.join("README.md").is_file() {
-            return cand;
-        }
-    }
-    panic!(
-        "SPD reference files not found: set PARRT_SPD_DIR, or put `shared/spd` (with README.md) \
-         in a directory above {}",
-        start.display()
-    );
-}
 
 /// Primitive counts of a scene, keyed as the README keys them.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]
@@ -246,7 +218,7 @@ fn cones(s: &str) -> (u64, u64) {
 
 /// Reads the README of the SPD directory.
 pub fn readme() -> Readme {
-    let path = spd_dir().join("README.md");
+    let path = crate::spd_dir().join("README.md");
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
     let mut files = Vec::new();

@@ -1,14 +1,13 @@
 //! Compares each generated scene with the SPD output file of the same generator and size in
-//! `shared/spd/` (read with parrt's NFF parser): bounds within 1% of the scene's diagonal (the
+//! `data/spd/` (read with parrt's NFF parser): bounds within 1% of the scene's diagonal (the
 //! acceptance check), and beyond that the background, camera, lights, materials and every
 //! primitive's coordinates to SPD's printing precision (6 significant digits). Also checks that
 //! what we write reads back identically.
 
-mod support;
-
 use parrt::description::{SceneDescription, Shape};
 use parrt::nff::Limits;
-use support::{close, readme, spd_dir};
+use parrt_test_support::readme::{close, readme};
+use parrt_test_support::spd_dir;
 
 const NOT_OURS: &[&str] = &["nurbtst", "sample"];
 
