@@ -1451,7 +1451,7 @@ mod tests {
         sizes
     }
 
-    /// Issue 15: cheap tiles go out in guided batches — single tiles until a cost is known,
+    /// Cheap tiles go out in guided batches — single tiles until a cost is known,
     /// then up to 8, shrinking to single tiles at the tail — and every tile lands once; costly
     /// tiles (a batch would hold more than `BATCH_SECONDS`) always go alone.
     #[tokio::test(start_paused = true)]
@@ -1471,9 +1471,9 @@ mod tests {
         assert!(middling.contains(&3), "{middling:?}");
     }
 
-    /// Issue 20 items 13 and 15: a result with a NaN or infinite pixel, or with ray counts no
-    /// render could produce (a wrapped `u64::MAX`), is rejected and its tile requeued, so the
-    /// film stays finite and the totals honest; an honest result for the tile then wins.
+    /// A result with a NaN or infinite pixel, or with ray counts no render could produce (a wrapped
+    /// `u64::MAX`), is rejected and its tile requeued, so the film stays finite and the totals
+    /// honest; an honest result for the tile then wins.
     #[tokio::test(start_paused = true)]
     async fn non_finite_pixels_and_impossible_stats_are_rejected_and_requeued() {
         let mut s = sched(10);

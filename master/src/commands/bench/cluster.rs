@@ -1,4 +1,4 @@
-//! `parrt bench cluster`: an emulated cluster, real everywhere but the tracing (issue 15). A
+//! `parrt bench cluster`: an emulated cluster, real everywhere but the tracing. A
 //! one-thread render of the scene is recorded once (per-tile costs and pixels); then, for N = 1,
 //! 2, 4, … workers × T threads, N real worker processes replay it against a real master over
 //! real TCP on 127.0.0.1, each behind an emulated LAN link ([`crate::studies::cluster::link`]). Reports measured
@@ -328,7 +328,7 @@ fn binding_warnings(mean_tile_s: f64, rows: &[Row]) -> Vec<String> {
 /// Runs `parrt bench cluster`.
 pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     check(&args)?;
-    // Before the recording allocates its film (issue 31 item 11: 65536² aborted on 51.5 GB).
+    // Before the recording allocates its film: an unchecked 65536² image aborted on 51.5 GB.
     args.limits.check_image(args.size, args.size, args.tile)?;
     let spec = SceneSpec::parse(&args.scene)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
