@@ -1,5 +1,5 @@
 //! Compares each generated scene with the SPD output file of the same generator and size in
-//! `shared/spd/` (read with parrt's NFF parser): bounds within 1% of the scene's diagonal (the
+//! `data/spd/` (read with parrt's NFF parser): bounds within 1% of the scene's diagonal (the
 //! acceptance check), and beyond that the background, camera, lights, materials and every
 //! primitive's coordinates to SPD's printing precision (6 significant digits). Also checks that
 //! what we write reads back identically.

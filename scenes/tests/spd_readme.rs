@@ -1,4 +1,4 @@
-//! Checks every generator against SPD's own outputs as `shared/spd/README.md` tabulates them:
+//! Checks every generator against SPD's own outputs as `data/spd/README.md` tabulates them:
 //! for each listed file whose generator we have, the primitive counts by kind, materials (`f`
 //! lines), lights, resolution and angle; and the camera, background and light count of the
 //! camera table.

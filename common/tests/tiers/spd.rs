@@ -1,4 +1,4 @@
-//! Every SPD file (all 27 of `shared/spd`) under Haines' procedure at 64 × 64 (65 × 65 corner
+//! Every SPD file (all 27 of `data/spd`) under Haines' procedure at 64 × 64 (65 × 65 corner
 //! rays, depth 5, no cut-off): the same image and counts on every tier.
 
 use crate::tiers::{assert_same_on_every_tier, bytes, on_each_tier};

@@ -1,5 +1,5 @@
 //! `parrt info` end to end, through the real binary: every SPD scene gives exactly the counts of
-//! `shared/spd/README.md`'s first table (read from the Markdown itself), and malformed inputs
+//! `data/spd/README.md`'s first table (read from the Markdown itself), and malformed inputs
 //! exit 2 with the right `file:line:column` and message.
 
 use crate::parrt;
