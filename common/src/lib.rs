@@ -33,7 +33,7 @@
 //!
 //! ## Modules
 //! The scene and its file format:
-//! - [`description`]: the scene as NFF describes it (`f64`), produced by [`nff`] and the generators.
+//! - [`description`]: the scene as NFF describes it (`f64`), made by [`nff`] and the generators.
 //! - [`nff`]: the strict token-based reader and the round-tripping writer.
 //! - [`vertices`]: a polygon's vertex list (a triangle's three inline).
 //!
@@ -73,8 +73,8 @@
 //! - [`efficiency`]: cost c = n·tₙ, efficiency e = t₁/c, and their tables.
 //!
 //! Process support:
-//! - [`build_info`]: what build a binary is, the one `--version` text of `parrt` and
-//!   `parrt-worker`.
+//! - [`build_info`](mod@build_info): what build a binary is, the one `--version` text of
+//!   `parrt` and `parrt-worker`.
 //! - [`seconds`]: durations written for people (`2.5 s`).
 //! - [`heap`]: handing freed heap memory back to the operating system.
 #![deny(missing_docs)]

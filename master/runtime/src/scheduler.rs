@@ -116,7 +116,7 @@ pub struct SchedOptions {
     pub max_failures: u32,
     /// Hand out backup copies of in-flight tiles when the queue is empty.
     pub backups: bool,
-    /// The most tiles sent in one assignment ([`Scheduler::batch_size`]); 1 sends each tile
+    /// The most tiles sent in one assignment ([`parrt::batch::batch_size`]); 1 sends each tile
     /// on its own.
     pub max_batch: usize,
     /// The most work one batch may hold, seconds at the mean tile cost seen
@@ -812,7 +812,7 @@ impl Scheduler {
     }
 
     /// Hands out tiles to every ready worker with room in its window ([`Window::assignments`]
-    /// batches), a batch being [`Self::batch_size`] tiles sent in one message. In raster
+    /// batches), a batch being [`parrt::batch::batch_size`] tiles sent in one message. In raster
     /// order each worker's window is filled in turn. In an order given by cost
     /// ([`Self::set_order`]) the workers with room (at the start of a render, all) are dealt
     /// in rounds, one batch each a round, as longest-first list scheduling does: otherwise the

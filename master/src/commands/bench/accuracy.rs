@@ -21,6 +21,8 @@ use std::process::ExitCode;
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
     /// Scenes: NFF files or generated scenes as NAME[:SIZE].
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", required_unless_present = "replot")]
     pub scenes: Vec<String>,
     /// Image size of the reference and every configuration.

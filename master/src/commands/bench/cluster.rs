@@ -34,6 +34,8 @@ pub const MAX_THREADS: usize = 256;
 #[derive(Debug, Args)]
 pub struct ClusterArgs {
     /// Scene: an NFF file or NAME[:SIZE].
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", default_value = "mount")]
     pub scene: String,
     /// Image size (square), pixels.

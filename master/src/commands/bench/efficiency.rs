@@ -33,6 +33,8 @@ pub enum Mode {
 #[derive(Debug, Args)]
 pub struct EfficiencyArgs {
     /// Scene: an NFF file or NAME[:SIZE] (default: mount, the paper's test scene).
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", default_value = "mount")]
     pub scene: String,
     /// Thread counts (rows). Counts above the core count are marked oversubscribed.

@@ -28,6 +28,8 @@ use std::process::ExitCode;
 pub struct PrecisionArgs {
     /// Scenes: NFF files, generated scenes as NAME[:SIZE], or soup[:SIZE] (the sliver soup).
     /// Default: mount:6, gears:2, teapot:6 and soup:2.
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE")]
     pub scenes: Vec<String>,
     /// Image size of every render.
