@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Two parrt builds side by side on SPD scenes, casting (the third performance round): `parrt bench cast` (eye rays
+# Two parrt builds side by side on SPD scenes, casting: `parrt bench cast` (eye rays
 # through pixel centres + one shadow ray per light per hit, one thread, 512², as bench/peers.sh
 # casts against Embree), the two builds interleaved run by run. Prints per scene the medians of
 # Mrays per CPU second with the min–max spread, the median of the per-run ratios new/old (runs

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Two parrt builds side by side on the two-worker comparison (the master reshape: the reshaped master must
-# keep its speed): `parrt render --workers 2 --threads 1` and `parrt render --threads 2`, tile 32,
+# Two parrt builds side by side on the two-worker comparison (a change to the master must keep
+# its speed): `parrt render --workers 2 --threads 1` and `parrt render --threads 2`, tile 32,
 # each build run back to back with the other, run by run, so drifts of the machine's speed cancel.
 # Prints per case the medians of the trace phase (`--stats-json` trace_s), of the whole process
 # (start to exit) and of the master's CPU per tile, old and new, the median of the paired ratios

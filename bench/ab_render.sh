@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Two parrt builds side by side on SPD scenes (the second performance round): the CPU seconds of a full render
+# Two parrt builds side by side on SPD scenes: the CPU seconds of a full render
 # (one thread, 512×512, depth 5, as bench/peers.sh renders), the two builds interleaved run by
 # run, and whether their images are the same bytes. Prints per scene the medians, the median of
 # the per-run ratios new/old (runs paired back to back, so drifts of the machine's speed

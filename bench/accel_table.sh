@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # BVH against the uniform grid (at several densities) on the SPD default scenes: build and trace
 # time at 512×512 on one thread, with primitive tests, box tests and grid cell steps per ray.
-# Prints a Markdown table on stdout; timings are medians of REPS runs (benchmarks report numbers, never
-# assert them). Needs `cargo build --release` first, and jq.
+# Prints a Markdown table on stdout; timings are medians of REPS runs (benchmarks print numbers,
+# they assert nothing: docs/design-measures.md, *Efficiency*). Needs `cargo build --release` first, and jq.
 #
 # Usage: bench/accel_table.sh [REPS] [DENSITIES...]
 #   PARRT_SPD_DIR  where the .nff files are (default data/spd in the repository)

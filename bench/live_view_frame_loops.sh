@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Whether the render waits for `GET /frame` (the second hostile round): the trace time of one
+# Whether the render waits for `GET /frame` (it must not): the trace time of one
 # 1-thread render with --http and no client, and with LOOPS `curl` loops fetching /frame as fast
 # as they can, for each build given, alternating builds and kinds round by round.
 #

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What watching costs the render (the live view round): the trace time of one render with no live view, with
+# What watching costs the render: the trace time of one render with no live view, with
 # --http and no page open, and with --http and CLIENTS `curl -N` event streams connected before the
 # trace begins (each receiving every tile), alternated REPS times; prints the medians and the
 # fastest runs (the least disturbed by other work on the machine), their ratios, and CPU time that

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# parrt beside its peers on the SPD scenes (the first and second performance rounds): POV-Ray 3.7 and Tachyon 0.99 (full
+# parrt beside its peers on the SPD scenes: POV-Ray 3.7 and Tachyon 0.99 (full
 # render, CPU time, each one's start-up on an empty scene subtracted; Tachyon reads the NFF file
 # itself), Embree 3 through the shared nffcast harness (ray casting: eye rays through pixel
 # centres + one shadow ray per light per hit, one thread), and the 2-thread efficiency of parrt

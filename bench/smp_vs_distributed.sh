@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Two workers against two threads (the distributed-at-scale round): `parrt render --workers 2 --threads 1`
-# against `parrt render --threads 2` (and `--threads 1` for t₁), as a user runs them, with a PNG
-# output. Runs alternate (smp1, smp2, dist2, smp1, ...) so the three see the same machine; the
+# Two workers against two threads, what distributing costs on one machine: `parrt render
+# --workers 2 --threads 1` against `parrt render --threads 2` (and `--threads 1` for t₁), as a
+# user runs them, with a PNG output. Runs alternate (smp1, smp2, dist2, smp1, ...) so the three see the same machine; the
 # table gives medians of REPS runs of the trace phase and of the whole process (wall clock,
 # start to exit: parse, worker start-up, build, trace, PNG), the efficiency e = t₁/(2·t₂) of
 # each, their ratio, and the master's CPU per tile. Numbers only: no assertion.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Start-up of parrt on the SPD scenes of the peers table (the third performance round): wall seconds from the
+# Start-up of parrt on the SPD scenes of the peers table: wall seconds from the
 # fork of `parrt render` to the end of a 1×1 render (one pixel: process start, NFF read and
 # parse, scene and BVH build, one eye ray and its shadow rays, a 1-pixel PPM), which is process
 # start to first ray plus a few microseconds; the parse and build seconds the renderer itself

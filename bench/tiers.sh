@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Each instruction-set tier's speed on the SPD scenes of the peers table (the third performance round): CPU seconds
+# Each instruction-set tier's speed on the SPD scenes of the peers table: CPU seconds
 # of a full render (one thread, 512×512, depth 5, as bench/peers.sh renders) with `PARRT_ISA`
 # set to each tier this CPU runs, tiers interleaved run by run; medians with the min–max spread,
 # each tier's median over the scalar tier's (and avx512's over avx2's: the AVX-512 kernels against

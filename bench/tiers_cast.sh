@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Casting throughput of each instruction-set tier on the SPD scenes of the peers table (the third performance round):
+# Casting throughput of each instruction-set tier on the SPD scenes of the peers table:
 # `parrt bench cast` (eye rays through pixel centres + one shadow ray per light per hit, one
 # thread, 512², as bench/peers.sh casts against Embree) with `PARRT_ISA` set to each tier, tiers
 # interleaved run by run; Mrays per CPU second, medians with the min–max spread, and each tier's

@@ -1,4 +1,24 @@
-//! parrt's command line and distributed scheduler.
+//! # parrt-master
+//!
+//! The `parrt` command line as a library: argument parsing, the commands, the watchers of a
+//! render (progress bar, live view, timeline) and the studies behind `parrt bench`. The binary
+//! (`src/main.rs`) only calls [`cli::main`]. The renderer is the `parrt` crate, the master side of
+//! distributed rendering the `parrt_runtime` crate; use those to render from Rust. What this
+//! crate adds for a Rust user is the studies' engines, such as the image metrics of the
+//! speed-against-error study.
+//!
+//! ## Example
+//! ```
+//! use parrt_master::studies::accuracy::metrics::compare;
+//!
+//! let reference = vec![[0.5f32, 0.5, 0.5]; 4];
+//! let mut image = reference.clone();
+//! image[0] = [0.5, 0.5, 0.6]; // one pixel of four off by 0.1 in blue
+//! let e = compare(&image, &reference);
+//! assert_eq!(e.off, 0.25); // the share of pixels off by more than 1/255
+//! assert!((e.max - 0.1).abs() < 1e-6);
+//! assert!((e.rmse - (0.01f64 / 12.0).sqrt()).abs() < 1e-6);
+//! ```
 //!
 //! ## Layout
 //! - [`cli`]: argument definitions and dispatch; `main.rs` only calls [`cli::main`].

@@ -1,9 +1,9 @@
-//! The master/worker wire protocol (DESIGN §8): what the messages are ([`message`]), how they are
-//! framed and encoded ([`codec`]), how a tile's pixels travel ([`pixels`]), the encrypted
-//! channel keyed by the token that every connection runs inside ([`channel`]), how master and
-//! worker prove to each other that they know the shared token ([`auth`]), the one type that
-//! touches a socket ([`connection`]), and the named limits on everything a peer controls
-//! ([`limits`]).
+//! The master/worker wire protocol (docs/design.md, *Protocol*): what the messages are
+//! ([`message`]), how they are framed and encoded ([`codec`]), how a tile's pixels travel
+//! ([`pixels`]), the encrypted channel keyed by the token that every connection runs inside
+//! ([`channel`]), how master and worker prove to each other that they know the shared token
+//! ([`auth`]), the one type that touches a socket ([`connection`]), and the named limits on
+//! everything a peer controls ([`limits`]).
 //!
 //! ## Layers
 //! A connection first runs a Noise handshake keyed by the token ([`channel::connect`] on the

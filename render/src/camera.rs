@@ -1,6 +1,7 @@
-//! The pinhole camera of the NFF view (DESIGN §3): `angle` spans the image's shorter side edge to
-//! edge, pixels are square, screen-right = normalize((at − from) × up). Image coordinates are
-//! continuous: pixel (x, y) covers [x, x+1) × [y, y+1), row 0 at the top.
+//! The pinhole camera of the NFF view (docs/design-rendering.md, *Camera*): `angle` spans the
+//! image's shorter side edge to edge, pixels are square, screen-right = normalize((at − from) ×
+//! up). Image coordinates are continuous: pixel (x, y) covers [x, x+1) × [y, y+1), row 0 at the
+//! top.
 
 use crate::description::View;
 use crate::geometry::Ray;

@@ -86,7 +86,7 @@ pub fn cast_tile<R: Real>(
         }
         return;
     }
-    // The lanes pay on the `avx512` tier only (BENCHMARKS.md, issue 33: 1.06–1.61 × there,
+    // The lanes pay on the `avx512` tier only (measured in BENCHMARKS.md: 1.06–1.61 × there,
     // 0.95–1.04 on `avx2`, 0.92–0.95 on `scalar`); the other tiers keep the prepared rays.
     if let (Some(integrator), Some(camera), true) = (
         (integrator as &dyn Any).downcast_ref::<Integrator<f32>>(),

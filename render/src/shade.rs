@@ -1,7 +1,7 @@
-//! Whitted shading (DESIGN §4): ambient, diffuse and Phong highlight from every light a shadow
-//! ray finds unblocked, mirror reflection weighted by Ks, Snell refraction weighted by T with total
-//! internal reflection, recursion ended by the depth limit and the adaptive cut-off. Spawns no ray
-//! the material does not need, and allocates nothing.
+//! Whitted shading (docs/design-rendering.md, *Shading*): ambient, diffuse and Phong highlight from
+//! every light a shadow ray finds unblocked, mirror reflection weighted by Ks, Snell refraction
+//! weighted by T with total internal reflection, recursion ended by the depth limit and the
+//! adaptive cut-off. Spawns no ray the material does not need, and allocates nothing.
 
 use crate::accel::Accel;
 use crate::geometry::{offset_ray_origin, PreparedRay, PrimHit, Ray};

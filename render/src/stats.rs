@@ -1,8 +1,9 @@
-//! Ray statistics (DESIGN §9): counted per tile without atomics, merged by addition, so the
-//! totals do not depend on how the work was split — with one exception: eye rays are traced in
-//! packets of the image's 4 × 4 pixel blocks ([`crate::tile::Tile::blocks`]), and a tile size
-//! that is not a multiple of 4 cuts blocks into other packets, which changes the box and
-//! primitive test counts (never the rays, the hits or the pixels).
+//! Ray statistics (docs/design-measures.md, *Ray statistics*): counted per tile without atomics,
+//! merged by addition, so the totals do not depend on how the work was split — with one exception:
+//! eye rays are traced in packets of the image's 4 × 4 pixel blocks
+//! ([`crate::tile::Tile::blocks`]), and a tile size that is not a multiple of 4 cuts blocks into
+//! other packets, which changes the box and primitive test counts (never the rays, the hits or the
+//! pixels).
 
 use crate::settings::RenderSettings;
 use crate::tile::Tile;

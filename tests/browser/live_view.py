@@ -1,4 +1,4 @@
-"""The live view in a real browser (issue 19): ONE headless Chromium page stays open on a
+"""The live view in a real browser: ONE headless Chromium page stays open on a
 distributed render's --http page and is captured at three moments; the checks prove that tiles
 reach an open page by its event stream and are drawn where they belong.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The live view in a real browser (issue 19): installs Debian's chromium when root, then
+# The live view in a real browser: installs Debian's chromium when root, then
 # tests/browser/live_view.py starts a distributed render with --http on loopback and keeps ONE
 # headless Chromium page open on it, driven over the DevTools protocol (python3's standard
 # library), capturing it twice mid-render and once at the end. It checks that tiles reach the

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Real cluster launchers (issue 16): installs Open MPI and Slurm from Debian's packages, starts a
+# Real cluster launchers: installs Open MPI and Slurm from Debian's packages, starts a
 # one-node Slurm cluster on this machine (munged, slurmctld, slurmd with a minimal slurm.conf in a
 # temp dir, on their own socket and ports), and renders a small SPD scene with
 #   mpirun --allow-run-as-root --oversubscribe -np 3 parrt cluster ...

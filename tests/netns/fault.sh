@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Real network faults for distributed rendering (issue 10): the master and two workers run in
+# Real network faults for distributed rendering: the master and two workers run in
 # separate network namespaces joined by veth pairs; each worker's link gets 100-200 ms of latency
 # and a few % of loss (tc netem when the kernel has it, else a user-space relay, impair.py); one
 # worker's link is cut mid-job and brought back. The job must complete with an image identical to

@@ -1,4 +1,4 @@
-//! Soak (issue 10): many distributed jobs back to back, in one process, while workers are killed
+//! Soak: many distributed jobs back to back, in one process, while workers are killed
 //! and replaced at random moments. Every image must equal the SMP render bit for bit, with the
 //! same statistics (nothing lost, nothing counted twice), and the master's memory — this
 //! process's resident set — must stay flat across the jobs.

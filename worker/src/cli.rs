@@ -233,8 +233,8 @@ mod tests {
         assert!(missing.resolve().unwrap_err().is::<UsageError>());
     }
 
-    /// Issue 31 item 15: /dev/zero, a FIFO and a huge file are refused at once (a usage
-    /// error), without reading without bound or blocking.
+    /// /dev/zero, a FIFO and a huge file are refused at once (a usage error), without reading
+    /// without bound or blocking.
     #[test]
     fn token_files_are_bounded_and_only_regular() {
         let dir = tempfile::tempdir().unwrap();

@@ -1,10 +1,10 @@
 //! # parrt-worker
 //!
-//! The render worker of parrt's distributed mode (DESIGN §8): a plain process that dials a
-//! master, proves it knows the shared token, receives a job (scene description and settings),
-//! builds its own renderer once, and renders the tiles it is assigned on a rayon pool, streaming
-//! the pixels back. Rendering never runs on the async runtime: tiles go to rayon and come back
-//! through a channel.
+//! The render worker of parrt's distributed mode (docs/design.md, *Distributed runtime*): a plain
+//! process that dials a master, proves it knows the shared token, receives a job (scene description
+//! and settings), builds its own renderer once, and renders the tiles it is assigned on a rayon
+//! pool, streaming the pixels back. Rendering never runs on the async runtime: tiles go to rayon
+//! and come back through a channel.
 //!
 //! ## Layout
 //! - [`options`]: what a worker is told (address, threads, token, timeouts, test hooks).

@@ -174,8 +174,8 @@ mod tests {
         Renderer::new(&desc, &RenderSettings::new(8, 8)).unwrap()
     }
 
-    /// Item 11 of issue 20: when nobody takes results (the master stopped reading), render
-    /// threads wait once UNSENT_RESULTS batches are queued instead of piling up pixels.
+    /// When nobody takes results (the master stopped reading), render threads wait once
+    /// UNSENT_RESULTS batches are queued, so a worker never piles up pixels.
     #[test]
     fn unsent_results_are_bounded() {
         let pool = rayon::ThreadPoolBuilder::new()

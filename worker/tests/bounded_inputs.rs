@@ -1,7 +1,7 @@
-//! Files named on `parrt-worker`'s command line, through the real binary (issue 31 items 11 and
-//! 15): a token file that is a device, a FIFO or too large to be a token, and a replay file
-//! whose header claims more than its bytes hold, are refused at once with exit 2, naming the
-//! file, within a bounded address space and before any dial.
+//! Files named on `parrt-worker`'s command line, through the real binary: a token file that is a
+//! device, a FIFO or too large to be a token, and a replay file whose header claims more than its
+//! bytes hold, are refused at once with exit 2, naming the file, within a bounded address space and
+//! before any dial.
 
 use std::os::unix::process::CommandExt;
 use std::process::{Command, Stdio};
@@ -100,9 +100,8 @@ fn a_replay_header_claiming_more_than_its_bytes_is_refused_in_bounded_memory() {
     assert!(!err.contains("memory allocation"), "{err}");
 }
 
-/// Issue 31 item 17 for `parrt-worker`: with stderr closed (`parrt-worker … 2>&1 | true`), bad
-/// input still ends in exit 2, not in a panic's 101: an unknown `PARRT_ISA` (refused before
-/// anything else) and a missing token file.
+/// With stderr closed (`parrt-worker … 2>&1 | true`), bad input still ends in exit 2, not in a
+/// panic's 101: an unknown `PARRT_ISA` (refused before anything else) and a missing token file.
 #[test]
 fn a_closed_stderr_keeps_the_exit_status() {
     use std::os::fd::FromRawFd;

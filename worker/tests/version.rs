@@ -1,4 +1,4 @@
-//! `parrt-worker --version` names the build as `parrt --version` does (issue 32): the one text
+//! `parrt-worker --version` names the build as `parrt --version` does: the one text
 //! `parrt::build_info` puts together, from the constants this package's build script records.
 
 use std::process::Command;

@@ -1,5 +1,6 @@
-//! How many tiles go in one assignment message (issue 15, DESIGN §8): the master's scheduler
-//! and the schedule simulator both call [`batch_size`], so the model follows the rule the
+//! How many tiles go in one assignment message (see docs/design.md, *Distributed runtime*):
+//! batches cut the master's per-tile cost on cheap tiles. The master's scheduler and the
+//! schedule simulator both call [`batch_size`], so the model follows the rule the
 //! master runs.
 
 /// The most work, in seconds at the mean tile cost, that one batch of tiles may hold, by

@@ -813,7 +813,7 @@ mod tests {
         f
     }
 
-    /// Issue 31 item 8: someone who can write a keyed checkpoint but has not the token rewrites
+    /// Someone who can write a keyed checkpoint but has not the token rewrites
     /// every record (white pixels) with fresh plain checksums; the resume trusts none of them.
     #[test]
     fn a_keyed_checkpoint_trusts_no_record_sealed_without_the_token() {
@@ -871,8 +871,8 @@ mod tests {
         assert!(e.to_string().contains("with a token"), "{e}");
     }
 
-    /// Issue 31 item 16: a FIFO, a device or a link at the checkpoint's path is refused at
-    /// once (bad input) and nothing is written into it.
+    /// A FIFO, a device or a link at the checkpoint's path is refused at once (bad input) and
+    /// nothing is written into it.
     #[test]
     fn resume_refuses_what_is_not_a_regular_file_and_writes_nothing() {
         use std::os::unix::fs::OpenOptionsExt;
@@ -919,8 +919,7 @@ mod tests {
         assert_eq!(std::fs::read(&target).unwrap(), before);
     }
 
-    /// Issue 31 item 3 for checkpoints: another user's file, or one others may write, is not
-    /// resumed.
+    /// Another user's file, or one others may write, is not resumed.
     #[test]
     fn resume_refuses_another_users_or_a_writable_file() {
         use std::os::unix::fs::PermissionsExt;
@@ -947,7 +946,7 @@ mod tests {
         assert!(e.is_bad_input());
     }
 
-    /// Issue 31 item 14: one checkpoint, one master.
+    /// One checkpoint, one master: the lock turns a second master away and names the holder.
     #[test]
     fn a_second_master_on_the_same_checkpoint_is_refused_and_told_who_holds_it() {
         let dir = tempfile::tempdir().unwrap();

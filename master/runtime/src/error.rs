@@ -191,7 +191,7 @@ mod tests {
         );
         assert!(m.ends_with("; and 2 more"), "{m}");
         assert_eq!(seconds(Duration::from_nanos(120_002_006_428)), "120 s");
-        // Issue 32: one of two there is not "no worker".
+        // One worker of two wanted is not "no worker": the message says how many came.
         let some = DistError::NoWorkers {
             waited: Duration::from_nanos(120_002_006_428),
             wanted: 2,

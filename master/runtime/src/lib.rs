@@ -1,11 +1,11 @@
 //! # parrt-runtime
 //!
-//! The master side of a distributed render (DESIGN §8), as a library: the scheduler, the
-//! connections, the checkpoint, local worker processes and the cluster launchers' rendezvous.
-//! It knows no command line, plotting or HTTP, and decides no exit codes: errors are typed
-//! ([`DistError`], with [`DistError::is_bad_input`]) and watchers plug in as
-//! [`observer::Observer`]s. Network and clock are seams ([`net::Listener`], [`clock::Clock`]),
-//! so the same code runs over TCP and under the deterministic simulation.
+//! The master side of a distributed render (docs/design.md, *Distributed runtime*), as a library:
+//! the scheduler, the connections, the checkpoint, local worker processes and the cluster
+//! launchers' rendezvous. It knows no command line, plotting or HTTP, and decides no exit codes:
+//! errors are typed ([`DistError`], with [`DistError::is_bad_input`]) and watchers plug in as
+//! [`observer::Observer`]s. Network and clock are seams ([`net::Listener`], [`clock::Clock`]), so
+//! the same code runs over TCP and under the deterministic simulation.
 //!
 //! ## Layout
 //! - [`run`] (this file): the one entry point: listen, start local workers, render, stop.

@@ -517,7 +517,7 @@ mod tests {
         assert!(matches!(e, RendezvousError::Corrupt { .. }), "{e}");
     }
 
-    /// Issue 31 item 3: a file planted by another user (here `nobody`) naming their master is
+    /// A file planted by another user (here `nobody`) naming their master is
     /// refused by every rank, and left alone.
     #[test]
     fn a_file_of_another_user_or_readable_by_others_is_refused() {
@@ -551,8 +551,8 @@ mod tests {
         assert_eq!(std::fs::read(&path).unwrap(), bytes, "left as it was");
     }
 
-    /// Issue 31 items 3 and 9: a link or a FIFO at the path is refused at once, without
-    /// waiting on the FIFO (which would hang every rank).
+    /// A link or a FIFO at the path is refused at once, without waiting on the FIFO (which would
+    /// hang every rank).
     #[test]
     fn a_link_or_a_fifo_is_refused_without_blocking() {
         let dir = tempfile::tempdir().unwrap();

@@ -2,7 +2,7 @@
 //! or `mpiexec -n N`. Rank 0 becomes the master and publishes its address and a fresh token in
 //! a rendezvous file; the other ranks read it and render as workers. Arguments and dispatch
 //! only: the environment is read by [`parrt_runtime::launcher`], the file protocol is
-//! [`parrt_runtime::rendezvous`], the render is [`crate::distributed`]'s.
+//! [`parrt_runtime::rendezvous`], the render is [`parrt_runtime::run`]'s.
 
 use super::report::print_summary;
 use super::watch::{start_live, Watch};

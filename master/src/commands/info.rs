@@ -1,6 +1,7 @@
 //! `parrt info`: reads one NFF file with the strict parser and prints what it contains — counts,
 //! bounds, camera, resolution, parse time — as an aligned summary or as one JSON object whose
-//! integer keys are a stable contract (DESIGN.md §10). It never renders or modifies anything.
+//! integer keys are a stable contract (docs/design.md, *Command line contract*). It never renders
+//! or modifies anything.
 
 use crate::cli_args::LimitArgs;
 use crate::exit::input_error;
@@ -99,7 +100,8 @@ fn bounds_json(b: &Bounds) -> Value {
     }
 }
 
-/// The `--json` object. The first keys are the DESIGN §10 contract: never rename them.
+/// The `--json` object. The first keys are a stable contract (docs/design.md, *Command line
+/// contract*): never rename them.
 fn to_json(
     file: &str,
     bytes: usize,

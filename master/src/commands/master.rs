@@ -1,5 +1,5 @@
 //! `parrt master`: loads a scene, listens for workers, hands them tiles, writes the image.
-//! Argument parsing and reporting only; the work is in [`crate::distributed`].
+//! Argument parsing and reporting only; the work is in [`parrt_runtime::run`].
 
 use super::report::{print_summary, report_json};
 use super::watch::{start_live, Watch};
@@ -25,6 +25,8 @@ use std::time::Duration;
 pub struct MasterArgs {
     /// The NFF scene to render, or parrt's JSON form if it ends in .json (or --scene
     /// NAME[:SIZE], or --scene-json FILE).
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     pub file: Option<PathBuf>,
     /// A generated scene, NAME or NAME:SIZE.
     #[arg(long, value_name = "NAME[:SIZE]", conflicts_with = "scene_json")]

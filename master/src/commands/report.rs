@@ -20,10 +20,11 @@ pub struct RenderReport {
 }
 
 impl RenderReport {
-    /// The `--stats-json` object (DESIGN §10 keys, plus extras).
+    /// The `--stats-json` object (the stable keys of docs/design.md, *Command line contract*, plus
+    /// extras).
     pub fn to_json(&self, extra: serde_json::Value) -> serde_json::Value {
         let s = &self.stats;
-        // The counters as one value (their serde names are the DESIGN §10 keys).
+        // The counters as one value (their serde names are the stable keys).
         let mut v = serde_json::to_value(s).unwrap_or_else(|_| json!({}));
         let timing = json!({
             "total_rays": s.total_rays(),

@@ -1,6 +1,6 @@
-//! The paper's measures (DESIGN §9): cost c = n·tₙ and efficiency e = t₁/c, tables of efficiency
-//! against threads (rows) and tile sizes (columns) as Markdown and CSV, and per-tile cost files.
-//! CSV is read and written with the `csv` crate.
+//! The paper's measures (docs/design-measures.md, *Efficiency*): cost c = n·tₙ and efficiency e =
+//! t₁/c, tables of efficiency against threads (rows) and tile sizes (columns) as Markdown and CSV,
+//! and per-tile cost files. CSV is read and written with the `csv` crate.
 
 use parrt::tile::Tile;
 use std::fmt::Write as _;

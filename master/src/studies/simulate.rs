@@ -1,11 +1,11 @@
-//! A discrete-event model of the master/worker schedule (DESIGN §8, §9): measured per-tile costs,
-//! workers × threads, a window of assignments in flight per worker, each a batch of tiles sized
-//! by the master's own rule ([`parrt_runtime::batch::batch_size`]) and answered in one message when its
-//! last tile is done, one-way latency, link bandwidth (the master's link shared by the workers
-//! in turns, [`shared_link`]), the master's per-result work and the
-//! scene transfer; and, as the master does once its queue is empty, backup copies of tiles in
-//! flight for idle workers (the first result counts). It predicts the makespan and efficiency
-//! of configurations larger than this machine, and says where the time goes.
+//! A discrete-event model of the master/worker schedule (docs/design-measures.md, *Schedule
+//! model*): measured per-tile costs, workers × threads, a window of assignments in flight
+//! per worker, each a batch of tiles sized by the master's own rule ([`parrt_runtime::batch::batch_size`])
+//! and answered in one message when its last tile is done, one-way latency, link bandwidth (the
+//! master's link shared by the workers in turns, `shared_link`), the master's per-result work and
+//! the scene transfer; and, as the master does once its queue is empty, backup copies of tiles in
+//! flight for idle workers (the first result counts). It predicts the makespan and efficiency of
+//! configurations larger than this machine, and says where the time goes.
 
 mod shared_link;
 

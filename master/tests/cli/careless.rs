@@ -1,8 +1,9 @@
-//! Careless flags and files through the real `parrt` binary (issue 20, items 4–9 and the "Also"
-//! paragraph): each is refused with exit 2 and a message naming the flag or file — before any
-//! render and before the master listens — and never panics, hangs or allocates without bound.
-//! Every run is capped (address space, wall time) so a regression fails instead of taking the
-//! machine with it.
+//! Careless flags and files through the real `parrt` binary (huge grid densities, images and
+//! tile counts, durations out of range, devices, directories and FIFOs as inputs, outputs that
+//! cannot be written, bad listen addresses): each is refused with exit 2 and a message naming
+//! the flag or file — before any render and before the master listens — and never panics, hangs
+//! or allocates without bound. Every run is capped (address space, wall time) so a regression fails
+//! instead of taking the machine with it.
 
 use crate::stderr;
 use std::os::unix::process::CommandExt;

@@ -1,4 +1,4 @@
-//! What a Rust CLI user expects of `parrt` (issue 32): `--help` and the README list every
+//! What a Rust CLI user expects of `parrt`: `--help` and the README list every
 //! command, `--version` names the build, completions and a man page come from the clap
 //! definitions, and every command that writes a file says so.
 

@@ -1,8 +1,7 @@
-//! Files, flags and limits of issue 31 through the real `parrt` binary: outputs that are one
-//! file with each other or with the scene (item 6), the cap on local workers (2), images past
-//! `--max-pixels` in every bench (11), a closed stdout and stderr (17), and a master told to
-//! stop while it starts its workers (2). Runs are capped in memory and time by `careless`'s
-//! runner, so a regression fails instead of hanging.
+//! Files, flags and limits through the real `parrt` binary: outputs that are one file with each
+//! other or with the scene, the cap on local workers, images past `--max-pixels` in every
+//! bench, a closed stdout and stderr, and a master told to stop while it starts its workers. Runs
+//! are capped in memory and time by `careless`'s runner, so a regression fails instead of hanging.
 
 use crate::careless::parrt as capped;
 use crate::stderr;
@@ -215,7 +214,7 @@ fn broken_pipe() -> std::os::fd::OwnedFd {
     }
 }
 
-/// Issue 31 item 17: `parrt … 2>&1 | true`. Nothing can be shown, but the render is written and
+/// `parrt … 2>&1 | true`. Nothing can be shown, but the render is written and
 /// the exit status is the render's (it was a panic, 101, and no image).
 #[test]
 fn a_closed_stdout_and_stderr_do_not_stop_the_render() {
@@ -295,7 +294,7 @@ fn children_of(pid: u32) -> usize {
     n
 }
 
-/// Issue 31 item 2: SIGTERM or SIGINT while `render --workers` is still starting its workers
+/// SIGTERM or SIGINT while `render --workers` is still starting its workers
 /// stops it, and none of the workers started is left running.
 #[test]
 fn a_signal_while_spawning_leaves_no_worker_behind() {

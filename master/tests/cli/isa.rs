@@ -1,4 +1,4 @@
-//! The instruction-set tier on the command line (issue 33): `PARRT_ISA` forces it, an unknown
+//! The instruction-set tier on the command line: `PARRT_ISA` forces it, an unknown
 //! name is refused with exit 2 before any work, and `--stats`, `--stats-json` and `info --json`
 //! say which tier ran.
 

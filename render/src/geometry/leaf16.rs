@@ -6,7 +6,7 @@
 //! [`super::triangle::intersect_triangle`] or [`super::sphere::Sphere::intersect`] gives that
 //! ray. The rays' axis permutations may differ: each lane picks its vertex components with
 //! masks. The `avx512` tier ([`crate::isa`]) runs the sixteen rays in one AVX-512 register
-//! ([`avx512`]); the `avx2` tier in two halves of eight AVX lanes. [`Rays16::new`] is `None`
+//! (`avx512`); the `avx2` tier in two halves of eight AVX lanes. [`Rays16::new`] is `None`
 //! unless the process's tier runs AVX; the portable kernels ([`triangle16_lanes`],
 //! [`sphere16_lanes`]) define the answers and serve the tests.
 

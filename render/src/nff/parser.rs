@@ -8,14 +8,14 @@
 //! in this order) · `l x y z [r g b]` · `f r g b Kd Ks Shine T ior` · `c bx by bz br ax ay az ar`
 //! · `s x y z r` · `p n` + n × `x y z` · `pp n` + n × `x y z nx ny nz`.
 //!
-//! Choices where the format leaves one (see `DESIGN.md` §3): `b`, `l` and `v` may come after
-//! objects (a late `v` is logged); a second `b` replaces the first (logged); a primitive before
-//! any `f` gets [`Material::default_white`] as material 0 (logged); a first token `nff` is refused
-//! as Sense8 NFF. Refused as degenerate (rules in [`super::checks`]): from = at, a zero `up` or
-//! one parallel to the view, an angle outside (0, 180), a negative hither, a zero resolution, a
-//! polygon or patch with fewer than 3 vertices or a zero Newell normal, a cone without an axis,
-//! with exactly one negative radius (`-0` is not negative) or with both radii zero, a sphere of
-//! radius zero.
+//! Choices where the format leaves one (docs/design-rendering.md, *NFF reading*): `b`, `l` and `v`
+//! may come after objects (a late `v` is logged); a second `b` replaces the first (logged); a
+//! primitive before any `f` gets [`Material::default_white`] as material 0 (logged); a first token
+//! `nff` is refused as Sense8 NFF. Refused as degenerate (rules in [`super::checks`]): from = at, a
+//! zero `up` or one parallel to the view, an angle outside (0, 180), a negative hither, a zero
+//! resolution, a polygon or patch with fewer than 3 vertices or a zero Newell normal, a cone
+//! without an axis, with exactly one negative radius (`-0` is not negative) or with both radii
+//! zero, a sphere of radius zero.
 
 use super::checks::{self, CameraProblem, ConeProblem, PolygonProblem};
 use super::error::{NffError, NffErrorKind};

@@ -1,8 +1,9 @@
-//! Accelerator agreement (DESIGN §5): on every small SPD scene and on seeded random scenes, the
-//! BVH, the uniform grid and the brute-force scan give every ray the same closest hit (primitive
-//! and distance, bit for bit) and the same occlusion answer — for the camera's eye rays, seeded
-//! random rays, shadow-like segments and rays leaving surfaces — and render bit-identical images.
-//! The Goldsmith–Salmon BVH (the quality baseline, `--accel bvh-gs`) is held to the same rule.
+//! Accelerator agreement (docs/design-rendering.md, *Acceleration*): on every small SPD scene and
+//! on seeded random scenes, the BVH, the uniform grid and the brute-force scan give every ray the
+//! same closest hit (primitive and distance, bit for bit) and the same occlusion answer — for the
+//! camera's eye rays, seeded random rays, shadow-like segments and rays leaving surfaces — and
+//! render bit-identical images. The Goldsmith–Salmon BVH (the quality baseline, `--accel bvh-gs`)
+//! is held to the same rule.
 
 use crate::support::scene::{scene_of, v};
 use crate::support::spd::{load, Trio, TrioStats, SMALL_SCENES};

@@ -430,7 +430,8 @@ fn flat_scene(with_bvh: bool) {
 
 #[test]
 fn scene_far_from_origin_and_tiny_scene() {
-    // DESIGN §6: offset by 1e5 and scaled by 1e-3; the answers must still agree.
+    // Far from the origin and tiny (docs/design-rendering.md, *Numeric robustness*): offset by
+    // 1e5 and scaled by 1e-3; the answers must still agree.
     let base = corner_scene(v(0.0, 0.0, 0.0));
     for (shift, scale) in [(1e5, 1.0), (0.0, 1e-3), (-3e3, 10.0)] {
         let mut desc = base.clone();

@@ -1,4 +1,4 @@
-//! Packets in lanes (issue 33): a [`Lanes16`] packet — eye rays made straight into lanes,
+//! Packets in lanes: a [`Lanes16`] packet — eye rays made straight into lanes,
 //! shadow rays written into lanes — gets from [`Bvh::intersect_lanes`] and
 //! [`Bvh::occluded_lanes`] exactly what its rays get alone as [`PreparedRay`]s (the same hit
 //! bit for bit, the same occlusion), and the same box and primitive test counts as

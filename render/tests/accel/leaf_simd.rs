@@ -1,4 +1,4 @@
-//! Leaves tested four triangles, four spheres or four cones at a time (issue 18): the BVH with the SIMD
+//! Leaves tested four triangles, four spheres or four cones at a time: the BVH with the SIMD
 //! leaf test the renderer uses (`SceneLeaf::new`) and with the portable one-at-a-time test
 //! (`SceneLeaf::scalar`, and the plain closure) gives every ray the same closest hit —
 //! primitive, `t`, `u`, `v` bit for bit —, the same occlusion answer and the same

@@ -1,4 +1,4 @@
-//! A packet's rays tested against a leaf together (issue 18): `closest_many` and `any_many` of
+//! A packet's rays tested against a leaf together: `closest_many` and `any_many` of
 //! `SceneLeaf` (which gathers a leaf of triangles or spheres into the four-lane kernel's lanes
 //! once for all the rays that enter it) and of `PacketLeaf` (one primitive against all the
 //! rays at once, a ray per AVX lane, where the CPU has it) give every ray of the mask

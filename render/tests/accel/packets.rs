@@ -1,4 +1,4 @@
-//! Packet traversal (issue 9): every ray of a packet gets exactly the answer brute force gives
+//! Packet traversal: every ray of a packet gets exactly the answer brute force gives
 //! it alone — the same closest hit bit for bit and the same occlusion — for the camera's eye
 //! rays in 4×4 blocks, the shadow rays of their hits, coherent bundles with one origin or a
 //! patch of origins, and incoherent packets (which go one by one). Renders with and without

@@ -1,7 +1,8 @@
-//! Numerically hard cases (DESIGN §6): watertight meshes and shared vertices, scenes far from the
-//! origin and tiny ones, grazing light on huge planes, nested glass, axis-parallel rays,
-//! degenerate input, self-intersection of spawned rays (pbrt's Reintersect tests) and concave
-//! polygons. Every test asserts on pixels or hits; images are small so the suite stays fast.
+//! Numerically hard cases (docs/design-rendering.md, *Numeric robustness*): watertight meshes and
+//! shared vertices, scenes far from the origin and tiny ones, grazing light on huge planes, nested
+//! glass, axis-parallel rays, degenerate input, self-intersection of spawned rays (pbrt's
+//! Reintersect tests) and concave polygons. Every test asserts on pixels or hits; images are small
+//! so the suite stays fast.
 //!
 //! The scene-level cases run on every [`setup::PLACEMENTS`] copy of their scene — as written, moved by
 //! 1e7 (mixed signs), scaled by 1e-6 and by 1e6 — in f32 (wherever auto picks it), f64 and auto:

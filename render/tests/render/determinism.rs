@@ -1,5 +1,5 @@
 //! The image does not depend on thread count, tile size or executor: every combination gives the
-//! same bits as one thread with one big tile (issue 3; DESIGN §7).
+//! same bits as one thread with one big tile (docs/design.md, *Determinism*).
 
 use parrt::description::SceneDescription;
 use parrt::render::Renderer;

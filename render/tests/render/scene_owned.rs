@@ -69,7 +69,7 @@ fn owned_build_refuses_bad_primitives() {
 }
 
 // `parrt render` builds through `Renderer::from_description` (the owned build); a scene far
-// from the origin must get the camera-relative frame there too (issue 17), the image the
+// from the origin must get the camera-relative frame there too, the image the
 // borrowed build gives — and in f32 the untransformed scene's image, which world coordinates
 // at 1e7 would not give.
 #[test]

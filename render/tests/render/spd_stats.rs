@@ -1,6 +1,7 @@
-//! SPD testing-procedure statistics (DESIGN §4, NFF.md §5): the counts `--spd-standard --stats`
-//! prints are the procedure's, exactly, and they do not depend on the accelerator, the thread
-//! count or the tile size. Runs at reduced size (64×64 pixels = 65×65 corner rays) so it is fast.
+//! SPD testing-procedure statistics (docs/design-rendering.md, *SPD test mode*): the counts
+//! `--spd-standard --stats` prints are the procedure's, exactly, and they do not depend on the
+//! accelerator, the thread count or the tile size. Runs at reduced size (64×64 pixels = 65×65
+//! corner rays) so it is fast.
 
 use parrt::description::SceneDescription;
 use parrt::render::Renderer;

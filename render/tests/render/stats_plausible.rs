@@ -1,4 +1,4 @@
-//! Issue 20 item 15: the master rejects tile results whose ray statistics no render could have
+//! The master rejects tile results whose ray statistics no render could have
 //! produced. This checks the other side of that rule: every tile of real renders — SPD scenes,
 //! the SPD procedure, several samples, both precisions, packets on and off, the grid — passes
 //! the check, so an honest worker is never turned away.

@@ -1,4 +1,4 @@
-//! The full render's eye packets (issue 33): in `f32` on the `avx512` tier a 4 × 4 block's eye
+//! The full render's eye packets: in `f32` on the `avx512` tier a 4 × 4 block's eye
 //! rays, their hits and their shadow rays live in lanes (`Integrator::trace_eye_block`), on
 //! the other tiers they are prepared rays. Every SPD file, pixel centres (packets on), at a
 //! size whose tiles end in partial blocks: the same image bits, bytes and ray statistics on

@@ -1,4 +1,4 @@
-//! The emulated cluster of `parrt bench cluster` (issue 15) at a small N: real worker processes
+//! The emulated cluster of `parrt bench cluster` at a small N: real worker processes
 //! replaying a recorded render through the emulated LAN relay assemble exactly the SMP image,
 //! with every tile delivered once; and the command line writes the promised JSON rows.
 

@@ -260,8 +260,8 @@ fn leftover(dir: &Path, job_in_name: &str, job_inside: &str, pid: u32, age: u64)
     path
 }
 
-/// Issue 31 items 3 and 9: a file planted by another user (`nobody`) naming their master, and a
-/// FIFO at the rendezvous path: every rank refuses at once (exit 2) and none dials.
+/// A file planted by another user (`nobody`) naming their master, and a FIFO at the rendezvous
+/// path: every rank refuses at once (exit 2) and none dials.
 #[test]
 fn a_planted_or_fifo_rendezvous_file_is_refused_by_every_rank() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,7 +1,8 @@
-//! Faults in distributed rendering (DESIGN §8): workers killed, stopped, interrupted or joining
-//! late, and workers that cannot build the job. In every case the image is complete and equal
-//! to SMP (or the job's own error is reported). Worker processes use the
-//! `PARRT_WORKER_TILE_DELAY_MS` test hook so "mid-job" is certain. Bad peers are `handshake.rs`.
+//! Faults in distributed rendering (docs/design.md, *Distributed runtime*): workers killed,
+//! stopped, interrupted or joining late, and workers that cannot build the job. In every case the
+//! image is complete and equal to SMP (or the job's own error is reported). Worker processes use
+//! the `PARRT_WORKER_TILE_DELAY_MS` test hook so "mid-job" is certain. Bad peers are
+//! `handshake.rs`.
 
 use crate::EXE;
 use parrt_protocol::{Connection, Message};

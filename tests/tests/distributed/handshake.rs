@@ -1,10 +1,10 @@
-//! The handshake: authentication is mutual (issue 20), inside the encrypted channel keyed by
-//! the token (issue 31). A worker with another token is refused as a wrong token at its first
-//! message; one that dialled a peer without the token stops at once having sent nothing
-//! more; inside the channel the master proves the token over the worker's nonce and its own
-//! before the worker answers with its own MAC (labels per role); a peer with a wrong MAC, another protocol version, garbage, a 4 GiB length prefix or
-//! too many threads is refused with a reason while a good worker finishes the render; a cut
-//! handshake is dialled again, a refusal is not.
+//! The handshake: authentication is mutual, inside the encrypted channel keyed by the token
+//! (docs/design.md, *Protocol*). A worker with another token is refused as a wrong token at its
+//! first message; one that dialled a peer without the token stops at once having sent nothing more;
+//! inside the channel the master proves the token over the worker's nonce and its own before the
+//! worker answers with its own MAC (labels per role); a peer with a wrong MAC, another protocol
+//! version, garbage, a 4 GiB length prefix or too many threads is refused with a reason while a
+//! good worker finishes the render; a cut handshake is dialled again, a refusal is not.
 
 use crate::faults::finish;
 use crate::peers::{authenticate, hello, v1_hello_frame, welcome_one};
@@ -21,7 +21,7 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::time::timeout;
 
-/// Issue 31 (c): the channel's first message tells the master the token is wrong; it says so,
+/// The channel's first message tells the master the token is wrong; it says so,
 /// and the worker stops at once with that reason.
 #[test]
 fn a_worker_with_another_token_is_refused_as_a_wrong_token() {

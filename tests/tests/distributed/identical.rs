@@ -1,6 +1,6 @@
-//! A distributed render equals the SMP render bit for bit (DESIGN §7, §8): for 1–3 workers, 1–2
-//! threads each, tile sizes 8, 13 and 32; with in-process workers, with worker processes, and
-//! through the real command line.
+//! A distributed render equals the SMP render bit for bit (docs/design.md, *Determinism*): for 1–3
+//! workers, 1–2 threads each, tile sizes 8, 13 and 32; with in-process workers, with worker
+//! processes, and through the real command line.
 
 use crate::EXE;
 use parrt_tests::*;
@@ -212,7 +212,7 @@ pub fn read_listen_addr(r: &mut impl std::io::BufRead) -> std::net::SocketAddr {
     }
 }
 
-/// Issue 15: for an 8-bit output the workers send 3 bytes a pixel instead of 12, quantized by
+/// For an 8-bit output the workers send 3 bytes a pixel instead of 12, quantized by
 /// the film's own 8-bit rule, so the written image is the SMP image's bytes; and the pixel
 /// traffic is a quarter of the f32 run's.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

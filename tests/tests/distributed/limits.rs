@@ -1,4 +1,4 @@
-//! What a peer can cost the master and a worker (issue 20): a flood of refused handshakes leaves
+//! What a peer can cost the master and a worker: a flood of refused handshakes leaves
 //! the master's memory and log bounded, the reasons it keeps are cut; stalled handshakes cannot
 //! keep an authenticated worker out; a worker with thousands of threads heartbeats before its
 //! pool is built. Every peer is a raw client written with `parrt_protocol`, except the worker

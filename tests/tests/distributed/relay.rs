@@ -1,7 +1,7 @@
-//! A relay between a real worker and a real master (issue 31, item 18): every byte of the
-//! conversation passes through a test that can read and change it. Without the token it sees
-//! no plaintext (not the worker's name, the Welcome, nor the scene), and one byte it flips
-//! ends that connection while the render finishes on another worker, to the same bits.
+//! A relay between a real worker and a real master: every byte of the conversation passes through a
+//! test that can read and change it. Without the token it sees no plaintext (not the worker's name,
+//! the Welcome, nor the scene), and one byte it flips ends that connection while the render
+//! finishes on another worker, to the same bits.
 
 use crate::faults::finish;
 use parrt_protocol::codec::encode_payload;
@@ -94,7 +94,7 @@ fn contains(hay: &[u8], needle: &[u8]) -> bool {
     hay.windows(needle.len()).any(|w| w == needle)
 }
 
-/// Issue 31 (a): a relay sees no plaintext of the handshake, the Welcome or the scene.
+/// A relay sees no plaintext of the handshake, the Welcome or the scene.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_relay_sees_no_plaintext() {
     let desc = test_scene(32, 32);
@@ -149,7 +149,7 @@ async fn a_relay_sees_no_plaintext() {
     assert!(!contains(&seen.to_master, TEST_TOKEN.as_bytes()));
 }
 
-/// Issue 31 (b): a relay that flips one byte of one worker's traffic ends that connection;
+/// A relay that flips one byte of one worker's traffic ends that connection;
 /// the render finishes on the other worker, to the same bits.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_flipped_byte_ends_that_connection_and_the_render_finishes() {

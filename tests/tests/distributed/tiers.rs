@@ -1,7 +1,8 @@
-//! A heterogeneous farm in one test (issue 33, DESIGN §8a): two worker processes on different
-//! instruction-set tiers (`PARRT_ISA=scalar` and the widest this CPU runs) render one image that
-//! equals the SMP render bit for bit, with the same ray statistics, and the master's report names
-//! each worker's tier as its Hello said. A worker asked for an unknown tier refuses to start.
+//! A heterogeneous farm in one test (docs/design-rendering.md, *Instruction sets*): two worker
+//! processes on different instruction-set tiers (`PARRT_ISA=scalar` and the widest this CPU runs)
+//! render one image that equals the SMP render bit for bit, with the same ray statistics, and the
+//! master's report names each worker's tier as its Hello said. A worker asked for an unknown tier
+//! refuses to start.
 
 use crate::EXE;
 use parrt::isa::Isa;

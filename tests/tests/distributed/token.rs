@@ -1,5 +1,5 @@
 //! The shared token never appears in logs or on a command line (where `ps` would show it),
-//! whether given by file or environment or generated for local workers (issue 10). How a token
+//! whether given by file or environment or generated for local workers. How a token
 //! is proved in the handshake is `handshake.rs`.
 
 use crate::EXE;

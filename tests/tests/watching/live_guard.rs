@@ -1,6 +1,6 @@
-//! The live view's defences (issue 31, items 1, 4, 5, 10 and 13), attacked as a client would:
-//! half-sent requests by the hundred, unread `/frame` responses, stuck event streams, a
-//! foreign `Host`, and the workers' token offered as the view's key.
+//! The live view's defences, attacked as a client would: half-sent requests by the hundred, unread
+//! `/frame` responses, stuck event streams, a foreign `Host`, and the workers' token offered as the
+//! view's key.
 
 use crate::live_view::{
     events_start, get, get_as, key_of, start_command, start_render, status_when_done,

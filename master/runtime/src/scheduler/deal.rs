@@ -33,7 +33,7 @@ impl Scheduler {
     }
 
     /// Hands out tiles to every ready worker with room in its window ([`Window::assignments`]
-    /// batches), a batch being [`Self::batch_size`] tiles sent in one message. In raster
+    /// batches), a batch being [`crate::batch::batch_size`] tiles sent in one message. In raster
     /// order each worker's window is filled in turn. In an order given by cost
     /// ([`Self::set_order`]) the workers with room (at the start of a render, all) are dealt
     /// in rounds, one batch each a round, as longest-first list scheduling does: otherwise the

@@ -1,7 +1,8 @@
-//! `parrt bench accuracy`: speed against error (DESIGN §9). Renders a reference (f64, no
-//! cut-off, depth 16, 16 samples per pixel) and a grid of configurations per scene, and writes
-//! the tables (Markdown, CSV) and Pareto plots (SVG, PNG) to an output directory. The pieces live
-//! in [`crate::studies::accuracy`]; this file only parses arguments and writes files.
+//! `parrt bench accuracy`: speed against error (docs/design-measures.md, *Accuracy*). Renders a
+//! reference (f64, no cut-off, depth 16, 16 samples per pixel) and a grid of configurations per
+//! scene, and writes the tables (Markdown, CSV) and Pareto plots (SVG, PNG) to an output directory.
+//! The pieces live in [`crate::studies::accuracy`]; this file only parses arguments and writes
+//! files.
 
 use crate::cli_args::size::parse_size;
 use crate::cli_args::{LimitArgs, SceneSpec};
@@ -20,6 +21,8 @@ use std::process::ExitCode;
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
     /// Scenes: NFF files or generated scenes as NAME[:SIZE].
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", required_unless_present = "replot")]
     pub scenes: Vec<String>,
     /// Image size of the reference and every configuration.
@@ -164,7 +167,8 @@ fn stem(label: &str) -> String {
 /// Runs `parrt bench accuracy`.
 pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
     let (width, height) = parse_size(&args.size)?;
-    // The studies render in tiles of 32 (issue 31 item 11: every bench checks its image).
+    // The studies render in tiles of 32; the image is checked against the pixel limit before
+    // anything is allocated, as in every bench.
     args.limits.check_image(width, height, 32)?;
     if let Some(csv) = &args.replot {
         return replot(&args, csv, width, height);

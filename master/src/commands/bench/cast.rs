@@ -15,6 +15,8 @@ use std::time::Instant;
 #[derive(Debug, Args)]
 pub struct CastArgs {
     /// Scenes: NFF files or NAME[:SIZE].
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", required = true)]
     pub scenes: Vec<String>,
     /// Image size (square; default: the scene's resolution).

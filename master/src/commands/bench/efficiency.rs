@@ -34,6 +34,8 @@ pub enum Mode {
 #[derive(Debug, Args)]
 pub struct EfficiencyArgs {
     /// Scene: an NFF file or NAME[:SIZE] (default: mount, the paper's test scene).
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", default_value = "mount")]
     pub scene: String,
     /// Thread counts (rows). Counts above the core count are marked oversubscribed.
@@ -446,8 +448,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
             "threads, tiles, sizes and --repeat must be at least 1"
         )));
     }
-    // Every image is checked before the first is rendered, so a bad size fails at once rather
-    // than after minutes of measuring the good ones.
+    // Every image is checked against the pixel limit before the first is rendered, so a bad size
+    // fails at once instead of after minutes of work or an allocation abort.
     for &size in &args.sizes {
         for &tile in &args.tiles {
             args.limits.check_image(size, size, tile)?;

@@ -28,6 +28,8 @@ use std::process::ExitCode;
 pub struct PrecisionArgs {
     /// Scenes: NFF files, generated scenes as NAME[:SIZE], or soup[:SIZE] (the sliver soup).
     /// Default: mount:6, gears:2, teapot:6 and soup:2.
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE")]
     pub scenes: Vec<String>,
     /// Image size of every render.
@@ -308,7 +310,8 @@ fn markdown(rows: &[Row], (width, height): (u32, u32), threads: usize, machine: 
 /// Runs `parrt bench precision`.
 pub fn run(args: PrecisionArgs) -> anyhow::Result<ExitCode> {
     let (width, height) = parse_size(&args.size)?;
-    // Rendered in tiles of 16 (issue 31 item 11: every bench checks its image).
+    // Rendered in tiles of 16; the image is checked against the pixel limit before anything is
+    // allocated, as in every bench.
     args.limits.check_image(width, height, 16)?;
     if args.threads == Some(0) {
         return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));

@@ -13,6 +13,8 @@ use std::process::ExitCode;
 #[derive(Debug, Args)]
 pub struct BenchRenderArgs {
     /// Scenes: NFF files or generated scenes as NAME[:SIZE] (default: mount:6 and balls:4).
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE")]
     pub scenes: Vec<String>,
     /// Render threads.

@@ -1,7 +1,7 @@
-//! Image error metrics of the speed-against-error study (DESIGN §9). Both images are the linear
-//! float films, each channel clamped to [0, 1] first (what an 8-bit output could show); the
-//! metrics never look at the 8-bit PNG. Pure functions, no I/O. Both studies of error use
-//! them: `bench accuracy` and `bench precision`.
+//! Image error metrics of the speed-against-error study (docs/design-measures.md, *Accuracy*). Both
+//! images are the linear float films, each channel clamped to [0, 1] first (what an 8-bit output
+//! could show); the metrics never look at the 8-bit PNG. Pure functions, no I/O. Both studies of
+//! error use them: `bench accuracy` and `bench precision`.
 
 use parrt::film::Rgb;
 

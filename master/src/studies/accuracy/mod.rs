@@ -1,4 +1,5 @@
-//! The speed-against-error study behind `parrt bench accuracy` (DESIGN §9), one concept per file:
+//! The speed-against-error study behind `parrt bench accuracy` (docs/design-measures.md,
+//! *Accuracy*), one concept per file:
 //! - [`configs`]: the configurations measured and the reference;
 //! - [`metrics`]: image error metrics on the clamped linear film;
 //! - [`study`]: renders the references and configurations of one scene;

@@ -156,8 +156,8 @@ impl Seen {
     }
 }
 
-/// Samples CPU every [`PERIOD`] until dropped, so the CPU of an interval known only afterwards
-/// (the tracing phase) can be read off.
+/// Samples CPU every `PERIOD` (50 ms) until dropped, so the CPU of an interval known only
+/// afterwards (the tracing phase) can be read off.
 pub struct CpuSampler {
     samples: Arc<Mutex<Vec<(Instant, CpuSample)>>>,
     stop: Arc<AtomicBool>,

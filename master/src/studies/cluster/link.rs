@@ -23,8 +23,8 @@ const CHUNK: usize = 16 * 1024;
 const STACK: usize = 256 * 1024;
 /// Longest the relay waits to reach the master for one worker's connection. A master that
 /// stopped accepting (it failed to start its workers, say) leaves connects unanswered for
-/// minutes of SYN retries; bounded, the relay stops soon after it is dropped (issue 31 item
-/// 12), and the worker, whose connection is closed, dials again if the master is still there.
+/// minutes of SYN retries; bounded, the relay stops soon after it is dropped, and the worker, whose
+/// connection is closed, dials again if the master is still there.
 const CONNECT_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// The emulated network.
@@ -293,7 +293,7 @@ fn pump(mut dirs: [Direction; 2], latency: Duration) {
 mod tests {
     use super::*;
 
-    /// Issue 31 item 12: a master that stopped accepting (its listen queue full, so a connect
+    /// A master that stopped accepting (its listen queue full, so a connect
     /// waits through minutes of SYN retries) does not keep the dropped relay alive.
     #[test]
     fn dropping_the_relay_does_not_wait_on_a_master_that_never_answers() {

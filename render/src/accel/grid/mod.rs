@@ -1,6 +1,7 @@
-//! The uniform voxel grid (pbrt-v2's `GridAccel`, DESIGN §5): the scene box cut into equal cells,
-//! each cell holding the primitives whose (slightly widened) boxes overlap it, walked along a ray
-//! with the Amanatides–Woo 3D-DDA. It knows only boxes and primitive indices, never geometry.
+//! The uniform voxel grid (pbrt-v2's `GridAccel`; see docs/design-rendering.md, *Acceleration*):
+//! the scene box cut into equal cells, each cell holding the primitives whose (slightly widened)
+//! boxes overlap it, walked along a ray with the Amanatides–Woo 3D-DDA. It knows only boxes and
+//! primitive indices, never geometry.
 //!
 //! Layout: [`build`] chooses the resolution and fills the compact cell lists; [`traverse`] walks
 //! them for `intersect` and `occluded`; [`mailbox`] keeps one ray from testing a primitive twice.

@@ -37,6 +37,8 @@ pub const MAX_THREADS: usize = 256;
 #[derive(Debug, Args)]
 pub struct ClusterArgs {
     /// Scene: an NFF file or NAME[:SIZE].
+    // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", default_value = "mount")]
     pub scene: String,
     /// Image size (square), pixels.
@@ -290,7 +292,7 @@ fn limit(
 /// Runs `parrt bench cluster`.
 pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     check(&args)?;
-    // Before the recording allocates its film: a 65536² image once aborted on a 51.5 GB allocation.
+    // Before the recording allocates its film: an unchecked 65536² image aborted on 51.5 GB.
     args.limits.check_image(args.size, args.size, args.tile)?;
     let spec = SceneSpec::parse(&args.scene)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
