@@ -15,7 +15,7 @@ pub enum PixelFormat {
     /// Three little-endian `f32` per pixel: exact.
     #[default]
     F32,
-    /// Three bytes per pixel, each [`to_u8`](crate::film::to_u8) of the linear value: what
+    /// Three bytes per pixel, each [`to_u8`](parrt::film::to_u8) of the linear value: what
     /// 8-bit outputs keep.
     Rgb8,
 }
@@ -123,7 +123,7 @@ impl TilePixels {
 
     /// Decodes into `out` (cleared first) the pixels of a tile of `count` pixels sent for a job
     /// that asked for `want`, checking the format, the count and that every value is finite.
-    /// An 8-bit value `b` becomes [`unit()`] of `b`, which [`to_u8`](crate::film::to_u8) maps
+    /// An 8-bit value `b` becomes [`unit()`] of `b`, which [`to_u8`](parrt::film::to_u8) maps
     /// back to `b` exactly.
     pub fn decode_into(
         &self,

@@ -127,7 +127,7 @@ pub struct SchedOptions {
     pub max_failures: u32,
     /// Hand out backup copies of in-flight tiles when the queue is empty.
     pub backups: bool,
-    /// The most tiles sent in one assignment ([`parrt::batch::batch_size`]); 1 sends each tile
+    /// The most tiles sent in one assignment ([`crate::batch::batch_size`]); 1 sends each tile
     /// on its own.
     pub max_batch: usize,
     /// The most work one batch may hold, seconds at the mean tile cost seen
