@@ -2,10 +2,10 @@
 //! or lists the generators. Generation itself lives in the `parrt-scenes` crate; this file only
 //! parses arguments, reports errors and writes bytes.
 
+use crate::cli_args::ArgError;
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -16,14 +16,19 @@ pub struct SceneArgs {
     /// tetra, tree); see --list.
     #[arg(value_name = "NAME", required_unless_present = "list")]
     pub name: Option<String>,
-    /// Size factor, as SPD's `-s N` (default: the generator's SPD default).
+    /// Size factor, as SPD's `-s N`: how finely the generator subdivides (default: the
+    /// generator's SPD default). The same as NAME:N where a scene is named (`render --scene`).
     #[arg(long, short = 's', value_name = "N")]
-    pub size: Option<u32>,
+    pub factor: Option<u32>,
+    /// Not a flag of this command: `--size` is an image's size in pixels (WxH) on every
+    /// command that takes it; the size factor is --factor. Refused with that said.
+    #[arg(long, value_name = "N", hide = true)]
+    pub size: Option<String>,
     /// Write the NFF to this file instead of stdout.
     #[arg(long, short = 'o', value_name = "FILE")]
     pub output: Option<PathBuf>,
     /// List the generators with their default sizes and exit.
-    #[arg(long, conflicts_with_all = ["size", "output"])]
+    #[arg(long, conflicts_with_all = ["factor", "output"])]
     pub list: bool,
 }
 
@@ -60,12 +65,19 @@ pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
         crate::out!("{}", listing());
         return Ok(ExitCode::SUCCESS);
     }
+    if let Some(size) = &args.size {
+        return Err(ArgError::Value(format!(
+            "parrt scene takes no --size (an image's size in pixels elsewhere): give the \
+             generator's size factor as --factor {size} (or -s {size})"
+        ))
+        .into());
+    }
     let Some(name) = args.name.as_deref() else {
         return Err(input_error(anyhow::anyhow!(
             "give a generator name, or --list to see them"
         )));
     };
-    let scene = parrt_scenes::generate(name, args.size).map_err(input_error)?;
+    let scene = parrt_scenes::generate(name, args.factor).map_err(input_error)?;
     let text = parrt::nff::to_nff(&scene);
     match &args.output {
         Some(path) => {
@@ -73,12 +85,7 @@ pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("cannot write {}", path.display()))?;
             crate::errln!("parrt: wrote {}", summary(path, &scene, text.len()));
         }
-        None => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(text.as_bytes())
-                .and_then(|()| out.flush())
-                .context("cannot write the scene to stdout")?;
-        }
+        None => crate::console::write_stdout(text.as_bytes(), "the scene")?,
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -22,7 +22,7 @@ pub struct AccuracyArgs {
     /// Scenes: NFF files or generated scenes as NAME[:SIZE].
     #[arg(value_name = "SCENE", required_unless_present = "replot")]
     pub scenes: Vec<String>,
-    /// Image size of the reference and every configuration.
+    /// Image size in pixels of the reference and every configuration: WxH, or N for NxN.
     #[arg(long, value_name = "WxH", default_value = "256x256")]
     pub size: String,
     /// Output directory for accuracy.md, accuracy.csv and the plots.
