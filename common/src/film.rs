@@ -521,7 +521,7 @@ mod tests {
         f.write_tile_rgb8(&t, &[255, 0, 0, 1, 2, 3]).unwrap();
         f.save(&out).unwrap();
         let bytes = std::fs::read(&out).unwrap();
-        assert_eq!(bytes, b"P6\n2 1\n255\n\xff\x00\x00\x01\x02\x03");
+        assert_eq!(bytes, b"P6\n2 1 255\n\xff\x00\x00\x01\x02\x03");
     }
 
     #[test]

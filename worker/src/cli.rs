@@ -235,8 +235,8 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
         let plural = |n: u64, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
         say(&format!(
             "done: {} rendered in {}",
-            plural(summary.tiles_rendered as u64, "tile"),
-            plural(summary.jobs as u64, "job")
+            plural(summary.tiles_rendered, "tile"),
+            plural(u64::from(summary.jobs), "job")
         ));
     }
     if summary.end == SessionEnd::Stopped {

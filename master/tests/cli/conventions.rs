@@ -213,8 +213,8 @@ fn size_means_pixels_everywhere_and_scene_says_to_use_factor() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let ppm = std::fs::read(&out).expect("the image");
-    assert!(ppm.starts_with(b"P6\n16 8\n255\n"), "{:?}", &ppm[..16]);
-    assert_eq!(ppm.len(), b"P6\n16 8\n255\n".len() + 16 * 8 * 3);
+    assert!(ppm.starts_with(b"P6\n16 8 255\n"), "{:?}", &ppm[..16]);
+    assert_eq!(ppm.len(), b"P6\n16 8 255\n".len() + 16 * 8 * 3);
     let o = parrt(&["render", "--size", "16x8", "--width", "4"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(!stderr(&o).contains("-- --size"), "{}", stderr(&o));
@@ -272,9 +272,8 @@ fn man_dir_refuses_a_link_or_a_fifo_at_a_pages_name() {
     let o = parrt(&["man", "--dir", &pages.display().to_string()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let top = std::fs::read_to_string(pages.join("parrt.1")).unwrap();
-    for section in [".SH EXAMPLES", ".SH \"EXIT STATUS\"", ".SH ENVIRONMENT"] {
-        let section = section.replace('"', "");
-        assert!(top.contains(&section), "parrt.1 lacks {section}");
+    for section in [".SH EXAMPLES", ".SH EXIT STATUS", ".SH ENVIRONMENT"] {
+        assert!(top.contains(section), "parrt.1 lacks {section}");
     }
     for var in ["PARRT_ISA", "PARRT_LOG", "PARRT_TOKEN", "XDG_RUNTIME_DIR"] {
         assert!(top.contains(var), "parrt.1 lacks {var}");

@@ -451,7 +451,7 @@ fn a_waiting_master_says_so_and_ctrl_c_exits_130() {
             "--listen",
             "127.0.0.1:0",
         ])
-        .args(["--wait-workers", "600", "-o"])
+        .args(["--wait-workers", "60", "-o"])
         .arg(dir.path().join("never.png"))
         .env_remove("PARRT_LOG")
         .stdin(Stdio::null())
@@ -477,7 +477,7 @@ fn a_waiting_master_says_so_and_ctrl_c_exits_130() {
     );
     assert_eq!(
         lines[1],
-        "parrt master: waiting for 1 worker (up to 600 s)…\n"
+        "parrt master: waiting for 1 worker (up to 60 s)…\n"
     );
     assert_eq!(status.code(), Some(130), "{lines:?} {rest}");
     assert!(
