@@ -31,3 +31,18 @@ macro_rules! errln {
         let _ = ::std::writeln!(::std::io::stderr(), $($arg)*);
     }};
 }
+
+/// Writes `bytes` to stdout, all of them, for a command whose output is the point (a scene,
+/// a manual page, a completion script). A reader that has gone (`parrt scene mount | head -1`)
+/// is not a failure: the pipe's reader asked for no more, so this returns `Ok` quietly, as
+/// `cat` and other Unix filters end on a closed pipe. Any other write error is returned.
+pub fn write_stdout(bytes: &[u8], what: &str) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(bytes).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(anyhow::Error::new(e).context(format!("cannot write {what} to stdout")))
+        }
+        _ => Ok(()),
+    }
+}

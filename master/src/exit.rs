@@ -1,7 +1,10 @@
-//! Exit codes: 0 success, 2 bad input or usage, 1 any other failure. An error is bad input when
-//! its chain holds a [`crate::cli_args::ArgError`] (the command line's own checks) or an
-//! [`InputError`] (a command's wrapping of a library error it knows to be the user's input);
-//! everything else exits 1.
+//! Exit codes: 0 success, 2 bad input or usage, 1 any other failure, and 128 + the signal's
+//! number for a render stopped by Ctrl-C (130) or SIGTERM (143), as a process the signal
+//! killed would exit (an SMP render is killed by it; a distributed one stops its workers
+//! first, then exits so). An error is bad input when its chain holds a
+//! [`crate::cli_args::ArgError`] (the command line's own checks) or an [`InputError`] (a
+//! command's wrapping of a library error it knows to be the user's input); everything else
+//! exits 1.
 
 use crate::cli_args::ArgError;
 use std::fmt;
@@ -23,9 +26,19 @@ pub fn input_error(e: impl Into<anyhow::Error>) -> anyhow::Error {
     anyhow::Error::new(InputError(e.into()))
 }
 
-/// The exit status for an error: 2 when any cause in its chain is an [`InputError`] or an
-/// [`ArgError`], else 1.
+/// The exit status for an error: 128 + the signal's number when a signal interrupted the
+/// render, 2 when any cause in its chain is an [`InputError`] or an [`ArgError`], else 1.
 pub fn code_for(e: &anyhow::Error) -> u8 {
+    let interrupted = e.chain().any(|c| {
+        matches!(
+            c.downcast_ref::<parrt_runtime::DistError>(),
+            Some(parrt_runtime::DistError::Interrupted)
+        )
+    });
+    if interrupted {
+        let signal = parrt_runtime::stopped_by_signal().unwrap_or(libc::SIGINT);
+        return u8::try_from(128 + signal).unwrap_or(130);
+    }
     if ArgError::is_in(e) || e.chain().any(|c| c.is::<InputError>()) {
         2
     } else {
@@ -64,5 +77,11 @@ mod tests {
         assert_eq!(code_for(&arg), 2);
         assert_eq!(code_for(&input_error(anyhow::anyhow!("bad file"))), 2);
         assert_eq!(code_for(&anyhow::anyhow!("disk full")), 1);
+        let stopped = anyhow::Error::new(parrt_runtime::DistError::Interrupted).context("render");
+        assert_eq!(
+            code_for(&stopped),
+            130,
+            "Ctrl-C, as no signal was noted here"
+        );
     }
 }

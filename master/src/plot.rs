@@ -1,6 +1,7 @@
 //! Line and scatter charts for the studies, written as SVG and PNG with plotters. Text needs a
-//! font: DejaVu Sans from the system is registered once; without it, charts are drawn unlabelled
-//! and the Markdown tables carry the numbers.
+//! font to be laid out: DejaVu Sans is built into the binary (`master/assets/`, with its
+//! licence) and registered once, so titles, axes and legends are drawn on every machine,
+//! whatever fonts it has installed.
 //!
 //! A chart of efficiencies carries a [`Reference`]: a dashed line at the ideal (1), and a note
 //! under the chart when some value lies above it, saying why that can happen. A y axis that does
@@ -98,25 +99,20 @@ pub fn note(chart: &Chart) -> Option<&str> {
     above.then_some(r.above.as_str())
 }
 
-const FONT_PATHS: [&str; 2] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-];
+/// DejaVu Sans, built into the binary: the text of every plot.
+const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
-/// Registers a system font with plotters once; false when none was found. Other plots (the
-/// accuracy study's) ask this before drawing text on a bitmap.
+/// Registers the built-in font with plotters once. True unless plotters refused it, which
+/// cannot happen with the font built in (a test checks it); a plot drawn without it would
+/// have no text, so that is said on stderr rather than left silent.
 pub fn font_ready() -> bool {
     static READY: OnceLock<bool> = OnceLock::new();
     *READY.get_or_init(|| {
-        for p in FONT_PATHS {
-            if let Ok(bytes) = std::fs::read(p) {
-                let leaked: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                if plotters::style::register_font("sans-serif", FontStyle::Normal, leaked).is_ok() {
-                    return true;
-                }
-            }
+        let ok = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok();
+        if !ok {
+            crate::errln!("parrt: warning: the plots' font could not be loaded; they have no text");
         }
-        false
+        ok
     })
 }
 
@@ -194,11 +190,12 @@ where
         ($ctx:expr, $map:expr) => {{
             let mut ctx = $ctx;
             if text {
-                ctx.configure_mesh()
-                    .x_desc(chart.x_label.as_str())
-                    .y_desc(y_desc.as_str())
-                    .draw()
-                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                let mut mesh = ctx.configure_mesh();
+                mesh.x_desc(chart.x_label.as_str()).y_desc(y_desc.as_str());
+                if chart.log_x {
+                    mesh.x_label_formatter(&tick);
+                }
+                mesh.draw().map_err(|e| anyhow::anyhow!("{e:?}"))?;
             } else {
                 ctx.configure_mesh()
                     .disable_x_mesh()
@@ -254,8 +251,15 @@ where
         }};
     }
     if chart.log_x && x0 > 0.0 {
+        // Ticks at the data's x values (tile sizes, thread counts): a log axis over less than
+        // a decade has no power of ten to label otherwise.
         let ctx = builder
-            .build_cartesian_2d((x0 * 0.9..x1 * 1.1).log_scale(), y0..y1)
+            .build_cartesian_2d(
+                (x0 * 0.9..x1 * 1.1)
+                    .log_scale()
+                    .with_key_points(x_values(chart)),
+                y0..y1,
+            )
             .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         body!(ctx, |&p: &(f64, f64)| p);
     } else {
@@ -267,6 +271,28 @@ where
     }
     root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
     Ok(())
+}
+
+/// The distinct finite x values of the chart's points, in order.
+fn x_values(chart: &Chart) -> Vec<f64> {
+    let mut xs: Vec<f64> = chart
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0))
+        .filter(|x| x.is_finite())
+        .collect();
+    xs.sort_by(f64::total_cmp);
+    xs.dedup();
+    xs
+}
+
+/// A tick label: whole numbers without a fraction (`16`, not `16.0`).
+fn tick(x: &f64) -> String {
+    if x.fract() == 0.0 && x.abs() < 1e15 {
+        format!("{}", *x as i64)
+    } else {
+        format!("{x}")
+    }
 }
 
 /// Writes the chart as SVG and PNG (800×500).
@@ -358,10 +384,44 @@ mod tests {
         let (svg, png) = (dir.path().join("c.svg"), dir.path().join("c.png"));
         save_chart(&c, &svg, &png).expect("draws");
         let text = std::fs::read_to_string(&svg).expect("svg");
-        if font_ready() {
-            assert!(text.contains("superlinear"), "the note is in the SVG");
-            assert!(text.contains("ideal (1)"));
-        }
+        assert!(text.contains("superlinear"), "the note is in the SVG");
+        assert!(text.contains("ideal (1)"));
         assert!(std::fs::metadata(&png).expect("png").len() > 0);
+    }
+
+    /// The font is built in: every chart has its title, axis labels, legend and tick labels,
+    /// in the SVG as text and in the PNG as ink, on any machine. A log axis over less than a
+    /// decade (tile sizes 16 and 64) is labelled at the data's x values.
+    #[test]
+    fn every_chart_has_its_text_and_a_short_log_axis_its_ticks() {
+        assert!(font_ready(), "the built-in font registers");
+        let dir = tempfile::tempdir().expect("temp dir");
+        let mut c = chart(vec![(16.0, 0.7), (64.0, 0.9)], None);
+        c.title = "The Title".into();
+        c.x_label = "tile edge".into();
+        c.log_x = true;
+        let (svg, png) = (dir.path().join("c.svg"), dir.path().join("c.png"));
+        save_chart(&c, &svg, &png).expect("draws");
+        // plotters writes each text on a line of its own inside its element.
+        let text = std::fs::read_to_string(&svg)
+            .expect("svg")
+            .replace('\n', "");
+        for want in [
+            "The Title",
+            "tile edge",
+            "efficiency",
+            ">s<",
+            ">16<",
+            ">64<",
+        ] {
+            assert!(text.contains(want), "the SVG lacks {want}: {text}");
+        }
+        // Ink in the PNG's caption strip (the title), where a chart without text is white.
+        let img = image::open(&png).expect("png").to_rgb8();
+        let inked = (16..40)
+            .flat_map(|y| (300..500).map(move |x| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y).0.iter().any(|&v| v < 128))
+            .count();
+        assert!(inked > 50, "{inked} dark pixels where the title goes");
     }
 }

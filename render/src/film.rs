@@ -73,7 +73,7 @@ pub enum FilmError {
 pub enum ImageFormat {
     /// 8-bit PNG.
     Png,
-    /// 8-bit binary PPM.
+    /// 8-bit binary PPM (`P6`, the netpbm pixmap).
     Ppm,
     /// 32-bit float OpenEXR.
     Exr,
@@ -96,8 +96,9 @@ impl ImageFormat {
     }
 }
 
-/// A sibling of `path` in the same directory that no one else is writing: `.NAME.parrt-PID-N.tmp`.
-fn temp_beside(path: &Path) -> std::path::PathBuf {
+/// A sibling of `path` in the same directory that no one else is writing: `.NAME.parrt-PID-N.tmp`
+/// (a file is written there whole, then renamed onto `path`).
+pub fn temp_beside(path: &Path) -> std::path::PathBuf {
     use std::sync::atomic::{AtomicU64, Ordering};
     static NEXT: AtomicU64 = AtomicU64::new(0);
     let name = path
@@ -375,20 +376,28 @@ impl Film {
 
     fn write_as(&self, path: &Path, format: ImageFormat) -> Result<(), image::ImageError> {
         match format {
-            ImageFormat::Png | ImageFormat::Ppm => {
-                let fmt = if format == ImageFormat::Png {
-                    image::ImageFormat::Png
-                } else {
-                    image::ImageFormat::Pnm
-                };
-                image::save_buffer_with_format(
-                    path,
-                    &self.rgb8_bytes(),
-                    self.width,
-                    self.height,
-                    image::ExtendedColorType::Rgb8,
-                    fmt,
-                )
+            ImageFormat::Png => image::save_buffer_with_format(
+                path,
+                &self.rgb8_bytes(),
+                self.width,
+                self.height,
+                image::ExtendedColorType::Rgb8,
+                image::ImageFormat::Png,
+            ),
+            // `image`'s PNM encoder left to choose writes a PAM (`P7`), which most PPM
+            // readers refuse: the binary pixmap subtype is asked for by name.
+            ImageFormat::Ppm => {
+                use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
+                use image::ImageEncoder;
+                let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+                PnmEncoder::new(file)
+                    .with_subtype(PnmSubtype::Pixmap(SampleEncoding::Binary))
+                    .write_image(
+                        &self.rgb8_bytes(),
+                        self.width,
+                        self.height,
+                        image::ExtendedColorType::Rgb8,
+                    )
             }
             ImageFormat::Exr => {
                 let flat: Vec<f32> = match &self.rgb8 {
@@ -493,6 +502,26 @@ mod tests {
             .collect();
         names.sort();
         assert_eq!(names, ["ok.exr", "ok.png", "sub.png"]);
+    }
+
+    /// A `.ppm` is a binary netpbm pixmap (`P6`), which every PPM reader takes, not a PAM
+    /// (`P7`): its header, then the 8-bit RGB bytes row by row.
+    #[test]
+    fn a_ppm_is_a_binary_pixmap() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("x.ppm");
+        let mut f = Film::new_rgb8(2, 1);
+        let t = Tile {
+            id: 0,
+            x: 0,
+            y: 0,
+            w: 2,
+            h: 1,
+        };
+        f.write_tile_rgb8(&t, &[255, 0, 0, 1, 2, 3]).unwrap();
+        f.save(&out).unwrap();
+        let bytes = std::fs::read(&out).unwrap();
+        assert_eq!(bytes, b"P6\n2 1 255\n\xff\x00\x00\x01\x02\x03");
     }
 
     #[test]

@@ -129,6 +129,11 @@ pub struct WorkerArgs {
     /// With --replay: multiply every recorded tile cost by F.
     #[arg(long, value_name = "F", default_value_t = 1.0, requires = "replay")]
     pub cost_scale: f64,
+    /// Log what happens (connections, jobs, departures) as timestamped lines on stderr, as
+    /// PARRT_LOG=info does; without it, and without PARRT_LOG, a line when it connects and one
+    /// when it is done.
+    #[arg(short, long)]
+    pub verbose: bool,
 }
 
 impl WorkerArgs {
@@ -154,6 +159,24 @@ impl WorkerArgs {
     }
 }
 
+/// The log filter of a command with a `-v` flag when `$PARRT_LOG` is not set: `info` (the
+/// timestamped lines of what happens) with `-v`, else `warn` (warnings only, beside the
+/// command's own lines for people).
+pub fn log_level(verbose: bool) -> &'static str {
+    if verbose {
+        "info"
+    } else {
+        "warn"
+    }
+}
+
+/// Whether a command prints its lines for people: not when the log was asked for (`-v` or
+/// `$PARRT_LOG`), whose timestamped lines say the same and more. (The local workers a master
+/// starts are given `$PARRT_LOG`, so they print none.)
+pub fn human_lines(verbose: bool) -> bool {
+    !verbose && std::env::var_os(LOG_ENV).is_none()
+}
+
 /// Installs a stderr log subscriber filtered by `$PARRT_LOG` (default `default`); harmless if
 /// one is already installed.
 pub fn init_logging(default: &str) {
@@ -171,7 +194,8 @@ pub fn init_logging(default: &str) {
 
 /// Runs a worker until the master says Shutdown or goes away (exit 0), or Ctrl-C (exit 1).
 pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
-    init_logging("info");
+    init_logging(log_level(args.verbose));
+    let human = human_lines(args.verbose);
     let opts = args.options()?;
     if let Some(path) = &args.replay {
         let replay = crate::replay::Replay::open(path, args.cost_scale)
@@ -190,6 +214,14 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
                 on_signal.cancel();
             }
         });
+        if human {
+            say(&format!(
+                "connecting to {} as {} ({} threads)…",
+                opts.connect,
+                opts.name,
+                opts.render_threads()
+            ));
+        }
         session::run(&opts, stop).await
     });
     let summary = summary.with_context(|| format!("worker for {}", opts.connect))?;
@@ -199,10 +231,24 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
         end = ?summary.end,
         "worker done"
     );
+    if human {
+        let plural = |n: u64, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+        say(&format!(
+            "done: {} rendered in {}",
+            plural(summary.tiles_rendered, "tile"),
+            plural(u64::from(summary.jobs), "job")
+        ));
+    }
     if summary.end == SessionEnd::Stopped {
         anyhow::bail!("interrupted: disconnected from the master");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A line for people on stderr, `parrt worker: …`; dropped if stderr is closed.
+fn say(text: &str) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr(), "parrt worker: {text}");
 }
 
 #[cfg(test)]
@@ -283,6 +329,7 @@ mod tests {
             dial_timeout,
             replay: None,
             cost_scale: 1.0,
+            verbose: false,
             token: TokenArgs {
                 token: Some("t".into()),
                 token_file: None,

@@ -328,24 +328,47 @@ pub fn run<E: From<DistError>>(
     })
 }
 
-/// Waits for SIGINT (Ctrl-C) or SIGTERM; `false` if neither can be listened for.
+/// The number of the signal that stopped a render through [`run`] (`SIGINT` or `SIGTERM`), 0
+/// while none has.
+static STOPPED_BY: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
+
+/// The signal (`libc::SIGINT` for Ctrl-C, `libc::SIGTERM`) that made a render end with
+/// [`DistError::Interrupted`], if one did: a command line exits `128 + n` then, as a process
+/// the signal killed would (130 for Ctrl-C), whether it rendered on its own cores or through
+/// workers.
+pub fn stopped_by_signal() -> Option<i32> {
+    match STOPPED_BY.load(std::sync::atomic::Ordering::Relaxed) {
+        0 => None,
+        n => Some(n),
+    }
+}
+
+/// Waits for SIGINT (Ctrl-C) or SIGTERM, and notes which ([`stopped_by_signal`]); `false` if
+/// neither can be listened for.
 async fn stop_signal() -> bool {
     use tokio::signal::unix::{signal, SignalKind};
-    match signal(SignalKind::terminate()) {
+    let heard = match signal(SignalKind::terminate()) {
         Ok(mut term) => {
             tokio::select! {
                 r = tokio::signal::ctrl_c() => {
                     if r.is_err() {
                         // No Ctrl-C handler: SIGTERM is still heard.
                         term.recv().await;
+                        libc::SIGTERM
+                    } else {
+                        libc::SIGINT
                     }
                 }
-                _ = term.recv() => {}
+                _ = term.recv() => libc::SIGTERM,
             }
-            true
         }
-        Err(_) => tokio::signal::ctrl_c().await.is_ok(),
-    }
+        Err(_) => match tokio::signal::ctrl_c().await {
+            Ok(()) => libc::SIGINT,
+            Err(_) => return false,
+        },
+    };
+    STOPPED_BY.store(heard, std::sync::atomic::Ordering::Relaxed);
+    true
 }
 
 /// Opens (or creates) the checkpoint of this job, refusing one of another job.

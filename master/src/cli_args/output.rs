@@ -2,7 +2,7 @@
 //! place for it (`-o`), other files (`--stats-json`, `--report-json`, `--tile-costs`) and the
 //! output directories of the bench studies. A bad output is bad input (exit 2), found before a
 //! render that could take hours rather than after it. No two of a command's files may be one
-//! file ([`check_distinct`]).
+//! file ([`check_distinct`]). Text outputs are written whole by [`write_whole`], as images are.
 
 use super::ArgError;
 use std::path::Path;
@@ -71,4 +71,42 @@ pub fn prepare_out_dir(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir)
         .map_err(|e| ArgError::Value(format!("cannot create {}: {e}", dir.display())))?;
     check_file_output(&dir.join("probe"))
+}
+
+/// Writes `bytes` to `path` as images are written: whole into a new temporary file beside it,
+/// then renamed onto it, so a failure leaves no half-written file. What is already at `path`
+/// must be a regular file (it is replaced) or nothing: a symbolic link there is not followed
+/// (writing through it would overwrite whatever it points at) and a FIFO, device or
+/// directory is not opened (a FIFO would block for ever); both are refused as bad input
+/// (exit 2) naming the path.
+pub fn write_whole(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    use std::os::unix::fs::OpenOptionsExt;
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            return Err(ArgError::file(
+                path,
+                "is a symbolic link, not a regular file (links are not followed)",
+            )
+            .into())
+        }
+        Ok(m) if !m.file_type().is_file() => {
+            let kind = parrt::nff::read::kind_of(m.file_type());
+            return Err(ArgError::file(path, format!("is {kind}, not a regular file")).into());
+        }
+        _ => {}
+    }
+    let tmp = parrt::film::temp_beside(path);
+    let written = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .custom_flags(libc::O_NOFOLLOW | libc::O_CLOEXEC)
+        .open(&tmp)
+        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
+        .and_then(|()| std::fs::rename(&tmp, path));
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(anyhow::Error::new(e).context(format!("cannot write {}", path.display())));
+    }
+    Ok(())
 }

@@ -76,6 +76,10 @@ pub enum PrecisionArg {
 /// Settings shared by every command that renders (render, master, bench).
 #[derive(Debug, Clone, Args)]
 pub struct RenderFlags {
+    /// Image size in pixels, WxH (or N for NxN); the same as --width W --height H (default:
+    /// the scene's resolution; 512x512 with --spd-standard).
+    #[arg(long, value_name = "WxH", conflicts_with_all = ["width", "height"])]
+    pub size: Option<String>,
     /// Image width in pixels (default: the scene's resolution; 512 with --spd-standard).
     #[arg(long, value_name = "W")]
     pub width: Option<u32>,
@@ -128,7 +132,11 @@ impl RenderFlags {
         } else {
             (desc.view.width, desc.view.height)
         };
-        let mut s = RenderSettings::new(self.width.unwrap_or(dw), self.height.unwrap_or(dh));
+        let (w, h) = match &self.size {
+            Some(size) => super::size::parse_size(size)?,
+            None => (self.width.unwrap_or(dw), self.height.unwrap_or(dh)),
+        };
+        let mut s = RenderSettings::new(w, h);
         s.max_depth = self.max_depth;
         s.cutoff = self.cutoff;
         s.spp = self.spp;
@@ -180,5 +188,19 @@ mod tests {
         let (s, why) = settings(&["--precision", "f32"], &far);
         assert_eq!(s.precision, Precision::F32);
         assert!(why.reason.starts_with("forced; auto would pick f64"));
+    }
+
+    /// `--size WxH` (or `N`) is `--width W --height H`, as on the benches.
+    #[test]
+    fn size_is_width_and_height() {
+        let desc = parrt_scenes::generate("tetra", Some(1)).expect("tetra");
+        let (s, _) = settings(&["--size", "64x48"], &desc);
+        assert_eq!((s.width, s.height), (64, 48));
+        let (s, _) = settings(&["--size", "40"], &desc);
+        assert_eq!((s.width, s.height), (40, 40));
+        let (s, _) = settings(&["--width", "64", "--height", "48"], &desc);
+        assert_eq!((s.width, s.height), (64, 48));
+        let both = Flags::try_parse_from(["parrt", "--size", "8x8", "--width", "9"]);
+        assert!(both.is_err(), "--size and --width together are refused");
     }
 }

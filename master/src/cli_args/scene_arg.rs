@@ -98,13 +98,14 @@ impl SceneSpec {
         })
     }
 
-    /// A short label for messages (`mount-6.nff`, `mount:default`).
+    /// A short label for messages, titles and reports: the scene as the user named it
+    /// (`mount-6.nff`, `mount:6`, `mount`).
     pub fn label(&self) -> String {
         match self {
             SceneSpec::File(p) | SceneSpec::Json(p) => p.display().to_string(),
             SceneSpec::Generated { name, size } => match size {
                 Some(s) => format!("{name}:{s}"),
-                None => format!("{name}:default"),
+                None => name.clone(),
             },
         }
     }
@@ -153,7 +154,7 @@ mod tests {
         ));
         let g = SceneSpec::parse("mount:6").unwrap();
         assert_eq!(g.label(), "mount:6");
-        assert_eq!(SceneSpec::parse("balls").unwrap().label(), "balls:default");
+        assert_eq!(SceneSpec::parse("balls").unwrap().label(), "balls");
         for bad in ["mount:x", ":3"] {
             let e = SceneSpec::parse(bad).unwrap_err();
             assert!(ArgError::is_in(&e), "{e}");
@@ -164,7 +165,7 @@ mod tests {
         assert!(matches!(json, SceneSpec::Json(_)));
         assert_eq!(
             SceneSpec::from_args(None, None, None).unwrap().label(),
-            "mount:default"
+            "mount"
         );
     }
 }

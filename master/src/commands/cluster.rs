@@ -17,7 +17,7 @@ use parrt_protocol::Token;
 use parrt_runtime::launcher::{self, Rank};
 use parrt_runtime::rendezvous::{self, Rendezvous};
 use parrt_runtime::{Job, MasterConfig};
-use parrt_worker::cli::{init_logging, TokenArgs, WorkerArgs};
+use parrt_worker::cli::{init_logging, log_level, TokenArgs, WorkerArgs};
 use rand::Rng;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -33,7 +33,7 @@ pub struct ClusterArgs {
     /// A generated scene, NAME or NAME:SIZE.
     #[arg(long, value_name = "NAME[:SIZE]")]
     pub scene: Option<String>,
-    /// Output image (.png, .ppm or .exr), written by rank 0.
+    /// Output image: .png, .ppm (8-bit binary P6) or .exr (linear float), written by rank 0.
     #[arg(short, long, value_name = "OUT", default_value = "parrt.png")]
     pub output: PathBuf,
     /// A directory every rank sees (a shared file system) where rank 0 publishes its address
@@ -88,11 +88,16 @@ pub struct ClusterArgs {
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
+    /// Log what happens (workers joining and leaving, faults) as timestamped lines on stderr,
+    /// as PARRT_LOG=info does; without it, and without PARRT_LOG, only parrt's own lines and
+    /// warnings.
+    #[arg(short, long)]
+    pub verbose: bool,
 }
 
 /// Runs one rank of `parrt cluster`.
 pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
-    init_logging("info");
+    init_logging(log_level(args.verbose));
     let env = |k: &str| std::env::var(k).ok();
     let rank = launcher::rank_from(&env).map_err(input_error)?;
     let vars: Vec<(String, String)> = std::env::vars().collect();
@@ -166,6 +171,7 @@ fn run_master(
         ("the scene", args.file.as_deref()),
         ("--checkpoint", args.checkpoint.as_deref()),
         ("--timeline", args.timeline.as_deref()),
+        ("--costly-first", args.order.costly_first.as_deref()),
     ])?;
     check_listen(&args.listen)?;
     if !args.rendezvous.is_dir() {
@@ -249,6 +255,10 @@ fn run_master(
             w,
             h
         );
+            crate::errln!(
+                "parrt cluster: {}",
+                super::master::waiting_line(rank.size - 1, wait_workers)
+            );
             published = Some(p);
             Ok(None)
         },
@@ -296,6 +306,7 @@ fn run_worker(
         dial_timeout: timeout.as_secs_f64(),
         replay: None,
         cost_scale: 1.0,
+        verbose: args.verbose,
         token: TokenArgs {
             token: Some(r.token),
             token_file: None,

@@ -2,9 +2,9 @@
 //! binary parses with. Without `--dir`, `parrt(1)` goes to stdout; with it, one page per command
 //! (`parrt.1`, `parrt-render.1`, `parrt-bench-efficiency.1`, ...) is written into the directory.
 
+use crate::cli_args::output::write_whole;
 use anyhow::Context;
 use clap::{Args, CommandFactory};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -21,32 +21,108 @@ pub struct ManArgs {
     pub dir: Option<PathBuf>,
 }
 
-/// parrt(1), the top-level page, in roff.
+/// The sections parrt(1) carries after clap_mangen's own (name, synopsis, options,
+/// subcommands, version), in roff: what a man page reader looks for and the clap definitions
+/// do not hold. Every environment variable the code reads is named here.
+const EXTRA_SECTIONS: &str = r#".SH EXAMPLES
+.TP
+\fBparrt render \-o mount.png\fR
+Render the built\-in mount scene on every core of this machine.
+.TP
+\fBparrt scene teapot \-\-factor 3 \-o teapot.nff && parrt render teapot.nff \-\-size 1024x768 \-o teapot.ppm\fR
+Write a generated scene as NFF, then render it at 1024\(mu768 to a binary PPM (P6).
+.TP
+\fBparrt render \-\-scene balls:3 \-\-workers 4 \-o balls.png\fR
+Render through four local worker processes over TCP on loopback.
+.TP
+\fBPARRT_TOKEN=secret parrt master scene.nff \-\-listen 0.0.0.0:7878 \-o out.png\fR
+On one machine; then \fBPARRT_TOKEN=secret parrt worker \-\-connect HOST:7878\fR on each of the others.
+.TP
+\fBparrt render \-\-timeline t.csv && parrt plot\-timeline t.csv \-o t.svg\fR
+Record who rendered each tile and when, and draw it.
+.SH EXIT STATUS
+.TP
+\fB0\fR
+Success.
+.TP
+\fB1\fR
+A failure that is not the input's fault (a file system error, no worker arrived, a lost connection).
+.TP
+\fB2\fR
+Bad input or usage: an unknown flag, a value out of range, a scene file that cannot be read or parsed, an output that cannot be written or would overwrite an input.
+.TP
+\fB130\fR, \fB143\fR
+Stopped by Ctrl\-C (SIGINT) or SIGTERM (128 + the signal's number), on one machine or through workers; local workers are stopped first.
+.SH ENVIRONMENT
+.TP
+\fBPARRT_TOKEN\fR
+The shared secret of \fBmaster\fR and \fBworker\fR when neither \fB\-\-token\fR nor \fB\-\-token\-file\fR is given.
+.TP
+\fBPARRT_LOG\fR
+Turns on the timestamped log lines on stderr, by level and module as \fBtracing_subscriber\fR's EnvFilter reads them (e.g. \fBinfo\fR, \fBparrt_runtime=debug\fR); \fB\-v\fR on \fBmaster\fR, \fBworker\fR and \fBcluster\fR is \fBinfo\fR. Without either, only warnings and parrt's own lines are printed.
+.TP
+\fBPARRT_ISA\fR
+Forces the instruction\-set tier of the kernels: \fBscalar\fR, \fBsse2\fR, \fBavx2\fR or \fBavx512\fR (default: the widest this CPU runs). An unknown or unsupported tier exits 2. The image is the same bits on every tier.
+.TP
+\fBPARRT_WORKER_TILE_DELAY_MS\fR
+A testing aid: a worker sleeps this many milliseconds before each tile.
+.TP
+\fBSLURM_PROCID\fR, \fBSLURM_NTASKS\fR, \fBOMPI_COMM_WORLD_RANK\fR, \fBOMPI_COMM_WORLD_SIZE\fR, \fBPMI_RANK\fR, \fBPMI_SIZE\fR
+\fBcluster\fR: this process's rank and the job's size, as srun, mpirun or mpiexec set them.
+.TP
+\fBSLURM_JOB_ID\fR, \fBSLURM_STEP_ID\fR, \fBOMPI_MCA_ess_base_jobid\fR, \fBOMPI_MCA_orte_ess_jobid\fR, \fBPMIX_NAMESPACE\fR
+\fBcluster\fR: the job's identity, which names its rendezvous file (unless \fB\-\-job\-id\fR is given).
+.TP
+\fBXDG_RUNTIME_DIR\fR
+Where the live view's key file goes when stderr is not a terminal (else the temporary directory).
+.TP
+\fBHOSTNAME\fR
+Names a worker to its master (with its process id).
+"#;
+
+/// parrt(1), the top-level page, in roff: clap_mangen's sections, then examples, exit status
+/// and environment.
 pub fn page() -> anyhow::Result<Vec<u8>> {
     let mut out = Vec::new();
     clap_mangen::Man::new(crate::cli::Cli::command())
         .render(&mut out)
         .context("cannot render the manual page")?;
+    out.extend_from_slice(EXTRA_SECTIONS.as_bytes());
     Ok(out)
 }
 
-/// Writes a page per command into `dir` (clap_mangen names them after the command path:
-/// `parrt-bench-efficiency.1`); returns how many.
+/// Writes a page per command into `dir`, named as clap_mangen names them after the command
+/// path (`parrt-bench-efficiency.1`); parrt.1 is [`page`]. Each is written whole, as the other
+/// outputs are ([`write_whole`]): a symbolic link or a FIFO at a page's name is refused (exit
+/// 2, naming it), not followed or opened. Returns how many pages.
 pub fn write_pages(dir: &Path) -> anyhow::Result<usize> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let cmd = crate::cli::Cli::command();
-    clap_mangen::generate_to(cmd.clone(), dir)
-        .with_context(|| format!("cannot write the manual pages into {}", dir.display()))?;
-    Ok(count(&cmd))
+    let mut cmd = crate::cli::Cli::command().disable_help_subcommand(true);
+    cmd.build();
+    let mut pages = Vec::new();
+    collect(&cmd, &mut pages)?;
+    for (name, text) in &pages {
+        write_whole(&dir.join(name), text)?;
+    }
+    Ok(pages.len())
 }
 
-/// Commands in the tree, `cmd` included (clap's own `help` subcommand is not one).
-fn count(cmd: &clap::Command) -> usize {
-    1 + cmd
-        .get_subcommands()
-        .filter(|s| s.get_name() != "help" && !s.is_hide_set())
-        .map(count)
-        .sum::<usize>()
+/// The pages of `cmd` and its visible subcommands: (file name, roff).
+fn collect(cmd: &clap::Command, pages: &mut Vec<(String, Vec<u8>)>) -> anyhow::Result<()> {
+    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+        collect(sub, pages)?;
+    }
+    let man = clap_mangen::Man::new(cmd.clone());
+    let text = if cmd.get_name() == "parrt" {
+        page()?
+    } else {
+        let mut out = Vec::new();
+        man.render(&mut out)
+            .context("cannot render the manual page")?;
+        out
+    };
+    pages.push((man.get_filename(), text));
+    Ok(())
 }
 
 /// Runs `parrt man`.
@@ -56,12 +132,7 @@ pub fn run(args: ManArgs) -> anyhow::Result<ExitCode> {
             let n = write_pages(dir)?;
             crate::errln!("parrt: wrote {n} manual pages to {}", dir.display());
         }
-        None => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(&page()?)
-                .and_then(|()| out.flush())
-                .context("cannot write the manual page to stdout")?;
-        }
+        None => crate::console::write_stdout(&page()?, "the manual page")?,
     }
     Ok(ExitCode::SUCCESS)
 }

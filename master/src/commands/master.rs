@@ -15,7 +15,7 @@ use anyhow::Context;
 use clap::Args;
 use parrt::description::SceneDescription;
 use parrt_runtime::{Job, MasterConfig, DEFAULT_LISTEN};
-use parrt_worker::cli::{init_logging, TokenArgs};
+use parrt_worker::cli::{init_logging, log_level, TokenArgs};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -34,7 +34,7 @@ pub struct MasterArgs {
     /// A scene description in parrt's JSON form (serde of `SceneDescription`).
     #[arg(long, value_name = "FILE", conflicts_with = "file")]
     pub scene_json: Option<PathBuf>,
-    /// Output image (.png, .ppm or .exr).
+    /// Output image: .png, .ppm (8-bit binary P6) or .exr (linear float).
     #[arg(short, long, value_name = "OUT", default_value = "parrt.png")]
     pub output: PathBuf,
     /// Address to listen on; anything but loopback must be asked for (e.g. 0.0.0.0:7878).
@@ -101,6 +101,11 @@ pub struct MasterArgs {
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
+    /// Log what happens (workers joining and leaving, faults) as timestamped lines on stderr,
+    /// as PARRT_LOG=info does; without it, and without PARRT_LOG, only parrt's own lines and
+    /// warnings.
+    #[arg(short, long)]
+    pub verbose: bool,
 }
 
 /// The scene: a file, `--scene` or `--scene-json`, and its label for messages.
@@ -114,10 +119,20 @@ fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
     Ok((desc, spec.label()))
 }
 
+/// What a master says while no tile can be handed out yet: how many workers it waits for, and
+/// how long.
+pub fn waiting_line(workers: usize, wait: Duration) -> String {
+    let plural = if workers == 1 { "" } else { "s" };
+    format!(
+        "waiting for {workers} worker{plural} (up to {} s)…",
+        wait.as_secs_f64()
+    )
+}
+
 /// Runs `parrt master`. Everything the user gave is checked before listening: flags, outputs,
 /// the scene (built once as a worker would build it) and the image's size and tile count.
 pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
-    init_logging("info");
+    init_logging(log_level(args.verbose));
     let token = args
         .token
         .require("`parrt master`")
@@ -157,6 +172,8 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         ("--report-json", args.report_json.as_deref()),
         ("--checkpoint", args.checkpoint.as_deref()),
         ("--timeline", args.timeline.as_deref()),
+        ("--costly-first", args.order.costly_first.as_deref()),
+        ("--token-file", args.token.token_file.as_deref()),
     ])?;
     check_listen(&args.listen)?;
     let (desc, label) = load_scene(&args)?;
@@ -207,6 +224,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     config.net.token = Some(token);
     config.net.heartbeat_timeout = heartbeat_timeout;
     let (w, h, tile) = (settings.width, settings.height, args.tile);
+    let waiting = waiting_line(s.min_workers, wait_workers);
     let result = parrt_runtime::run(
         &config,
         Job::<parrt_runtime::DistError>::ready(desc, settings),
@@ -214,6 +232,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
             crate::errln!(
                 "parrt master: listening on {addr}; {label} at {w}x{h}, tiles of {tile} px"
             );
+            crate::errln!("parrt master: {waiting}");
             Ok(None)
         },
         None,

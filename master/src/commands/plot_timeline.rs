@@ -1,7 +1,7 @@
 //! `parrt plot-timeline`: draws a timeline written by `--timeline` as SVG or PNG.
 
 use crate::exit::input_error;
-use crate::timeline::{plot, ReadError, Timeline};
+use crate::timeline::{plot, Timeline};
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -34,10 +34,9 @@ pub fn run(args: PlotTimelineArgs) -> anyhow::Result<ExitCode> {
         )));
     }
     crate::cli_args::output::check_file_output(&args.output)?;
-    let t = Timeline::read(&args.file).map_err(|e| match e {
-        ReadError::NotATimeline { .. } => input_error(e),
-        ReadError::Io { .. } => anyhow::Error::new(e),
-    })?;
+    // The timeline is the user's input: one that is missing, unreadable or not a timeline is
+    // bad input (exit 2), as a scene file that cannot be read is.
+    let t = Timeline::read(&args.file).map_err(input_error)?;
     let title = args.title.unwrap_or_else(|| plot::title(&t));
     plot::save(&t, &args.output, &title)?;
     crate::errln!(

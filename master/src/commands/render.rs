@@ -30,7 +30,7 @@ pub struct RenderArgs {
     /// Render a generated scene instead of a file: NAME or NAME:SIZE (see `parrt scene --list`).
     #[arg(long, value_name = "NAME[:SIZE]")]
     pub scene: Option<String>,
-    /// Output image: .png (default), .ppm (8-bit) or .exr (linear float).
+    /// Output image: .png (default), .ppm (8-bit binary P6) or .exr (linear float).
     #[arg(short, long, value_name = "OUT", default_value = "parrt.png")]
     pub output: PathBuf,
     /// Render threads (default: all cores).

@@ -6,11 +6,11 @@
 
 use crate::cli_args::output::{check_distinct, check_file_output};
 use crate::cli_args::scene_arg::SceneSpec;
+use crate::cli_args::ArgError;
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use parrt::description::SceneDescription;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -28,11 +28,11 @@ pub enum Format {
 #[command(after_help = "\
 The format is --format if given, else pov for an output named *.pov, else nff.
 
-Examples: parrt scene mount --size 6 -o mount-6.nff; parrt scene data/spd/mount-6.nff -o \
+Examples: parrt scene mount --factor 6 -o mount-6.nff; parrt scene data/spd/mount-6.nff -o \
 mount-6.pov (the POV-Ray version of an NFF file, as bench/peers.sh renders it with POV-Ray).
 
 Exit status: 0 written; 2 bad input (an unknown generator, a malformed or unreadable scene \
-file, --size with a file, the output is the scene file or cannot be written there); 1 any \
+file, --factor with a file, --size, the output is the scene file or cannot be written there); 1 any \
 other failure (e.g. stdout closed).")]
 pub struct SceneArgs {
     /// Generator name (balls, gears, jacks, lattice, mount, rings, shells, sombrero, teapot,
@@ -40,9 +40,14 @@ pub struct SceneArgs {
     /// path that exists).
     #[arg(value_name = "NAME|FILE", required_unless_present = "list")]
     pub name: Option<String>,
-    /// Size factor, as SPD's `-s N` (default: the generator's SPD default).
+    /// Size factor, as SPD's `-s N`: how finely the generator subdivides (default: the
+    /// generator's SPD default). The same as NAME:N where a scene is named (`render --scene`).
     #[arg(long, short = 's', value_name = "N")]
-    pub size: Option<u32>,
+    pub factor: Option<u32>,
+    /// Not a flag of this command: `--size` is an image's size in pixels (WxH) on every
+    /// command that takes it; the size factor is --factor. Refused with that said.
+    #[arg(long, value_name = "N", hide = true)]
+    pub size: Option<String>,
     /// Write the scene to this file instead of stdout.
     #[arg(long, short = 'o', value_name = "FILE")]
     pub output: Option<PathBuf>,
@@ -50,7 +55,7 @@ pub struct SceneArgs {
     #[arg(long, value_enum, value_name = "FORMAT")]
     pub format: Option<Format>,
     /// List the generators with their default sizes and exit.
-    #[arg(long, conflicts_with_all = ["size", "output", "format"])]
+    #[arg(long, conflicts_with_all = ["factor", "output", "format"])]
     pub list: bool,
 }
 
@@ -70,18 +75,18 @@ fn format_for(flag: Option<Format>, output: Option<&Path>) -> Format {
 }
 
 /// The scene `name` names: a generated one, or a file read with the default limits.
-fn load(name: &str, size: Option<u32>, output: Option<&Path>) -> anyhow::Result<SceneDescription> {
+fn load(name: &str, factor: Option<u32>, output: Option<&Path>) -> anyhow::Result<SceneDescription> {
     let path = PathBuf::from(name);
     let is_file = ["nff", "json"]
         .iter()
         .any(|x| path.extension().is_some_and(|e| e == *x))
         || path.exists();
     if !is_file {
-        return parrt_scenes::generate(name, size).map_err(input_error);
+        return parrt_scenes::generate(name, factor).map_err(input_error);
     }
-    if size.is_some() {
+    if factor.is_some() {
         return Err(input_error(anyhow::anyhow!(
-            "--size makes a generated scene; {name} is a file"
+            "--factor makes a generated scene; {name} is a file"
         )));
     }
     check_distinct(&[("the scene", Some(path.as_path())), ("-o", output)])?;
@@ -122,10 +127,17 @@ pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
             "give a generator name, or --list to see them"
         )));
     };
+    if let Some(size) = &args.size {
+        return Err(ArgError::Value(format!(
+            "parrt scene takes no --size (an image's size in pixels elsewhere): give the \
+             generator's size factor as --factor {size} (or -s {size})"
+        ))
+        .into());
+    }
     if let Some(out) = &args.output {
         check_file_output(out)?;
     }
-    let scene = load(name, args.size, args.output.as_deref())?;
+    let scene = load(name, args.factor, args.output.as_deref())?;
     let text = match format_for(args.format, args.output.as_deref()) {
         Format::Nff => parrt::nff::to_nff(&scene),
         Format::Pov => parrt::nff::to_pov(&scene),
@@ -136,12 +148,7 @@ pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("cannot write {}", path.display()))?;
             crate::errln!("parrt: wrote {}", summary(path, &scene, text.len()));
         }
-        None => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(text.as_bytes())
-                .and_then(|()| out.flush())
-                .context("cannot write the scene to stdout")?;
-        }
+        None => crate::console::write_stdout(text.as_bytes(), "the scene")?,
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -322,13 +322,18 @@ fn a_signal_while_spawning_leaves_no_worker_behind() {
         }
         // SAFETY: kill with a signal to a child this test started and has not reaped.
         unsafe { libc::kill(master.id() as libc::pid_t, sig) };
-        while master.try_wait().unwrap().is_none() {
+        let status = loop {
+            if let Some(status) = master.try_wait().unwrap() {
+                break status;
+            }
             if t0.elapsed() > Duration::from_secs(60) {
                 let _ = master.kill();
                 panic!("signal {sig} did not stop a spawning master");
             }
             std::thread::sleep(Duration::from_millis(20));
-        }
+        };
+        // 128 + the signal, as an SMP render killed by it.
+        assert_eq!(status.code(), Some(128 + sig), "signal {sig}");
         // The workers dial for 30 s on their own; give the killed ones a moment to go.
         let t1 = Instant::now();
         let mut left = alive_with(&marker);
@@ -341,4 +346,141 @@ fn a_signal_while_spawning_leaves_no_worker_behind() {
             "signal {sig}: workers left running: {left:?}"
         );
     }
+}
+
+/// The inputs a command reads (the handout order, the token file, the scene, the checkpoint)
+/// are files its outputs must not overwrite either: exit 2 naming both flags, the input kept.
+#[test]
+fn an_output_onto_one_of_the_inputs_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let nff = scene(dir.path());
+    let costs = dir.path().join("costs.csv");
+    std::fs::write(&costs, "tile,x,y,w,h,seconds\n").unwrap();
+    let token = dir.path().join("tok");
+    std::fs::write(&token, "a-token-of-some-length\n").unwrap();
+    let master = |extra: &[&str]| {
+        let mut a = vec![
+            "master",
+            path(&nff),
+            "--listen",
+            "127.0.0.1:0",
+            "--wait-workers",
+            "0",
+        ];
+        a.extend_from_slice(extra);
+        a.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let run = |args: Vec<String>| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        same_file_named(&args)
+    };
+    for out in ["--timeline", "--report-json"] {
+        let (code, err) = run(master(&[
+            "--token",
+            "t",
+            "--costly-first",
+            path(&costs),
+            out,
+            path(&costs),
+        ]));
+        assert_eq!(code, Some(2), "{err}");
+        assert!(
+            err.contains("--costly-first") && err.contains(out) && err.contains("same file"),
+            "{err}"
+        );
+    }
+    let (code, err) = run(master(&[
+        "--token-file",
+        path(&token),
+        "--timeline",
+        path(&token),
+    ]));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("--token-file") && err.contains("--timeline") && err.contains("same file"),
+        "{err}"
+    );
+    // `cluster`'s master rank, as a launcher starts it.
+    let o = Command::new(env!("CARGO_BIN_EXE_parrt"))
+        .current_dir(dir.path())
+        .env("SLURM_PROCID", "0")
+        .env("SLURM_NTASKS", "2")
+        .args(["cluster", path(&nff), "--costly-first", path(&costs)])
+        .args(["--timeline", path(&costs), "--rendezvous-timeout", "0"])
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--costly-first") && err.contains("--timeline") && err.contains("same file"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read(&costs).unwrap(),
+        b"tile,x,y,w,h,seconds\n",
+        "an input was written"
+    );
+    assert_eq!(
+        std::fs::read(&token).unwrap(),
+        b"a-token-of-some-length\n",
+        "the token file was written"
+    );
+}
+
+/// A capped run's exit code and stderr.
+fn same_file_named(args: &[&str]) -> (Option<i32>, String) {
+    let o = capped(args);
+    (o.status.code(), stderr(&o))
+}
+
+/// A master waiting for its workers says so after "listening on", in lines for people (no
+/// timestamped log lines unless asked for), and Ctrl-C stops it with exit status 130, as it
+/// stops an SMP render.
+#[test]
+fn a_waiting_master_says_so_and_ctrl_c_exits_130() {
+    use std::io::{BufRead, BufReader};
+    let dir = tempfile::tempdir().unwrap();
+    let nff = scene(dir.path());
+    let mut master = Command::new(env!("CARGO_BIN_EXE_parrt"))
+        .args([
+            "master",
+            path(&nff),
+            "--token",
+            "a-token",
+            "--listen",
+            "127.0.0.1:0",
+        ])
+        .args(["--wait-workers", "60", "-o"])
+        .arg(dir.path().join("never.png"))
+        .env_remove("PARRT_LOG")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(master.stderr.take().unwrap());
+    let mut lines = Vec::new();
+    for _ in 0..2 {
+        let mut line = String::new();
+        err.read_line(&mut line).unwrap();
+        lines.push(line);
+    }
+    // SAFETY: kill with a signal to a child this test started and has not reaped.
+    unsafe { libc::kill(master.id() as libc::pid_t, libc::SIGINT) };
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    let status = master.wait().unwrap();
+    assert!(
+        lines[0].starts_with("parrt master: listening on 127.0.0.1:"),
+        "{lines:?}"
+    );
+    assert_eq!(
+        lines[1],
+        "parrt master: waiting for 1 worker (up to 60 s)…\n"
+    );
+    assert_eq!(status.code(), Some(130), "{lines:?} {rest}");
+    assert!(
+        !rest.contains("INFO") && !rest.contains("parrt_runtime::"),
+        "log lines by default: {rest}"
+    );
 }

@@ -565,6 +565,46 @@ fn polygon_with_two_vertices() {
     );
 }
 
+/// Polygons and patches of zero area (a triangle of three equal vertices; collinear patches, as
+/// SPD's teapot generator writes at size 1) are dropped with one warning that counts them and
+/// names the first one's line; the rest of the file is read and rendered.
+#[test]
+fn polygons_of_zero_area_are_dropped_with_one_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("flat.nff");
+    let collinear_pp = "pp 3\n0 0 0 0 0 1\n1 0 0 0 0 1\n2 0 0 0 0 1\n";
+    let content = s(&[
+        V,
+        F,
+        "s 0 0 0 1\n",                // line 3
+        "p 3\n1 1 1\n1 1 1\n1 1 1\n", // line 4: three equal vertices
+        "p 3\n0 0 0\n1 0 0\n0 1 0\n", // line 8: a real triangle
+        collinear_pp,                 // line 12
+        collinear_pp,                 // line 16
+    ]);
+    std::fs::write(&path, content).unwrap();
+    let p = path.to_str().unwrap();
+    let out = parrt(&["info", p, "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert_eq!(err.matches("of zero area").count(), 1, "one warning: {err}");
+    assert!(
+        err.contains(&format!(
+            "{p}:4:1: 3 polygons and patches of zero area dropped (the vertices coincide or \
+             are collinear); the first is this polygon"
+        )),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(v["primitives"], 2, "{v}");
+    assert_eq!(v["polygons"], 1, "{v}");
+    assert_eq!(v["spheres"], 1, "{v}");
+    // What is left renders.
+    let img = dir.path().join("flat.png");
+    let o = parrt(&["render", p, "-o", img.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 #[test]
 fn collinear_polygon() {
     bad(

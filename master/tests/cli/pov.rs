@@ -1,6 +1,6 @@
 //! `parrt scene FILE --format pov` end to end: an SPD file becomes a POV-Ray scene with one
 //! object per primitive (a polygon as its triangles, concave gears too), to stdout or to a file
-//! named `*.pov`; the scene file itself as the output, `--size` with a file and a malformed scene
+//! named `*.pov`; the scene file itself as the output, `--factor` with a file and a malformed scene
 //! exit 2.
 
 use crate::{parrt, spd, stderr};
@@ -52,7 +52,7 @@ fn the_output_file_names_the_format() {
         parrt::nff::parse_file(std::path::Path::new(&spd("balls-3.nff")), &limits).unwrap()
     );
     // A generated scene as POV-Ray: the same objects as its NFF.
-    let pov = converted(&["scene", "tetra", "--size", "2", "--format", "pov"]);
+    let pov = converted(&["scene", "tetra", "--factor", "2", "--format", "pov"]);
     assert_eq!(pov.matches("    triangle {").count(), 16);
 }
 
@@ -71,11 +71,11 @@ fn the_scene_is_never_overwritten_and_bad_input_exits_2() {
         format!("parrt: the scene {s} and -o {s} are the same file; give each its own\n")
     );
     assert_eq!(std::fs::read_to_string(&scene).unwrap(), text);
-    let o = parrt(&["scene", s, "--size", "2"]);
+    let o = parrt(&["scene", s, "--factor", "2"]);
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(
         stderr(&o),
-        format!("parrt: --size makes a generated scene; {s} is a file\n")
+        format!("parrt: --factor makes a generated scene; {s} is a file\n")
     );
     // A malformed scene: the file, line and column, exit 2.
     std::fs::write(&scene, "s 0 0 0\n").unwrap();

@@ -8,14 +8,17 @@
 //! in this order) · `l x y z [r g b]` · `f r g b Kd Ks Shine T ior` · `c bx by bz br ax ay az ar`
 //! · `s x y z r` · `p n` + n × `x y z` · `pp n` + n × `x y z nx ny nz`.
 //!
-//! Choices where the format leaves one (docs/design-rendering.md, *NFF reading*): `b`, `l` and `v`
-//! may come after objects (a late `v` is logged); a second `b` replaces the first (logged); a
-//! primitive before any `f` gets [`Material::default_white`] as material 0 (logged); a first token
-//! `nff` is refused as Sense8 NFF. Refused as degenerate (rules in [`super::checks`]): from = at, a
-//! zero `up` or one parallel to the view, an angle outside (0, 180), a negative hither, a zero
-//! resolution, a polygon or patch with fewer than 3 vertices or a zero Newell normal, a cone
-//! without an axis, with exactly one negative radius (`-0` is not negative) or with both radii
-//! zero, a sphere of radius zero.
+//! Choices where the format leaves one (docs/design-rendering.md, *NFF reading*): `b`, `l` and `v` may come after
+//! objects (a late `v` is logged); a second `b` replaces the first (logged); a primitive before
+//! any `f` gets [`Material::default_white`] as material 0 (logged); a first token `nff` is refused
+//! as Sense8 NFF. Refused as degenerate (rules in [`super::checks`]): from = at, a zero `up` or
+//! one parallel to the view, an angle outside (0, 180), a negative hither, a zero resolution, a
+//! polygon or patch with fewer than 3 vertices, a cone without an axis, with exactly one
+//! negative radius (`-0` is not negative) or with both radii zero, a sphere of radius zero.
+//! A polygon or patch of zero area (a zero Newell normal: coincident or collinear vertices,
+//! which SPD's own generators can emit) is dropped instead, and all of them are reported in
+//! one warning naming the first one's line, as a missing `f` is; a file left with no
+//! primitive by the dropping is refused at the first one.
 
 use super::checks::{self, CameraProblem, ConeProblem, PolygonProblem};
 use super::error::{NffError, NffErrorKind};
@@ -36,6 +39,19 @@ pub struct ParsedNff {
     /// True when a primitive came before every `f`, so material 0 is
     /// [`Material::default_white`] rather than a line of the file.
     pub default_material_inserted: bool,
+}
+
+/// What a polygon of zero area is, in the parser's messages.
+const ZERO_AREA: &str =
+    "zero area (its Newell normal is zero: the vertices coincide or are collinear)";
+
+/// The polygons and patches of zero area a file held, dropped as they were read.
+#[derive(Default)]
+struct Flat {
+    /// How many.
+    count: u64,
+    /// The first one's entity name and keyword token.
+    first: Option<(&'static str, Token)>,
 }
 
 /// Parses NFF text. `file` is the name used in error messages.
@@ -271,6 +287,9 @@ impl<'a> Parser<'a> {
         // The last entity read, for "extra field" messages.
         let mut last: Option<(&'static str, Token)> = None;
         let mut first = true;
+        // Polygons and patches of zero area, dropped: how many, and the first one's keyword
+        // (they are reported once, after the file, in one warning).
+        let mut flat = Flat::default();
 
         while let Some(t) = self.lx.next() {
             let kw = self.lx.text(&t);
@@ -342,10 +361,16 @@ impl<'a> Parser<'a> {
                         ));
                     }
                     let (shape, name) = match kw {
-                        b"c" => (self.cone(&t)?, "cone"),
-                        b"s" => (self.sphere()?, "sphere"),
+                        b"c" => (Some(self.cone(&t)?), "cone"),
+                        b"s" => (Some(self.sphere()?), "sphere"),
                         b"p" => (self.polygon(&t)?, "polygon"),
                         _ => (self.patch(&t)?, "patch"),
+                    };
+                    let Some(shape) = shape else {
+                        flat.count += 1;
+                        flat.first.get_or_insert((name, t));
+                        last = Some((name, t));
+                        continue;
                     };
                     if materials.is_empty() {
                         tracing::warn!(
@@ -374,6 +399,31 @@ impl<'a> Parser<'a> {
                 format!("the file has no view block: expected one ({VIEW_ORDER}) before the end of the file"),
             ));
         };
+        if let Some((entity, t)) = flat.first {
+            let n = flat.count;
+            if primitives.is_empty() {
+                // Nothing would be left to render: refused, as before any was dropped.
+                return Err(self.syntax(
+                    &t,
+                    format!(
+                        "degenerate {entity}: {ZERO_AREA}, and the file has no other primitive \
+                         to render ({n} of zero area)"
+                    ),
+                ));
+            }
+            let what = if n == 1 {
+                "polygon or patch"
+            } else {
+                "polygons and patches"
+            };
+            tracing::warn!(
+                "{}:{}:{}: {n} {what} of zero area dropped (the vertices coincide or are \
+                 collinear); the first is this {entity}",
+                self.file,
+                t.line,
+                t.column
+            );
+        }
         Ok(ParsedNff {
             description: SceneDescription {
                 background: background.unwrap_or_else(Vec3d::zero),
@@ -628,7 +678,8 @@ impl<'a> Parser<'a> {
         usize::try_from(n).map_err(|_| self.limit(&t, format!("{n} vertices do not fit in memory")))
     }
 
-    fn polygon(&mut self, kw: &Token) -> Result<Shape, NffError> {
+    /// A polygon, or `None` for one of zero area (its vertices read; the caller drops it).
+    fn polygon(&mut self, kw: &Token) -> Result<Option<Shape>, NffError> {
         let n = self.vertex_count("polygon", MIN_VERTEX_BYTES)?;
         let mut vs = Vec::with_capacity(n);
         for i in 1..=n as u64 {
@@ -644,11 +695,12 @@ impl<'a> Parser<'a> {
                 self.real(f("z"))?,
             ));
         }
-        self.plane(kw, "polygon", checks::polygon(vs.iter().copied()))?;
-        Ok(Shape::Polygon(vs.into()))
+        let flat = self.plane(kw, "polygon", checks::polygon(vs.iter().copied()))?;
+        Ok((!flat).then(|| Shape::Polygon(vs.into())))
     }
 
-    fn patch(&mut self, kw: &Token) -> Result<Shape, NffError> {
+    /// A patch, or `None` for one of zero area (its vertices read; the caller drops it).
+    fn patch(&mut self, kw: &Token) -> Result<Option<Shape>, NffError> {
         let n = self.vertex_count("patch", 2 * MIN_VERTEX_BYTES)?;
         let mut vs = Vec::with_capacity(n);
         for i in 1..=n as u64 {
@@ -666,22 +718,22 @@ impl<'a> Parser<'a> {
             );
             vs.push(PatchVertex { position, normal });
         }
-        self.plane(kw, "patch", checks::polygon(vs.iter().map(|v| v.position)))?;
-        Ok(Shape::Patch(vs))
+        let flat = self.plane(kw, "patch", checks::polygon(vs.iter().map(|v| v.position)))?;
+        Ok((!flat).then_some(Shape::Patch(vs)))
     }
 
+    /// Whether a polygon's plane is usable: `Ok(false)` yes, `Ok(true)` for zero area (such a
+    /// polygon is dropped, as SPD's own generators can emit one: a teapot patch at size 1 is
+    /// collinear), an error for coordinates too large to compute with.
     fn plane(
         &self,
         kw: &Token,
         entity: &str,
         r: Result<(), PolygonProblem>,
-    ) -> Result<(), NffError> {
+    ) -> Result<bool, NffError> {
         match r {
-            Ok(()) => Ok(()),
-            Err(PolygonProblem::ZeroArea) => Err(self.syntax(
-                kw,
-                format!("degenerate {entity}: zero area (its Newell normal is zero: the vertices coincide or are collinear)"),
-            )),
+            Ok(()) => Ok(false),
+            Err(PolygonProblem::ZeroArea) => Ok(true),
             Err(PolygonProblem::Overflow) => Err(self.syntax(
                 kw,
                 format!("{entity} coordinates too large: its normal overflows a double"),

@@ -25,7 +25,7 @@ pub struct AccuracyArgs {
     #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", required_unless_present = "replot")]
     pub scenes: Vec<String>,
-    /// Image size of the reference and every configuration.
+    /// Image size in pixels of the reference and every configuration: WxH, or N for NxN.
     #[arg(long, value_name = "WxH", default_value = "256x256")]
     pub size: String,
     /// Output directory for accuracy.md, accuracy.csv and the plots.

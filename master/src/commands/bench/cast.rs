@@ -19,9 +19,9 @@ pub struct CastArgs {
     #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", required = true)]
     pub scenes: Vec<String>,
-    /// Image size (square; default: the scene's resolution).
-    #[arg(long, value_name = "PX")]
-    pub size: Option<u32>,
+    /// Image size in pixels, WxH or N for NxN (default: the scene's resolution).
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
     /// Skip shadow rays to lights behind the surface (Embree harness: -cull).
     #[arg(long)]
     pub cull: bool,
@@ -53,8 +53,8 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
     for name in &args.scenes {
         let spec = SceneSpec::parse(name)?;
         let (desc, _) = spec.load(&args.limits.limits())?;
-        let (w, h) = match args.size {
-            Some(s) => (s, s),
+        let (w, h) = match &args.size {
+            Some(s) => crate::cli_args::size::parse_size(s)?,
             None => (desc.view.width, desc.view.height),
         };
         args.limits.check_image(w, h, 32)?;

@@ -32,7 +32,7 @@ pub struct PrecisionArgs {
     #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE")]
     pub scenes: Vec<String>,
-    /// Image size of every render.
+    /// Image size in pixels of every render: WxH, or N for NxN.
     #[arg(long, value_name = "WxH", default_value = "128x128")]
     pub size: String,
     /// Output directory for precision.md, precision.csv and the plots.

@@ -1,8 +1,7 @@
 //! Pareto plots of the study: trace time against RMSE on log–log axes, every configuration a
 //! point, the Pareto front a line, the default configuration marked. Written as SVG and PNG with
-//! axis labels, a legend (what each colour and mark is) and a caption. plotters lays text out with a registered font: when
-//! [`crate::plot::font_ready`] finds none, both are drawn without text (grid lines on powers of
-//! ten, as the Markdown report explains).
+//! axis labels, a legend (what each colour and mark is) and a caption, laid out with the font
+//! built into the binary ([`crate::plot::font_ready`]).
 
 use plotters::coord::Shift;
 use plotters::prelude::*;

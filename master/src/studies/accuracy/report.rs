@@ -196,8 +196,7 @@ pub fn markdown(studies: &[SceneStudy], width: u32, height: u32, threads: usize)
     let _ = writeln!(
         s,
         "\nPlots: `pareto-<scene>.svg` and `.png`: x = trace seconds, y = RMSE against the \
-         reference, both log scale (the plots have no text when no system font was found; the grid \
-         lines are then at powers of ten); grey f32/1 sample, green f64/1 sample, orange \
+         reference, both log scale; grey f32/1 sample, green f64/1 sample, orange \
          4 samples, red line the Pareto front, blue ring the default."
     );
     s

@@ -41,7 +41,7 @@ pub struct ClusterArgs {
     #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", default_value = "mount")]
     pub scene: String,
-    /// Image size (square), pixels.
+    /// Image size in pixels, N for NxN (this study renders square images).
     #[arg(long, value_name = "PX", default_value_t = 512)]
     pub size: u32,
     /// Samples per pixel of the recorded render.
