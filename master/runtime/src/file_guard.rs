@@ -258,7 +258,14 @@ mod tests {
         let b = File::open(&f).unwrap();
         assert_eq!(try_lock(&a).unwrap(), None);
         let held = try_lock(&b).unwrap().expect("held by the first");
-        assert_eq!(held, format!("process {}", std::process::id()));
+        let pid = std::process::id();
+        assert_eq!(
+            held,
+            format!(
+                "process {pid} holds its lock, as /proc/locks says; check with `ps -p {pid}` \
+                 that it is a parrt master before stopping it"
+            )
+        );
         drop(a);
         assert_eq!(try_lock(&b).unwrap(), None);
     }
