@@ -21,6 +21,12 @@ pub const MASTER_FRAME_AFTER_JOB: usize = 64 * 1024;
 /// [`MASTER_FRAME_AFTER_JOB`] whatever a master is told.
 pub const MAX_BATCH: usize = 256;
 
+/// The most bytes of pixels a worker holds for one assignment's results (sent together): 256
+/// MiB, more than a full batch of the largest tiles an honest master sends (256 tiles of
+/// 256² f32 pixels are 192 MiB), far less than a hostile one could ask for in one batch (32
+/// tiles of 2048² f32 are 1.5 GiB).
+pub const MAX_BATCH_RESULT_BYTES: usize = 256 * 1024 * 1024;
+
 /// Bytes of a TileResult beside its pixels (ids, attempt, ray statistics, seconds, varint
 /// lengths), rounded up generously.
 pub const RESULT_OVERHEAD: usize = 256;
@@ -68,17 +74,32 @@ pub const MAX_FLAG_SECONDS: f64 = 7.0 * 86_400.0;
 /// Characters of a peer's name (or other peer text) shown in a log or kept in a record.
 pub const MAX_SHOWN_CHARS: usize = 64;
 
+/// Characters of a peer's reason (a refusal, an error) shown to a user: enough for every
+/// reason a parrt master gives, far under a screenful.
+pub const MAX_SHOWN_REASON_CHARS: usize = 300;
+
 /// `text` made safe to log or keep: control and non-ASCII characters escaped (as `{:?}` does,
 /// without the quotes) and cut to [`MAX_SHOWN_CHARS`] characters, with `…` and the original
 /// length when cut.
 pub fn shown(text: &str) -> String {
+    shown_within(text, MAX_SHOWN_CHARS)
+}
+
+/// A reason a peer sent (its `Refused` or `Error`), made safe to print on a user's terminal:
+/// control characters escaped (so no escape sequence, link or forged log line gets through)
+/// and cut to [`MAX_SHOWN_REASON_CHARS`] characters, as [`shown`] does.
+pub fn shown_reason(text: &str) -> String {
+    shown_within(text, MAX_SHOWN_REASON_CHARS)
+}
+
+fn shown_within(text: &str, max: usize) -> String {
     let escaped: String = text
         .chars()
         .flat_map(char::escape_debug)
-        .take(MAX_SHOWN_CHARS + 1)
+        .take(max + 1)
         .collect();
-    if escaped.chars().count() > MAX_SHOWN_CHARS {
-        let cut: String = escaped.chars().take(MAX_SHOWN_CHARS).collect();
+    if escaped.chars().count() > max {
+        let cut: String = escaped.chars().take(max).collect();
         format!("{cut}… ({} bytes)", text.len())
     } else {
         escaped

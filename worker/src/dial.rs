@@ -1,7 +1,8 @@
 //! Dialling the master: retry with exponential backoff (doubling, capped) until a connection is
 //! made, the time budget is spent, or we are told to stop. Workers may start before the master.
 //! A handshake cut short (the master's connection table full, the master restarting) is retried
-//! within the same budget; a refusal never is. What a connection is (TCP, or a simulated or
+//! with backoff (the budget counted afresh when the master closed it: it is up, only busy); a
+//! refusal never is. What a connection is (TCP, or a simulated or
 //! in-memory stream) comes from a [`Dial`]; this file only decides when to try again.
 
 use crate::error::WorkerError;
@@ -102,6 +103,12 @@ impl<'a, D: Dial> Dialer<'a, D> {
         why: WorkerError,
         stop: &CancellationToken,
     ) -> Result<bool, WorkerError> {
+        // A master that closed our handshake is up, only busy (its handshake budget full,
+        // perhaps of squatters it is evicting): keep dialling it with backoff, the budget
+        // counted afresh. One that timed out or never answered still spends the budget.
+        if closed_by_master(&why) {
+            self.start = Instant::now();
+        }
         if self.start.elapsed() + self.delay > self.opts.dial_timeout {
             return Err(why);
         }
@@ -130,6 +137,18 @@ impl<'a, D: Dial> Dialer<'a, D> {
         }
         self.delay = (self.delay * 2).min(self.opts.max_backoff);
         true
+    }
+}
+
+/// Whether the master ended the handshake itself (closed or reset the connection).
+fn closed_by_master(why: &WorkerError) -> bool {
+    match why {
+        WorkerError::ClosedInHandshake => true,
+        WorkerError::Protocol(parrt_protocol::ProtocolError::Io(e)) => matches!(
+            e.kind(),
+            std::io::ErrorKind::ConnectionReset | std::io::ErrorKind::ConnectionAborted
+        ),
+        _ => false,
     }
 }
 

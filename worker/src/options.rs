@@ -35,6 +35,10 @@ pub struct WorkerOptions {
     /// Largest frame accepted from the master until the Job has arrived (then
     /// [`parrt_protocol::limits::MASTER_FRAME_AFTER_JOB`]), and largest frame sent.
     pub max_frame: usize,
+    /// Most bytes of pixels one assignment's results may hold at once (a batch's results are
+    /// sent together); tiles past it are refused with an Error to the master, not rendered.
+    /// [`parrt_protocol::limits::MAX_BATCH_RESULT_BYTES`] by default.
+    pub batch_budget: usize,
     /// Sleep before each tile (testing aid, see [`TILE_DELAY_ENV`]).
     pub tile_delay: Option<Duration>,
     /// Seed of the handshake nonces (simulation aid): `None` (the default) draws them from the
@@ -60,6 +64,7 @@ impl WorkerOptions {
             heartbeat: Duration::from_secs(1),
             master_timeout: Duration::from_secs(30),
             max_frame: DEFAULT_MAX_FRAME,
+            batch_budget: parrt_protocol::limits::MAX_BATCH_RESULT_BYTES,
             tile_delay: tile_delay_from_env(),
             nonce_seed: None,
         }

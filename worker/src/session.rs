@@ -190,7 +190,7 @@ async fn open<S: AsyncRead + AsyncWrite + Unpin>(
 fn channel_error(e: ChannelError, opts: &WorkerOptions) -> WorkerError {
     match e {
         ChannelError::WrongKey => WorkerError::MasterUnproven(opts.connect.clone()),
-        ChannelError::Refused(r) => WorkerError::Refused(limits::capped_reason(r)),
+        ChannelError::Refused(r) => WorkerError::Refused(limits::shown_reason(&r)),
         ChannelError::Closed => WorkerError::ClosedInHandshake,
         ChannelError::Io(e) => WorkerError::Protocol(ProtocolError::Io(e)),
         other => WorkerError::Channel(other),
@@ -259,7 +259,7 @@ async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
             nonce
         }
         Message::Refused { reason } => {
-            return Err(WorkerError::Refused(limits::capped_reason(reason)))
+            return Err(WorkerError::Refused(limits::shown_reason(&reason)))
         }
         other => {
             return Err(WorkerError::Unexpected {
@@ -274,7 +274,7 @@ async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
     write_within(conn, &auth, opts.handshake_timeout).await?;
     match read_in_handshake(conn, opts).await? {
         Message::Welcome => Ok(()),
-        Message::Refused { reason } => Err(WorkerError::Refused(limits::capped_reason(reason))),
+        Message::Refused { reason } => Err(WorkerError::Refused(limits::shown_reason(&reason))),
         other => Err(WorkerError::Unexpected {
             got: other.kind(),
             during: "waiting for Welcome",
@@ -354,7 +354,7 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                     }
                     Message::Heartbeat => {}
                     Message::Error { reason } => {
-                        let reason = limits::capped_reason(reason);
+                        let reason = limits::shown_reason(&reason);
                         warn!(%reason, "master reported an error");
                     }
                     other => {
@@ -429,7 +429,13 @@ async fn take_tiles<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
         return Ok(());
     };
     let mut batch = Vec::with_capacity(tiles.len());
+    // What the batch's results will hold: bounded, so no assignment can make the worker
+    // allocate past its budget (the tiles past it are refused, each with an Error).
+    let mut held = 0usize;
     for (tile, attempt) in tiles {
+        let bytes = tile
+            .pixel_count()
+            .saturating_mul(j.pixel_format.bytes_per_pixel());
         let problem = if !tile_fits(&tile, j.width, j.height) {
             Some(format!(
                 "tile {} ({}x{} at {},{}) lies outside the {}x{} image",
@@ -445,7 +451,14 @@ async fn take_tiles<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                 "tile {} of {}x{} pixels does not fit one {}-byte frame",
                 tile.id, tile.w, tile.h, opts.max_frame
             ))
+        } else if held.saturating_add(bytes) > opts.batch_budget {
+            Some(format!(
+                "tile {} would make this batch's results hold more than {} bytes; assign it \
+                 again in another batch",
+                tile.id, opts.batch_budget
+            ))
         } else {
+            held += bytes;
             None
         };
         match problem {

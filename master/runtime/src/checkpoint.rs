@@ -2,14 +2,18 @@
 //! the master runs, and their source when a killed master is started again with `--resume`.
 //!
 //! ## Format (all integers little-endian)
-//! - Header, [`HEADER_LEN`] bytes: the magic `PARRTCK2`; tile edge, width, height and tile
+//! - Header, [`HEADER_LEN`] bytes: the magic `PARRTCK3`; tile edge, width, height and tile
 //!   count (`u32` each); the pixel format (`u8`: 0 f32, 1 rgb8); the seal (`u8`: 0 plain,
 //!   1 keyed); SHA-256 of the scene description's postcard encoding; SHA-256 of the settings'
-//!   postcard encoding; the first 8 bytes of the seal of everything before them.
+//!   postcard encoding; the file's job identity (16 random bytes drawn when it was created);
+//!   the first 8 bytes of the seal of everything before them.
 //! - Then one record per accepted tile: the payload length (`u32`); the payload — tile id
 //!   (`u32`), render seconds (`f64`), the 11 ray counters of [`RayStats`] (`u64` each, in
 //!   declaration order), the pixels as the job's workers sent them; the first 8 bytes of the
-//!   seal of the length and the payload.
+//!   seal of the whole header, the length and the payload. A record is thereby bound to its
+//!   job (scene and settings digests, image and tile sizes, the job identity) and to its tile:
+//!   a record of another scene, another frame or another checkpoint file, even one sealed with
+//!   the same token, does not verify here.
 //!
 //! ## Seals
 //! A [`Seal::Plain`] checkpoint (`render --workers`, `cluster`: their token lives only as long
@@ -54,9 +58,11 @@ use thiserror::Error;
 use tokio::time::Instant;
 
 /// The first bytes of every checkpoint (the digit is the format's version).
-pub const MAGIC: &[u8; 8] = b"PARRTCK2";
+pub const MAGIC: &[u8; 8] = b"PARRTCK3";
+/// Bytes of a checkpoint's job identity.
+pub const JOB_ID_LEN: usize = 16;
 /// Bytes in the header.
-pub const HEADER_LEN: usize = 8 + 4 * 4 + 1 + 1 + 32 + 32 + CHECK_LEN;
+pub const HEADER_LEN: usize = 8 + 4 * 4 + 1 + 1 + 32 + 32 + JOB_ID_LEN + CHECK_LEN;
 /// Bytes of each checksum (a truncated SHA-256 or HMAC-SHA256).
 pub const CHECK_LEN: usize = 8;
 /// The payload bytes before the pixels: tile id, seconds, 11 counters.
@@ -109,7 +115,8 @@ pub enum CheckpointError {
     },
     /// Another master has the file open.
     #[error(
-        "checkpoint {path} is in use by another master ({holder}); one checkpoint, one master"
+        "checkpoint {path} is locked by another process, another master most likely ({holder}); \
+         one checkpoint, one master"
     )]
     Locked {
         /// The file.
@@ -164,6 +171,8 @@ pub struct JobKey {
     pub format: PixelFormat,
     /// How the header and the records are sealed.
     pub seal: Seal,
+    /// The file's job identity (drawn when the file is created; read back on resume).
+    pub job: [u8; JOB_ID_LEN],
 }
 
 /// How the header and each record are checksummed: a plain SHA-256 (finds damage only), or an
@@ -261,6 +270,7 @@ impl JobKey {
             tiles: u32::try_from(n).unwrap_or(u32::MAX),
             format,
             seal: Seal::Plain,
+            job: [0; JOB_ID_LEN],
         })
     }
 
@@ -284,6 +294,7 @@ impl JobKey {
         put(&[format_byte(self.format), self.seal.byte()]);
         put(&self.scene);
         put(&self.settings);
+        put(&self.job);
         let check = self.seal.tag(&[&h[..HEADER_LEN - CHECK_LEN]]);
         h[HEADER_LEN - CHECK_LEN..].copy_from_slice(&check);
         h
@@ -337,6 +348,9 @@ impl JobKey {
             scene: bytes(26..58)?,
             settings: bytes(58..90)?,
             seal: seal.clone(),
+            job: h[90..90 + JOB_ID_LEN]
+                .try_into()
+                .map_err(|_| BadHeader::NotOne)?,
         })
     }
 
@@ -392,13 +406,20 @@ fn format_byte(f: PixelFormat) -> u8 {
     }
 }
 
-/// Appends the record of `t`, sealed plain, to `out`.
-pub fn encode_record(t: &AcceptedTile, out: &mut Vec<u8>) {
-    encode_sealed_record(t, &Seal::Plain, out);
+/// Appends the record of `t`, sealed plain, for the checkpoint whose header is `header`, to
+/// `out`.
+pub fn encode_record(t: &AcceptedTile, header: &[u8; HEADER_LEN], out: &mut Vec<u8>) {
+    encode_sealed_record(t, &Seal::Plain, header, out);
 }
 
-/// Appends the record of `t`, sealed with `seal`, to `out`.
-pub fn encode_sealed_record(t: &AcceptedTile, seal: &Seal, out: &mut Vec<u8>) {
+/// Appends the record of `t`, sealed with `seal` and bound to the checkpoint whose header is
+/// `header` (its job), to `out`.
+pub fn encode_sealed_record(
+    t: &AcceptedTile,
+    seal: &Seal,
+    header: &[u8; HEADER_LEN],
+    out: &mut Vec<u8>,
+) {
     let len = (RECORD_FIXED + t.pixels.bytes.len()) as u32;
     let start = out.len();
     out.extend_from_slice(&len.to_le_bytes());
@@ -408,7 +429,7 @@ pub fn encode_sealed_record(t: &AcceptedTile, seal: &Seal, out: &mut Vec<u8>) {
         out.extend_from_slice(&v.to_le_bytes());
     }
     out.extend_from_slice(&t.pixels.bytes);
-    let check = seal.tag(&[&out[start..]]);
+    let check = seal.tag(&[header, &out[start..]]);
     out.extend_from_slice(&check);
 }
 
@@ -452,7 +473,7 @@ pub struct Scan {
     pub good_len: u64,
 }
 
-/// Reads the plainly sealed records after the header from `r` (positioned just past it), for
+/// Reads the plainly sealed records after `header` from `r` (positioned just past it), for
 /// a job of `tiles` whose pixels travel as `format`: [`scan_sealed_records`] with
 /// [`Seal::Plain`].
 pub fn scan_records(
@@ -460,12 +481,14 @@ pub fn scan_records(
     file_len: u64,
     tiles: &[Tile],
     format: PixelFormat,
+    header: &[u8; HEADER_LEN],
 ) -> std::io::Result<Scan> {
-    scan_sealed_records(r, file_len, tiles, format, &Seal::Plain)
+    scan_sealed_records(r, file_len, tiles, format, &Seal::Plain, header)
 }
 
-/// Reads the records after the header from `r` (positioned just past it), for a job of `tiles`
-/// whose pixels travel as `format`. Never trusts a record whose seal fails; stops at a
+/// Reads the records after `header` from `r` (positioned just past it), for a job of `tiles`
+/// whose pixels travel as `format`. Never trusts a record whose seal fails (damaged, written
+/// without the key, or bound to another header: another job, frame or file); stops at a
 /// length that cannot be (the framing is lost) or at a torn end.
 pub fn scan_sealed_records(
     r: &mut impl Read,
@@ -473,6 +496,7 @@ pub fn scan_sealed_records(
     tiles: &[Tile],
     format: PixelFormat,
     seal: &Seal,
+    header: &[u8; HEADER_LEN],
 ) -> std::io::Result<Scan> {
     let max_pixels = tiles.iter().map(|t| t.pixel_count()).max().unwrap_or(0);
     let max_payload = RECORD_FIXED + max_pixels * format.bytes_per_pixel();
@@ -503,7 +527,7 @@ pub fn scan_sealed_records(
         }
         pos += (4 + n + CHECK_LEN) as u64;
         let (payload, check) = buf.split_at(n);
-        if seal.tag(&[&len, payload])[..] != check[..] {
+        if seal.tag(&[header, &len, payload])[..] != check[..] {
             scan.bad_records += 1;
             continue;
         }
@@ -549,6 +573,8 @@ pub struct Checkpoint {
     /// Bytes of the file known to be on the disk (written before the last sync).
     durable: Arc<AtomicU64>,
     seal: Seal,
+    /// The file's header: every record's seal covers it (binds the record to this job).
+    header: [u8; HEADER_LEN],
 }
 
 /// A checkpoint just opened, with what an earlier run left in it.
@@ -619,15 +645,20 @@ pub fn open(
     let file_len = file.metadata().map_err(io("read", path))?.len();
     if fresh || file_len == 0 {
         // New, or a master killed between creating the file and writing its header: nothing
-        // to lose.
-        file.write_all(&key.header())
+        // to lose. The file gets a job identity of its own, which every record is bound to.
+        let mut key = key.clone();
+        if key.job == [0; JOB_ID_LEN] {
+            key.job = rand::random();
+        }
+        let header = key.header();
+        file.write_all(&header)
             .and_then(|()| file.sync_all())
             .map_err(io("write", path))?;
         if fresh {
             sync_parent(path);
         }
         return Ok(Opened {
-            checkpoint: Checkpoint::new(file, path, key.seal.clone()),
+            checkpoint: Checkpoint::new(file, path, key.seal.clone(), header),
             scan: Scan {
                 good_len: HEADER_LEN as u64,
                 ..Scan::default()
@@ -660,7 +691,7 @@ pub fn open(
             what: diff.join("; "),
         });
     }
-    let scan = scan_sealed_records(&mut reader, file_len, tiles, key.format, &key.seal)
+    let scan = scan_sealed_records(&mut reader, file_len, tiles, key.format, &key.seal, &head)
         .map_err(io("read", path))?;
     drop(reader);
     if scan.cut_bytes > 0 {
@@ -670,7 +701,7 @@ pub fn open(
     }
     file.seek(SeekFrom::End(0)).map_err(io("seek", path))?;
     Ok(Opened {
-        checkpoint: Checkpoint::new(file, path, key.seal.clone()),
+        checkpoint: Checkpoint::new(file, path, key.seal.clone(), head),
         scan,
         created: false,
     })
@@ -690,10 +721,11 @@ fn sync_parent(path: &Path) {
 
 impl Checkpoint {
     /// `file` has just been synced, positioned at its end.
-    fn new(file: File, path: &Path, seal: Seal) -> Checkpoint {
+    fn new(file: File, path: &Path, seal: Seal, header: [u8; HEADER_LEN]) -> Checkpoint {
         let len = file.metadata().map_or(0, |m| m.len());
         Checkpoint {
             seal,
+            header,
             file,
             path: path.to_path_buf(),
             last_sync: Instant::now(),
@@ -721,7 +753,7 @@ impl Checkpoint {
         if !tiles.is_empty() {
             self.buf.clear();
             for t in tiles {
-                encode_sealed_record(t, &self.seal, &mut self.buf);
+                encode_sealed_record(t, &self.seal, &self.header, &mut self.buf);
             }
             self.file
                 .write_all(&self.buf)
@@ -773,16 +805,18 @@ mod tests {
     }
 
     fn file_of(k: &JobKey, records: &[AcceptedTile]) -> Vec<u8> {
-        let mut f = k.header().to_vec();
+        let h = k.header();
+        let mut f = h.to_vec();
         for r in records {
-            encode_record(r, &mut f);
+            encode_record(r, &h, &mut f);
         }
         f
     }
 
     fn scan(bytes: &[u8], tiles: &[Tile]) -> Scan {
+        let h: [u8; HEADER_LEN] = bytes[..HEADER_LEN].try_into().unwrap();
         let mut r = &bytes[HEADER_LEN..];
-        scan_records(&mut r, bytes.len() as u64, tiles, PixelFormat::Rgb8).unwrap()
+        scan_records(&mut r, bytes.len() as u64, tiles, PixelFormat::Rgb8, &h).unwrap()
     }
 
     #[test]
@@ -806,11 +840,60 @@ mod tests {
     }
 
     fn sealed_file_of(k: &JobKey, records: &[AcceptedTile], seal: &Seal) -> Vec<u8> {
-        let mut f = k.header().to_vec();
+        let h = k.header();
+        let mut f = h.to_vec();
         for r in records {
-            encode_sealed_record(r, seal, &mut f);
+            encode_sealed_record(r, seal, &h, &mut f);
         }
         f
+    }
+
+    /// Records of another job sealed with the same lasting token (another scene, an earlier
+    /// frame of the same scene, another checkpoint file) appended to this job's checkpoint:
+    /// none verifies, so each is dropped and its tile rendered again.
+    #[test]
+    fn records_spliced_from_another_job_or_file_do_not_verify() {
+        let dir = tempfile::tempdir().unwrap();
+        let token = b"the lasting token";
+        let (plain, tiles) = key(8);
+        let k = plain.clone().sealed_with(token);
+        let p = dir.path().join("a.ckpt");
+        let mut o = open(&p, &k, &tiles, false).unwrap();
+        o.checkpoint.append(&[tile_result(&tiles[0], 7)]).unwrap();
+        o.checkpoint.sync().unwrap();
+        drop(o);
+        let own = std::fs::read(&p).unwrap();
+        // Another scene, same token, same image and tiling.
+        let desc_b = parrt_scenes::generate("balls", Some(2)).unwrap();
+        let kb = JobKey::new(&desc_b, &RenderSettings::new(20, 12), 8, PixelFormat::Rgb8)
+            .unwrap()
+            .sealed_with(token);
+        let pb = dir.path().join("b.ckpt");
+        // The same scene, another file (an earlier frame's, or a second run's).
+        let pc = dir.path().join("c.ckpt");
+        for (other, key_other) in [(&pb, &kb), (&pc, &k)] {
+            let mut o = open(other, key_other, &tiles, false).unwrap();
+            let white: Vec<_> = tiles.iter().map(|t| tile_result(t, 255)).collect();
+            o.checkpoint.append(&white).unwrap();
+            o.checkpoint.sync().unwrap();
+            drop(o);
+            let foreign = std::fs::read(other).unwrap();
+            let mut spliced = own.clone();
+            spliced.extend_from_slice(&foreign[HEADER_LEN..]);
+            std::fs::write(&p, &spliced).unwrap();
+            let o = open(&p, &k, &tiles, true).unwrap();
+            assert_eq!(
+                o.scan.tiles.len(),
+                1,
+                "{} tiles restored from {}",
+                o.scan.tiles.len(),
+                other.display()
+            );
+            assert_eq!(o.scan.tiles[0].pixels.bytes[0], 7, "the file's own record");
+            assert_eq!(o.scan.bad_records, tiles.len());
+            drop(o);
+            std::fs::write(&p, &own).unwrap();
+        }
     }
 
     /// Someone who can write a keyed checkpoint but has not the token rewrites

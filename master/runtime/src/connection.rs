@@ -8,8 +8,8 @@
 //! name is only ever logged or kept through [`limits::shown`] (escaped, cut), its reasons
 //! through [`limits::capped_reason`]; every write is bounded by the heartbeat timeout.
 
+use super::admission::HandshakeSlot;
 use super::scheduler::{Event, WorkerId};
-use super::server::HandshakeSlot;
 use parrt::isa::Isa;
 use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt_protocol::limits::{self, MAX_THREADS};
@@ -75,9 +75,27 @@ pub async fn serve<S: AsyncRead + AsyncWrite + Unpin + Send>(
     slot: HandshakeSlot,
 ) {
     let peer = peer.to_string();
+    let stream = slot.watch(stream);
+    let first_bytes = slot.first_bytes();
+    // A peer that has sent nothing by its first-bytes deadline goes (an honest worker sends
+    // its greeting at once); one that has keeps the whole handshake timeout.
+    let silent = async {
+        tokio::time::sleep(first_bytes).await;
+        if slot.heard() {
+            std::future::pending::<()>().await;
+        }
+    };
     let hs = tokio::select! {
         biased;
         _ = stop.cancelled() => return,
+        _ = slot.evicted().cancelled() => Err(format!(
+            "closed to make room for a newcomer: silent longest of the {}",
+            if slot.heard() { "handshakes" } else { "handshakes, having sent nothing" }
+        )),
+        _ = silent => {
+            slot.silent_timeout();
+            Err(format!("sent nothing within {}", seconds(first_bytes)))
+        }
         r = timeout(ctx.handshake_timeout, open(stream, &ctx, id)) => match r {
             Ok(h) => h,
             Err(_) => Err(format!("handshake not finished within {}", seconds(ctx.handshake_timeout))),

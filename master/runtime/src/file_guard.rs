@@ -136,36 +136,72 @@ pub fn try_lock(file: &File) -> std::io::Result<Option<String>> {
     if e.raw_os_error() != Some(libc::EWOULDBLOCK) {
         return Err(e);
     }
+    // Named only when device and inode both match, and worded as what /proc/locks says, not
+    // as a certainty: a user may act on it (stop that process).
     let holder = file
         .metadata()
         .ok()
-        .and_then(|m| lock_holder(m.ino()))
+        .and_then(|m| lock_holder(FileId::of(m.dev(), m.ino())))
         .map_or_else(
-            || "another process".to_string(),
-            |pid| format!("process {pid}"),
+            || "another process; /proc/locks does not say which".to_string(),
+            |pid| {
+                format!(
+                    "process {pid} holds its lock, as /proc/locks says; check with \
+                     `ps -p {pid}` that it is a parrt master before stopping it"
+                )
+            },
         );
     Ok(Some(holder))
 }
 
-/// The process holding a `flock` on inode `ino`, from `/proc/locks` (lines such as
+/// A file as `/proc/locks` names it: the device's major and minor numbers and the inode (an
+/// inode number alone is unique only within one file system).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct FileId {
+    major: u64,
+    minor: u64,
+    ino: u64,
+}
+
+impl FileId {
+    fn of(dev: u64, ino: u64) -> FileId {
+        FileId {
+            major: libc::major(dev) as u64,
+            minor: libc::minor(dev) as u64,
+            ino,
+        }
+    }
+
+    /// Parses `/proc/locks`' `MAJOR:MINOR:INODE` (the device numbers in hex, the inode in
+    /// decimal).
+    fn parse(text: &str) -> Option<FileId> {
+        let mut it = text.split(':');
+        let major = u64::from_str_radix(it.next()?, 16).ok()?;
+        let minor = u64::from_str_radix(it.next()?, 16).ok()?;
+        let ino = it.next()?.parse().ok()?;
+        it.next().is_none().then_some(FileId { major, minor, ino })
+    }
+}
+
+/// The process holding a `flock` on the file `id`, from `/proc/locks` (lines such as
 /// `1: FLOCK  ADVISORY  WRITE 1234 fd:01:5678 0 EOF`).
 ///
 /// The kernel lists the locks afresh on each `read`, so a file read in several calls can skip
 /// a line when other locks come and go between them. The file is therefore read in one large
 /// call, and read again (a few times) when the lock, known to be held, is not in it.
-fn lock_holder(ino: u64) -> Option<u32> {
+fn lock_holder(id: FileId) -> Option<u32> {
     use std::io::Read;
     const ONE_READ: usize = 1 << 20;
     let mut buf = vec![0u8; ONE_READ];
     (0..4).find_map(|_| {
         let n = File::open("/proc/locks").ok()?.read(&mut buf).ok()?;
-        holder_in(std::str::from_utf8(&buf[..n]).ok()?, ino)
+        holder_in(std::str::from_utf8(&buf[..n]).ok()?, id)
     })
 }
 
-/// The pid of the `FLOCK` holder of inode `ino` in a `/proc/locks` text (lines marked `->`
+/// The pid of the `FLOCK` holder of the file `id` in a `/proc/locks` text (lines marked `->`
 /// are processes waiting for a lock, not holding it).
-fn holder_in(text: &str, ino: u64) -> Option<u32> {
+fn holder_in(text: &str, id: FileId) -> Option<u32> {
     text.lines().find_map(|line| {
         let f: Vec<&str> = line.split_whitespace().collect();
         if f.contains(&"->") {
@@ -173,8 +209,7 @@ fn holder_in(text: &str, ino: u64) -> Option<u32> {
         }
         let at = f.iter().position(|w| *w == "FLOCK")?;
         let pid: u32 = f.get(at + 3)?.parse().ok()?;
-        let inode: u64 = f.get(at + 4)?.rsplit(':').next()?.parse().ok()?;
-        (inode == ino).then_some(pid)
+        (FileId::parse(f.get(at + 4)?)? == id).then_some(pid)
     })
 }
 
@@ -223,7 +258,14 @@ mod tests {
         let b = File::open(&f).unwrap();
         assert_eq!(try_lock(&a).unwrap(), None);
         let held = try_lock(&b).unwrap().expect("held by the first");
-        assert_eq!(held, format!("process {}", std::process::id()));
+        let pid = std::process::id();
+        assert_eq!(
+            held,
+            format!(
+                "process {pid} holds its lock, as /proc/locks says; check with `ps -p {pid}` \
+                 that it is a parrt master before stopping it"
+            )
+        );
         drop(a);
         assert_eq!(try_lock(&b).unwrap(), None);
     }
@@ -234,13 +276,50 @@ mod tests {
                     2: -> FLOCK  ADVISORY  WRITE 99 fd:01:5678 0 EOF\n\
                     2: FLOCK  ADVISORY  WRITE 1234 fd:01:5678 0 EOF\n\
                     3: FLOCK  ADVISORY  WRITE -1 fd:01:7 0 EOF\n";
+        let id = |ino| FileId {
+            major: 0xfd,
+            minor: 1,
+            ino,
+        };
         assert_eq!(
-            holder_in(text, 5678),
+            holder_in(text, id(5678)),
             Some(1234),
             "the holder, not the waiter"
         );
-        assert_eq!(holder_in(text, 42), None, "a POSIX lock is not a flock");
-        assert_eq!(holder_in(text, 7), None, "a pid hidden from this namespace");
-        assert_eq!(holder_in(text, 8), None);
+        assert_eq!(holder_in(text, id(42)), None, "a POSIX lock is not a flock");
+        assert_eq!(
+            holder_in(text, id(7)),
+            None,
+            "a pid hidden from this namespace"
+        );
+        assert_eq!(holder_in(text, id(8)), None);
+    }
+
+    /// The same inode number on another file system (another device) is another file: its
+    /// lock's holder is not named.
+    #[test]
+    fn a_lock_on_the_same_inode_of_another_device_names_no_one() {
+        let text = "1: FLOCK  ADVISORY  WRITE 4321 08:02:5678 0 EOF\n\
+                    2: FLOCK  ADVISORY  WRITE 1234 fd:01:5678 0 EOF\n";
+        let ours = FileId {
+            major: 0xfd,
+            minor: 1,
+            ino: 5678,
+        };
+        assert_eq!(holder_in(text, ours), Some(1234));
+        let elsewhere = FileId {
+            major: 0x103,
+            minor: 0,
+            ino: 5678,
+        };
+        assert_eq!(holder_in(text, elsewhere), None);
+        assert_eq!(
+            FileId::parse("103:00:5678"),
+            Some(FileId {
+                major: 0x103,
+                minor: 0,
+                ino: 5678
+            })
+        );
     }
 }

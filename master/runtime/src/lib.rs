@@ -11,6 +11,8 @@
 //! - [`run`] (this file): the one entry point: listen, start local workers, render, stop.
 //! - [`options`]: what a master is told, split by concern ([`MasterConfig`]).
 //! - [`server`]: the accept loop and the run loop ([`server::Master`], the async API).
+//! - [`admission`]: who may hold a connection before authenticating (budgets, deadlines,
+//!   eviction of silent squatters, penalties).
 //! - [`connection`]: one task per peer: handshake, then relaying between socket and scheduler.
 //! - [`scheduler`]: the job's state and rules (windows, deadlines, first result wins,
 //!   backups); no I/O, tested alone on a paused clock.
@@ -42,6 +44,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod admission;
 pub mod batch;
 pub mod checkpoint;
 pub mod clock;

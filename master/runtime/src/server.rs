@@ -1,13 +1,14 @@
 //! The master's server: takes peers from a [`Listener`] (each served by a task from
-//! [`super::connection`], at most `max_connections` at once, of which at most
-//! [`MAX_HANDSHAKING`] still handshaking and [`MAX_HANDSHAKING_PER_PEER`] of those from one
-//! address, so peers that stall their handshake never hold an authenticated worker's slot),
+//! [`super::connection`], at most `max_connections` at once, those not yet authenticated
+//! under the budgets and deadlines of [`super::admission`], so peers that stall or squat a
+//! handshake never hold an authenticated worker's slot nor keep a newcomer out),
 //! and runs the loop that moves events into the scheduler and accepted tiles into the sink
 //! until the scheduler says stop; then it tells every worker to shut down and waits for the
 //! tasks to end (a `CancellationToken` broadcast and a `TaskTracker`, as in mini-redis's
 //! shutdown). Every decision is the scheduler's ([`Scheduler::step`]); this loop only moves
 //! events, bytes and time.
 
+use super::admission::Admission;
 use super::checkpoint::Opened;
 use super::clock::SharedClock;
 use super::connection::{self, ConnContext};
@@ -17,18 +18,15 @@ use super::scheduler::{AcceptedTile, Event, SchedOptions, Scheduler, Step, Verdi
 use super::sink::{BackgroundWriter, TileSink, WRITER_QUEUE};
 use super::{DistError, DistResult};
 use parrt::description::SceneDescription;
-use parrt_protocol::limits::{
-    frame_allowance, worker_frame_limit, MAX_HANDSHAKING, MAX_HANDSHAKING_PER_PEER,
-};
+use parrt_protocol::limits::{frame_allowance, worker_frame_limit};
 use parrt_protocol::{Encoded, JobSpec, Message, Token};
 use parrt::settings::RenderSettings;
 use parrt::tile::tiles;
 use rand::{Rng, SeedableRng};
-use std::collections::HashMap;
-use std::net::{IpAddr, SocketAddr};
-use std::sync::{Arc, Mutex};
+use std::net::SocketAddr;
+use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::{mpsc, OwnedSemaphorePermit, Semaphore};
+use tokio::sync::mpsc;
 use tokio::time::{interval, timeout, Instant, MissedTickBehavior};
 use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
@@ -427,67 +425,6 @@ fn failure(v: Verdict, sched: &Scheduler, total: usize) -> DistError {
     }
 }
 
-/// A peer's place in the handshake budget (overall and per address); given back on drop.
-#[derive(Debug)]
-pub struct HandshakeSlot {
-    _permit: OwnedSemaphorePermit,
-    ip: IpAddr,
-    per_peer: Arc<Mutex<HashMap<IpAddr, usize>>>,
-}
-
-impl Drop for HandshakeSlot {
-    fn drop(&mut self) {
-        let mut map = self.per_peer.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(n) = map.get_mut(&self.ip) {
-            *n -= 1;
-            if *n == 0 {
-                map.remove(&self.ip);
-            }
-        }
-    }
-}
-
-/// The connection budgets: every connection holds a slot of `total`; one still handshaking
-/// also holds a [`HandshakeSlot`].
-struct Admission {
-    total: Arc<Semaphore>,
-    handshaking: Arc<Semaphore>,
-    per_peer: Arc<Mutex<HashMap<IpAddr, usize>>>,
-}
-
-impl Admission {
-    fn new(max_connections: usize) -> Self {
-        let max = max_connections.max(1);
-        Admission {
-            total: Arc::new(Semaphore::new(max)),
-            handshaking: Arc::new(Semaphore::new(MAX_HANDSHAKING.min(max.div_ceil(2)))),
-            per_peer: Arc::default(),
-        }
-    }
-
-    /// Slots for a new peer from `ip`, or why there is none.
-    fn admit(&self, ip: IpAddr) -> Result<(OwnedSemaphorePermit, HandshakeSlot), &'static str> {
-        let mut map = self.per_peer.lock().unwrap_or_else(|e| e.into_inner());
-        let n = map.entry(ip).or_insert(0);
-        if *n >= MAX_HANDSHAKING_PER_PEER {
-            return Err("too many handshakes from this address");
-        }
-        let Ok(permit) = self.handshaking.clone().try_acquire_owned() else {
-            return Err("too many handshakes at once");
-        };
-        let Ok(total) = self.total.clone().try_acquire_owned() else {
-            return Err("too many connections");
-        };
-        *n += 1;
-        let slot = HandshakeSlot {
-            _permit: permit,
-            ip,
-            per_peer: self.per_peer.clone(),
-        };
-        Ok((total, slot))
-    }
-}
-
 async fn accept_loop<L: Listener>(
     mut listener: L,
     ctx: Arc<ConnContext>,
@@ -496,7 +433,7 @@ async fn accept_loop<L: Listener>(
     tracker: TaskTracker,
     max_connections: usize,
 ) {
-    let admission = Admission::new(max_connections);
+    let admission = Admission::new(max_connections, ctx.handshake_timeout);
     let mut next_id: WorkerId = 1;
     // Turned-away peers are logged at WARN at most once a second.
     let mut last_warn: Option<Instant> = None;
@@ -518,7 +455,8 @@ async fn accept_loop<L: Listener>(
         };
         let (permit, slot) = match admission.admit(peer.ip()) {
             Ok(a) => a,
-            Err(why) => {
+            Err(turned) => {
+                let why = turned.reason();
                 turned_away += 1;
                 let now = Instant::now();
                 // INFO, not WARN: many honest workers arriving at once (`render --workers 40`)

@@ -4,7 +4,8 @@
 //! stderr is not a terminal the address is printed without its key and the address with it is
 //! written to a new file readable by its owner only (mode 0600, created, never opened if it
 //! exists, in `$XDG_RUNTIME_DIR` or else the temporary directory), whose path is printed
-//! instead. The file is removed when the view stops.
+//! instead. The file is removed when the view stops, and on every way out that unwinds (an
+//! error, a render ended by SIGINT or SIGTERM): its [`Announced`] removes it when dropped.
 
 use super::server::LiveView;
 use anyhow::Context;
@@ -20,10 +21,16 @@ pub struct Announced {
 
 impl Announced {
     /// Removes the file (the key is no use once the view stopped).
-    pub fn remove(&self) {
-        if let Some(f) = &self.file {
+    pub fn remove(&mut self) {
+        if let Some(f) = self.file.take() {
             let _ = std::fs::remove_file(f);
         }
+    }
+}
+
+impl Drop for Announced {
+    fn drop(&mut self) {
+        self.remove();
     }
 }
 
@@ -132,8 +139,15 @@ mod tests {
         );
         let mode = std::fs::metadata(&file).expect("meta").permissions().mode();
         assert_eq!(mode & 0o777, 0o600);
+        let mut a = a;
         a.remove();
         assert!(!file.exists());
+        // A run that fails or is stopped drops its view without `end`: the file goes too.
+        let a = announce_to(url, base, &mut Vec::new(), false, dir.path()).expect("announced");
+        let file = a.file.clone().expect("a file");
+        assert!(file.exists());
+        drop(a);
+        assert!(!file.exists(), "the key file outlived the view");
 
         let mut tty = Vec::new();
         let a = announce_to(url, base, &mut tty, true, dir.path()).expect("announced");

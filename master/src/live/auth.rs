@@ -29,16 +29,19 @@ pub fn needs_token(addr: &SocketAddr) -> bool {
 /// What the HMAC that derives the view key says it is for.
 const VIEW_KEY_CONTEXT: &[u8] = b"parrt live view";
 
-/// The live view's key for a render whose workers' token is `token`: HMAC-SHA256 keyed by the
-/// token over "parrt live view", in lower-case hex (64 characters). One way: the key does not
+/// The live view's key for one run (`run`: random bytes drawn when the view starts) of a
+/// render whose workers' token is `token`: HMAC-SHA256 keyed by the token over
+/// "parrt live view" and `run`, in lower-case hex (64 characters). One way: the key does not
 /// give the token back, so a page's address (in a browser's history, a proxy's log) cannot
-/// let a worker in.
-pub fn view_key(token: &[u8]) -> String {
+/// let a worker in; and bound to the run, so an address left behind (a key file a killed
+/// master could not remove) opens no later view, even of the same token.
+pub fn view_key(token: &[u8], run: &[u8]) -> String {
     // HMAC takes a key of any length: `new_from_slice` cannot fail for it.
     let Ok(mut mac) = Hmac::<sha2::Sha256>::new_from_slice(token) else {
         unreachable!("HMAC accepts keys of every length")
     };
     mac.update(VIEW_KEY_CONTEXT);
+    mac.update(run);
     mac.finalize()
         .into_bytes()
         .iter()
@@ -131,12 +134,17 @@ mod tests {
 
     #[test]
     fn the_view_key_is_derived_one_way_and_is_not_the_token() {
-        let k = view_key(b"s3cret");
+        let k = view_key(b"s3cret", b"run 1");
         assert_eq!(k.len(), 64);
         assert!(k
             .bytes()
             .all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase()));
-        assert_ne!(k, view_key(b"s3cres"), "another token, another key");
+        assert_ne!(
+            k,
+            view_key(b"s3cres", b"run 1"),
+            "another token, another key"
+        );
+        assert_ne!(k, view_key(b"s3cret", b"run 2"), "another run, another key");
         assert!(!k.contains("s3cret"));
         assert!(allowed(Some(k.as_bytes()), None, Some(&format!("key={k}"))));
         assert!(!allowed(

@@ -57,6 +57,10 @@ pub const KEEP_ALIVE: Duration = Duration::from_secs(10);
 /// Faults kept for the page and `/status` (the newest; the count of all is kept too).
 pub const KEPT_FAULTS: usize = 100;
 
+/// Departed workers listed on the page and in `/status` (the newest; the count of all is kept
+/// too, and every worker still connected is listed).
+pub const KEPT_DEPARTED: usize = 32;
+
 /// The longest `--http-linger`.
 pub const MAX_LINGER: Duration = Duration::from_secs(24 * 3600);
 

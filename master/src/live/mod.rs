@@ -67,9 +67,12 @@ impl Live {
     /// secret, which itself does not open the view); without one (`parrt render`) a random
     /// token is made for it. Fails only when the address cannot be served.
     pub fn start(opts: &LiveOptions, token: Option<&[u8]>) -> anyhow::Result<Live> {
+        // Fresh random bytes per run bind the key to this run: a leftover address opens
+        // nothing later.
+        let run = parrt_runtime::generate_token();
         let key = auth::needs_token(&opts.addr).then(|| match token {
-            Some(t) => auth::view_key(t),
-            None => auth::view_key(parrt_runtime::generate_token().as_bytes()),
+            Some(t) => auth::view_key(t, run.as_bytes()),
+            None => auth::view_key(parrt_runtime::generate_token().as_bytes(), run.as_bytes()),
         });
         let state = std::sync::Arc::new(LiveState::empty());
         let view = LiveView::start(
@@ -129,6 +132,7 @@ impl Live {
             }
         }
         self.view.stop();
-        self.announced.remove();
+        let mut announced = self.announced;
+        announced.remove();
     }
 }

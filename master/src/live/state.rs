@@ -8,7 +8,7 @@
 //! waits for one band at most) and [`LiveState::take_landed`] (the tiles landed since, which
 //! the batcher encodes once and sends to every page on [`LiveState::subscribe`]'s channel).
 
-use super::limits::{EVENT_BACKLOG, KEPT_FAULTS, SNAPSHOT_BAND};
+use super::limits::{EVENT_BACKLOG, KEPT_DEPARTED, KEPT_FAULTS, SNAPSHOT_BAND};
 use parrt::film::{to_u8_into, Rgb};
 use parrt::stats::RayStats;
 use parrt::tile::Tile;
@@ -150,6 +150,9 @@ pub struct Status {
     pub requeued: u64,
     /// Workers lost.
     pub lost: u64,
+    /// Departed workers no longer listed in `workers` (only the newest
+    /// [`KEPT_DEPARTED`] departures are; `lost` counts them all).
+    pub departed_folded: u64,
     /// Changes so far (a page polls this to see whether anything moved).
     pub version: u64,
 }
@@ -233,6 +236,7 @@ impl LiveState {
                     faults_total: 0,
                     requeued: 0,
                     lost: 0,
+                    departed_folded: 0,
                     version: 0,
                 },
                 created: Instant::now(),
@@ -595,6 +599,25 @@ impl Observer for LiveState {
                 w.name.clone()
             });
             Self::fault(i, "worker-lost", name, None, reason.to_string());
+            // Departed workers are folded as faults are: the oldest departures leave the list
+            // (counted), so join-and-leave cycles cannot grow every status event.
+            let departed = i
+                .status
+                .workers
+                .iter()
+                .filter(|w| w.state == WorkerState::Lost)
+                .count();
+            if departed > KEPT_DEPARTED {
+                if let Some(at) = i
+                    .status
+                    .workers
+                    .iter()
+                    .position(|w| w.state == WorkerState::Lost)
+                {
+                    i.status.workers.remove(at);
+                    i.status.departed_folded += 1;
+                }
+            }
         });
     }
 
@@ -719,5 +742,25 @@ pub(crate) mod tests {
         assert_eq!(st.faults.len(), KEPT_FAULTS);
         assert_eq!(st.faults_total, 202);
         assert_eq!(st.lost, 1);
+    }
+
+    /// Thousands of workers that join and leave leave a bounded list: the newest departures
+    /// and the ones still here, the rest counted.
+    #[test]
+    fn departed_workers_are_folded_into_a_count() {
+        let s = LiveState::new(job());
+        let now = tokio::time::Instant::now();
+        Observer::joined(&*s, 0, "stays", 2, now);
+        for id in 1..=2000 {
+            Observer::joined(&*s, id, &format!("w{id}"), 1, now);
+            Observer::left(&*s, id, "gone");
+        }
+        let st = s.status();
+        assert_eq!(st.workers.len(), 1 + KEPT_DEPARTED);
+        assert_eq!(st.workers[0].name, "stays");
+        assert_eq!(st.workers[1].name, format!("w{}", 2001 - KEPT_DEPARTED));
+        assert_eq!(st.workers.last().unwrap().name, "w2000");
+        assert_eq!(st.lost, 2000);
+        assert_eq!(st.departed_folded, 2000 - KEPT_DEPARTED as u64);
     }
 }

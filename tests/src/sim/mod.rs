@@ -2,6 +2,7 @@
 //! the real worker session on simulated hosts and TCP, in virtual time, under faults drawn
 //! from a seed. Every failure replays exactly from its seed (same trace hash).
 //!
+//! - [`args`]: the `sim` binary's flags and their ranges.
 //! - [`plan`]: the fault menu and a seed's schedule.
 //! - [`world`]: one seed's hosts, the fault driver and the invariants.
 //! - [`trace`]: the event trace (its hash) and the accepted tiles.
@@ -12,6 +13,7 @@
 //! The binary `sim` (`cargo run --release -p parrt-tests --bin sim -- explore --seeds N`)
 //! explores and replays; docs/simulation.md describes the world.
 
+pub mod args;
 pub mod net;
 pub mod plan;
 pub mod scale;

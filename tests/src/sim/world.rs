@@ -127,13 +127,16 @@ impl MasterHost {
         let out = master
             .render(&r.desc, &r.settings, CancellationToken::new())
             .await;
-        self.trace.note(&format!(
-            "master ended {}",
-            match &out {
-                Ok(_) => "ok".to_string(),
-                Err(e) => e.to_string(),
-            }
-        ));
+        let ended = match &out {
+            Ok(_) => "ok".to_string(),
+            Err(e) => e.to_string(),
+        };
+        // The checkpoint's directory is a fresh temporary one each run: kept out of the trace.
+        let ended = match self.checkpoint.as_ref().and_then(|p| p.parent()) {
+            Some(dir) => ended.replace(&dir.display().to_string(), "$CHECKPOINT_DIR"),
+            None => ended,
+        };
+        self.trace.note(&format!("master ended {ended}"));
         *self.result.lock().unwrap_or_else(|p| p.into_inner()) = Some(out);
         Ok(())
     }
@@ -535,7 +538,6 @@ fn check_image(r: &DistResult, failures: &mut Vec<String>) {
 }
 
 /// A fault's step, applied between simulation steps.
-#[derive(Debug)]
 enum Action {
     Crash(String),
     Bounce(String),
@@ -547,6 +549,31 @@ enum Action {
     /// Up to this many of the checkpoint's last bytes lost, as a power loss loses what was
     /// written but not yet synced (never what the checkpoint had synced).
     Tear(PathBuf, u64, Durable),
+}
+
+/// What the trace records of an action: only what the seed decides. A tear's file lives in a
+/// temporary directory whose name is drawn afresh by each run, so its path is left out (with
+/// it, every replay of a seed whose master crashes with a torn checkpoint hashed differently).
+impl std::fmt::Debug for Action {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Action::Crash(h) => write!(f, "Crash({h:?})"),
+            Action::Bounce(h) => write!(f, "Bounce({h:?})"),
+            Action::Hold(w) => write!(f, "Hold({w:?})"),
+            Action::Release(w) => write!(f, "Release({w:?})"),
+            Action::Partition(w) => write!(f, "Partition({w:?})"),
+            Action::Repair(w) => write!(f, "Repair({w:?})"),
+            Action::Latency(w, d) => write!(f, "Latency({w:?}, {d:?})"),
+            Action::Tear(_, bytes, durable) => {
+                let synced = durable
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .as_ref()
+                    .map(|d| d.load(std::sync::atomic::Ordering::Acquire));
+                write!(f, "Tear(checkpoint, {bytes} bytes, synced {synced:?})")
+            }
+        }
+    }
 }
 
 impl Action {

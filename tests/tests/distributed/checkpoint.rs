@@ -92,7 +92,15 @@ fn reference(dir: &Path, name: &str) -> (Vec<u8>, serde_json::Value) {
 fn scan(ckpt: &Path, format: PixelFormat) -> Scan {
     let bytes = std::fs::read(ckpt).unwrap();
     let list = tiles(SIZE, SIZE, TILE);
-    let plain = scan_records(&mut &bytes[HEADER_LEN..], bytes.len() as u64, &list, format).unwrap();
+    let head: [u8; HEADER_LEN] = bytes[..HEADER_LEN].try_into().unwrap();
+    let plain = scan_records(
+        &mut &bytes[HEADER_LEN..],
+        bytes.len() as u64,
+        &list,
+        format,
+        &head,
+    )
+    .unwrap();
     if !plain.tiles.is_empty() || plain.bad_records == 0 {
         return plain;
     }
@@ -105,6 +113,7 @@ fn scan(ckpt: &Path, format: PixelFormat) -> Scan {
         &list,
         format,
         &keyed,
+        &head,
     )
     .unwrap()
 }
@@ -351,12 +360,14 @@ fn a_torn_last_record_and_a_flipped_middle_byte_are_dropped_and_rendered_again()
     bytes[at] ^= 0x04;
     let flipped_tile = {
         let s = {
+            let head: [u8; HEADER_LEN] = bytes[..HEADER_LEN].try_into().unwrap();
             let mut r = &bytes[HEADER_LEN..];
             scan_records(
                 &mut r,
                 bytes.len() as u64,
                 &tiles(SIZE, SIZE, TILE),
                 PixelFormat::F32,
+                &head,
             )
             .unwrap()
         };

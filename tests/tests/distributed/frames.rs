@@ -276,3 +276,51 @@ async fn master_takes_a_slow_result() {
     let r = m.handle.await.unwrap().expect("the slow result was taken");
     assert_eq!(r.film.pixels[0], [0.25, 0.5, 0.75]);
 }
+
+/// A master with the token cannot make a worker hold more than its batch budget: a batch whose
+/// results would pass it has the tiles past it refused (an Error each, naming the budget), and
+/// only the ones within it rendered.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_batch_past_the_workers_budget_is_refused_not_held() {
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let mut w = worker_options(listener.local_addr().unwrap(), 1, "w");
+    // One 32×32 tile of f32 pixels (12 KiB) fits; a second does not.
+    w.batch_budget = 32 * 32 * 12 + 100;
+    let worker = start_worker(w);
+    let mut c = welcome_one(&listener).await;
+    c.write(&job(64, 64, 32)).await.unwrap();
+    let tiles: Vec<(Tile, u32)> = parrt::tile::tiles(64, 64, 32)
+        .into_iter()
+        .map(|t| (t, 1))
+        .collect();
+    assert_eq!(tiles.len(), 4);
+    c.write(&Message::AssignBatch { job_id: 7, tiles })
+        .await
+        .unwrap();
+    let (mut results, mut errors) = (Vec::new(), Vec::new());
+    let got = timeout(Duration::from_secs(60), async {
+        while results.len() + errors.len() < 4 {
+            match c.read().await {
+                Ok(Some(Message::TileResult { tile_id, .. })) => results.push(tile_id),
+                Ok(Some(Message::Error { reason })) => errors.push(reason),
+                Ok(Some(_)) => {}
+                other => panic!("the worker ended: {other:?}"),
+            }
+        }
+    })
+    .await;
+    assert!(got.is_ok(), "results {results:?}, errors {errors:?}");
+    assert_eq!(results, vec![0]);
+    assert_eq!(errors.len(), 3, "{errors:?}");
+    for (e, id) in errors.iter().zip(1..) {
+        assert_eq!(
+            e,
+            &format!(
+                "tile {id} would make this batch's results hold more than 12388 bytes; assign \
+                 it again in another batch"
+            )
+        );
+    }
+    c.write(&Message::Shutdown).await.unwrap();
+    let _ = timeout(Duration::from_secs(10), worker).await;
+}

@@ -391,3 +391,37 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
     assert_eq!(r.faults.dropped, 1);
     good.await.unwrap().unwrap();
 }
+
+/// A peer without the token that the worker dialled controls the text of its clear refusal:
+/// the worker shows it escaped (no escape sequence, link or forged log line reaches the
+/// terminal) and bounded.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_refusal_from_a_peer_is_shown_escaped_and_bounded() {
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let worker = start_worker(worker_options(addr, 1, "w"));
+    let (mut s, _) = listener.accept().await.unwrap();
+    let mut len = [0u8; 4];
+    s.read_exact(&mut len).await.unwrap();
+    let mut greeting = vec![0u8; u32::from_be_bytes(len) as usize];
+    s.read_exact(&mut greeting).await.unwrap();
+    let hostile = format!(
+        "\x1b[2J\x1b]8;;https://evil.example\x07click\x1b]8;;\x07\n\
+         2026-11-28T01:00:00Z  INFO parrt: render complete{}",
+        "x".repeat(5000)
+    );
+    let bytes = hostile.len();
+    s.write_all(&frame(&Message::Refused { reason: hostile }))
+        .await
+        .unwrap();
+    drop(s);
+    let err = worker.await.unwrap().unwrap_err().to_string();
+    assert!(!err.chars().any(char::is_control), "{err:?}");
+    assert!(
+        err.contains(r"\u{1b}[2J\u{1b}]8;;https://evil.example\u{7}click"),
+        "{err}"
+    );
+    assert!(err.contains(r"\n2026-11-28T01:00:00Z"), "{err}");
+    assert!(err.ends_with(&format!("… ({bytes} bytes)")), "{err}");
+    assert!(err.len() < 400, "{} bytes shown", err.len());
+}

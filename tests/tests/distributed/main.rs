@@ -3,7 +3,8 @@
 //! cluster launchers and the emulated cluster (`cluster_launch`, `cluster_emulated`), the
 //! command lines (`cli`), and hostile or careless peers by what they attack: the token
 //! (`token`), the handshake (`handshake`), frames after it (`frames`) and what a peer can cost
-//! (`limits`), and a relay in the middle (`relay`); the handout order from a previous
+//! (`limits`), a relay in the middle (`relay`), and
+//! handshake squatters (`squatting`); the handout order from a previous
 //! render's costs (`order`); `peers` holds their raw clients; workers on
 //! different instruction-set tiers (`tiers`). The soak is its own binary
 //! (`distributed_soak.rs`): it measures this process's memory, which tests running beside it
@@ -21,6 +22,7 @@ mod limits;
 mod order;
 mod peers;
 mod relay;
+mod squatting;
 mod tiers;
 mod token;
 

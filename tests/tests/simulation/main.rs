@@ -1,6 +1,11 @@
 //! The deterministic simulation in the test suite: a few hundred seeded fault schedules run
 //! against the real master runtime and worker sessions (turmoil, virtual time), every
-//! invariant held; a seed replays to the same trace; and the invariants can fail.
+//! invariant held; a seed replays to the same trace, in this process and in new ones
+//! ([`replay_processes`]); the invariants can fail; and the `sim` binary refuses bad flags
+//! ([`sim_cli`]).
+
+mod replay_processes;
+mod sim_cli;
 
 use parrt_tests::sim::plan::{Fault, Plan};
 use parrt_tests::sim::run_seed;
