@@ -189,7 +189,7 @@ fn cargo_run_from_the_root_runs_parrt_and_build_skips_the_test_crate() {
         .lines()
         .find(|l| l.starts_with("default-members"))
         .expect("the workspace names its default members");
-    for m in ["\"common\"", "\"master\"", "\"worker\"", "\"scenes\""] {
+    for m in ["\"render\"", "\"protocol\"", "\"master\"", "\"worker\"", "\"scenes\""] {
         assert!(line.contains(m), "{line}");
     }
     assert!(!line.contains("\"tests\""), "{line}");
