@@ -9,15 +9,13 @@
 #   usage: bench/peers.sh [scene ...]        scenes as names in data/spd (e.g. mount-6)
 #   env:   RUNS (default 3: medians), MINTIME (casting seconds per figure, default 1),
 #          PARRT_SPD_DIR (the NFF files; default data/spd in the repository),
-#          SHARED (where the Embree harness's sources are: ../shared beside the repository),
 #          OUT (default bench-out/peers),
 #          TABLES (default "render cast efficiency": which tables to print),
-#          NFFCAST (the Embree harness; built from ../shared/anchors into OUT/embree when
+#          NFFCAST (the Embree harness; built from bench/embree into OUT/embree when
 #          missing), PARRT (a parrt binary to measure instead of building one; the build honours
 #          CARGO_TARGET_DIR)
 set -euo pipefail
 REPO=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$REPO/../shared}
 SPD=$(cd "${PARRT_SPD_DIR:-$REPO/data/spd}" && pwd)
 RUNS=${RUNS:-3}
 MINTIME=${MINTIME:-1}
@@ -34,7 +32,7 @@ if [ -n "$need_apt" ]; then
     apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $need_apt >/dev/null
 fi
 NFFCAST=${NFFCAST:-$OUT/embree/nffcast}
-[ -x "$NFFCAST" ] || sh "$SHARED/anchors/embree/build.sh" "$(dirname "$NFFCAST")" >/dev/null
+[ -x "$NFFCAST" ] || sh "$REPO/bench/embree/build.sh" "$(dirname "$NFFCAST")" >/dev/null
 if [ -z "${PARRT:-}" ]; then
     (cd "$REPO" && cargo build --release -q -p parrt-master)
     PARRT=${CARGO_TARGET_DIR:-$REPO/target}/release/parrt

@@ -79,7 +79,7 @@ impl<R: Real> Integrator<R> {
     /// `avx512` tier the rays are made in lanes and the hits and their shadow rays found in
     /// lanes ([`Lanes16`], [`crate::shadow16`]), as `bench cast` does; the rest (shading,
     /// secondary rays) is the same code either way. Other tiers and `f64` make the rays one by
-    /// one (the lanes do not pay there: BENCHMARKS.md, issue 33).
+    /// one (the lanes do not pay there, as measured in bench/results/).
     pub fn trace_eye_block(
         &self,
         camera: &Camera<R>,

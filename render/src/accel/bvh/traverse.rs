@@ -13,7 +13,7 @@
 //! per node; the walk is the same code, and the primitive tests inlined into it do the same IEEE
 //! operations (no FMA is enabled), so every tier gives the same bits. A third copy with
 //! AVX-512 enabled, and an AVX-512VL node test with its comparison into a mask register, were
-//! measured 2–4 % slower on the `avx512` tier (BENCHMARKS.md, issue 33, eight-wide nodes).
+//! measured 2–4 % slower on the `avx512` tier (measured in bench/results/, eight-wide nodes).
 
 use super::build::STACK_SIZE;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
