@@ -64,8 +64,10 @@ pub const KEPT_DEPARTED: usize = 32;
 /// The longest `--http-linger`.
 pub const MAX_LINGER: Duration = Duration::from_secs(24 * 3600);
 
-/// What one connection buffers of a response before its client reads (hyper's write buffer;
-/// also the longest request head, more gets 431).
+/// What one connection buffers of a response before its client reads (hyper's write buffer).
+/// It also bounds a request head, but loosely: hyper checks the size only after a read that
+/// did not complete the head, and one read may take up to this much again, so heads of up to
+/// about twice this (128 KiB) can still be accepted; longer ones get 431.
 pub const RESPONSE_BUFFER: usize = 64 * 1024;
 
 /// `/frame` and `/image.png` are sent in copied chunks of this many bytes, so a connection
