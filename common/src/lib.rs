@@ -35,6 +35,7 @@ pub mod frame;
 pub mod geometry;
 pub mod heap;
 pub mod isa;
+pub mod lanes;
 pub mod nff;
 pub mod packet_leaf;
 pub mod packet_trace;
