@@ -240,6 +240,26 @@ impl Kernel for TrianglePacket<'_> {
     }
 }
 
+/// `p`'s components along each lane's permuted axes `kx`, `ky`, `kz` minus the ray origin's,
+/// in lanes `h..h + L::N` (no closures: they would be compiled without the tier's instructions).
+#[inline(always)]
+fn rel<L: Lanes<Elem = f32>>(r: &Rays16, h: usize, p: V3<f32>) -> [L; 3] {
+    [
+        pick::<L>(r, 0, h, p) - L::load(&r.ok[0][h..]),
+        pick::<L>(r, 1, h, p) - L::load(&r.ok[1][h..]),
+        pick::<L>(r, 2, h, p) - L::load(&r.ok[2][h..]),
+    ]
+}
+
+/// Component `k` (the permuted axis `kx`, `ky` or `kz`) of `p` in lanes `h..h + L::N`.
+#[inline(always)]
+fn pick<L: Lanes<Elem = f32>>(r: &Rays16, k: usize, h: usize, p: V3<f32>) -> L {
+    let is0 = L::mask_from(&r.k0[k][h..], u32::from(r.k0_bits[k]) >> h);
+    let is1 = L::mask_from(&r.k1[k][h..], u32::from(r.k1_bits[k]) >> h);
+    let yz = L::select(is1, L::splat(p.y), L::splat(p.z));
+    L::select(is0, L::splat(p.x), yz)
+}
+
 /// The watertight test ([`watertight`]) with a ray per lane, `L::N` rays at a time. The rays'
 /// axis permutations may differ: each lane picks its vertex components with masks.
 #[inline(always)]
@@ -256,17 +276,14 @@ fn triangle_lanes<L: Lanes<Elem = f32>>(
         if live == 0 {
             continue;
         }
-        let load = |a: &[f32; LANES]| L::load(&a[h..]);
-        // Component `k` (the permuted axis `kx`, `ky` or `kz`) of `p` in each lane.
-        let pick = |k: usize, p: V3<f32>| {
-            let is0 = L::mask_from(&r.k0[k][h..], u32::from(r.k0_bits[k]) >> h);
-            let is1 = L::mask_from(&r.k1[k][h..], u32::from(r.k1_bits[k]) >> h);
-            let yz = L::select(is1, L::splat(p.y), L::splat(p.z));
-            L::select(is0, L::splat(p.x), yz)
-        };
-        let v = tri.map(|p| [0, 1, 2].map(|k| pick(k, p) - load(&r.ok[k])));
-        let s = [0, 1, 2].map(|k| load(&r.s[k]));
-        if let Some(hit) = watertight(v, s, load(&r.t_min), load(t_max), live) {
+        let v = [rel(r, h, tri[0]), rel(r, h, tri[1]), rel(r, h, tri[2])];
+        let s = [
+            L::load(&r.s[0][h..]),
+            L::load(&r.s[1][h..]),
+            L::load(&r.s[2][h..]),
+        ];
+        let (t_min, t_max) = (L::load(&r.t_min[h..]), L::load(&t_max[h..]));
+        if let Some(hit) = watertight(v, s, t_min, t_max, live) {
             out.mask |= hit.mask << h;
             hit.t.store(&mut out.t[h..]);
             hit.b1.store(&mut out.b1[h..]);
@@ -369,12 +386,23 @@ fn sphere_lanes<L: Lanes<Elem = f32>>(
         if live == 0 {
             continue;
         }
-        let load = |a: &[f32; LANES]| L::load(&a[h..]);
-        let f = [0, 1, 2].map(|k| load(&r.o[k]) - L::splat(c[k]));
-        let d = [0, 1, 2].map(|k| load(&r.d[k]));
+        let f = [
+            L::load(&r.o[0][h..]) - L::splat(c[0]),
+            L::load(&r.o[1][h..]) - L::splat(c[1]),
+            L::load(&r.o[2][h..]) - L::splat(c[2]),
+        ];
+        let d = [
+            L::load(&r.d[0][h..]),
+            L::load(&r.d[1][h..]),
+            L::load(&r.d[2][h..]),
+        ];
         let r2 = L::splat(s.radius * s.radius);
-        if let Some(hit) = nearest_root(f, d, || load(&r.a), r2, load(&r.t_min), load(t_max), live)
-        {
+        let (a, t_min, t_max) = (
+            L::load(&r.a[h..]),
+            L::load(&r.t_min[h..]),
+            L::load(&t_max[h..]),
+        );
+        if let Some(hit) = nearest_root(f, d, a, r2, t_min, t_max, live) {
             out.mask |= hit.mask << h;
             hit.t.store(&mut out.t[h..]);
         }

@@ -28,7 +28,7 @@ impl<R: Real> Sphere<R> {
         let f = ray.o - self.center;
         let (f, d) = (f.to_array(), ray.d.to_array());
         let r2 = self.radius * self.radius;
-        let a = || ray.d.length_squared();
+        let a = ray.d.length_squared();
         let h = nearest_root(f, d, a, r2, ray.t_min, t_max, 1)?;
         (h.mask != 0).then_some(h.t)
     }
@@ -50,6 +50,12 @@ impl<R: Real> Sphere<R> {
     }
 }
 
+/// `u · v` in the scalar test's order.
+#[inline(always)]
+fn dot<L: Lanes>(u: [L; 3], v: [L; 3]) -> L {
+    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+}
+
 /// The answers of [`nearest_root`]: bit `i` of `mask` is set when lane `i` is hit, at `t`
 /// (computed in every lane, meaningful in the lanes hit).
 #[derive(Clone, Copy, Debug)]
@@ -65,21 +71,22 @@ pub(crate) struct RootHits<L> {
 /// against one sphere) its four-, eight- and sixteen-lane instances, so every lane does the
 /// same IEEE operations in the same order and gives the same bits.
 ///
-/// `f` is the origin minus the centre, `d` the direction, `r2` the squared radius; `a()` is
-/// `|d|²` (asked for only past the first rejection, as the scalar test computes it); the lanes
+/// `f` is the origin minus the centre, `d` the direction, `a` is `|d|²`, `r2` the squared
+/// radius; the lanes
 /// of `live` (bits) count. `None` when every live lane is outside and heading away.
 #[inline(always)]
 pub(crate) fn nearest_root<L: Lanes>(
     f: [L; 3],
     d: [L; 3],
-    a: impl FnOnce() -> L,
+    a: L,
     r2: L,
     t_min: L,
     t_max: L,
     live: u32,
 ) -> Option<RootHits<L>> {
     let zero = L::zero();
-    let dot = |u: [L; 3], v: [L; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    // No closures over lane operations here: a closure is compiled apart from the tier's entry,
+    // without its instruction sets, and its lane operations would become calls.
     let b = dot(f, d); // half of the usual b
     let c = dot(f, f) - r2;
     // Origin outside and heading away: both roots below are negative (q < 0, so q/a < 0 and
@@ -89,10 +96,9 @@ pub(crate) fn nearest_root<L: Lanes>(
     if reject.bits() & live == live {
         return None;
     }
-    let a = a();
     // b² − a·c computed as a·(r² − |f − (b/a)·d|²): no cancellation for distant rays.
     let ba = b / a;
-    let v = [0, 1, 2].map(|k| f[k] - d[k] * ba);
+    let v = [f[0] - d[0] * ba, f[1] - d[1] * ba, f[2] - d[2] * ba];
     let disc = a * (r2 - dot(v, v));
     reject = reject | disc.lt(zero);
     let root = disc.sqrt();
@@ -102,8 +108,8 @@ pub(crate) fn nearest_root<L: Lanes>(
     let t1 = L::select(q_zero, zero, c / q);
     let swap = t0.gt(t1);
     let (t0, t1) = (L::select(swap, t1, t0), L::select(swap, t0, t1));
-    let ok = |t: L| t.ge(t_min) & t.le(t_max) & t.gt(zero);
-    let (ok0, ok1) = (ok(t0), ok(t1));
+    let ok0 = t0.ge(t_min) & t0.le(t_max) & t0.gt(zero);
+    let ok1 = t1.ge(t_min) & t1.le(t_max) & t1.gt(zero);
     Some(RootHits {
         mask: reject.andnot(ok0 | ok1).bits() & live,
         t: L::select(ok0, t0, t1),

@@ -168,8 +168,17 @@ pub trait Source {
 impl Source for Spheres4<'_, f32> {
     #[inline(always)]
     fn lanes<L: Lanes<Elem = f32>>(&self) -> [L; 4] {
-        let c = |k: usize| L::load(&self.map(|s| s.center.get(k)));
-        [c(0), c(1), c(2), L::load(&self.map(|s| s.radius))]
+        let (x, y, z) = (
+            self.map(|s| s.center.x),
+            self.map(|s| s.center.y),
+            self.map(|s| s.center.z),
+        );
+        [
+            L::load(&x),
+            L::load(&y),
+            L::load(&z),
+            L::load(&self.map(|s| s.radius)),
+        ]
     }
 
     fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
@@ -206,10 +215,13 @@ fn kernel<L: Lanes<Elem = f32>, S: Source>(
     t_max: f32,
 ) -> DistanceHits4<f32> {
     let [cx, cy, cz, r] = spheres.lanes::<L>();
-    let o = ray.o.to_array().map(L::splat);
-    let f = [o[0] - cx, o[1] - cy, o[2] - cz];
-    let d = ray.d.to_array().map(L::splat);
-    let a = || L::splat(ray.d.length_squared());
+    let f = [
+        L::splat(ray.o.x) - cx,
+        L::splat(ray.o.y) - cy,
+        L::splat(ray.o.z) - cz,
+    ];
+    let d = [L::splat(ray.d.x), L::splat(ray.d.y), L::splat(ray.d.z)];
+    let a = L::splat(ray.d.length_squared());
     let live = (1u32 << used) - 1;
     let mut out = DistanceHits4 {
         mask: 0,

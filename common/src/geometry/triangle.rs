@@ -120,8 +120,8 @@ pub(crate) fn watertight<L: Lanes>(
     t_max: L,
     live: u32,
 ) -> Option<LaneHits<L>> {
-    let c = |x: L::Elem| L::splat(x);
-    let g = |n: u32| c(L::Elem::gamma(n));
+    // No closures over lane operations here: a closure is compiled apart from the tier's entry,
+    // without its instruction sets, and its lane operations would become calls.
     let zero = L::zero();
     let [sx, sy, sz] = s;
     let [[ax, ay, az], [bx, by, bz], [cx, cy, cz]] = v;
@@ -150,7 +150,7 @@ pub(crate) fn watertight<L: Lanes>(
     // filter, widened so they never reject a hit whose computed `t` is ≤ `t_max`: the exact
     // check is on `t` itself, so `t_max` is inclusive of the very `t` this test returns (the
     // accelerators' tie rule re-tests primitives with `t_max` = the best `t` so far).
-    let reach_det = t_max * c(L::Elem::ONE + L::Elem::TWO * L::Elem::gamma(3)) * det;
+    let reach_det = t_max * L::splat(L::Elem::ONE + L::Elem::TWO * L::Elem::gamma(3)) * det;
     let det_neg = det.lt(zero);
     let out_neg = t_scaled.ge(zero) | t_scaled.lt(reach_det);
     let out_pos = t_scaled.le(zero) | t_scaled.gt(reach_det);
@@ -158,25 +158,25 @@ pub(crate) fn watertight<L: Lanes>(
     if reject.bits() & live == live {
         return None;
     }
-    let inv_det = c(L::Elem::ONE) / det;
+    let inv_det = L::splat(L::Elem::ONE) / det;
     let t = t_scaled * inv_det;
     reject = reject | (t.lt(t_min) | t.gt(t_max));
     let b1 = e1 * inv_det;
     let b2 = e2 * inv_det;
     // Conservative bound on t's rounding error: reject hits indistinguishable from t = 0.
-    let max3 = |a: L, b: L, c: L| a.abs().maxnum(b.abs()).maxnum(c.abs());
     let max_zt = max3(saz, sbz, scz);
-    let delta_z = g(3) * max_zt;
+    let delta_z = gamma::<L>(3) * max_zt;
     let max_xt = max3(ax, bx, cx);
     let max_yt = max3(ay, by, cy);
-    let delta_x = g(5) * (max_xt + max_zt);
-    let delta_y = g(5) * (max_yt + max_zt);
-    let delta_e = c(L::Elem::TWO) * (g(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let delta_x = gamma::<L>(5) * (max_xt + max_zt);
+    let delta_y = gamma::<L>(5) * (max_yt + max_zt);
+    let delta_e = L::splat(L::Elem::TWO)
+        * (gamma::<L>(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     // The bound is in terms of the edge functions themselves (scale length²), not the
     // barycentrics: using b (scale-free) made it wrong by the square of the scene's scale.
     let max_e = max3(e0, e1, e2);
-    let delta_t = c(L::Elem::from_u32(3))
-        * (g(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+    let delta_t = L::splat(L::Elem::from_u32(3))
+        * (gamma::<L>(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
         * inv_det.abs();
     reject = reject | t.le(delta_t);
     Some(LaneHits {
@@ -185,6 +185,18 @@ pub(crate) fn watertight<L: Lanes>(
         b1,
         b2,
     })
+}
+
+/// γ(n) in every lane.
+#[inline(always)]
+fn gamma<L: Lanes>(n: u32) -> L {
+    L::splat(L::Elem::gamma(n))
+}
+
+/// The largest of the three lanes' magnitudes, lane by lane ([`Lanes::maxnum`]'s NaN rule).
+#[inline(always)]
+fn max3<L: Lanes>(a: L, b: L, c: L) -> L {
+    a.abs().maxnum(b.abs()).maxnum(c.abs())
 }
 
 /// The edge functions `e` with the lanes of `redo` recomputed by [`edges_f64`] from the sheared
@@ -208,7 +220,7 @@ fn edges_redone<L: Lanes>(redo: u32, v: [L; 6], e: [L; 3]) -> [L; 3] {
             }
         }
     }
-    es.map(|lanes| L::load(&lanes))
+    [L::load(&es[0]), L::load(&es[1]), L::load(&es[2])]
 }
 
 /// The hit point from barycentrics, and its absolute error bound (pbrt's γ₇ bound).

@@ -253,7 +253,7 @@ fn kernel<L: Lanes<Elem = f32>, const KX: usize, const KY: usize, const KZ: usiz
             tris.rel::<L, 2, KZ>(o[KZ]),
         ],
     ];
-    let s = [s.x, s.y, s.z].map(L::splat);
+    let s = [L::splat(s.x), L::splat(s.y), L::splat(s.z)];
     let live = (1u32 << used) - 1;
     let mut out = Hits4 {
         mask: 0,
