@@ -241,6 +241,104 @@ pub fn force(tier: Isa) -> Result<Isa, IsaError> {
     Ok(before)
 }
 
+/// A kernel with a body per tier, entered through [`dispatch`]: the one place a tier's code is
+/// chosen and compiled with the tier's instruction sets enabled. The body, [`Kernel::run`],
+/// is generic over the tier and picks its lane types ([`crate::lanes`]) from [`Tier::ISA`]
+/// (a constant, so the choice costs nothing); it must be `#[inline(always)]` so that it is
+/// compiled inside the tier's entry, with the tier's instructions.
+pub trait Kernel {
+    /// What the kernel answers.
+    type Output;
+    /// The kernel's body on tier `T`.
+    fn run<T: Tier>(self) -> Self::Output;
+}
+
+/// A tier as a type, for [`Kernel::run`].
+pub trait Tier {
+    /// The tier.
+    const ISA: Isa;
+}
+
+/// The `scalar` tier as a type.
+pub struct OnScalar;
+/// The `sse2` tier as a type.
+pub struct OnSse2;
+/// The `avx2` tier as a type.
+pub struct OnAvx2;
+/// The `avx512` tier as a type.
+pub struct OnAvx512;
+
+impl Tier for OnScalar {
+    const ISA: Isa = Isa::Scalar;
+}
+impl Tier for OnSse2 {
+    const ISA: Isa = Isa::Sse2;
+}
+impl Tier for OnAvx2 {
+    const ISA: Isa = Isa::Avx2;
+}
+impl Tier for OnAvx512 {
+    const ISA: Isa = Isa::Avx512;
+}
+
+/// Runs `k` with the code of the process's tier ([`current`]).
+#[inline(always)]
+pub fn dispatch<K: Kernel>(k: K) -> K::Output {
+    // SAFETY: `current` is only ever a tier this CPU runs (`init`, `force` and `choose` check).
+    unsafe { run_on(current(), k) }
+}
+
+/// Runs `k` with the code of `tier` whatever the process's tier, or `None` when this CPU does
+/// not run `tier` (for the tests that compare the tiers' kernels in one process).
+pub fn dispatch_on<K: Kernel>(tier: Isa, k: K) -> Option<K::Output> {
+    // SAFETY: checked just now.
+    tier.supported().then(|| unsafe { run_on(tier, k) })
+}
+
+/// # Safety
+/// This CPU must run `tier`.
+#[inline(always)]
+unsafe fn run_on<K: Kernel>(tier: Isa, k: K) -> K::Output {
+    match tier {
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => on_avx512(k),
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => on_avx2(k),
+        #[cfg(target_arch = "x86_64")]
+        Isa::Sse2 => on_sse2(k),
+        _ => on_scalar(k),
+    }
+}
+
+#[inline(never)]
+fn on_scalar<K: Kernel>(k: K) -> K::Output {
+    k.run::<OnScalar>()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[inline(never)]
+fn on_sse2<K: Kernel>(k: K) -> K::Output {
+    k.run::<OnSse2>()
+}
+
+/// # Safety
+/// The CPU must support AVX and AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2")]
+#[inline(never)]
+unsafe fn on_avx2<K: Kernel>(k: K) -> K::Output {
+    k.run::<OnAvx2>()
+}
+
+/// # Safety
+/// The CPU must support AVX2 and AVX-512 F, BW, DQ and VL.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2,avx512f,avx512bw,avx512dq,avx512vl")]
+#[inline(never)]
+unsafe fn on_avx512<K: Kernel>(k: K) -> K::Output {
+    k.run::<OnAvx512>()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -55,7 +55,9 @@
 //! - [`scene_leaf`]: the scene's primitive test as the accelerators call it, four at a time.
 //! - [`packet_leaf`]: a packet's rays against a leaf, a ray per lane.
 //! - [`shadow16`]: a packet's shadow rays made sixteen lanes at a time.
-//! - [`isa`]: the instruction-set tier every SIMD kernel follows, chosen once per process.
+//! - [`isa`]: the instruction-set tier every SIMD kernel follows, chosen once per process, and
+//!   the one dispatch point that runs a kernel on it.
+//! - [`lanes`]: the lane types every SIMD kernel is written against (scalar, 4, 8, 16 lanes).
 //! - [`bits`]: the set bits of a lane mask, lowest first.
 //!
 //! Parallel work and its output:
@@ -84,6 +86,7 @@ pub mod frame;
 pub mod geometry;
 pub mod heap;
 pub mod isa;
+pub mod lanes;
 pub mod nff;
 pub mod packet_leaf;
 pub mod packet_trace;

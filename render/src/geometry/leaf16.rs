@@ -5,14 +5,17 @@
 //! redone in `f64` lane by lane), so each lane's answer is bit for bit what
 //! [`super::triangle::intersect_triangle`] or [`super::sphere::Sphere::intersect`] gives that
 //! ray. The rays' axis permutations may differ: each lane picks its vertex components with
-//! masks. The `avx512` tier ([`crate::isa`]) runs the sixteen rays in one AVX-512 register
-//! (`avx512`); the `avx2` tier in two halves of eight AVX lanes. [`Rays16::new`] is `None`
+//! masks. The arithmetic is the one triangle test ([`watertight`]) and the one sphere test
+//! ([`nearest_root`]): the `avx512` tier ([`crate::isa`]) runs them on the sixteen rays in one
+//! AVX-512 register, the `avx2` tier in two halves of eight AVX lanes. [`Rays16::new`] is `None`
 //! unless the process's tier runs AVX; the portable kernels ([`triangle16_lanes`],
 //! [`sphere16_lanes`]) define the answers and serve the tests.
 
 use super::ray::PreparedRay;
-use super::sphere::Sphere;
-use super::triangle::intersect_triangle;
+use super::sphere::{nearest_root, Sphere};
+use super::triangle::{intersect_triangle, watertight};
+use crate::isa::{Isa, Kernel, Tier};
+use crate::lanes::Lanes;
 use crate::vec3::V3;
 
 /// Rays per call.
@@ -169,16 +172,125 @@ pub fn triangle16(
     active: u32,
     t_max: &[f32; LANES],
 ) -> Hits16 {
-    #[cfg(target_arch = "x86_64")]
-    if available() {
-        if crate::isa::current().avx512() {
-            // SAFETY: the avx512 tier is only chosen on a CPU that has AVX-512 F, BW, DQ, VL.
-            return unsafe { avx512::triangle16(rays, tri, active, t_max) };
+    crate::isa::dispatch(TrianglePacket {
+        rays,
+        src,
+        tri,
+        active,
+        t_max,
+    })
+}
+
+/// [`triangle16`] with the code of `tier`, or `None` when this CPU does not run `tier` (for the
+/// tests that compare the tiers).
+pub fn triangle16_on(
+    tier: Isa,
+    rays: &Rays16,
+    src: &[PreparedRay<f32>],
+    tri: &[V3<f32>; 3],
+    active: u32,
+    t_max: &[f32; LANES],
+) -> Option<Hits16> {
+    crate::isa::dispatch_on(
+        tier,
+        TrianglePacket {
+            rays,
+            src,
+            tri,
+            active,
+            t_max,
+        },
+    )
+}
+
+/// A packet's rays against one triangle: the kernel [`crate::isa::dispatch`] runs.
+struct TrianglePacket<'a> {
+    rays: &'a Rays16,
+    src: &'a [PreparedRay<f32>],
+    tri: &'a [V3<f32>; 3],
+    active: u32,
+    t_max: &'a [f32; LANES],
+}
+
+impl Kernel for TrianglePacket<'_> {
+    type Output = Hits16;
+
+    /// Sixteen lanes on `avx512`, two halves of eight on `avx2`, the portable loop otherwise.
+    #[inline(always)]
+    fn run<T: Tier>(self) -> Hits16 {
+        let TrianglePacket {
+            rays,
+            src,
+            tri,
+            active,
+            t_max,
+        } = self;
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::lanes::{X16, X8};
+            if T::ISA.avx512() {
+                return triangle_lanes::<X16>(rays, tri, active, t_max);
+            }
+            if T::ISA.avx() {
+                return triangle_lanes::<X8>(rays, tri, active, t_max);
+            }
         }
-        // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
-        return unsafe { x86::triangle16(rays, tri, active, t_max) };
+        let _ = rays;
+        triangle16_lanes(src, tri, active, t_max)
     }
-    triangle16_lanes(src, tri, active, t_max)
+}
+
+/// `p`'s components along each lane's permuted axes `kx`, `ky`, `kz` minus the ray origin's,
+/// in lanes `h..h + L::N` (no closures: they would be compiled without the tier's instructions).
+#[inline(always)]
+fn rel<L: Lanes<Elem = f32>>(r: &Rays16, h: usize, p: V3<f32>) -> [L; 3] {
+    [
+        pick::<L>(r, 0, h, p) - L::load(&r.ok[0][h..]),
+        pick::<L>(r, 1, h, p) - L::load(&r.ok[1][h..]),
+        pick::<L>(r, 2, h, p) - L::load(&r.ok[2][h..]),
+    ]
+}
+
+/// Component `k` (the permuted axis `kx`, `ky` or `kz`) of `p` in lanes `h..h + L::N`.
+#[inline(always)]
+fn pick<L: Lanes<Elem = f32>>(r: &Rays16, k: usize, h: usize, p: V3<f32>) -> L {
+    let is0 = L::mask_from(&r.k0[k][h..], u32::from(r.k0_bits[k]) >> h);
+    let is1 = L::mask_from(&r.k1[k][h..], u32::from(r.k1_bits[k]) >> h);
+    let yz = L::select(is1, L::splat(p.y), L::splat(p.z));
+    L::select(is0, L::splat(p.x), yz)
+}
+
+/// The watertight test ([`watertight`]) with a ray per lane, `L::N` rays at a time. The rays'
+/// axis permutations may differ: each lane picks its vertex components with masks.
+#[inline(always)]
+fn triangle_lanes<L: Lanes<Elem = f32>>(
+    r: &Rays16,
+    tri: &[V3<f32>; 3],
+    active: u32,
+    t_max: &[f32; LANES],
+) -> Hits16 {
+    let mut out = Hits16::none();
+    let all = u32::MAX >> (32 - L::N);
+    for h in (0..LANES).step_by(L::N) {
+        let live = (active >> h) & all;
+        if live == 0 {
+            continue;
+        }
+        let v = [rel(r, h, tri[0]), rel(r, h, tri[1]), rel(r, h, tri[2])];
+        let s = [
+            L::load(&r.s[0][h..]),
+            L::load(&r.s[1][h..]),
+            L::load(&r.s[2][h..]),
+        ];
+        let (t_min, t_max) = (L::load(&r.t_min[h..]), L::load(&t_max[h..]));
+        if let Some(hit) = watertight(v, s, t_min, t_max, live) {
+            out.mask |= hit.mask << h;
+            hit.t.store(&mut out.t[h..]);
+            hit.b1.store(&mut out.b1[h..]);
+            hit.b2.store(&mut out.b2[h..]);
+        }
+    }
+    out
 }
 
 /// The sphere `s` against the rays of `active`, ray `i` within `t_max[i]`.
@@ -190,16 +302,112 @@ pub fn sphere16(
     active: u32,
     t_max: &[f32; LANES],
 ) -> Hits16 {
-    #[cfg(target_arch = "x86_64")]
-    if available() {
-        if crate::isa::current().avx512() {
-            // SAFETY: the avx512 tier is only chosen on a CPU that has AVX-512 F, BW, DQ, VL.
-            return unsafe { avx512::sphere16(rays, s, active, t_max) };
+    crate::isa::dispatch(SpherePacket {
+        rays,
+        src,
+        s,
+        active,
+        t_max,
+    })
+}
+
+/// [`sphere16`] with the code of `tier`, or `None` when this CPU does not run `tier` (for the
+/// tests that compare the tiers).
+pub fn sphere16_on(
+    tier: Isa,
+    rays: &Rays16,
+    src: &[PreparedRay<f32>],
+    s: &Sphere<f32>,
+    active: u32,
+    t_max: &[f32; LANES],
+) -> Option<Hits16> {
+    crate::isa::dispatch_on(
+        tier,
+        SpherePacket {
+            rays,
+            src,
+            s,
+            active,
+            t_max,
+        },
+    )
+}
+
+/// A packet's rays against one sphere: the kernel [`crate::isa::dispatch`] runs.
+struct SpherePacket<'a> {
+    rays: &'a Rays16,
+    src: &'a [PreparedRay<f32>],
+    s: &'a Sphere<f32>,
+    active: u32,
+    t_max: &'a [f32; LANES],
+}
+
+impl Kernel for SpherePacket<'_> {
+    type Output = Hits16;
+
+    /// Sixteen lanes on `avx512`, two halves of eight on `avx2`, the portable loop otherwise.
+    #[inline(always)]
+    fn run<T: Tier>(self) -> Hits16 {
+        let SpherePacket {
+            rays,
+            src,
+            s,
+            active,
+            t_max,
+        } = self;
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::lanes::{X16, X8};
+            if T::ISA.avx512() {
+                return sphere_lanes::<X16>(rays, s, active, t_max);
+            }
+            if T::ISA.avx() {
+                return sphere_lanes::<X8>(rays, s, active, t_max);
+            }
         }
-        // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
-        return unsafe { x86::sphere16(rays, s, active, t_max) };
+        let _ = rays;
+        sphere16_lanes(src, s, active, t_max)
     }
-    sphere16_lanes(src, s, active, t_max)
+}
+
+/// The sphere test ([`nearest_root`]) with a ray per lane, `L::N` rays at a time.
+#[inline(always)]
+fn sphere_lanes<L: Lanes<Elem = f32>>(
+    r: &Rays16,
+    s: &Sphere<f32>,
+    active: u32,
+    t_max: &[f32; LANES],
+) -> Hits16 {
+    let mut out = Hits16::none();
+    let all = u32::MAX >> (32 - L::N);
+    let c = s.center.to_array();
+    for h in (0..LANES).step_by(L::N) {
+        let live = (active >> h) & all;
+        if live == 0 {
+            continue;
+        }
+        let f = [
+            L::load(&r.o[0][h..]) - L::splat(c[0]),
+            L::load(&r.o[1][h..]) - L::splat(c[1]),
+            L::load(&r.o[2][h..]) - L::splat(c[2]),
+        ];
+        let d = [
+            L::load(&r.d[0][h..]),
+            L::load(&r.d[1][h..]),
+            L::load(&r.d[2][h..]),
+        ];
+        let r2 = L::splat(s.radius * s.radius);
+        let (a, t_min, t_max) = (
+            L::load(&r.a[h..]),
+            L::load(&r.t_min[h..]),
+            L::load(&t_max[h..]),
+        );
+        if let Some(hit) = nearest_root(f, d, a, r2, t_min, t_max, live) {
+            out.mask |= hit.mask << h;
+            hit.t.store(&mut out.t[h..]);
+        }
+    }
+    out
 }
 
 /// The portable triangle kernel: the scalar test ray by ray.
@@ -242,337 +450,6 @@ pub fn sphere16_lanes(
     h
 }
 
-#[cfg(target_arch = "x86_64")]
-mod avx512;
-
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    use super::{Hits16, Rays16, LANES};
-    use crate::geometry::sphere::Sphere;
-    use crate::geometry::triangle::edges_f64;
-    use crate::real::Real;
-    use crate::vec3::V3;
-    use std::arch::x86_64::*;
-
-    /// Lanes per AVX register: the sixteen rays go in two halves.
-    const HALF: usize = 8;
-
-    /// Lanes `h·8 .. h·8 + 8` of `a`.
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn load(a: &[f32; LANES], h: usize) -> __m256 {
-        _mm256_loadu_ps(a[h * HALF..].as_ptr())
-    }
-
-    /// Stores `v` into lanes `h·8 .. h·8 + 8` of `a`.
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn put(a: &mut [f32; LANES], h: usize, v: __m256) {
-        _mm256_storeu_ps(a[h * HALF..].as_mut_ptr(), v)
-    }
-
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn store(a: __m256) -> [f32; HALF] {
-        let mut out = [0.0f32; HALF];
-        _mm256_storeu_ps(out.as_mut_ptr(), a);
-        out
-    }
-
-    /// `if m { a } else { b }` lane by lane.
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn select(m: __m256, a: __m256, b: __m256) -> __m256 {
-        _mm256_blendv_ps(b, a, m)
-    }
-
-    /// `f32::max` lane by lane (`vmaxps` returns `b` whenever either is NaN).
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn maxnum(a: __m256, b: __m256) -> __m256 {
-        let m = _mm256_max_ps(a, b);
-        select(_mm256_cmp_ps::<_CMP_UNORD_Q>(b, b), a, m)
-    }
-
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn abs(a: __m256) -> __m256 {
-        _mm256_andnot_ps(_mm256_set1_ps(-0.0), a)
-    }
-
-    /// Component `k` (the permuted axis `kx`, `ky` or `kz`) of `p` in each lane of half `h`.
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn pick(r: &Rays16, k: usize, h: usize, p: V3<f32>) -> __m256 {
-        let yz = select(load(&r.k1[k], h), _mm256_set1_ps(p.y), _mm256_set1_ps(p.z));
-        select(load(&r.k0[k], h), _mm256_set1_ps(p.x), yz)
-    }
-
-    /// The watertight triangle test ([`crate::geometry::triangle`]) with a ray per lane.
-    ///
-    /// # Safety
-    /// The CPU must support AVX.
-    #[target_feature(enable = "avx")]
-    #[inline(never)]
-    pub unsafe fn triangle16(
-        r: &Rays16,
-        tri: &[V3<f32>; 3],
-        active: u32,
-        t_max: &[f32; LANES],
-    ) -> Hits16 {
-        let mut out = Hits16::none();
-        for h in 0..2 {
-            let live = (active >> (h * HALF)) & 0xff;
-            if live != 0 {
-                out.mask |= triangle8(r, tri, h, live, t_max, &mut out) << (h * HALF);
-            }
-        }
-        out
-    }
-
-    /// Half `h` of [`triangle16`]: the lanes hit (bits 0..8); `t`, `b1`, `b2` into `out`.
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn triangle8(
-        r: &Rays16,
-        tri: &[V3<f32>; 3],
-        h: usize,
-        live: u32,
-        t_max: &[f32; LANES],
-        out: &mut Hits16,
-    ) -> u32 {
-        let zero = _mm256_setzero_ps();
-        let (okx, oky, okz) = (load(&r.ok[0], h), load(&r.ok[1], h), load(&r.ok[2], h));
-        let (sx, sy, sz) = (load(&r.s[0], h), load(&r.s[1], h), load(&r.s[2], h));
-        let az = _mm256_sub_ps(pick(r, 2, h, tri[0]), okz);
-        let bz = _mm256_sub_ps(pick(r, 2, h, tri[1]), okz);
-        let cz = _mm256_sub_ps(pick(r, 2, h, tri[2]), okz);
-        let ax = _mm256_sub_ps(
-            _mm256_sub_ps(pick(r, 0, h, tri[0]), okx),
-            _mm256_mul_ps(sx, az),
-        );
-        let ay = _mm256_sub_ps(
-            _mm256_sub_ps(pick(r, 1, h, tri[0]), oky),
-            _mm256_mul_ps(sy, az),
-        );
-        let bx = _mm256_sub_ps(
-            _mm256_sub_ps(pick(r, 0, h, tri[1]), okx),
-            _mm256_mul_ps(sx, bz),
-        );
-        let by = _mm256_sub_ps(
-            _mm256_sub_ps(pick(r, 1, h, tri[1]), oky),
-            _mm256_mul_ps(sy, bz),
-        );
-        let cx = _mm256_sub_ps(
-            _mm256_sub_ps(pick(r, 0, h, tri[2]), okx),
-            _mm256_mul_ps(sx, cz),
-        );
-        let cy = _mm256_sub_ps(
-            _mm256_sub_ps(pick(r, 1, h, tri[2]), oky),
-            _mm256_mul_ps(sy, cz),
-        );
-        let mut e0 = _mm256_sub_ps(_mm256_mul_ps(bx, cy), _mm256_mul_ps(by, cx));
-        let mut e1 = _mm256_sub_ps(_mm256_mul_ps(cx, ay), _mm256_mul_ps(cy, ax));
-        let mut e2 = _mm256_sub_ps(_mm256_mul_ps(ax, by), _mm256_mul_ps(ay, bx));
-        let on_edge = _mm256_or_ps(
-            _mm256_or_ps(
-                _mm256_cmp_ps::<_CMP_EQ_OQ>(e0, zero),
-                _mm256_cmp_ps::<_CMP_EQ_OQ>(e1, zero),
-            ),
-            _mm256_cmp_ps::<_CMP_EQ_OQ>(e2, zero),
-        );
-        let redo = _mm256_movemask_ps(on_edge) as u32 & live;
-        if redo != 0 {
-            // Exactly on an edge in f32: those lanes decide in double precision, as the
-            // scalar test does.
-            let (ax_, ay_, bx_, by_, cx_, cy_) = (
-                store(ax),
-                store(ay),
-                store(bx),
-                store(by),
-                store(cx),
-                store(cy),
-            );
-            let (mut f0, mut f1, mut f2) = (store(e0), store(e1), store(e2));
-            for i in 0..HALF {
-                if redo & (1 << i) != 0 {
-                    let v = [ax_[i], ay_[i], bx_[i], by_[i], cx_[i], cy_[i]].map(f64::from);
-                    let [g0, g1, g2] = edges_f64(v);
-                    (f0[i], f1[i], f2[i]) = (g0 as f32, g1 as f32, g2 as f32);
-                }
-            }
-            e0 = _mm256_loadu_ps(f0.as_ptr());
-            e1 = _mm256_loadu_ps(f1.as_ptr());
-            e2 = _mm256_loadu_ps(f2.as_ptr());
-        }
-        let lt = |a, b| _mm256_cmp_ps::<_CMP_LT_OS>(a, b);
-        let gt = |a, b| _mm256_cmp_ps::<_CMP_GT_OS>(a, b);
-        // Mixed signs: outside.
-        let any_neg = _mm256_or_ps(_mm256_or_ps(lt(e0, zero), lt(e1, zero)), lt(e2, zero));
-        let any_pos = _mm256_or_ps(_mm256_or_ps(gt(e0, zero), gt(e1, zero)), gt(e2, zero));
-        let mut reject = _mm256_and_ps(any_neg, any_pos);
-        let det = _mm256_add_ps(_mm256_add_ps(e0, e1), e2);
-        reject = _mm256_or_ps(reject, _mm256_cmp_ps::<_CMP_EQ_OQ>(det, zero));
-        let (saz, sbz, scz) = (
-            _mm256_mul_ps(sz, az),
-            _mm256_mul_ps(sz, bz),
-            _mm256_mul_ps(sz, cz),
-        );
-        let t_scaled = _mm256_add_ps(
-            _mm256_add_ps(_mm256_mul_ps(e0, saz), _mm256_mul_ps(e1, sbz)),
-            _mm256_mul_ps(e2, scz),
-        );
-        let g = |n: u32| _mm256_set1_ps(<f32 as Real>::gamma(n));
-        let t_max = load(t_max, h);
-        let reach = _mm256_mul_ps(t_max, _mm256_set1_ps(1.0 + 2.0 * <f32 as Real>::gamma(3)));
-        let reach_det = _mm256_mul_ps(reach, det);
-        let det_neg = lt(det, zero);
-        let out_neg = _mm256_or_ps(
-            _mm256_cmp_ps::<_CMP_GE_OS>(t_scaled, zero),
-            lt(t_scaled, reach_det),
-        );
-        let out_pos = _mm256_or_ps(
-            _mm256_cmp_ps::<_CMP_LE_OS>(t_scaled, zero),
-            gt(t_scaled, reach_det),
-        );
-        reject = _mm256_or_ps(
-            reject,
-            _mm256_or_ps(
-                _mm256_and_ps(det_neg, out_neg),
-                _mm256_andnot_ps(det_neg, out_pos),
-            ),
-        );
-        if _mm256_movemask_ps(reject) as u32 & live == live {
-            return 0;
-        }
-        let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
-        let t = _mm256_mul_ps(t_scaled, inv_det);
-        reject = _mm256_or_ps(reject, _mm256_or_ps(lt(t, load(&r.t_min, h)), gt(t, t_max)));
-        let b1 = _mm256_mul_ps(e1, inv_det);
-        let b2 = _mm256_mul_ps(e2, inv_det);
-        let max_zt = maxnum(maxnum(abs(saz), abs(sbz)), abs(scz));
-        let delta_z = _mm256_mul_ps(g(3), max_zt);
-        let max_xt = maxnum(maxnum(abs(ax), abs(bx)), abs(cx));
-        let max_yt = maxnum(maxnum(abs(ay), abs(by)), abs(cy));
-        let delta_x = _mm256_mul_ps(g(5), _mm256_add_ps(max_xt, max_zt));
-        let delta_y = _mm256_mul_ps(g(5), _mm256_add_ps(max_yt, max_zt));
-        let delta_e = _mm256_mul_ps(
-            _mm256_set1_ps(2.0),
-            _mm256_add_ps(
-                _mm256_add_ps(
-                    _mm256_mul_ps(_mm256_mul_ps(g(2), max_xt), max_yt),
-                    _mm256_mul_ps(delta_y, max_xt),
-                ),
-                _mm256_mul_ps(delta_x, max_yt),
-            ),
-        );
-        let max_e = maxnum(maxnum(abs(e0), abs(e1)), abs(e2));
-        let delta_t = _mm256_mul_ps(
-            _mm256_mul_ps(
-                _mm256_set1_ps(3.0),
-                _mm256_add_ps(
-                    _mm256_add_ps(
-                        _mm256_mul_ps(_mm256_mul_ps(g(3), max_e), max_zt),
-                        _mm256_mul_ps(delta_e, max_zt),
-                    ),
-                    _mm256_mul_ps(delta_z, max_e),
-                ),
-            ),
-            abs(inv_det),
-        );
-        reject = _mm256_or_ps(reject, _mm256_cmp_ps::<_CMP_LE_OS>(t, delta_t));
-        put(&mut out.t, h, t);
-        put(&mut out.b1, h, b1);
-        put(&mut out.b2, h, b2);
-        !(_mm256_movemask_ps(reject) as u32) & live
-    }
-
-    /// The sphere test ([`Sphere::intersect`]) with a ray per lane.
-    ///
-    /// # Safety
-    /// The CPU must support AVX.
-    #[target_feature(enable = "avx")]
-    #[inline(never)]
-    pub unsafe fn sphere16(
-        r: &Rays16,
-        s: &Sphere<f32>,
-        active: u32,
-        t_max: &[f32; LANES],
-    ) -> Hits16 {
-        let mut out = Hits16::none();
-        for h in 0..2 {
-            let live = (active >> (h * HALF)) & 0xff;
-            if live != 0 {
-                out.mask |= sphere8(r, s, h, live, t_max, &mut out.t) << (h * HALF);
-            }
-        }
-        out
-    }
-
-    /// Half `h` of [`sphere16`]: the lanes hit (bits 0..8); `t` into `out_t`.
-    #[target_feature(enable = "avx")]
-    #[inline]
-    unsafe fn sphere8(
-        r: &Rays16,
-        s: &Sphere<f32>,
-        h: usize,
-        live: u32,
-        t_max: &[f32; LANES],
-        out_t: &mut [f32; LANES],
-    ) -> u32 {
-        let zero = _mm256_setzero_ps();
-        let sign = _mm256_set1_ps(-0.0);
-        let (dx, dy, dz) = (load(&r.d[0], h), load(&r.d[1], h), load(&r.d[2], h));
-        let fx = _mm256_sub_ps(load(&r.o[0], h), _mm256_set1_ps(s.center.x));
-        let fy = _mm256_sub_ps(load(&r.o[1], h), _mm256_set1_ps(s.center.y));
-        let fz = _mm256_sub_ps(load(&r.o[2], h), _mm256_set1_ps(s.center.z));
-        let dot = |ax, ay, az, bx, by, bz| {
-            _mm256_add_ps(
-                _mm256_add_ps(_mm256_mul_ps(ax, bx), _mm256_mul_ps(ay, by)),
-                _mm256_mul_ps(az, bz),
-            )
-        };
-        let gt = |a, b| _mm256_cmp_ps::<_CMP_GT_OS>(a, b);
-        let b = dot(fx, fy, fz, dx, dy, dz);
-        let r2 = _mm256_set1_ps(s.radius * s.radius);
-        let c = _mm256_sub_ps(dot(fx, fy, fz, fx, fy, fz), r2);
-        // Outside and heading away.
-        let mut reject = _mm256_and_ps(gt(c, zero), gt(b, zero));
-        if _mm256_movemask_ps(reject) as u32 & live == live {
-            return 0;
-        }
-        let a = load(&r.a, h);
-        let ba = _mm256_div_ps(b, a);
-        let vx = _mm256_sub_ps(fx, _mm256_mul_ps(dx, ba));
-        let vy = _mm256_sub_ps(fy, _mm256_mul_ps(dy, ba));
-        let vz = _mm256_sub_ps(fz, _mm256_mul_ps(dz, ba));
-        let disc = _mm256_mul_ps(a, _mm256_sub_ps(r2, dot(vx, vy, vz, vx, vy, vz)));
-        reject = _mm256_or_ps(reject, _mm256_cmp_ps::<_CMP_LT_OS>(disc, zero));
-        let root = _mm256_sqrt_ps(disc);
-        let signed_root = _mm256_or_ps(_mm256_andnot_ps(sign, root), _mm256_and_ps(sign, b));
-        let q = _mm256_xor_ps(_mm256_add_ps(b, signed_root), sign);
-        let q_zero = _mm256_cmp_ps::<_CMP_EQ_OQ>(q, zero);
-        let t0 = select(q_zero, zero, _mm256_div_ps(q, a));
-        let t1 = select(q_zero, zero, _mm256_div_ps(c, q));
-        let swap = gt(t0, t1);
-        let (t0, t1) = (select(swap, t1, t0), select(swap, t0, t1));
-        let (t_min, t_max) = (load(&r.t_min, h), load(t_max, h));
-        let ok = |t| {
-            _mm256_and_ps(
-                _mm256_and_ps(
-                    _mm256_cmp_ps::<_CMP_GE_OS>(t, t_min),
-                    _mm256_cmp_ps::<_CMP_LE_OS>(t, t_max),
-                ),
-                gt(t, zero),
-            )
-        };
-        let (ok0, ok1) = (ok(t0), ok(t1));
-        put(out_t, h, select(ok0, t0, t1));
-        let hit = _mm256_andnot_ps(reject, _mm256_or_ps(ok0, ok1));
-        _mm256_movemask_ps(hit) as u32 & live
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -580,7 +457,7 @@ mod tests {
     use proptest::prelude::*;
 
     /// The answers of every kernel this CPU runs, the process's tier aside: the dispatched
-    /// kernel, the AVX halves and the AVX-512 kernel.
+    /// kernel and each tier's (the AVX halves, the AVX-512 kernel).
     fn kernels(
         lanes: &Rays16,
         rays: &[PreparedRay<f32>],
@@ -594,28 +471,11 @@ mod tests {
             triangle16(lanes, rays, tri, active, t_max),
             sphere16(lanes, rays, s, active, t_max),
         )];
-        #[cfg(target_arch = "x86_64")]
-        {
-            use crate::isa::Isa;
-            if Isa::Avx2.supported() {
-                // SAFETY: this CPU has AVX.
-                let got = unsafe {
-                    (
-                        x86::triangle16(lanes, tri, active, t_max),
-                        x86::sphere16(lanes, s, active, t_max),
-                    )
-                };
-                out.push(("avx", got.0, got.1));
-            }
-            if Isa::Avx512.supported() {
-                // SAFETY: this CPU has AVX-512 F, BW, DQ and VL.
-                let got = unsafe {
-                    (
-                        avx512::triangle16(lanes, tri, active, t_max),
-                        avx512::sphere16(lanes, s, active, t_max),
-                    )
-                };
-                out.push(("avx512", got.0, got.1));
+        for tier in Isa::ALL {
+            let tri = triangle16_on(tier, lanes, rays, tri, active, t_max);
+            let sphere = sphere16_on(tier, lanes, rays, s, active, t_max);
+            if let (Some(tri), Some(sphere)) = (tri, sphere) {
+                out.push((tier.name(), tri, sphere));
             }
         }
         out

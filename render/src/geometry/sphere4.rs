@@ -1,15 +1,18 @@
 //! Four spheres against one ray at once: [`Sphere::intersect`] with one sphere per SIMD lane,
 //! for BVH leaves of spheres (shells, balls). Every lane does the scalar test's IEEE operations
 //! in the same order (no FMA, no reassociation), so each lane's answer is bit for bit the
-//! scalar one. [`intersect4`] picks the kernel of the process's tier ([`crate::isa`]) like
-//! [`super::triangle4`]: AVX on `avx2` and `avx512`, SSE2 on `sse2`, the portable lane loop
-//! ([`intersect4_lanes`]) on `scalar` and elsewhere.
+//! scalar one: the arithmetic is the one sphere test, [`nearest_root`], on four lanes.
+//! [`intersect4`] runs it with the code of the process's tier ([`crate::isa::dispatch`]) like
+//! [`super::triangle4`]: four SSE2 lanes (in their VEX form on `avx2` and `avx512`), the
+//! portable lane loop ([`intersect4_lanes`]) on `scalar` and elsewhere.
 //! [`SphereLanes`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
 //! that enter the leaf share one gather ([`intersect4_gathered`]).
 
 use super::hits4::DistanceHits4;
 use super::ray::Ray;
-use super::sphere::Sphere;
+use super::sphere::{nearest_root, Sphere};
+use crate::isa::{Isa, Kernel, Tier};
+use crate::lanes::Lanes;
 use crate::real::Real;
 
 /// Spheres per call.
@@ -80,12 +83,12 @@ pub fn intersect4(
     used: usize,
     t_max: f32,
 ) -> DistanceHits4<f32> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        x86::dispatch(ray, spheres, used, t_max)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    intersect4_lanes(ray, spheres, used, t_max)
+    crate::isa::dispatch(Four {
+        ray,
+        src: spheres,
+        used,
+        t_max,
+    })
 }
 
 /// [`intersect4`] on spheres already gathered into lanes: the same answers bit for bit.
@@ -96,176 +99,140 @@ pub fn intersect4_gathered(
     used: usize,
     t_max: f32,
 ) -> DistanceHits4<f32> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        x86::dispatch(ray, spheres, used, t_max)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    spheres.scalar_hits(ray, used, t_max)
+    crate::isa::dispatch(Four {
+        ray,
+        src: spheres,
+        used,
+        t_max,
+    })
 }
 
-#[cfg(target_arch = "x86_64")]
-pub use x86::{avx, sse2};
+/// [`intersect4`] or [`intersect4_gathered`] (as `src` is) with the code of `tier`, or `None`
+/// when this CPU does not run `tier` (for the tests that compare the tiers).
+pub fn intersect4_on<S: Source>(
+    tier: Isa,
+    ray: &Ray<f32>,
+    src: &S,
+    used: usize,
+    t_max: f32,
+) -> Option<DistanceHits4<f32>> {
+    crate::isa::dispatch_on(
+        tier,
+        Four {
+            ray,
+            src,
+            used,
+            t_max,
+        },
+    )
+}
 
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    use super::{DistanceHits4, SphereLanes, Spheres4, LANES};
-    use crate::geometry::ray::Ray;
-    use crate::geometry::sse4::{select, store};
-    use std::arch::x86_64::*;
+/// One ray against the four spheres of `src`: the kernel [`crate::isa::dispatch`] runs.
+struct Four<'a, S> {
+    ray: &'a Ray<f32>,
+    src: &'a S,
+    used: usize,
+    t_max: f32,
+}
 
-    /// The SSE2 kernel (every x86-64 CPU has SSE2), on four spheres or lanes gathered
-    /// once.
-    #[inline(never)]
-    pub fn sse2<S: Source>(ray: &Ray<f32>, src: &S, used: usize, t_max: f32) -> DistanceHits4<f32> {
-        // SAFETY: SSE2 is part of the x86-64 baseline.
-        unsafe { kernel(ray, src, used, t_max) }
-    }
+impl<S: Source> Kernel for Four<'_, S> {
+    type Output = DistanceHits4<f32>;
 
-    /// The same kernel compiled for AVX (VEX encodings; no FMA: the scalar test has none).
-    ///
-    /// # Safety
-    /// The CPU must support AVX.
-    #[target_feature(enable = "avx")]
-    #[inline(never)]
-    pub unsafe fn avx<S: Source>(
-        ray: &Ray<f32>,
-        src: &S,
-        used: usize,
-        t_max: f32,
-    ) -> DistanceHits4<f32> {
-        kernel(ray, src, used, t_max)
-    }
-
-    /// The kernel of the process's tier ([`crate::isa`]).
+    /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
+    /// portable lane loop on `scalar` and on other targets.
     #[inline(always)]
-    pub fn dispatch<S: Source>(
-        ray: &Ray<f32>,
-        src: &S,
-        used: usize,
-        t_max: f32,
-    ) -> DistanceHits4<f32> {
-        let tier = crate::isa::current();
-        if tier.avx() {
-            // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
-            return unsafe { avx(ray, src, used, t_max) };
-        }
-        if tier.sse2() {
-            return sse2(ray, src, used, t_max);
+    fn run<T: Tier>(self) -> DistanceHits4<f32> {
+        let Four {
+            ray,
+            src,
+            used,
+            t_max,
+        } = self;
+        #[cfg(target_arch = "x86_64")]
+        if T::ISA.sse2() {
+            return kernel::<crate::lanes::X4, S>(ray, src, used, t_max);
         }
         src.portable(ray, used, t_max)
     }
+}
 
-    /// Where the kernel reads the spheres from: gathered from four spheres on the spot, or
-    /// loaded from lanes gathered once.
-    pub trait Source {
-        /// Centre `x`, `y`, `z` and radius of the four spheres.
-        unsafe fn lanes(&self) -> [__m128; 4];
-        /// The portable kernel on the same spheres.
-        fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32>;
-    }
+/// Where the kernel reads the spheres from: gathered from four spheres on the spot, or loaded
+/// from lanes gathered once.
+pub trait Source {
+    /// Centre `x`, `y`, `z` and radius of the four spheres.
+    fn lanes<L: Lanes<Elem = f32>>(&self) -> [L; 4];
+    /// The portable kernel on the same spheres.
+    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32>;
+}
 
-    impl Source for Spheres4<'_, f32> {
-        #[inline(always)]
-        unsafe fn lanes(&self) -> [__m128; 4] {
-            let lane = |f: &dyn Fn(usize) -> f32| _mm_setr_ps(f(0), f(1), f(2), f(3));
-            [
-                lane(&|i| self[i].center.x),
-                lane(&|i| self[i].center.y),
-                lane(&|i| self[i].center.z),
-                lane(&|i| self[i].radius),
-            ]
-        }
-
-        fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
-            super::intersect4_lanes(ray, self, used, t_max)
-        }
-    }
-
-    impl Source for SphereLanes {
-        #[inline(always)]
-        unsafe fn lanes(&self) -> [__m128; 4] {
-            [
-                _mm_load_ps(self.c[0].as_ptr()),
-                _mm_load_ps(self.c[1].as_ptr()),
-                _mm_load_ps(self.c[2].as_ptr()),
-                _mm_load_ps(self.r.as_ptr()),
-            ]
-        }
-
-        fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
-            self.scalar_hits(ray, used, t_max)
-        }
-    }
-
-    /// The scalar test's arithmetic (see [`crate::geometry::sphere`]) in four lanes.
+impl Source for Spheres4<'_, f32> {
     #[inline(always)]
-    unsafe fn kernel<S: Source>(
-        ray: &Ray<f32>,
-        spheres: &S,
-        used: usize,
-        t_max: f32,
-    ) -> DistanceHits4<f32> {
-        let [cx, cy, cz, r] = spheres.lanes();
-        let zero = _mm_setzero_ps();
-        let sign = _mm_set1_ps(-0.0);
-        let (dx, dy, dz) = (
-            _mm_set1_ps(ray.d.x),
-            _mm_set1_ps(ray.d.y),
-            _mm_set1_ps(ray.d.z),
+    fn lanes<L: Lanes<Elem = f32>>(&self) -> [L; 4] {
+        let (x, y, z) = (
+            self.map(|s| s.center.x),
+            self.map(|s| s.center.y),
+            self.map(|s| s.center.z),
         );
-        let fx = _mm_sub_ps(_mm_set1_ps(ray.o.x), cx);
-        let fy = _mm_sub_ps(_mm_set1_ps(ray.o.y), cy);
-        let fz = _mm_sub_ps(_mm_set1_ps(ray.o.z), cz);
-        let dot = |ax, ay, az, bx, by, bz| {
-            _mm_add_ps(
-                _mm_add_ps(_mm_mul_ps(ax, bx), _mm_mul_ps(ay, by)),
-                _mm_mul_ps(az, bz),
-            )
-        };
-        let b = dot(fx, fy, fz, dx, dy, dz);
-        let r2 = _mm_mul_ps(r, r);
-        let c = _mm_sub_ps(dot(fx, fy, fz, fx, fy, fz), r2);
-        let used_mask = (1u32 << used) - 1;
-        // Outside and heading away.
-        let mut reject = _mm_and_ps(_mm_cmpgt_ps(c, zero), _mm_cmpgt_ps(b, zero));
-        if _mm_movemask_ps(reject) as u32 & used_mask == used_mask {
-            return DistanceHits4 {
-                mask: 0,
-                t: [0.0; LANES],
-            };
-        }
-        let a_s = ray.d.length_squared();
-        let a = _mm_set1_ps(a_s);
-        let ba = _mm_div_ps(b, a);
-        let vx = _mm_sub_ps(fx, _mm_mul_ps(dx, ba));
-        let vy = _mm_sub_ps(fy, _mm_mul_ps(dy, ba));
-        let vz = _mm_sub_ps(fz, _mm_mul_ps(dz, ba));
-        let disc = _mm_mul_ps(a, _mm_sub_ps(r2, dot(vx, vy, vz, vx, vy, vz)));
-        reject = _mm_or_ps(reject, _mm_cmplt_ps(disc, zero));
-        let root = _mm_sqrt_ps(disc);
-        let signed_root = _mm_or_ps(_mm_andnot_ps(sign, root), _mm_and_ps(sign, b));
-        let q = _mm_xor_ps(_mm_add_ps(b, signed_root), sign);
-        let q_zero = _mm_cmpeq_ps(q, zero);
-        let t0 = select(q_zero, zero, _mm_div_ps(q, a));
-        let t1 = select(q_zero, zero, _mm_div_ps(c, q));
-        let swap = _mm_cmpgt_ps(t0, t1);
-        let (t0, t1) = (select(swap, t1, t0), select(swap, t0, t1));
-        let (t_min, t_max) = (_mm_set1_ps(ray.t_min), _mm_set1_ps(t_max));
-        let ok = |t| {
-            _mm_and_ps(
-                _mm_and_ps(_mm_cmpge_ps(t, t_min), _mm_cmple_ps(t, t_max)),
-                _mm_cmpgt_ps(t, zero),
-            )
-        };
-        let (ok0, ok1) = (ok(t0), ok(t1));
-        let t = select(ok0, t0, t1);
-        let hit = _mm_andnot_ps(reject, _mm_or_ps(ok0, ok1));
-        DistanceHits4 {
-            mask: _mm_movemask_ps(hit) as u32 & used_mask,
-            t: store(t),
+        [
+            L::load(&x),
+            L::load(&y),
+            L::load(&z),
+            L::load(&self.map(|s| s.radius)),
+        ]
+    }
+
+    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
+        intersect4_lanes(ray, self, used, t_max)
+    }
+}
+
+impl Source for SphereLanes {
+    #[inline(always)]
+    fn lanes<L: Lanes<Elem = f32>>(&self) -> [L; 4] {
+        // SAFETY: the rows of `SphereLanes` are four `f32` at a multiple of 16 bytes
+        // (`align(16)`, rows of 16 bytes).
+        unsafe {
+            [
+                L::load_aligned(&self.c[0]),
+                L::load_aligned(&self.c[1]),
+                L::load_aligned(&self.c[2]),
+                L::load_aligned(&self.r),
+            ]
         }
     }
+
+    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
+        self.scalar_hits(ray, used, t_max)
+    }
+}
+
+/// The sphere test ([`nearest_root`]) with a sphere per lane.
+#[inline(always)]
+fn kernel<L: Lanes<Elem = f32>, S: Source>(
+    ray: &Ray<f32>,
+    spheres: &S,
+    used: usize,
+    t_max: f32,
+) -> DistanceHits4<f32> {
+    let [cx, cy, cz, r] = spheres.lanes::<L>();
+    let f = [
+        L::splat(ray.o.x) - cx,
+        L::splat(ray.o.y) - cy,
+        L::splat(ray.o.z) - cz,
+    ];
+    let d = [L::splat(ray.d.x), L::splat(ray.d.y), L::splat(ray.d.z)];
+    let a = L::splat(ray.d.length_squared());
+    let live = (1u32 << used) - 1;
+    let mut out = DistanceHits4 {
+        mask: 0,
+        t: [0.0; LANES],
+    };
+    let (t_min, t_max) = (L::splat(ray.t_min), L::splat(t_max));
+    if let Some(h) = nearest_root(f, d, a, r * r, t_min, t_max, live) {
+        out.mask = h.mask;
+        h.t.store(&mut out.t);
+    }
+    out
 }
 
 #[cfg(test)]
@@ -282,16 +249,9 @@ mod tests {
             intersect4(ray, s, used, t_max),
             intersect4_gathered(ray, &lanes, used, t_max),
         ];
-        #[cfg(target_arch = "x86_64")]
-        {
-            kernels.push(sse2(ray, s, used, t_max));
-            kernels.push(sse2(ray, &lanes, used, t_max));
-            if crate::isa::Isa::Avx2.supported() {
-                // SAFETY: the CPU has AVX.
-                kernels.push(unsafe { avx(ray, s, used, t_max) });
-                // SAFETY: as above.
-                kernels.push(unsafe { avx(ray, &lanes, used, t_max) });
-            }
+        for tier in Isa::ALL {
+            kernels.extend(intersect4_on(tier, ray, s, used, t_max));
+            kernels.extend(intersect4_on(tier, ray, &lanes, used, t_max));
         }
         for got in kernels {
             assert_eq!(got.mask, want.mask, "{ray:?} used {used} t_max {t_max}");

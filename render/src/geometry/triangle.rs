@@ -2,8 +2,13 @@
 //! into the ray's frame so that edge functions are evaluated consistently on shared edges and no
 //! ray slips between neighbours. Edge functions that come out exactly zero in `f32` are redone in
 //! `f64`. A conservative bound on `t`'s error rejects self-intersections (after pbrt-v4).
+//!
+//! The test is written once, [`watertight`], over the lane types of [`crate::lanes`]: the scalar
+//! test here, and the SIMD kernels of [`super::triangle4`] (one ray against four triangles) and
+//! [`super::leaf16`] (a packet's rays against one triangle) are its instances.
 
 use super::ray::PreparedRay;
+use crate::lanes::{Lanes, Mask};
 use crate::real::Real;
 use crate::vec3::V3;
 
@@ -50,7 +55,8 @@ pub fn edges_f64([ax, ay, bx, by, cx, cy]: [f64; 6]) -> [f64; 3] {
     [bx * cy - by * cx, cx * ay - cy * ax, ax * by - ay * bx]
 }
 
-/// The test in the ray's frame given by the axes `kx`, `ky`, `kz` (inlined with constants).
+/// The test in the ray's frame given by the axes `kx`, `ky`, `kz` (inlined with constants): the
+/// lane kernel [`watertight`] with one lane.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn sheared<R: Real>(
@@ -64,73 +70,157 @@ fn sheared<R: Real>(
     kz: usize,
 ) -> Option<TriHit<R>> {
     let o = pr.ray.o;
+    let rel = |p: V3<R>| {
+        let a = p - o;
+        [a.get(kx), a.get(ky), a.get(kz)]
+    };
     let s = pr.shear;
-    let a = p0 - o;
-    let b = p1 - o;
-    let c = p2 - o;
-    let (az, bz, cz) = (a.get(kz), b.get(kz), c.get(kz));
-    let ax = a.get(kx) - s.x * az;
-    let ay = a.get(ky) - s.y * az;
-    let bx = b.get(kx) - s.x * bz;
-    let by = b.get(ky) - s.y * bz;
-    let cx = c.get(kx) - s.x * cz;
-    let cy = c.get(ky) - s.y * cz;
-    let mut e0 = bx * cy - by * cx;
-    let mut e1 = cx * ay - cy * ax;
-    let mut e2 = ax * by - ay * bx;
-    if e0 == R::ZERO || e1 == R::ZERO || e2 == R::ZERO {
-        // Exactly on an edge in this precision: decide in double precision.
-        let [f0, f1, f2] = edges_f64([ax, ay, bx, by, cx, cy].map(R::to_f64));
-        (e0, e1, e2) = (R::from_f64(f0), R::from_f64(f1), R::from_f64(f2));
+    let h = watertight(
+        [rel(p0), rel(p1), rel(p2)],
+        [s.x, s.y, s.z],
+        pr.ray.t_min,
+        t_max,
+        1,
+    )?;
+    (h.mask != 0).then_some(TriHit {
+        t: h.t,
+        b1: h.b1,
+        b2: h.b2,
+    })
+}
+
+/// The answers of [`watertight`]: bit `i` of `mask` is set when lane `i` is hit; `t`, `b1` and
+/// `b2` are computed in every lane and meaningful in the lanes hit.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LaneHits<L> {
+    /// Lanes hit.
+    pub mask: u32,
+    /// Distances.
+    pub t: L,
+    /// Barycentrics of vertex 1.
+    pub b1: L,
+    /// Barycentrics of vertex 2.
+    pub b2: L,
+}
+
+/// The watertight test, written once for every lane type ([`crate::lanes`]): the scalar test
+/// is its one-lane instance, the SIMD kernels (one ray against four triangles, a packet's rays
+/// against one triangle) its four-, eight- and sixteen-lane instances, so every lane does the
+/// same IEEE operations in the same order and gives the same bits.
+///
+/// `v[vertex]` holds the vertex's components along the ray's permuted axes `kx`, `ky`, `kz`
+/// minus the origin's, `s` the shear; the lanes of `live` (bits) count. `None` when every live
+/// lane is rejected before the division (most tests of a leaf end there: outside an edge, or
+/// out of range).
+#[inline(always)]
+pub(crate) fn watertight<L: Lanes>(
+    v: [[L; 3]; 3],
+    s: [L; 3],
+    t_min: L,
+    t_max: L,
+    live: u32,
+) -> Option<LaneHits<L>> {
+    // No closures over lane operations here: a closure is compiled apart from the tier's entry,
+    // without its instruction sets, and its lane operations would become calls.
+    let zero = L::zero();
+    let [sx, sy, sz] = s;
+    let [[ax, ay, az], [bx, by, bz], [cx, cy, cz]] = v;
+    let (ax, ay) = (ax - sx * az, ay - sy * az);
+    let (bx, by) = (bx - sx * bz, by - sy * bz);
+    let (cx, cy) = (cx - sx * cz, cy - sy * cz);
+    let mut e = [bx * cy - by * cx, cx * ay - cy * ax, ax * by - ay * bx];
+    let redo = (e[0].eq(zero) | e[1].eq(zero) | e[2].eq(zero)).bits() & live;
+    if redo != 0 {
+        // Exactly on an edge in this precision: those lanes decide in double precision.
+        e = edges_redone(redo, [ax, ay, bx, by, cx, cy], e);
     }
-    if (e0 < R::ZERO || e1 < R::ZERO || e2 < R::ZERO)
-        && (e0 > R::ZERO || e1 > R::ZERO || e2 > R::ZERO)
-    {
+    let [e0, e1, e2] = e;
+    // Mixed signs: outside.
+    let any_neg = e0.lt(zero) | e1.lt(zero) | e2.lt(zero);
+    let any_pos = e0.gt(zero) | e1.gt(zero) | e2.gt(zero);
+    let mut reject = any_neg & any_pos;
+    if reject.bits() & live == live {
         return None;
     }
     let det = e0 + e1 + e2;
-    if det == R::ZERO {
-        return None;
-    }
-    let (saz, sbz, scz) = (s.z * az, s.z * bz, s.z * cz);
+    reject = reject | det.eq(zero);
+    let (saz, sbz, scz) = (sz * az, sz * bz, sz * cz);
     let t_scaled = e0 * saz + e1 * sbz + e2 * scz;
     // Range checks on the scaled distance avoid a division for most misses. They are only a
     // filter, widened so they never reject a hit whose computed `t` is ≤ `t_max`: the exact
     // check is on `t` itself, so `t_max` is inclusive of the very `t` this test returns (the
     // accelerators' tie rule re-tests primitives with `t_max` = the best `t` so far).
-    let reach = t_max * (R::ONE + R::TWO * R::gamma(3));
-    if det < R::ZERO {
-        if t_scaled >= R::ZERO || t_scaled < reach * det {
-            return None;
-        }
-    } else if t_scaled <= R::ZERO || t_scaled > reach * det {
+    let reach_det = t_max * L::splat(L::Elem::ONE + L::Elem::TWO * L::Elem::gamma(3)) * det;
+    let det_neg = det.lt(zero);
+    let out_neg = t_scaled.ge(zero) | t_scaled.lt(reach_det);
+    let out_pos = t_scaled.le(zero) | t_scaled.gt(reach_det);
+    reject = reject | ((det_neg & out_neg) | det_neg.andnot(out_pos));
+    if reject.bits() & live == live {
         return None;
     }
-    let inv_det = R::ONE / det;
+    let inv_det = L::splat(L::Elem::ONE) / det;
     let t = t_scaled * inv_det;
-    if t < pr.ray.t_min || t > t_max {
-        return None;
-    }
+    reject = reject | (t.lt(t_min) | t.gt(t_max));
     let b1 = e1 * inv_det;
     let b2 = e2 * inv_det;
     // Conservative bound on t's rounding error: reject hits indistinguishable from t = 0.
-    let max_zt = saz.abs().max(sbz.abs()).max(scz.abs());
-    let delta_z = R::gamma(3) * max_zt;
-    let max_xt = ax.abs().max(bx.abs()).max(cx.abs());
-    let max_yt = ay.abs().max(by.abs()).max(cy.abs());
-    let delta_x = R::gamma(5) * (max_xt + max_zt);
-    let delta_y = R::gamma(5) * (max_yt + max_zt);
-    let delta_e = R::TWO * (R::gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_zt = max3(saz, sbz, scz);
+    let delta_z = gamma::<L>(3) * max_zt;
+    let max_xt = max3(ax, bx, cx);
+    let max_yt = max3(ay, by, cy);
+    let delta_x = gamma::<L>(5) * (max_xt + max_zt);
+    let delta_y = gamma::<L>(5) * (max_yt + max_zt);
+    let delta_e = L::splat(L::Elem::TWO)
+        * (gamma::<L>(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     // The bound is in terms of the edge functions themselves (scale length²), not the
     // barycentrics: using b (scale-free) made it wrong by the square of the scene's scale.
-    let max_e = e0.abs().max(e1.abs()).max(e2.abs());
-    let delta_t = R::from_u32(3)
-        * (R::gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+    let max_e = max3(e0, e1, e2);
+    let delta_t = L::splat(L::Elem::from_u32(3))
+        * (gamma::<L>(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
         * inv_det.abs();
-    if t <= delta_t {
-        return None;
+    reject = reject | t.le(delta_t);
+    Some(LaneHits {
+        mask: !reject.bits() & live,
+        t,
+        b1,
+        b2,
+    })
+}
+
+/// γ(n) in every lane.
+#[inline(always)]
+fn gamma<L: Lanes>(n: u32) -> L {
+    L::splat(L::Elem::gamma(n))
+}
+
+/// The largest of the three lanes' magnitudes, lane by lane ([`Lanes::maxnum`]'s NaN rule).
+#[inline(always)]
+fn max3<L: Lanes>(a: L, b: L, c: L) -> L {
+    a.abs().maxnum(b.abs()).maxnum(c.abs())
+}
+
+/// The edge functions `e` with the lanes of `redo` recomputed by [`edges_f64`] from the sheared
+/// vertices `[ax, ay, bx, by, cx, cy]`.
+#[inline(always)]
+fn edges_redone<L: Lanes>(redo: u32, v: [L; 6], e: [L; 3]) -> [L; 3] {
+    const MAX: usize = 16;
+    let mut vs = [[L::Elem::ZERO; MAX]; 6];
+    let mut es = [[L::Elem::ZERO; MAX]; 3];
+    for (lanes, x) in vs.iter_mut().zip(v) {
+        x.store(lanes);
     }
-    Some(TriHit { t, b1, b2 })
+    for (lanes, x) in es.iter_mut().zip(e) {
+        x.store(lanes);
+    }
+    for i in 0..L::N {
+        if redo & (1 << i) != 0 {
+            let g = edges_f64(vs.map(|lanes| lanes[i].to_f64()));
+            for (lanes, g) in es.iter_mut().zip(g) {
+                lanes[i] = L::Elem::from_f64(g);
+            }
+        }
+    }
+    [L::load(&es[0]), L::load(&es[1]), L::load(&es[2])]
 }
 
 /// The hit point from barycentrics, and its absolute error bound (pbrt's γ₇ bound).

@@ -4,14 +4,17 @@
 //! edge functions that come out exactly zero redone in `f64` lane by lane), so each lane's
 //! answer — hit or not, `t`, `b1`, `b2` — is bit for bit the scalar [`intersect_triangle`]'s.
 //!
-//! [`intersect4`] picks the kernel of the process's tier ([`crate::isa`]): AVX (the same
-//! instructions in their three-operand VEX form) on `avx2` and `avx512`, SSE2 on `sse2`, and the
-//! portable lane-by-lane loop ([`intersect4_lanes`]) on `scalar`, on other targets and for `f64`.
+//! The arithmetic is the one watertight test, [`watertight`], on four lanes. [`intersect4`]
+//! runs it with the code of the process's tier ([`crate::isa::dispatch`]): four SSE2 lanes on
+//! `sse2`, the same in their three-operand VEX form on `avx2` and `avx512`, and the portable
+//! lane-by-lane loop ([`intersect4_lanes`]) on `scalar`, on other targets and for `f64`.
 //! [`TriLanes`] holds a leaf's triangles already gathered into lanes, so the rays of a packet
 //! that enter the leaf share one gather ([`intersect4_gathered`]).
 
 use super::ray::PreparedRay;
-use super::triangle::intersect_triangle;
+use super::triangle::{intersect_triangle, watertight};
+use crate::isa::{Isa, Kernel, Tier};
+use crate::lanes::Lanes;
 use crate::real::Real;
 use crate::vec3::V3;
 
@@ -100,12 +103,12 @@ pub fn intersect4(
     used: usize,
     t_max: f32,
 ) -> Hits4<f32> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        x86::dispatch(pr, tris, used, t_max)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    intersect4_lanes(pr, tris, used, t_max)
+    crate::isa::dispatch(Four {
+        pr,
+        src: tris,
+        used,
+        t_max,
+    })
 }
 
 /// [`intersect4`] on triangles already gathered into lanes: the same answers bit for bit.
@@ -116,293 +119,156 @@ pub fn intersect4_gathered(
     used: usize,
     t_max: f32,
 ) -> Hits4<f32> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        x86::dispatch(pr, tris, used, t_max)
+    crate::isa::dispatch(Four {
+        pr,
+        src: tris,
+        used,
+        t_max,
+    })
+}
+
+/// [`intersect4`] or [`intersect4_gathered`] (as `src` is) with the code of `tier`, or `None`
+/// when this CPU does not run `tier` (for the tests that compare the tiers).
+pub fn intersect4_on<S: Source>(
+    tier: Isa,
+    pr: &PreparedRay<f32>,
+    src: &S,
+    used: usize,
+    t_max: f32,
+) -> Option<Hits4<f32>> {
+    crate::isa::dispatch_on(
+        tier,
+        Four {
+            pr,
+            src,
+            used,
+            t_max,
+        },
+    )
+}
+
+/// One ray against the four triangles of `src`: the kernel [`crate::isa::dispatch`] runs.
+struct Four<'a, S> {
+    pr: &'a PreparedRay<f32>,
+    src: &'a S,
+    used: usize,
+    t_max: f32,
+}
+
+impl<S: Source> Kernel for Four<'_, S> {
+    type Output = Hits4<f32>;
+
+    /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
+    /// portable lane loop on `scalar` and on other targets.
+    #[inline(always)]
+    fn run<T: Tier>(self) -> Hits4<f32> {
+        #[cfg(target_arch = "x86_64")]
+        if T::ISA.sse2() {
+            return permuted::<crate::lanes::X4, S>(self.pr, self.src, self.used, self.t_max);
+        }
+        self.src.lanes(self.pr, self.used, self.t_max)
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let t = [0, 1, 2, 3].map(|i| tris.triangle(i));
+}
+
+/// Where the kernel reads the triangles' components from: gathered from four triangles on the
+/// spot, or loaded from lanes gathered once.
+pub trait Source {
+    /// Component `K` of vertex `V` of the four triangles, minus the ray origin's component.
+    fn rel<L: Lanes<Elem = f32>, const V: usize, const K: usize>(&self, o: f32) -> L;
+    /// The portable kernel on the same triangles.
+    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32>;
+}
+
+impl Source for Tris4<'_, f32> {
+    #[inline(always)]
+    fn rel<L: Lanes<Elem = f32>, const V: usize, const K: usize>(&self, o: f32) -> L {
+        let c = self.map(|t| t[V].get(K));
+        L::load(&c) - L::splat(o)
+    }
+
+    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32> {
+        intersect4_lanes(pr, self, used, t_max)
+    }
+}
+
+impl Source for TriLanes {
+    #[inline(always)]
+    fn rel<L: Lanes<Elem = f32>, const V: usize, const K: usize>(&self, o: f32) -> L {
+        // SAFETY: the rows of `TriLanes` are four `f32` at a multiple of 16 bytes
+        // (`align(16)`, rows of 16 bytes).
+        unsafe { L::load_aligned(&self.v[V][K]) - L::splat(o) }
+    }
+
+    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32> {
+        let t = [0, 1, 2, 3].map(|i| self.triangle(i));
         intersect4_lanes(pr, &[&t[0], &t[1], &t[2], &t[3]], used, t_max)
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-pub use x86::{avx, sse2};
-
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    use super::{Hits4, TriLanes, Tris4, LANES};
-    use crate::geometry::ray::PreparedRay;
-    use crate::geometry::sse4::{select, store};
-    use crate::geometry::triangle::edges_f64;
-    use crate::real::Real;
-    use std::arch::x86_64::*;
-
-    /// The SSE2 kernel (every x86-64 CPU has SSE2), on four triangles or lanes gathered
-    /// once.
-    #[inline(never)]
-    pub fn sse2<S: Source>(pr: &PreparedRay<f32>, src: &S, used: usize, t_max: f32) -> Hits4<f32> {
-        // SAFETY: SSE2 is part of the x86-64 baseline.
-        unsafe { permuted(pr, src, used, t_max) }
+/// Matches the ray's axis permutation once, like the scalar test, so the gathers use constant
+/// component indices.
+#[inline(always)]
+fn permuted<L: Lanes<Elem = f32>, S: Source>(
+    pr: &PreparedRay<f32>,
+    tris: &S,
+    used: usize,
+    t_max: f32,
+) -> Hits4<f32> {
+    match (pr.kx, pr.ky, pr.kz) {
+        (1, 2, 0) => kernel::<L, 1, 2, 0, S>(pr, tris, used, t_max),
+        (2, 1, 0) => kernel::<L, 2, 1, 0, S>(pr, tris, used, t_max),
+        (2, 0, 1) => kernel::<L, 2, 0, 1, S>(pr, tris, used, t_max),
+        (0, 2, 1) => kernel::<L, 0, 2, 1, S>(pr, tris, used, t_max),
+        (0, 1, 2) => kernel::<L, 0, 1, 2, S>(pr, tris, used, t_max),
+        (1, 0, 2) => kernel::<L, 1, 0, 2, S>(pr, tris, used, t_max),
+        // `PreparedRay::new` only makes the six permutations above.
+        _ => tris.lanes(pr, used, t_max),
     }
+}
 
-    /// The same kernel compiled for AVX (VEX encodings; no FMA: the scalar test has none).
-    ///
-    /// # Safety
-    /// The CPU must support AVX.
-    #[target_feature(enable = "avx")]
-    #[inline(never)]
-    pub unsafe fn avx<S: Source>(
-        pr: &PreparedRay<f32>,
-        src: &S,
-        used: usize,
-        t_max: f32,
-    ) -> Hits4<f32> {
-        permuted(pr, src, used, t_max)
+/// The watertight test ([`watertight`]) with a triangle per lane.
+#[inline(always)]
+fn kernel<L: Lanes<Elem = f32>, const KX: usize, const KY: usize, const KZ: usize, S: Source>(
+    pr: &PreparedRay<f32>,
+    tris: &S,
+    used: usize,
+    t_max: f32,
+) -> Hits4<f32> {
+    let o = pr.ray.o.to_array();
+    let s = pr.shear;
+    let v = [
+        [
+            tris.rel::<L, 0, KX>(o[KX]),
+            tris.rel::<L, 0, KY>(o[KY]),
+            tris.rel::<L, 0, KZ>(o[KZ]),
+        ],
+        [
+            tris.rel::<L, 1, KX>(o[KX]),
+            tris.rel::<L, 1, KY>(o[KY]),
+            tris.rel::<L, 1, KZ>(o[KZ]),
+        ],
+        [
+            tris.rel::<L, 2, KX>(o[KX]),
+            tris.rel::<L, 2, KY>(o[KY]),
+            tris.rel::<L, 2, KZ>(o[KZ]),
+        ],
+    ];
+    let s = [L::splat(s.x), L::splat(s.y), L::splat(s.z)];
+    let live = (1u32 << used) - 1;
+    let mut out = Hits4 {
+        mask: 0,
+        t: [0.0; LANES],
+        b1: [0.0; LANES],
+        b2: [0.0; LANES],
+    };
+    // Most leaves are missed before the division: all lanes zero then.
+    if let Some(h) = watertight(v, s, L::splat(pr.ray.t_min), L::splat(t_max), live) {
+        out.mask = h.mask;
+        h.t.store(&mut out.t);
+        h.b1.store(&mut out.b1);
+        h.b2.store(&mut out.b2);
     }
-
-    /// The kernel of the process's tier ([`crate::isa`]).
-    #[inline(always)]
-    pub fn dispatch<S: Source>(
-        pr: &PreparedRay<f32>,
-        src: &S,
-        used: usize,
-        t_max: f32,
-    ) -> Hits4<f32> {
-        let tier = crate::isa::current();
-        if tier.avx() {
-            // SAFETY: the AVX tiers are only chosen on a CPU that has AVX.
-            return unsafe { avx(pr, src, used, t_max) };
-        }
-        if tier.sse2() {
-            return sse2(pr, src, used, t_max);
-        }
-        src.lanes(pr, used, t_max)
-    }
-
-    /// Where the kernel reads the triangles' components from: gathered from four triangles
-    /// on the spot, or loaded from lanes gathered once.
-    pub trait Source {
-        /// Component `K` of vertex `V` of the four triangles, minus the ray origin's
-        /// component.
-        unsafe fn rel<const V: usize, const K: usize>(&self, o: f32) -> __m128;
-        /// The portable kernel on the same triangles.
-        fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32>;
-    }
-
-    impl Source for Tris4<'_, f32> {
-        #[inline(always)]
-        unsafe fn rel<const V: usize, const K: usize>(&self, o: f32) -> __m128 {
-            let c = |i: usize| {
-                let p = self[i][V];
-                match K {
-                    0 => p.x,
-                    1 => p.y,
-                    _ => p.z,
-                }
-            };
-            _mm_sub_ps(_mm_setr_ps(c(0), c(1), c(2), c(3)), _mm_set1_ps(o))
-        }
-
-        fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32> {
-            super::intersect4_lanes(pr, self, used, t_max)
-        }
-    }
-
-    impl Source for TriLanes {
-        #[inline(always)]
-        unsafe fn rel<const V: usize, const K: usize>(&self, o: f32) -> __m128 {
-            _mm_sub_ps(_mm_load_ps(self.v[V][K].as_ptr()), _mm_set1_ps(o))
-        }
-
-        fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32> {
-            let t = [0, 1, 2, 3].map(|i| self.triangle(i));
-            super::intersect4_lanes(pr, &[&t[0], &t[1], &t[2], &t[3]], used, t_max)
-        }
-    }
-
-    /// Matches the ray's axis permutation once, like the scalar test, so the gathers use
-    /// constant component indices.
-    #[inline(always)]
-    unsafe fn permuted<S: Source>(
-        pr: &PreparedRay<f32>,
-        tris: &S,
-        used: usize,
-        t_max: f32,
-    ) -> Hits4<f32> {
-        match (pr.kx, pr.ky, pr.kz) {
-            (1, 2, 0) => kernel::<1, 2, 0, S>(pr, tris, used, t_max),
-            (2, 1, 0) => kernel::<2, 1, 0, S>(pr, tris, used, t_max),
-            (2, 0, 1) => kernel::<2, 0, 1, S>(pr, tris, used, t_max),
-            (0, 2, 1) => kernel::<0, 2, 1, S>(pr, tris, used, t_max),
-            (0, 1, 2) => kernel::<0, 1, 2, S>(pr, tris, used, t_max),
-            (1, 0, 2) => kernel::<1, 0, 2, S>(pr, tris, used, t_max),
-            // `PreparedRay::new` only makes the six permutations above.
-            _ => tris.lanes(pr, used, t_max),
-        }
-    }
-
-    /// `f32::max` lane by lane: the larger value, or the operand that is not NaN (`maxps`
-    /// alone returns `b` whenever either is NaN).
-    #[inline(always)]
-    unsafe fn maxnum(a: __m128, b: __m128) -> __m128 {
-        let m = _mm_max_ps(a, b);
-        select(_mm_cmpunord_ps(b, b), a, m)
-    }
-
-    #[inline(always)]
-    unsafe fn abs(a: __m128) -> __m128 {
-        _mm_andnot_ps(_mm_set1_ps(-0.0), a)
-    }
-
-    /// The scalar test's arithmetic (see [`crate::geometry::triangle`]) in four lanes.
-    #[inline(always)]
-    unsafe fn kernel<const KX: usize, const KY: usize, const KZ: usize, S: Source>(
-        pr: &PreparedRay<f32>,
-        tris: &S,
-        used: usize,
-        t_max: f32,
-    ) -> Hits4<f32> {
-        let o = [pr.ray.o.x, pr.ray.o.y, pr.ray.o.z];
-        let s = pr.shear;
-        let zero = _mm_setzero_ps();
-        let (sx, sy, sz) = (_mm_set1_ps(s.x), _mm_set1_ps(s.y), _mm_set1_ps(s.z));
-        let az = tris.rel::<0, KZ>(o[KZ]);
-        let bz = tris.rel::<1, KZ>(o[KZ]);
-        let cz = tris.rel::<2, KZ>(o[KZ]);
-        let ax = _mm_sub_ps(tris.rel::<0, KX>(o[KX]), _mm_mul_ps(sx, az));
-        let ay = _mm_sub_ps(tris.rel::<0, KY>(o[KY]), _mm_mul_ps(sy, az));
-        let bx = _mm_sub_ps(tris.rel::<1, KX>(o[KX]), _mm_mul_ps(sx, bz));
-        let by = _mm_sub_ps(tris.rel::<1, KY>(o[KY]), _mm_mul_ps(sy, bz));
-        let cx = _mm_sub_ps(tris.rel::<2, KX>(o[KX]), _mm_mul_ps(sx, cz));
-        let cy = _mm_sub_ps(tris.rel::<2, KY>(o[KY]), _mm_mul_ps(sy, cz));
-        let mut e0 = _mm_sub_ps(_mm_mul_ps(bx, cy), _mm_mul_ps(by, cx));
-        let mut e1 = _mm_sub_ps(_mm_mul_ps(cx, ay), _mm_mul_ps(cy, ax));
-        let mut e2 = _mm_sub_ps(_mm_mul_ps(ax, by), _mm_mul_ps(ay, bx));
-        let used_mask = (1u32 << used) - 1;
-        let on_edge = _mm_or_ps(
-            _mm_or_ps(_mm_cmpeq_ps(e0, zero), _mm_cmpeq_ps(e1, zero)),
-            _mm_cmpeq_ps(e2, zero),
-        );
-        let redo = _mm_movemask_ps(on_edge) as u32 & used_mask;
-        if redo != 0 {
-            // Exactly on an edge in f32: those lanes decide in double precision, as the
-            // scalar test does.
-            let (ax_, ay_, bx_, by_, cx_, cy_) = (
-                store(ax),
-                store(ay),
-                store(bx),
-                store(by),
-                store(cx),
-                store(cy),
-            );
-            let (mut f0, mut f1, mut f2) = (store(e0), store(e1), store(e2));
-            for i in 0..LANES {
-                if redo & (1 << i) != 0 {
-                    let v = [ax_[i], ay_[i], bx_[i], by_[i], cx_[i], cy_[i]].map(f64::from);
-                    let [g0, g1, g2] = edges_f64(v);
-                    (f0[i], f1[i], f2[i]) = (g0 as f32, g1 as f32, g2 as f32);
-                }
-            }
-            e0 = _mm_loadu_ps(f0.as_ptr());
-            e1 = _mm_loadu_ps(f1.as_ptr());
-            e2 = _mm_loadu_ps(f2.as_ptr());
-        }
-        // Mixed signs: outside.
-        let any_neg = _mm_or_ps(
-            _mm_or_ps(_mm_cmplt_ps(e0, zero), _mm_cmplt_ps(e1, zero)),
-            _mm_cmplt_ps(e2, zero),
-        );
-        let any_pos = _mm_or_ps(
-            _mm_or_ps(_mm_cmpgt_ps(e0, zero), _mm_cmpgt_ps(e1, zero)),
-            _mm_cmpgt_ps(e2, zero),
-        );
-        let mut reject = _mm_and_ps(any_neg, any_pos);
-        let det = _mm_add_ps(_mm_add_ps(e0, e1), e2);
-        reject = _mm_or_ps(reject, _mm_cmpeq_ps(det, zero));
-        let (saz, sbz, scz) = (_mm_mul_ps(sz, az), _mm_mul_ps(sz, bz), _mm_mul_ps(sz, cz));
-        let t_scaled = _mm_add_ps(
-            _mm_add_ps(_mm_mul_ps(e0, saz), _mm_mul_ps(e1, sbz)),
-            _mm_mul_ps(e2, scz),
-        );
-        let g = |n: u32| _mm_set1_ps(<f32 as Real>::gamma(n));
-        let reach = _mm_set1_ps(t_max * (1.0 + 2.0 * <f32 as Real>::gamma(3)));
-        let reach_det = _mm_mul_ps(reach, det);
-        let det_neg = _mm_cmplt_ps(det, zero);
-        let out_neg = _mm_or_ps(
-            _mm_cmpge_ps(t_scaled, zero),
-            _mm_cmplt_ps(t_scaled, reach_det),
-        );
-        let out_pos = _mm_or_ps(
-            _mm_cmple_ps(t_scaled, zero),
-            _mm_cmpgt_ps(t_scaled, reach_det),
-        );
-        reject = _mm_or_ps(
-            reject,
-            _mm_or_ps(
-                _mm_and_ps(det_neg, out_neg),
-                _mm_andnot_ps(det_neg, out_pos),
-            ),
-        );
-        if _mm_movemask_ps(reject) as u32 & used_mask == used_mask {
-            // Most leaves are missed by the filters above: no division.
-            return Hits4 {
-                mask: 0,
-                t: [0.0; LANES],
-                b1: [0.0; LANES],
-                b2: [0.0; LANES],
-            };
-        }
-        let inv_det = _mm_div_ps(_mm_set1_ps(1.0), det);
-        let t = _mm_mul_ps(t_scaled, inv_det);
-        reject = _mm_or_ps(
-            reject,
-            _mm_or_ps(
-                _mm_cmplt_ps(t, _mm_set1_ps(pr.ray.t_min)),
-                _mm_cmpgt_ps(t, _mm_set1_ps(t_max)),
-            ),
-        );
-        let b1 = _mm_mul_ps(e1, inv_det);
-        let b2 = _mm_mul_ps(e2, inv_det);
-        let max_zt = maxnum(maxnum(abs(saz), abs(sbz)), abs(scz));
-        let delta_z = _mm_mul_ps(g(3), max_zt);
-        let max_xt = maxnum(maxnum(abs(ax), abs(bx)), abs(cx));
-        let max_yt = maxnum(maxnum(abs(ay), abs(by)), abs(cy));
-        let delta_x = _mm_mul_ps(g(5), _mm_add_ps(max_xt, max_zt));
-        let delta_y = _mm_mul_ps(g(5), _mm_add_ps(max_yt, max_zt));
-        let delta_e = _mm_mul_ps(
-            _mm_set1_ps(2.0),
-            _mm_add_ps(
-                _mm_add_ps(
-                    _mm_mul_ps(_mm_mul_ps(g(2), max_xt), max_yt),
-                    _mm_mul_ps(delta_y, max_xt),
-                ),
-                _mm_mul_ps(delta_x, max_yt),
-            ),
-        );
-        let max_e = maxnum(maxnum(abs(e0), abs(e1)), abs(e2));
-        let delta_t = _mm_mul_ps(
-            _mm_mul_ps(
-                _mm_set1_ps(3.0),
-                _mm_add_ps(
-                    _mm_add_ps(
-                        _mm_mul_ps(_mm_mul_ps(g(3), max_e), max_zt),
-                        _mm_mul_ps(delta_e, max_zt),
-                    ),
-                    _mm_mul_ps(delta_z, max_e),
-                ),
-            ),
-            abs(inv_det),
-        );
-        reject = _mm_or_ps(reject, _mm_cmple_ps(t, delta_t));
-        Hits4 {
-            mask: !(_mm_movemask_ps(reject) as u32) & used_mask,
-            t: store(t),
-            b1: store(b1),
-            b2: store(b2),
-        }
-    }
+    out
 }
 
 #[cfg(test)]
@@ -429,16 +295,9 @@ mod tests {
             intersect4(r, tris, used, t_max),
             intersect4_gathered(r, &lanes, used, t_max),
         ];
-        #[cfg(target_arch = "x86_64")]
-        {
-            kernels.push(sse2(r, tris, used, t_max));
-            kernels.push(sse2(r, &lanes, used, t_max));
-            if crate::isa::Isa::Avx2.supported() {
-                // SAFETY: the CPU has AVX.
-                kernels.push(unsafe { avx(r, tris, used, t_max) });
-                // SAFETY: as above.
-                kernels.push(unsafe { avx(r, &lanes, used, t_max) });
-            }
+        for tier in Isa::ALL {
+            kernels.extend(intersect4_on(tier, r, tris, used, t_max));
+            kernels.extend(intersect4_on(tier, r, &lanes, used, t_max));
         }
         for got in kernels {
             assert_eq!(got.mask, want.mask, "{r:?} used {used} t_max {t_max}");

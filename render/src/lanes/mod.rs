@@ -1,0 +1,105 @@
+//! The lane types the SIMD kernels are written against, once: a [`Lanes`] value is `N` `f32`
+//! (or one `f32` or `f64`) lanes, with the IEEE operations the kernels need and nothing else.
+//! There is one file per width with the same operations: every [`Real`] (one lane,
+//! `scalar.rs`), [`X4`] (four lanes in an SSE2 register), [`X8`] (eight in an AVX register) and
+//! [`X16`] (sixteen in an AVX-512 register). The intrinsics live in those files and nowhere else.
+//!
+//! Every operation gives each lane the bits the scalar operation gives it: the arithmetic is
+//! IEEE-rounded add, subtract, multiply, divide and square root, with no fused multiply-add
+//! and no approximate reciprocal, so a kernel written once gives the same bits on every tier.
+//! Comparisons are ordered (false when either lane is NaN), as Rust's `<`, `<=`, `>`, `>=`
+//! and `==` on floats.
+//!
+//! A lane type's operations assume the CPU runs its instructions: a kernel uses [`X8`] or
+//! [`X16`] only when it is instantiated for the `avx2` or `avx512` tier by
+//! [`crate::isa::dispatch`], which enters it only after the CPU was checked, with the tier's
+//! instruction sets enabled (so the operations, all `#[inline(always)]`, compile to single
+//! instructions). [`X4`] needs SSE2, which every x86-64 CPU has.
+
+use crate::real::Real;
+use std::fmt::Debug;
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
+
+mod scalar;
+#[cfg(target_arch = "x86_64")]
+mod x16;
+#[cfg(target_arch = "x86_64")]
+mod x4;
+#[cfg(target_arch = "x86_64")]
+mod x8;
+
+#[cfg(target_arch = "x86_64")]
+pub use x16::X16;
+#[cfg(target_arch = "x86_64")]
+pub use x4::{Mask4, X4};
+#[cfg(target_arch = "x86_64")]
+pub use x8::{Mask8, X8};
+
+/// The answers of a lane comparison, one per lane: `&` and `|` lane by lane.
+pub trait Mask: Copy + Debug + BitAnd<Output = Self> + BitOr<Output = Self> {
+    /// `!self & other` lane by lane.
+    fn andnot(self, other: Self) -> Self;
+    /// Bit `i` set when lane `i` is set (`movemask`).
+    fn bits(self) -> u32;
+}
+
+/// `N` lanes of [`Lanes::Elem`], with the operations the kernels use. `+`, `-`, `*` and `/` are
+/// the IEEE operations lane by lane.
+pub trait Lanes:
+    Copy + Debug + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
+{
+    /// The scalar of a lane.
+    type Elem: Real;
+    /// The answers of a comparison.
+    type Mask: Mask;
+    /// Lanes per value.
+    const N: usize;
+
+    /// `x` in every lane.
+    fn splat(x: Self::Elem) -> Self;
+    /// Lanes `0..N` of `a` (`a` holds at least `N`; no alignment needed).
+    fn load(a: &[Self::Elem]) -> Self;
+    /// Lanes `0..N` of `a` from an address aligned to the register's size.
+    ///
+    /// # Safety
+    /// `a` holds at least `N` values and starts at a multiple of `N × size_of::<Elem>()`
+    /// bytes (16 for [`X4`]).
+    unsafe fn load_aligned(a: &[Self::Elem]) -> Self;
+    /// Writes the lanes to `out[0..N]` (`out` holds at least `N`; no alignment needed).
+    fn store(self, out: &mut [Self::Elem]);
+    /// A lane mask stored both ways a kernel may hold one: as lanes of all-one or all-zero bits
+    /// (`lanes[0..N]`) and as bits (`bits`, bit `i` lane `i`): each width reads the form its
+    /// comparisons make.
+    fn mask_from(lanes: &[Self::Elem], bits: u32) -> Self::Mask;
+
+    /// The square root, correctly rounded.
+    fn sqrt(self) -> Self;
+    /// The absolute value (the sign bit cleared, NaN too).
+    fn abs(self) -> Self;
+    /// `self` with the sign bit of `sign` (`f32::copysign`).
+    fn copysign(self, sign: Self) -> Self;
+    /// `-self`: the sign bit flipped (`0.0` to `-0.0`, NaN too).
+    fn neg(self) -> Self;
+    /// `f32::max`'s rule: the larger lane, or the lane that is not NaN when one is NaN (`NaN`
+    /// only when both are); between `0.0` and `-0.0` either may come out.
+    fn maxnum(self, o: Self) -> Self;
+
+    /// `self < o`.
+    fn lt(self, o: Self) -> Self::Mask;
+    /// `self <= o`.
+    fn le(self, o: Self) -> Self::Mask;
+    /// `self > o`.
+    fn gt(self, o: Self) -> Self::Mask;
+    /// `self >= o`.
+    fn ge(self, o: Self) -> Self::Mask;
+    /// `self == o`.
+    fn eq(self, o: Self) -> Self::Mask;
+    /// `if m { a } else { b }` lane by lane.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+
+    /// Zero in every lane.
+    #[inline(always)]
+    fn zero() -> Self {
+        Self::splat(<Self::Elem as Real>::ZERO)
+    }
+}

@@ -1,0 +1,92 @@
+//! One lane: [`Lanes`] for every [`Real`] (`f32`, `f64`) itself, so a kernel written for lanes is also
+//! the scalar test (a comparison answers a `bool`).
+
+use super::{Lanes, Mask};
+use crate::real::Real;
+
+impl Mask for bool {
+    #[inline(always)]
+    fn andnot(self, other: bool) -> bool {
+        !self & other
+    }
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        u32::from(self)
+    }
+}
+
+impl<R: Real> Lanes for R {
+    type Elem = R;
+    type Mask = bool;
+    const N: usize = 1;
+
+    #[inline(always)]
+    fn splat(x: R) -> R {
+        x
+    }
+    #[inline(always)]
+    fn load(a: &[R]) -> R {
+        a[0]
+    }
+    #[inline(always)]
+    unsafe fn load_aligned(a: &[R]) -> R {
+        a[0]
+    }
+    #[inline(always)]
+    fn store(self, out: &mut [R]) {
+        out[0] = self;
+    }
+    #[inline(always)]
+    fn mask_from(lanes: &[R], _bits: u32) -> bool {
+        // All-one bits are a NaN, which is not zero.
+        lanes[0] != R::ZERO
+    }
+    #[inline(always)]
+    fn sqrt(self) -> R {
+        Real::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> R {
+        Real::abs(self)
+    }
+    #[inline(always)]
+    fn copysign(self, sign: R) -> R {
+        Real::copysign(self, sign)
+    }
+    #[inline(always)]
+    fn neg(self) -> R {
+        -self
+    }
+    #[inline(always)]
+    fn maxnum(self, o: R) -> R {
+        Real::max(self, o)
+    }
+    #[inline(always)]
+    fn lt(self, o: R) -> bool {
+        self < o
+    }
+    #[inline(always)]
+    fn le(self, o: R) -> bool {
+        self <= o
+    }
+    #[inline(always)]
+    fn gt(self, o: R) -> bool {
+        self > o
+    }
+    #[inline(always)]
+    fn ge(self, o: R) -> bool {
+        self >= o
+    }
+    #[inline(always)]
+    fn eq(self, o: R) -> bool {
+        self == o
+    }
+    #[inline(always)]
+    fn select(m: bool, a: R, b: R) -> R {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+}
