@@ -102,7 +102,8 @@ impl Table {
         t.saturating_duration_since(self.epoch).as_micros() as u64
     }
 
-    fn from_ip(&self, ip: IpAddr) -> usize {
+    /// How many pending (unauthenticated) connections come from `ip`.
+    fn pending_from(&self, ip: IpAddr) -> usize {
         self.pending.values().filter(|p| p.ip == ip).count()
     }
 
@@ -199,7 +200,7 @@ impl Admission {
         let now = Instant::now();
         let mut t = self.lock();
         let mut victims = Vec::new();
-        if t.from_ip(ip) >= self.per_peer {
+        if t.pending_from(ip) >= self.per_peer {
             victims.extend(t.most_silent(Some(ip)));
         } else if t.pending.len() >= self.max_handshaking {
             victims.extend(t.most_silent(None));

@@ -5,8 +5,8 @@
 //! redone in `f64` lane by lane), so each lane's answer is bit for bit what
 //! [`super::triangle::intersect_triangle`] or [`super::sphere::Sphere::intersect`] gives that
 //! ray. The rays' axis permutations may differ: each lane picks its vertex components with
-//! masks. The arithmetic is the one triangle test ([`watertight`]) and the one sphere test
-//! ([`nearest_root`]): the `avx512` tier ([`crate::isa`]) runs them on the sixteen rays in one
+//! masks. The arithmetic is the one triangle test (`watertight`) and the one sphere test
+//! (`nearest_root`): the `avx512` tier ([`crate::isa`]) runs them on the sixteen rays in one
 //! AVX-512 register, the `avx2` tier in two halves of eight AVX lanes. [`Rays16::new`] is `None`
 //! unless the process's tier runs AVX; the portable kernels ([`triangle16_lanes`],
 //! [`sphere16_lanes`]) define the answers and serve the tests.
@@ -260,7 +260,7 @@ fn pick<L: Lanes<Elem = f32>>(r: &Rays16, k: usize, h: usize, p: V3<f32>) -> L {
     L::select(is0, L::splat(p.x), yz)
 }
 
-/// The watertight test ([`watertight`]) with a ray per lane, `L::N` rays at a time. The rays'
+/// The watertight test (`watertight`) with a ray per lane, `L::N` rays at a time. The rays'
 /// axis permutations may differ: each lane picks its vertex components with masks.
 #[inline(always)]
 fn triangle_lanes<L: Lanes<Elem = f32>>(
@@ -370,7 +370,7 @@ impl Kernel for SpherePacket<'_> {
     }
 }
 
-/// The sphere test ([`nearest_root`]) with a ray per lane, `L::N` rays at a time.
+/// The sphere test (`nearest_root`) with a ray per lane, `L::N` rays at a time.
 #[inline(always)]
 fn sphere_lanes<L: Lanes<Elem = f32>>(
     r: &Rays16,

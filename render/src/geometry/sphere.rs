@@ -2,7 +2,7 @@
 //! approach, the roots by the stable formula) and hit points re-projected onto the surface so
 //! their error bound is a few ulps of the position.
 //!
-//! The test is written once, [`nearest_root`], over the lane types of [`crate::lanes`]: the
+//! The test is written once, `nearest_root`, over the lane types of [`crate::lanes`]: the
 //! scalar test here, and the SIMD kernels of [`super::sphere4`] (one ray against four spheres)
 //! and [`super::leaf16`] (a packet's rays against one sphere) are its instances.
 
@@ -22,7 +22,7 @@ pub struct Sphere<R> {
 
 impl<R: Real> Sphere<R> {
     /// The nearest `t` in `[t_min, t_max]` where the ray meets the sphere (either side): the
-    /// lane kernel [`nearest_root`] with one lane.
+    /// lane kernel `nearest_root` with one lane.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray<R>, t_max: R) -> Option<R> {
         let f = ray.o - self.center;
@@ -56,7 +56,7 @@ fn dot<L: Lanes>(u: [L; 3], v: [L; 3]) -> L {
     u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 }
 
-/// The answers of [`nearest_root`]: bit `i` of `mask` is set when lane `i` is hit, at `t`
+/// The answers of `nearest_root`: bit `i` of `mask` is set when lane `i` is hit, at `t`
 /// (computed in every lane, meaningful in the lanes hit).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RootHits<L> {

@@ -1,7 +1,7 @@
 //! Four spheres against one ray at once: [`Sphere::intersect`] with one sphere per SIMD lane,
 //! for BVH leaves of spheres (shells, balls). Every lane does the scalar test's IEEE operations
 //! in the same order (no FMA, no reassociation), so each lane's answer is bit for bit the
-//! scalar one: the arithmetic is the one sphere test, [`nearest_root`], on four lanes.
+//! scalar one: the arithmetic is the one sphere test, `nearest_root`, on four lanes.
 //! [`intersect4`] runs it with the code of the process's tier ([`crate::isa::dispatch`]) like
 //! [`super::triangle4`]: four SSE2 lanes (in their VEX form on `avx2` and `avx512`), the
 //! portable lane loop ([`intersect4_lanes`]) on `scalar` and elsewhere.
@@ -206,7 +206,7 @@ impl Source for SphereLanes {
     }
 }
 
-/// The sphere test ([`nearest_root`]) with a sphere per lane.
+/// The sphere test (`nearest_root`) with a sphere per lane.
 #[inline(always)]
 fn kernel<L: Lanes<Elem = f32>, S: Source>(
     ray: &Ray<f32>,

@@ -3,7 +3,7 @@
 //! ray slips between neighbours. Edge functions that come out exactly zero in `f32` are redone in
 //! `f64`. A conservative bound on `t`'s error rejects self-intersections (after pbrt-v4).
 //!
-//! The test is written once, [`watertight`], over the lane types of [`crate::lanes`]: the scalar
+//! The test is written once, `watertight`, over the lane types of [`crate::lanes`]: the scalar
 //! test here, and the SIMD kernels of [`super::triangle4`] (one ray against four triangles) and
 //! [`super::leaf16`] (a packet's rays against one triangle) are its instances.
 
@@ -56,7 +56,7 @@ pub fn edges_f64([ax, ay, bx, by, cx, cy]: [f64; 6]) -> [f64; 3] {
 }
 
 /// The test in the ray's frame given by the axes `kx`, `ky`, `kz` (inlined with constants): the
-/// lane kernel [`watertight`] with one lane.
+/// lane kernel `watertight` with one lane.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn sheared<R: Real>(
@@ -89,7 +89,7 @@ fn sheared<R: Real>(
     })
 }
 
-/// The answers of [`watertight`]: bit `i` of `mask` is set when lane `i` is hit; `t`, `b1` and
+/// The answers of `watertight`: bit `i` of `mask` is set when lane `i` is hit; `t`, `b1` and
 /// `b2` are computed in every lane and meaningful in the lanes hit.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LaneHits<L> {

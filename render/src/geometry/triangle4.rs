@@ -4,7 +4,7 @@
 //! edge functions that come out exactly zero redone in `f64` lane by lane), so each lane's
 //! answer — hit or not, `t`, `b1`, `b2` — is bit for bit the scalar [`intersect_triangle`]'s.
 //!
-//! The arithmetic is the one watertight test, [`watertight`], on four lanes. [`intersect4`]
+//! The arithmetic is the one watertight test, `watertight`, on four lanes. [`intersect4`]
 //! runs it with the code of the process's tier ([`crate::isa::dispatch`]): four SSE2 lanes on
 //! `sse2`, the same in their three-operand VEX form on `avx2` and `avx512`, and the portable
 //! lane-by-lane loop ([`intersect4_lanes`]) on `scalar`, on other targets and for `f64`.
@@ -226,7 +226,7 @@ fn permuted<L: Lanes<Elem = f32>, S: Source>(
     }
 }
 
-/// The watertight test ([`watertight`]) with a triangle per lane.
+/// The watertight test (`watertight`) with a triangle per lane.
 #[inline(always)]
 fn kernel<L: Lanes<Elem = f32>, const KX: usize, const KY: usize, const KZ: usize, S: Source>(
     pr: &PreparedRay<f32>,
