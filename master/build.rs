@@ -2,7 +2,7 @@
 //! manifest's `build = "../master/build.rs"`): records what build this is for `--version` — the
 //! git commit (when the source is a git checkout and `git` runs; never an error outside one),
 //! the cargo profile and the target triple — as compile-time environment variables that
-//! `parrt::build_info!` reads in the package being built.
+//! `parrt_render::build_info!` reads in the package being built.
 
 use std::path::PathBuf;
 use std::process::Command;

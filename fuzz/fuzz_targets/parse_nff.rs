@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use parrt::nff::{self, Limits};
+use parrt_render::nff::{self, Limits};
 
 fuzz_target!(|data: &[u8]| {
     let limits = Limits::default();

@@ -60,7 +60,7 @@ pub fn main() -> ExitCode {
     };
     // The instruction-set tier, once for the process: an unknown or unsupported PARRT_ISA is
     // bad input.
-    if let Err(e) = parrt::isa::init() {
+    if let Err(e) = parrt_render::isa::init() {
         crate::errln!("parrt: {e}");
         return ExitCode::from(2);
     }

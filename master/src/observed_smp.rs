@@ -7,8 +7,8 @@
 //!
 //! [`Observer`]: parrt_runtime::observer::Observer
 
-use parrt::render::Renderer;
-use parrt::smp::{render_smp_with, SmpOptions, SmpResult};
+use parrt_render::render::Renderer;
+use parrt_render::smp::{render_smp_with, SmpOptions, SmpResult};
 use parrt_runtime::observer::Observers;
 use parrt_runtime::scheduler::WorkerId;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -26,7 +26,7 @@ pub fn render_smp_observed(
     observers: &Observers,
 ) -> SmpResult {
     let s = renderer.settings();
-    let total = parrt::tile::tiles(s.width, s.height, opts.tile).len();
+    let total = parrt_render::tile::tiles(s.width, s.height, opts.tile).len();
     let threads = opts.threads.max(1);
     observers.each(|o| o.progress(0, total, &[]));
     let now = Instant::now();
@@ -58,10 +58,10 @@ pub fn render_smp_observed(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::film::Rgb;
-    use parrt::smp::Executor;
-    use parrt::stats::RayStats;
-    use parrt::tile::Tile;
+    use parrt_render::film::Rgb;
+    use parrt_render::smp::Executor;
+    use parrt_render::stats::RayStats;
+    use parrt_render::tile::Tile;
     use parrt_runtime::observer::Observer;
     use std::sync::{Arc, Mutex};
 
@@ -113,7 +113,7 @@ mod tests {
     #[test]
     fn threads_are_workers_and_every_tile_is_assigned_then_accepted() {
         let desc = parrt_scenes::generate("balls", Some(1)).unwrap();
-        let settings = parrt::settings::RenderSettings::new(16, 8);
+        let settings = parrt_render::settings::RenderSettings::new(16, 8);
         let renderer = Renderer::new(&desc, &settings).unwrap();
         let opts = SmpOptions {
             threads: 2,
@@ -122,7 +122,7 @@ mod tests {
         };
         let log = Arc::new(Log::default());
         let watched = render_smp_observed(&renderer, &opts, &Observers(vec![log.clone()]));
-        let plain = parrt::smp::render_smp(&renderer, &opts, &|_, _| {});
+        let plain = parrt_render::smp::render_smp(&renderer, &opts, &|_, _| {});
         assert_eq!(watched.film, plain.film, "the same bits");
         let log = log.0.lock().unwrap().clone();
         assert_eq!(

@@ -5,9 +5,9 @@
 //! logs, pipes and tests stay clean; hidden, it formats nothing.
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use parrt::film::Rgb;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::film::Rgb;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use parrt_runtime::observer::Observer;
 use parrt_runtime::scheduler::WorkerId;
 use std::io::IsTerminal;

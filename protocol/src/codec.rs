@@ -319,12 +319,12 @@ impl MessageCodec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
     use crate::message::JobSpec;
-    use parrt::settings::RenderSettings;
-    use parrt::stats::RayStats;
-    use parrt::tile::Tile;
-    use parrt::vec3::Vec3d;
+    use parrt_render::description::{Light, Material, Primitive, SceneDescription, Shape, View};
+    use parrt_render::settings::RenderSettings;
+    use parrt_render::stats::RayStats;
+    use parrt_render::tile::Tile;
+    use parrt_render::vec3::Vec3d;
 
     fn scene() -> SceneDescription {
         SceneDescription {
@@ -380,7 +380,7 @@ mod tests {
                 name: "host-1".into(),
                 threads: 4,
                 nonce: [5; 32],
-                isa: parrt::isa::Isa::Avx512,
+                isa: parrt_render::isa::Isa::Avx512,
             },
             Message::Challenge {
                 nonce: [9; 32],
@@ -479,7 +479,7 @@ mod tests {
             name: String::new(),
             threads: 1,
             nonce: [0; 32],
-            isa: parrt::isa::Isa::Scalar,
+            isa: parrt_render::isa::Isa::Scalar,
         })
         .unwrap();
         assert_eq!(&p[..2], &[0, 7]);
@@ -610,7 +610,7 @@ mod tests {
                     pixels: crate::TilePixels::encode(&pixels, crate::PixelFormat::F32),
                     stats: RayStats { eye_rays: job_id, ..RayStats::default() }, seconds,
                 },
-                Message::Hello { version: attempt, name, threads: tile_id, nonce: [7; 32], isa: parrt::isa::Isa::Sse2 },
+                Message::Hello { version: attempt, name, threads: tile_id, nonce: [7; 32], isa: parrt_render::isa::Isa::Sse2 },
             ];
             let mut codec = MessageCodec::new(1 << 20);
             let mut buf = BytesMut::new();

@@ -2,10 +2,10 @@
 //! (the receiver checks ids, attempts and pixel counts against its own state).
 
 use super::pixels::{PixelFormat, TilePixels};
-use parrt::description::SceneDescription;
-use parrt::settings::RenderSettings;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::description::SceneDescription;
+use parrt_render::settings::RenderSettings;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use serde::{Deserialize, Serialize};
 
 /// Length of each side's nonce in bytes.
@@ -40,8 +40,8 @@ pub enum Message {
         threads: u32,
         /// The worker's random bytes, fresh per connection: the master's proof must cover them.
         nonce: [u8; NONCE_LEN],
-        /// The worker's instruction-set tier ([`parrt::isa`]), for the master's report.
-        isa: parrt::isa::Isa,
+        /// The worker's instruction-set tier ([`parrt_render::isa`]), for the master's report.
+        isa: parrt_render::isa::Isa,
     },
     /// Master → worker: the master's proof that it knows the token, and its own nonce for the
     /// worker to prove the same.

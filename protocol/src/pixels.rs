@@ -1,11 +1,11 @@
 //! How a tile's pixels travel from worker to master: as the image's output needs them. An
 //! 8-bit output (PNG, PPM) needs 3 bytes a pixel, quantized on the worker by the very function
-//! the film's 8-bit writer applies ([`parrt::film::to_u8`]), so the written image is the same
+//! the film's 8-bit writer applies ([`parrt_render::film::to_u8`]), so the written image is the same
 //! bytes as an SMP render's; a float output (EXR) and the library API get the exact f32 bits
 //! (12 bytes a pixel). Either way the pixels are one byte blob, copied in and out without a
 //! per-value encoding step.
 
-use parrt::film::{to_u8_into, unit, Rgb};
+use parrt_render::film::{to_u8_into, unit, Rgb};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -15,7 +15,7 @@ pub enum PixelFormat {
     /// Three little-endian `f32` per pixel: exact.
     #[default]
     F32,
-    /// Three bytes per pixel, each [`to_u8`](parrt::film::to_u8) of the linear value: what
+    /// Three bytes per pixel, each [`to_u8`](parrt_render::film::to_u8) of the linear value: what
     /// 8-bit outputs keep.
     Rgb8,
 }
@@ -123,7 +123,7 @@ impl TilePixels {
 
     /// Decodes into `out` (cleared first) the pixels of a tile of `count` pixels sent for a job
     /// that asked for `want`, checking the format, the count and that every value is finite.
-    /// An 8-bit value `b` becomes [`unit()`] of `b`, which [`to_u8`](parrt::film::to_u8) maps
+    /// An 8-bit value `b` becomes [`unit()`] of `b`, which [`to_u8`](parrt_render::film::to_u8) maps
     /// back to `b` exactly.
     pub fn decode_into(
         &self,
@@ -158,7 +158,7 @@ impl TilePixels {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::film::to_u8;
+    use parrt_render::film::to_u8;
 
     #[test]
     fn every_byte_survives_the_round_trip_through_the_film() {

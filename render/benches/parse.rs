@@ -85,7 +85,7 @@ impl Measurement for CpuTime {
 
 fn run_group<M: Measurement>(mut group: BenchmarkGroup<'_, M>) {
     let dir = parrt_test_support::spd_dir();
-    let limits = parrt::nff::Limits::default();
+    let limits = parrt_render::nff::Limits::default();
     for name in FILES {
         let path = dir.join(name);
         let src = std::fs::read_to_string(&path)
@@ -93,7 +93,7 @@ fn run_group<M: Measurement>(mut group: BenchmarkGroup<'_, M>) {
         group.throughput(Throughput::Bytes(src.len() as u64));
         group.bench_function(name, |b| {
             b.iter(|| {
-                let d = parrt::nff::parse(std::hint::black_box(&src), name, &limits);
+                let d = parrt_render::nff::parse(std::hint::black_box(&src), name, &limits);
                 std::hint::black_box(d.map(|d| d.primitives.len()).unwrap_or(0))
             })
         });

@@ -1,4 +1,4 @@
-//! # parrt
+//! # parrt-render
 //!
 //! The renderer of parrt, a parallel Whitted ray tracer for Eric Haines' NFF scenes: read a
 //! scene, build a renderer once, render any tile of the image on any thread — or on another
@@ -9,15 +9,15 @@
 //! ## Example
 //! Parse an NFF scene, render it on two threads, and read pixels from the image in memory:
 //! ```
-//! use parrt::render::Renderer;
-//! use parrt::settings::RenderSettings;
-//! use parrt::smp::{render_smp, Executor, SmpOptions};
+//! use parrt_render::render::Renderer;
+//! use parrt_render::settings::RenderSettings;
+//! use parrt_render::smp::{render_smp, Executor, SmpOptions};
 //!
 //! let text = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0.01 resolution 64 48\n\
 //!             l 5 5 5\n\
 //!             f 1 0 0 1 0 0 0 0\n\
 //!             s 0 0 0 1\n";
-//! let desc = parrt::nff::parse(text, "ball.nff", &parrt::nff::Limits::default())?;
+//! let desc = parrt_render::nff::parse(text, "ball.nff", &parrt_render::nff::Limits::default())?;
 //! let settings = RenderSettings::new(desc.view.width, desc.view.height);
 //! let renderer = Renderer::new(&desc, &settings)?;
 //! let opts = SmpOptions { threads: 2, tile: 16, executor: Executor::Queue };

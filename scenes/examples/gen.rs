@@ -46,7 +46,7 @@ fn main() {
         Some(name) => {
             let size = args.get(1).and_then(|s| s.parse().ok());
             match parrt_scenes::generate(name, size) {
-                Ok(scene) => print!("{}", parrt::nff::to_nff(&scene)),
+                Ok(scene) => print!("{}", parrt_render::nff::to_nff(&scene)),
                 Err(e) => {
                     eprintln!("{e}");
                     std::process::exit(2);

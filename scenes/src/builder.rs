@@ -3,12 +3,14 @@
 //! keep a generated scene under [`MAX_PRIMITIVES`]. It never decides geometry.
 
 use crate::GenError;
-use parrt::description::{Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View};
-use parrt::vec3::Vec3d;
+use parrt_render::description::{
+    Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View,
+};
+use parrt_render::vec3::Vec3d;
 
 /// The most primitives a generator may produce: 2^24 (16.7 million). A generated triangle costs
 /// 88 bytes in a [`SceneDescription`] (its three vertices inline, see
-/// [`parrt::vertices::Vertices`]; a gear quad about 250 with its vertex block and its share of
+/// [`parrt_render::vertices::Vertices`]; a gear quad about 250 with its vertex block and its share of
 /// the 144-gon faces), so the largest allowed scene needs about 1.5–4 GB; the
 /// limit is a quarter of the NFF parser's default primitive limit, so every scene we generate can
 /// also be written out and read back with default limits. Sizes that would exceed it (mount 12,
@@ -168,4 +170,4 @@ impl SceneBuilder {
 }
 
 // Generated scenes must stay readable by the parser with its default limits.
-const _: () = assert!(MAX_PRIMITIVES <= parrt::nff::limits::DEFAULT_MAX_PRIMITIVES);
+const _: () = assert!(MAX_PRIMITIVES <= parrt_render::nff::limits::DEFAULT_MAX_PRIMITIVES);

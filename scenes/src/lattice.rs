@@ -4,7 +4,7 @@
 
 use crate::builder::{check_size, light, material, v3, view, SceneBuilder, SPD_BACKGROUND};
 use crate::GenError;
-use parrt::description::{Material, SceneDescription};
+use parrt_render::description::{Material, SceneDescription};
 
 const NAME: &str = "lattice";
 

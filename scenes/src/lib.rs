@@ -1,4 +1,4 @@
-//! SPD-style procedural scene generators: each builds a [`parrt::description::SceneDescription`]
+//! SPD-style procedural scene generators: each builds a [`parrt_render::description::SceneDescription`]
 //! deterministically from a name and a size factor, reproducing the scenes of Eric Haines'
 //! Standard Procedural Databases (object counts, materials, camera and lights as SPD writes them).
 //!
@@ -31,7 +31,7 @@ pub mod teapot_data;
 pub mod tetra;
 pub mod tree;
 
-use parrt::description::SceneDescription;
+use parrt_render::description::SceneDescription;
 use thiserror::Error;
 
 /// Errors choosing or running a generator.

@@ -1,7 +1,7 @@
 //! Affine 3D transforms for the generators, in SPD's row-vector convention (`p' = p·M`, so
 //! `a.then(b)` applies `a` first). Angles are in degrees. Only +, −, ×, ÷, sqrt and std trig.
 
-use parrt::vec3::Vec3d;
+use parrt_render::vec3::Vec3d;
 
 /// A 4×4 affine matrix whose last column is (0, 0, 0, 1); rows 0–2 hold the linear part,
 /// row 3 the translation.

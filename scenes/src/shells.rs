@@ -4,7 +4,7 @@
 
 use crate::builder::{check_size, light, material, v3, view, SceneBuilder, SPD_BACKGROUND};
 use crate::GenError;
-use parrt::description::SceneDescription;
+use parrt_render::description::SceneDescription;
 use std::f64::consts::PI;
 
 const NAME: &str = "shells";

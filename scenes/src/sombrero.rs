@@ -6,8 +6,8 @@
 
 use crate::builder::{check_size, light, material, v3, view, SceneBuilder, SPD_BACKGROUND};
 use crate::GenError;
-use parrt::description::SceneDescription;
-use parrt::vec3::Vec3d;
+use parrt_render::description::SceneDescription;
+use parrt_render::vec3::Vec3d;
 use std::f64::consts::PI;
 
 const NAME: &str = "sombrero";

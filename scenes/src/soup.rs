@@ -6,8 +6,8 @@
 
 use crate::builder::{check_size, light, material, v3, view, SceneBuilder, SPD_BACKGROUND};
 use crate::GenError;
-use parrt::description::SceneDescription;
-use parrt::vec3::Vec3d;
+use parrt_render::description::SceneDescription;
+use parrt_render::vec3::Vec3d;
 
 const NAME: &str = "soup";
 
@@ -121,8 +121,8 @@ mod tests {
 
     #[test]
     fn slivers_are_too_thin_for_f32_by_the_estimate() {
-        use parrt::settings::Precision;
-        let c = parrt::precision::resolve(Precision::Auto, &generate(DEFAULT_SIZE).unwrap());
+        use parrt_render::settings::Precision;
+        let c = parrt_render::precision::resolve(Precision::Auto, &generate(DEFAULT_SIZE).unwrap());
         // A needle's base edge, ~1e-5 units across at 3.4: its normal could turn by ~0.03 rad.
         assert_eq!(c.precision, Precision::F64, "{}", c.reason);
         assert!(c.reason.contains("edge"), "{}", c.reason);

@@ -9,8 +9,8 @@
 use crate::builder::{check_size, light, material, v3, view, SceneBuilder, SPD_BACKGROUND};
 use crate::teapot_data::{PATCHES, VERTICES};
 use crate::GenError;
-use parrt::description::{PatchVertex, SceneDescription};
-use parrt::vec3::Vec3d;
+use parrt_render::description::{PatchVertex, SceneDescription};
+use parrt_render::vec3::Vec3d;
 
 const NAME: &str = "teapot";
 

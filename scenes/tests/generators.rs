@@ -2,7 +2,7 @@
 //! ordering invariant the writer relies on, refusal of bad sizes, and (ignored by default,
 //! it takes seconds) the 2-million-triangle mountain at size 10.
 
-use parrt::description::SceneDescription;
+use parrt_render::description::SceneDescription;
 use parrt_scenes::{builder::MAX_PRIMITIVES, generate, generators, GenError};
 use proptest::prelude::*;
 
@@ -43,7 +43,7 @@ fn default_scenes_are_deterministic_and_write_nff() {
         let b = generate(g.name, Some(g.default_size)).unwrap();
         assert!(a == b, "{}: two generations differ", g.name);
         check_invariants(g.name, &a);
-        let text = parrt::nff::to_nff(&a);
+        let text = parrt_render::nff::to_nff(&a);
         assert!(
             text.starts_with("b "),
             "{}: NFF starts with {:?}",
@@ -51,7 +51,12 @@ fn default_scenes_are_deterministic_and_write_nff() {
             &text[..10]
         );
         assert!(text.contains("\nv\nfrom "), "{}: no view block", g.name);
-        assert_eq!(text, parrt::nff::to_nff(&b), "{}: NFF text differs", g.name);
+        assert_eq!(
+            text,
+            parrt_render::nff::to_nff(&b),
+            "{}: NFF text differs",
+            g.name
+        );
     }
 }
 

@@ -1,7 +1,7 @@
 //! Films compared: bit for bit (one comparison for the library tests and the distributed tests),
 //! or by how far apart their pixels are.
 
-use parrt::film::Film;
+use parrt_render::film::Film;
 
 /// Asserts two films are equal bit for bit (f32 bit patterns), naming the first difference.
 pub fn assert_same_bits(a: &Film, b: &Film, what: &str) {

@@ -58,12 +58,12 @@ pub fn spd_files() -> Vec<PathBuf> {
 
 /// Every SPD file (there are 27), parsed one at a time, with its name (`"mount-4"`); panics
 /// when the set is not the 27 files or one does not parse.
-pub fn spd_scenes() -> impl Iterator<Item = (String, parrt::description::SceneDescription)> {
+pub fn spd_scenes() -> impl Iterator<Item = (String, parrt_render::description::SceneDescription)> {
     let files = spd_files();
     assert_eq!(files.len(), 27, "the SPD set has 27 files");
     files.into_iter().map(|path| {
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
-        let desc = parrt::nff::parse_file(&path, &Default::default())
+        let desc = parrt_render::nff::parse_file(&path, &Default::default())
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         (name, desc)
     })

@@ -2,7 +2,7 @@
 //! cameras), read so the tests compare our generators and our parser against the numbers SPD's
 //! own outputs have. Never generates anything itself.
 
-use parrt::description::{SceneDescription, Shape};
+use parrt_render::description::{SceneDescription, Shape};
 use std::collections::BTreeMap;
 
 /// Primitive counts of a scene, keyed as the README keys them.

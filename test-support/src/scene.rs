@@ -1,8 +1,8 @@
 //! Scenes built in code: vectors, triangles, views, materials and primitives in one line each,
 //! a scene of bare shapes for the tests that only look at hits, and the one-sphere test scene.
 
-use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
-use parrt::vec3::{Vec3d, V3};
+use parrt_render::description::{Light, Material, Primitive, SceneDescription, Shape, View};
+use parrt_render::vec3::{Vec3d, V3};
 
 /// The point or direction (x, y, z).
 pub fn v(x: f64, y: f64, z: f64) -> Vec3d {

@@ -3,14 +3,14 @@
 //! the same answer from all three. Test support only; never used by the renderer.
 
 use crate::spd_dir;
-use parrt::accel::Accel;
-use parrt::description::SceneDescription;
-use parrt::geometry::{PreparedRay, PrimHit, Ray};
-use parrt::real::Real;
-use parrt::scene::Scene;
-use parrt::scene_leaf::SceneLeaf;
-use parrt::settings::AccelKind;
-use parrt::stats::RayStats;
+use parrt_render::accel::Accel;
+use parrt_render::description::SceneDescription;
+use parrt_render::geometry::{PreparedRay, PrimHit, Ray};
+use parrt_render::real::Real;
+use parrt_render::scene::Scene;
+use parrt_render::scene_leaf::SceneLeaf;
+use parrt_render::settings::AccelKind;
+use parrt_render::stats::RayStats;
 
 /// The small SPD files (a few hundred primitives each) of the scene table.
 pub const SMALL_SCENES: &[&str] = &[
@@ -33,7 +33,7 @@ pub const SMALL_SCENES: &[&str] = &[
 /// Parses SPD scene `name` (without `.nff`); panics with the reason when it cannot.
 pub fn load(name: &str) -> SceneDescription {
     let path = spd_dir().join(format!("{name}.nff"));
-    parrt::nff::parse_file(&path, &parrt::nff::Limits::default())
+    parrt_render::nff::parse_file(&path, &parrt_render::nff::Limits::default())
         .unwrap_or_else(|e| panic!("{}: {e} (set PARRT_SPD_DIR)", path.display()))
 }
 

@@ -2,9 +2,9 @@
 //! has delivered into the image, so a fault is injected once a worker is known to be mid-job,
 //! whatever the machine's speed, instead of after a sleep guessed to be long enough.
 
-use parrt::film::Rgb;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::film::Rgb;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use parrt_runtime::observer::{Observer, Observers};
 use parrt_runtime::scheduler::WorkerId;
 use std::collections::BTreeMap;

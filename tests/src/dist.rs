@@ -1,14 +1,14 @@
 //! Distributed-test helpers: small scenes built in code, the SMP reference render, masters and
 //! workers started in-process or as processes over loopback.
 
-use parrt::description::{Light, Material, Primitive, SceneDescription, Shape, View};
-use parrt::film::Film;
 use parrt_protocol::Token;
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
-use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt::stats::RayStats;
-use parrt::vec3::Vec3d;
+use parrt_render::description::{Light, Material, Primitive, SceneDescription, Shape, View};
+use parrt_render::film::Film;
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::stats::RayStats;
+use parrt_render::vec3::Vec3d;
 use parrt_runtime::{DistResult, Master, MasterConfig};
 use parrt_worker::session::SessionSummary;
 use parrt_worker::{WorkerError, WorkerOptions};

@@ -93,9 +93,9 @@ impl TokenArgs {
 /// opening it, so nothing blocks), at most [`MAX_TOKEN_FILE_BYTES`], UTF-8. Every refusal is
 /// a [`UsageError`] naming the file.
 pub fn read_token_file(f: &std::path::Path) -> Result<String, UsageError> {
-    use parrt::nff::ReadError;
+    use parrt_render::nff::ReadError;
     let bad = |why: String| UsageError(format!("token file {}: {why}", f.display()));
-    let bytes = parrt::nff::read_bounded(f, MAX_TOKEN_FILE_BYTES).map_err(|e| match e {
+    let bytes = parrt_render::nff::read_bounded(f, MAX_TOKEN_FILE_BYTES).map_err(|e| match e {
         ReadError::TooLarge { max } => bad(format!(
             "larger than {max} bytes; a token file holds one token"
         )),

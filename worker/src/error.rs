@@ -1,8 +1,8 @@
 //! The worker's error type. Every failure a worker can meet, with the master's reason when the
 //! master gave one.
 
-use parrt_protocol::ProtocolError;
 use parrt_protocol::seconds::seconds;
+use parrt_protocol::ProtocolError;
 use std::time::Duration;
 use thiserror::Error;
 

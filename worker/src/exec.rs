@@ -16,8 +16,8 @@ use crate::error::WorkerError;
 use crate::options::WorkerOptions;
 use crate::tiles::JobHandle;
 use parrt_protocol::{JobSpec, Message};
-use parrt::render::Renderer;
-use parrt::tile::Tile;
+use parrt_render::render::Renderer;
+use parrt_render::tile::Tile;
 use std::future::Future;
 
 /// A finished renderer build.

@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 /// parrt render worker: connects to a master and renders the tiles it assigns.
 #[derive(Debug, Parser)]
-#[command(name = "parrt-worker", version = parrt::version_text!(), about)]
+#[command(name = "parrt-worker", version = parrt_render::version_text!(), about)]
 struct Cli {
     #[command(flatten)]
     args: parrt_worker::cli::WorkerArgs,
@@ -21,7 +21,7 @@ fn main() -> ExitCode {
     };
     // The instruction-set tier, once for the process: an unknown or unsupported PARRT_ISA is
     // bad input.
-    if let Err(e) = parrt::isa::init() {
+    if let Err(e) = parrt_render::isa::init() {
         // Not eprintln!: a closed stderr would turn exit 2 into a panic's 101.
         let _ = writeln!(std::io::stderr(), "parrt-worker: {e}");
         return ExitCode::from(2);

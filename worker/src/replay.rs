@@ -10,8 +10,8 @@
 //! pixels as f32 RGB, row-major within the tile, tile after tile. Workers read a tile's pixels
 //! from the file when they need them (the page cache is shared by every worker on the machine).
 
-use parrt::film::{Film, Rgb};
-use parrt::tile::{tiles, Tile};
+use parrt_render::film::{Film, Rgb};
+use parrt_render::tile::{tiles, Tile};
 use std::fs::File;
 use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};

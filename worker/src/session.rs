@@ -21,7 +21,7 @@ use parrt_protocol::message::NONCE_LEN;
 use parrt_protocol::{
     Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
-use parrt::tile::Tile;
+use parrt_render::tile::Tile;
 use rand::rngs::StdRng;
 use rand::{RngCore, SeedableRng};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -246,7 +246,7 @@ async fn handshake<S: AsyncRead + AsyncWrite + Unpin>(
         name: opts.name.clone(),
         threads: opts.render_threads() as u32,
         nonce: ours,
-        isa: parrt::isa::current(),
+        isa: parrt_render::isa::current(),
     };
     write_within(conn, &hello, opts.handshake_timeout).await?;
     let theirs = match read_in_handshake(conn, opts).await? {

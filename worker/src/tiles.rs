@@ -5,11 +5,11 @@
 //! pixels. Never renders on the runtime. How one tile becomes its result message is shared
 //! with the inline executor ([`crate::exec::InlineExec`]).
 
-use parrt::film::Rgb;
 use parrt_protocol::{Message, PixelFormat, TilePixels};
-use parrt::render::Renderer;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::film::Rgb;
+use parrt_render::render::Renderer;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -167,7 +167,7 @@ fn render_one(job: &JobHandle, tile: Tile, attempt: u32) -> Message {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::settings::RenderSettings;
+    use parrt_render::settings::RenderSettings;
 
     fn renderer() -> Renderer {
         let desc = parrt_test_support::scene::one_sphere(8);

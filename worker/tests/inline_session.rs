@@ -4,16 +4,16 @@
 //! the pixels are the same. Also: a seeded nonce repeats run after run. The scripted master
 //! speaks inside the encrypted channel the worker opens, as a real master does.
 
-use parrt::description::SceneDescription;
 use parrt_protocol::message::NONCE_LEN;
 use parrt_protocol::{
     Connection, JobSpec, LinkKey, Message, PixelFormat, SecureStream, TilePixels, Token,
     DEFAULT_MAX_FRAME, PROTOCOL_VERSION,
 };
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
-use parrt::stats::RayStats;
-use parrt::tile::{tiles, Tile};
+use parrt_render::description::SceneDescription;
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::{tiles, Tile};
 use parrt_worker::exec::{Execute, InlineExec, RayonExec};
 use parrt_worker::net::Preconnected;
 use parrt_worker::session::{self, SessionEnd, SessionSummary};

@@ -1,5 +1,5 @@
 //! `parrt-worker --version` names the build as `parrt --version` does: the one text
-//! `parrt::build_info` puts together, from the constants this package's build script records.
+//! `parrt_render::build_info` puts together, from the constants this package's build script records.
 
 use std::process::Command;
 
@@ -13,7 +13,10 @@ fn version_names_the_build_like_parrt() {
     let v = String::from_utf8_lossy(&o.stdout).into_owned();
     // The same constants and the same tier (this process and the child see one CPU and one
     // PARRT_ISA), so the very text.
-    assert_eq!(v, format!("parrt-worker {}\n", parrt::version_text!()));
+    assert_eq!(
+        v,
+        format!("parrt-worker {}\n", parrt_render::version_text!())
+    );
     for part in ["commit ", " build, ", std::env::consts::ARCH, ", tier "] {
         assert!(v.contains(part), "{part:?} missing from {v:?}");
     }

@@ -40,11 +40,11 @@
 use super::file_guard::{self, GuardError, Privacy};
 use super::scheduler::AcceptedTile;
 use hmac::{Hmac, Mac};
-use parrt::description::SceneDescription;
 use parrt_protocol::{PixelFormat, TilePixels};
-use parrt::settings::RenderSettings;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::description::SceneDescription;
+use parrt_render::settings::RenderSettings;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use sha2::{Digest, Sha256};
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, SeekFrom, Write};
@@ -260,7 +260,7 @@ impl JobKey {
             let w = w.map_err(|e| CheckpointError::Encode(e.to_string()))?;
             Ok(w.0.finalize().into())
         };
-        let n = parrt::tile::tiles(settings.width, settings.height, tile.max(1)).len();
+        let n = parrt_render::tile::tiles(settings.width, settings.height, tile.max(1)).len();
         Ok(JobKey {
             scene: hash(postcard::to_io(desc, HashWriter(Sha256::new())))?,
             settings: hash(postcard::to_io(settings, HashWriter(Sha256::new())))?,
@@ -785,7 +785,7 @@ mod tests {
         let desc = parrt_scenes::generate("balls", Some(1)).unwrap();
         let settings = RenderSettings::new(20, 12);
         let k = JobKey::new(&desc, &settings, tile, PixelFormat::Rgb8).unwrap();
-        (k, parrt::tile::tiles(20, 12, tile))
+        (k, parrt_render::tile::tiles(20, 12, tile))
     }
 
     fn tile_result(t: &Tile, v: u8) -> AcceptedTile {

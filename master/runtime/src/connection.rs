@@ -10,14 +10,14 @@
 
 use super::admission::HandshakeSlot;
 use super::scheduler::{Event, WorkerId};
-use parrt::isa::Isa;
 use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt_protocol::limits::{self, MAX_THREADS};
 use parrt_protocol::message::NONCE_LEN;
+use parrt_protocol::seconds::seconds;
 use parrt_protocol::{
     Connection, Encoded, Message, ProtocolError, Token, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
-use parrt_protocol::seconds::seconds;
+use parrt_render::isa::Isa;
 use rand::{RngCore, SeedableRng};
 use std::net::SocketAddr;
 use std::sync::Arc;

@@ -70,7 +70,7 @@ pub fn effective_uid() -> u32 {
 /// that `privacy` forbids.
 pub fn check(m: &std::fs::Metadata, privacy: Privacy) -> Result<(), Refusal> {
     if !m.file_type().is_file() {
-        return Err(Refusal::NotRegular(parrt::nff::read::kind_of(
+        return Err(Refusal::NotRegular(parrt_render::nff::read::kind_of(
             m.file_type(),
         )));
     }

@@ -34,7 +34,7 @@
 //! ```no_run
 //! use parrt_runtime::{run, Job, MasterConfig};
 //! let desc = parrt_scenes::generate("balls", Some(1)).expect("a built-in scene");
-//! let settings = parrt::settings::RenderSettings::new(64, 64);
+//! let settings = parrt_render::settings::RenderSettings::new(64, 64);
 //! let mut config = MasterConfig::default();
 //! config.spawn.count = 2; // two local worker processes of this executable
 //! config.spawn.threads = 1;
@@ -72,12 +72,12 @@ pub use scheduler::{FaultCounts, WorkerReport};
 pub use server::{Master, Writer};
 pub use spawn::{spawn_workers, LocalWorkers};
 
-use parrt::description::SceneDescription;
-use parrt::film::Film;
-use parrt_protocol::{PixelFormat, Token};
-use parrt::settings::RenderSettings;
-use parrt::stats::RayStats;
 pub use crate::window::Window;
+use parrt_protocol::{PixelFormat, Token};
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::settings::RenderSettings;
+use parrt_render::stats::RayStats;
 use rand::Rng;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use tokio_util::sync::CancellationToken;
@@ -148,8 +148,10 @@ impl DistResult {
 /// The pixel format workers should send for an image written to `output`: 8-bit for PNG and
 /// PPM (all those files keep), exact f32 for EXR or an unknown extension.
 pub fn pixel_format_for(output: &std::path::Path) -> PixelFormat {
-    match parrt::film::ImageFormat::from_path(output) {
-        Ok(parrt::film::ImageFormat::Png | parrt::film::ImageFormat::Ppm) => PixelFormat::Rgb8,
+    match parrt_render::film::ImageFormat::from_path(output) {
+        Ok(parrt_render::film::ImageFormat::Png | parrt_render::film::ImageFormat::Ppm) => {
+            PixelFormat::Rgb8
+        }
         _ => PixelFormat::F32,
     }
 }
@@ -387,7 +389,7 @@ fn open_checkpoint(
     if let Some(s) = secret {
         key = key.sealed_with(s);
     }
-    let list = parrt::tile::tiles(settings.width, settings.height, schedule.tile.max(1));
+    let list = parrt_render::tile::tiles(settings.width, settings.height, schedule.tile.max(1));
     let o = checkpoint::open(path, &key, &list, at.resume)?;
     if !o.created {
         tracing::info!(

@@ -4,9 +4,9 @@
 //! (a client, a disk); it keeps what it needs and lets others do the rest.
 
 use super::scheduler::WorkerId;
-use parrt::film::Rgb;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::film::Rgb;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use std::sync::Arc;
 use tokio::time::Instant;
 

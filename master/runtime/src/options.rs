@@ -5,8 +5,8 @@
 //! nothing here does I/O.
 
 use crate::observer::Observers;
-use parrt_protocol::{PixelFormat, Token, DEFAULT_MAX_FRAME};
 use crate::window::Window;
+use parrt_protocol::{PixelFormat, Token, DEFAULT_MAX_FRAME};
 use std::path::PathBuf;
 use std::time::Duration;
 

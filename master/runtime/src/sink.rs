@@ -153,7 +153,7 @@ impl Drop for BackgroundWriter {
 mod tests {
     use super::*;
     use parrt_protocol::{PixelFormat, TilePixels};
-    use parrt::stats::RayStats;
+    use parrt_render::stats::RayStats;
     use std::time::{Duration, Instant};
 
     fn tile(id: u32) -> AcceptedTile {

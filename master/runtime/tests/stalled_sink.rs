@@ -4,9 +4,9 @@
 //! the SMP image, and the sink still receives every tile once the render is over.
 
 use parrt_protocol::Token;
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 use parrt_runtime::checkpoint::CheckpointError;
 use parrt_runtime::scheduler::AcceptedTile;
 use parrt_runtime::sink::{BackgroundWriter, TileSink};
@@ -37,7 +37,7 @@ impl TileSink for StallingDisk {
 }
 
 /// The scene and settings: balls at 64×48.
-fn job() -> (parrt::description::SceneDescription, RenderSettings) {
+fn job() -> (parrt_render::description::SceneDescription, RenderSettings) {
     let desc = parrt_scenes::generate("balls", Some(1)).expect("balls builds");
     (desc, RenderSettings::new(64, 48))
 }

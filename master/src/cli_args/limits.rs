@@ -5,23 +5,23 @@
 
 use super::ArgError;
 use clap::Args;
-use parrt::nff::Limits;
+use parrt_render::nff::Limits;
 use std::path::Path;
 
 /// Parser limits, raisable from the command line.
 #[derive(Debug, Clone, Args)]
 pub struct LimitArgs {
     /// Maximum vertices in one polygon or patch.
-    #[arg(long, value_name = "N", default_value_t = parrt::nff::limits::DEFAULT_MAX_VERTICES)]
+    #[arg(long, value_name = "N", default_value_t = parrt_render::nff::limits::DEFAULT_MAX_VERTICES)]
     pub max_vertices: u32,
     /// Maximum primitives in a scene.
-    #[arg(long, value_name = "N", default_value_t = parrt::nff::limits::DEFAULT_MAX_PRIMITIVES)]
+    #[arg(long, value_name = "N", default_value_t = parrt_render::nff::limits::DEFAULT_MAX_PRIMITIVES)]
     pub max_primitives: u64,
     /// Maximum pixels (width × height) of an image.
-    #[arg(long, value_name = "N", default_value_t = parrt::nff::limits::DEFAULT_MAX_PIXELS)]
+    #[arg(long, value_name = "N", default_value_t = parrt_render::nff::limits::DEFAULT_MAX_PIXELS)]
     pub max_pixels: u64,
     /// Maximum bytes of a scene or other input file (only regular files are read).
-    #[arg(long, value_name = "BYTES", default_value_t = parrt::nff::limits::DEFAULT_MAX_FILE_BYTES)]
+    #[arg(long, value_name = "BYTES", default_value_t = parrt_render::nff::limits::DEFAULT_MAX_FILE_BYTES)]
     pub max_file_bytes: u64,
 }
 
@@ -79,5 +79,5 @@ impl LimitArgs {
 
 /// [`LimitArgs::read_file`] with an explicit limit, for commands without the limit flags.
 pub fn read_path(path: &Path, max_bytes: u64) -> anyhow::Result<Vec<u8>> {
-    parrt::nff::read_bounded(path, max_bytes).map_err(|e| ArgError::file(path, e).into())
+    parrt_render::nff::read_bounded(path, max_bytes).map_err(|e| ArgError::file(path, e).into())
 }

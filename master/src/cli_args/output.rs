@@ -9,13 +9,13 @@ use std::path::Path;
 
 /// Checks an image output (`-o`): a format parrt writes and a place it can be written.
 pub fn check_image_output(path: &Path) -> anyhow::Result<()> {
-    parrt::film::check_output(path).map_err(ArgError::refused)?;
+    parrt_render::film::check_output(path).map_err(ArgError::refused)?;
     Ok(())
 }
 
 /// Checks a non-image output file: a place it can be written.
 pub fn check_file_output(path: &Path) -> anyhow::Result<()> {
-    Ok(parrt::film::check_writable(path).map_err(ArgError::refused)?)
+    Ok(parrt_render::film::check_writable(path).map_err(ArgError::refused)?)
 }
 
 /// What a path is, as the file system sees it: an existing file by device and inode (so
@@ -91,12 +91,12 @@ pub fn write_whole(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
             .into())
         }
         Ok(m) if !m.file_type().is_file() => {
-            let kind = parrt::nff::read::kind_of(m.file_type());
+            let kind = parrt_render::nff::read::kind_of(m.file_type());
             return Err(ArgError::file(path, format!("is {kind}, not a regular file")).into());
         }
         _ => {}
     }
-    let tmp = parrt::film::temp_beside(path);
+    let tmp = parrt_render::film::temp_beside(path);
     let written = std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)

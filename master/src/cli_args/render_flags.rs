@@ -6,10 +6,10 @@
 
 use super::ArgError;
 use clap::{Args, ValueEnum};
-use parrt::description::SceneDescription;
-use parrt::precision::Choice;
-use parrt::settings::{AccelKind, Precision, RenderSettings};
-use parrt::smp::Executor;
+use parrt_render::description::SceneDescription;
+use parrt_render::precision::Choice;
+use parrt_render::settings::{AccelKind, Precision, RenderSettings};
+use parrt_render::smp::Executor;
 
 /// Acceleration structure choices.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -87,11 +87,11 @@ pub struct RenderFlags {
     #[arg(long, value_name = "H")]
     pub height: Option<u32>,
     /// Maximum ray depth; the eye ray is depth 1.
-    #[arg(long, value_name = "D", default_value_t = parrt::settings::DEFAULT_MAX_DEPTH)]
+    #[arg(long, value_name = "D", default_value_t = parrt_render::settings::DEFAULT_MAX_DEPTH)]
     pub max_depth: u32,
     /// Adaptive cut-off: a reflected/refracted ray is not traced when the product of weights
     /// along its path falls below X (0 disables; ignored with --spd-standard).
-    #[arg(long, value_name = "X", default_value_t = parrt::settings::DEFAULT_CUTOFF)]
+    #[arg(long, value_name = "X", default_value_t = parrt_render::settings::DEFAULT_CUTOFF)]
     pub cutoff: f64,
     /// Samples per pixel (1: one ray through each pixel centre; square numbers are stratified).
     #[arg(long, value_name = "N", default_value_t = 1)]
@@ -107,7 +107,7 @@ pub struct RenderFlags {
     #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
     pub accel: AccelArg,
     /// Uniform grid density: about cbrt(density × primitives) cells along the longest axis.
-    #[arg(long, value_name = "X", default_value_t = parrt::settings::DEFAULT_GRID_DENSITY)]
+    #[arg(long, value_name = "X", default_value_t = parrt_render::settings::DEFAULT_GRID_DENSITY)]
     pub grid_density: f64,
     /// Geometric precision: auto (f32 when it resolves the scene, else f64), f32 (fast path)
     /// or f64 (reference path).
@@ -149,8 +149,8 @@ impl RenderFlags {
             PrecisionArg::F32 => Precision::F32,
             PrecisionArg::F64 => Precision::F64,
         };
-        parrt::render::validate_settings(&s).map_err(ArgError::refused)?;
-        let choice = parrt::precision::resolve(requested, desc);
+        parrt_render::render::validate_settings(&s).map_err(ArgError::refused)?;
+        let choice = parrt_render::precision::resolve(requested, desc);
         s.precision = choice.precision;
         Ok((s, choice))
     }

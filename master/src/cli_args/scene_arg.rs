@@ -5,8 +5,8 @@
 
 use super::ArgError;
 use anyhow::Context;
-use parrt::description::SceneDescription;
-use parrt::nff::Limits;
+use parrt_render::description::SceneDescription;
+use parrt_render::nff::Limits;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -115,8 +115,8 @@ impl SceneSpec {
     pub fn load(&self, limits: &Limits) -> anyhow::Result<(SceneDescription, f64)> {
         let t0 = Instant::now();
         let desc = match self {
-            SceneSpec::File(p) => parrt::nff::parse_file(p, limits).map_err(|e| {
-                if e.kind == parrt::nff::NffErrorKind::Io {
+            SceneSpec::File(p) => parrt_render::nff::parse_file(p, limits).map_err(|e| {
+                if e.kind == parrt_render::nff::NffErrorKind::Io {
                     ArgError::file(&e.file, &e.message)
                 } else {
                     ArgError::refused(e)

@@ -5,7 +5,7 @@
 
 use super::ArgError;
 use clap::Args;
-use parrt::tile::Tile;
+use parrt_render::tile::Tile;
 use std::path::{Path, PathBuf};
 
 /// The tile order flag.
@@ -27,7 +27,7 @@ impl OrderArgs {
             return Ok(None);
         };
         let costs = read_costs(path)?;
-        let want = parrt::tile::tiles(width, height, tile);
+        let want = parrt_render::tile::tiles(width, height, tile);
         let same = |(t, _): &(Tile, f64), w: &Tile| {
             (t.id, t.x, t.y, t.w, t.h) == (w.id, w.x, w.y, w.w, w.h)
         };
@@ -56,9 +56,10 @@ pub fn costly_first(costs: &[(Tile, f64)]) -> Vec<u32> {
 /// Reads a `--tile-costs` file (at most the default file limit, UTF-8, every line checked);
 /// errors are bad input naming the path and line.
 pub fn read_costs(path: &Path) -> anyhow::Result<Vec<(Tile, f64)>> {
-    let bytes = super::limits::read_path(path, parrt::nff::limits::DEFAULT_MAX_FILE_BYTES)?;
+    let bytes = super::limits::read_path(path, parrt_render::nff::limits::DEFAULT_MAX_FILE_BYTES)?;
     let text = String::from_utf8(bytes).map_err(|_| ArgError::file(path, "not UTF-8 text"))?;
-    let costs = crate::studies::efficiency::read_tile_costs(&text).map_err(|e| ArgError::file(path, e))?;
+    let costs =
+        crate::studies::efficiency::read_tile_costs(&text).map_err(|e| ArgError::file(path, e))?;
     if costs.is_empty() {
         return Err(ArgError::file(path, "no tiles").into());
     }
@@ -93,8 +94,9 @@ mod tests {
     fn another_tiling_is_refused_naming_the_file() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("costs.csv");
-        let list = parrt::tile::tiles(64, 64, 16);
-        crate::studies::efficiency::write_tile_costs(&path, &list, &vec![0.01; list.len()]).unwrap();
+        let list = parrt_render::tile::tiles(64, 64, 16);
+        crate::studies::efficiency::write_tile_costs(&path, &list, &vec![0.01; list.len()])
+            .unwrap();
         let args = OrderArgs {
             costly_first: Some(path.clone()),
         };

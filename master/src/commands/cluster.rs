@@ -189,7 +189,7 @@ fn run_master(
     let settings = args.render.settings(&desc)?;
     args.limits
         .check_image(settings.width, settings.height, args.tile)?;
-    parrt::render::validate_job(&desc, &settings)
+    parrt_render::render::validate_job(&desc, &settings)
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
     let (token_text, token) = fresh_token()?;

@@ -6,11 +6,11 @@
 use crate::cli_args::LimitArgs;
 use crate::exit::input_error;
 use clap::Args;
-use parrt::description::{Bounds, SceneDescription};
-use parrt::nff::{self, NffErrorKind, ParsedNff, Summary};
-use parrt::precision::Choice;
-use parrt::settings::Precision;
-use parrt::vec3::Vec3d;
+use parrt_render::description::{Bounds, SceneDescription};
+use parrt_render::nff::{self, NffErrorKind, ParsedNff, Summary};
+use parrt_render::precision::Choice;
+use parrt_render::settings::Precision;
+use parrt_render::vec3::Vec3d;
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -60,7 +60,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<ExitCode> {
     let parse_s = t0.elapsed().as_secs_f64();
     let summary = Summary::of(&parsed);
     let t1 = Instant::now();
-    let choice = parrt::precision::resolve(Precision::Auto, &parsed.description);
+    let choice = parrt_render::precision::resolve(Precision::Auto, &parsed.description);
     let precision = (choice, t1.elapsed().as_secs_f64());
     let text = if args.json {
         let mut s = serde_json::to_string_pretty(&to_json(
@@ -138,10 +138,10 @@ fn to_json(
         "file": file,
         "bytes": bytes,
         "parse_s": parse_s,
-        "precision": parrt::precision::name(choice.precision),
+        "precision": parrt_render::precision::name(choice.precision),
         "precision_reason": choice.reason,
         "precision_s": precision_s,
-        "isa": parrt::isa::current(),
+        "isa": parrt_render::isa::current(),
     })
 }
 
@@ -220,12 +220,12 @@ fn human(
         "precision",
         format!(
             "{} ({}; estimated in {:.3} ms)",
-            parrt::precision::name(choice.precision),
+            parrt_render::precision::name(choice.precision),
             choice.reason,
             precision_s * 1e3
         ),
     ));
-    rows.push(("isa", parrt::isa::current().to_string()));
+    rows.push(("isa", parrt_render::isa::current().to_string()));
     let width = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
     let mut out = String::new();
     for (label, value) in rows {

@@ -13,7 +13,7 @@ use crate::exit::input_error;
 use crate::live::state::JobInfo;
 use anyhow::Context;
 use clap::Args;
-use parrt::description::SceneDescription;
+use parrt_render::description::SceneDescription;
 use parrt_runtime::{Job, MasterConfig, DEFAULT_LISTEN};
 use parrt_worker::cli::{init_logging, log_level, TokenArgs};
 use std::path::PathBuf;
@@ -180,7 +180,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     let settings = args.render.settings(&desc)?;
     args.limits
         .check_image(settings.width, settings.height, args.tile)?;
-    parrt::render::validate_job(&desc, &settings)
+    parrt_render::render::validate_job(&desc, &settings)
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
     let live = start_live(&args.live, Some(token.as_bytes()))?;

@@ -11,11 +11,11 @@ use crate::exit::input_error;
 use crate::observed_smp::render_smp_observed;
 use anyhow::Context;
 use clap::Args;
-use parrt::precision::Choice;
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
-use parrt::smp::SmpOptions;
-use parrt::stats::RayStats;
+use parrt_render::precision::Choice;
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::smp::SmpOptions;
+use parrt_render::stats::RayStats;
 use serde_json::json;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -86,7 +86,7 @@ pub struct RenderArgs {
 
 /// What one way of rendering produced, for the common reporting.
 struct Outcome {
-    film: parrt::film::Film,
+    film: parrt_render::film::Film,
     stats: RayStats,
     tile_seconds: Vec<f64>,
     trace_s: f64,
@@ -120,7 +120,7 @@ fn live_job(
 fn render_here(
     args: &RenderArgs,
     spec: &SceneSpec,
-    desc: parrt::description::SceneDescription,
+    desc: parrt_render::description::SceneDescription,
     settings: &RenderSettings,
     live: Option<&crate::live::Live>,
 ) -> anyhow::Result<Outcome> {
@@ -243,7 +243,7 @@ fn render_through_workers(
     // The workers each refuse a scene they cannot build; if they all did, the check says why,
     // once, as bad input. A render that succeeds needs no check (every worker built the job).
     let job = Job::prepared(prepare).check(|desc, settings| {
-        parrt::render::validate_job(desc, settings).map_err(|e| Failed::Job(input_error(e)))
+        parrt_render::render::validate_job(desc, settings).map_err(|e| Failed::Job(input_error(e)))
     });
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
@@ -352,7 +352,7 @@ fn load_job(
     args: &RenderArgs,
     spec: &SceneSpec,
 ) -> anyhow::Result<(
-    parrt::description::SceneDescription,
+    parrt_render::description::SceneDescription,
     RenderSettings,
     Choice,
     f64,
@@ -407,7 +407,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
             )
         }
     };
-    let precision = parrt::precision::name(choice.precision);
+    let precision = parrt_render::precision::name(choice.precision);
     out.film
         .save(&args.output)
         .with_context(|| format!("rendering {}", spec.label()))?;
@@ -426,7 +426,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         report.print();
     }
     if let Some(path) = &args.tile_costs {
-        let list = parrt::tile::tiles(settings.width, settings.height, args.tile);
+        let list = parrt_render::tile::tiles(settings.width, settings.height, args.tile);
         crate::studies::efficiency::write_tile_costs(path, &list, &out.tile_seconds)
             .with_context(|| format!("cannot write {}", path.display()))?;
     }

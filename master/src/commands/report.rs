@@ -3,7 +3,7 @@
 //! distributed render (`parrt master`, rank 0 of `parrt cluster`). Formatting only: nothing
 //! here renders or decides an exit code.
 
-use parrt::stats::RayStats;
+use parrt_render::stats::RayStats;
 use parrt_runtime::DistResult;
 use serde_json::json;
 
@@ -32,7 +32,7 @@ impl RenderReport {
             "build_s": self.build_s,
             "trace_s": self.trace_s,
             "mrays_per_s": self.mrays_per_s(),
-            "isa": parrt::isa::current(),
+            "isa": parrt_render::isa::current(),
         });
         if let Some(obj) = v.as_object_mut() {
             for more in [timing, extra] {
@@ -106,7 +106,10 @@ impl RenderReport {
         crate::outln!("build             {:>13.3}s", self.build_s);
         crate::outln!("preprocessing     {:>13.3}s", self.parse_s + self.build_s);
         crate::outln!("trace             {:>13.3}s", self.trace_s);
-        crate::outln!("isa               {:>14}", parrt::isa::current().name());
+        crate::outln!(
+            "isa               {:>14}",
+            parrt_render::isa::current().name()
+        );
     }
 }
 

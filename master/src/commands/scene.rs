@@ -1,7 +1,7 @@
 //! `parrt scene`: writes one of the SPD-style generated scenes, or a scene file read with the
 //! strict parser, as NFF text or as a POV-Ray scene (to a file or stdout), or lists the
 //! generators. Generation lives in the `parrt-scenes` crate and the writers in the library
-//! (`parrt::nff::to_nff`, `parrt::nff::to_pov`); this file only parses arguments, reports errors
+//! (`parrt_render::nff::to_nff`, `parrt_render::nff::to_pov`); this file only parses arguments, reports errors
 //! and writes bytes.
 
 use crate::cli_args::output::{check_distinct, check_file_output};
@@ -10,7 +10,7 @@ use crate::cli_args::ArgError;
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use parrt::description::SceneDescription;
+use parrt_render::description::SceneDescription;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -75,7 +75,11 @@ fn format_for(flag: Option<Format>, output: Option<&Path>) -> Format {
 }
 
 /// The scene `name` names: a generated one, or a file read with the default limits.
-fn load(name: &str, factor: Option<u32>, output: Option<&Path>) -> anyhow::Result<SceneDescription> {
+fn load(
+    name: &str,
+    factor: Option<u32>,
+    output: Option<&Path>,
+) -> anyhow::Result<SceneDescription> {
     let path = PathBuf::from(name);
     let is_file = ["nff", "json"]
         .iter()
@@ -139,8 +143,8 @@ pub fn run(args: SceneArgs) -> anyhow::Result<ExitCode> {
     }
     let scene = load(name, args.factor, args.output.as_deref())?;
     let text = match format_for(args.format, args.output.as_deref()) {
-        Format::Nff => parrt::nff::to_nff(&scene),
-        Format::Pov => parrt::nff::to_pov(&scene),
+        Format::Nff => parrt_render::nff::to_nff(&scene),
+        Format::Pov => parrt_render::nff::to_pov(&scene),
     };
     match &args.output {
         Some(path) => {

@@ -151,7 +151,7 @@ mod tests {
         let (mut a, mut b) = (s.subscribe(), s.subscribe());
         let mut batcher = Batcher::new(s.clone(), 1e6);
         let t0 = Instant::now();
-        let list = parrt::tile::tiles(4, 2, 2);
+        let list = parrt_render::tile::tiles(4, 2, 2);
         land(&s, 0, &list[1], &[[1.0, 0.0, 0.0]; 4], 1);
         land(&s, 0, &list[0], &[[0.0, 0.0, 1.0]; 4], 1);
         batcher.tick(t0);
@@ -205,7 +205,7 @@ mod tests {
         // 20 pixels a second at full resolution, 2 a tick: the two 2 × 2 tiles (8 pixels) go
         // as one mean each (8 / 2² = 2).
         let mut batcher = Batcher::new(s.clone(), 20.0);
-        let list = parrt::tile::tiles(4, 2, 2);
+        let list = parrt_render::tile::tiles(4, 2, 2);
         let one_red = [[1.0, 0.0, 0.0], [0.0; 3], [0.0; 3], [0.0; 3]];
         land(&s, 0, &list[0], &one_red, 1);
         land(&s, 0, &list[1], &[[0.0, 0.0, 1.0]; 4], 1);
@@ -237,7 +237,7 @@ mod tests {
         let s = state();
         let mut rx = s.subscribe();
         let mut batcher = Batcher::new(s.clone(), 1e6);
-        let tile = parrt::tile::tiles(4, 2, 2)[0];
+        let tile = parrt_render::tile::tiles(4, 2, 2)[0];
         for _ in 0..3 {
             land(&s, 0, &tile, &[[0.0; 3]; 4], 1);
         }
@@ -252,7 +252,7 @@ mod tests {
     fn with_no_page_open_nothing_is_made() {
         let s = state();
         let mut batcher = Batcher::new(s.clone(), 1e6);
-        let tile = parrt::tile::tiles(4, 2, 2)[0];
+        let tile = parrt_render::tile::tiles(4, 2, 2)[0];
         land(&s, 0, &tile, &[[0.0; 3]; 4], 1);
         batcher.tick(Instant::now());
         let mut rx = s.subscribe();

@@ -5,7 +5,7 @@
 
 use super::limits::SHEET_SIDE;
 use bytes::Bytes;
-use parrt::tile::Tile;
+use parrt_render::tile::Tile;
 
 const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
 
@@ -314,7 +314,7 @@ pub(crate) mod tests {
             (100, 20, 50, 10, 2),
         ] {
             let img: Vec<u8> = (0..w * h * 3).map(|i| (i * 7 % 251) as u8).collect();
-            let list = parrt::tile::tiles(w as u32, h as u32, size);
+            let list = parrt_render::tile::tiles(w as u32, h as u32, size);
             let mut rgb = Vec::new();
             for t in &list {
                 for y in t.y..t.y + t.h {
@@ -360,7 +360,7 @@ pub(crate) mod tests {
         // A 7 × 5 image in tiles of 4: widths 4 and 3, heights 4 and 1.
         let (w, h) = (7usize, 5usize);
         let img: Vec<u8> = (0..w * h * 3).map(|i| (i * 37 % 256) as u8).collect();
-        let list = parrt::tile::tiles(w as u32, h as u32, 4);
+        let list = parrt_render::tile::tiles(w as u32, h as u32, 4);
         let mut rgb = Vec::new();
         for t in &list {
             for y in t.y..t.y + t.h {

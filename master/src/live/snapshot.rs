@@ -144,7 +144,7 @@ mod tests {
     fn a_snapshot_is_taken_again_after_a_reload_or_the_end_whatever_its_age() {
         let s = state();
         let snaps = Snapshots::new(s.clone());
-        let tiles = parrt::tile::tiles(4, 2, 2);
+        let tiles = parrt_render::tile::tiles(4, 2, 2);
         let first = snaps.fresh();
         land(&s, 0, &tiles[0], &[[1.0; 3]; 4], 1);
         // Young and nothing asked for a reload: the same one (a page may be 100 ms behind).

@@ -9,9 +9,9 @@
 //! the batcher encodes once and sends to every page on [`LiveState::subscribe`]'s channel).
 
 use super::limits::{EVENT_BACKLOG, KEPT_DEPARTED, KEPT_FAULTS, SNAPSHOT_BAND};
-use parrt::film::{to_u8_into, Rgb};
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::film::{to_u8_into, Rgb};
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use parrt_runtime::observer::Observer;
 use parrt_runtime::scheduler::WorkerId;
 use serde::Serialize;
@@ -261,7 +261,8 @@ impl LiveState {
 
     /// Sets the job (before its first tile): its size, tiles and label.
     pub fn set_job(&self, job: JobInfo) {
-        let tiles_total = parrt::tile::tiles(job.width, job.height, job.tile_size.max(1)).len();
+        let tiles_total =
+            parrt_render::tile::tiles(job.width, job.height, job.tile_size.max(1)).len();
         let pixels = (job.width as usize)
             .saturating_mul(job.height as usize)
             .saturating_mul(3);
@@ -667,7 +668,7 @@ pub(crate) mod tests {
         s.joined(7, "w", 2, now);
         s.ready(7, now);
         s.started(now);
-        let tile = parrt::tile::tiles(4, 2, 2)[1];
+        let tile = parrt_render::tile::tiles(4, 2, 2)[1];
         land(&s, 7, &tile, &[[1.0, 0.0, 0.0]; 4], 10);
         let f = s.frame();
         assert_eq!(&f[6..9], &[255, 0, 0]);
@@ -695,7 +696,7 @@ pub(crate) mod tests {
             tile_size: 32,
         });
         let _rx = s.subscribe();
-        let tiles = parrt::tile::tiles(1024, 64, 32);
+        let tiles = parrt_render::tile::tiles(1024, 64, 32);
         let mut between = 0;
         let mut out = vec![7; 5];
         s.copy_frame_with(&mut out, || {
@@ -719,7 +720,7 @@ pub(crate) mod tests {
     #[test]
     fn no_tile_is_noted_while_no_page_is_open() {
         let s = LiveState::new(job());
-        let tile = parrt::tile::tiles(4, 2, 2)[0];
+        let tile = parrt_render::tile::tiles(4, 2, 2)[0];
         land(&s, 0, &tile, &[[0.5; 3]; 4], 1);
         assert!(s.take_landed(&mut Vec::new()).tiles.is_empty());
         assert_eq!(&s.frame()[0..3], &[128, 128, 128]);
@@ -729,7 +730,7 @@ pub(crate) mod tests {
     fn faults_mark_workers_and_are_bounded() {
         let s = LiveState::new(job());
         Observer::joined(&*s, 1, "a", 1, tokio::time::Instant::now());
-        let tile = parrt::tile::tiles(4, 2, 2)[0];
+        let tile = parrt_render::tile::tiles(4, 2, 2)[0];
         Observer::assigned(&*s, 1, &tile, 1, false, tokio::time::Instant::now());
         Observer::requeued(&*s, 0);
         assert_eq!(s.status().workers[0].state, WorkerState::Requeued);

@@ -2,7 +2,7 @@
 //! t₁/c, tables of efficiency against threads (rows) and tile sizes (columns) as Markdown and CSV,
 //! and per-tile cost files. CSV is read and written with the `csv` crate.
 
-use parrt::tile::Tile;
+use parrt_render::tile::Tile;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -246,7 +246,7 @@ pub fn aggregate_costs(fine: &[(Tile, f64)], coarse: &[Tile], coarse_size: u32) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::tile::tiles;
+    use parrt_render::tile::tiles;
 
     #[test]
     fn cost_and_efficiency_follow_the_paper() {

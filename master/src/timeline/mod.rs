@@ -205,7 +205,7 @@ impl Timeline {
     pub fn from_smp(
         job: &Job<'_>,
         threads: usize,
-        spans: &[parrt::smp::TileSpan],
+        spans: &[parrt_render::smp::TileSpan],
         trace_s: f64,
     ) -> Self {
         let mut tiles: Vec<TileRecord> = spans

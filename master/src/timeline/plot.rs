@@ -269,10 +269,8 @@ where
                 .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
         }
         // A thin outline so that back-to-back tiles stay apart.
-        ctx.draw_series(
-            bars.map(|b| Rectangle::new(corners(b), WHITE.mix(0.6).stroke_width(1))),
-        )
-        .map_err(err)?;
+        ctx.draw_series(bars.map(|b| Rectangle::new(corners(b), WHITE.mix(0.6).stroke_width(1))))
+            .map_err(err)?;
     }
     Ok(())
 }
@@ -302,7 +300,11 @@ where
     }
     ctx.draw_series(faults.iter().map(|e| {
         let (_, hi) = lanes.row_span(&e.worker);
-        TriangleMarker::new((e.t_s, hi.min(lanes.lanes as f64) - 0.05), 5, FAULT.filled())
+        TriangleMarker::new(
+            (e.t_s, hi.min(lanes.lanes as f64) - 0.05),
+            5,
+            FAULT.filled(),
+        )
     }))
     .map_err(err)?;
     Ok(())

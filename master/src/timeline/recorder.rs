@@ -2,9 +2,9 @@
 //! [`Observer`]): assignment and arrival of every result, and the faults on the way.
 
 use super::{Attempt, EventKind, Job, Row, TileRecord, Timeline, TimelineEvent};
-use parrt::film::Rgb;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::film::Rgb;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use parrt_runtime::observer::Observer;
 use parrt_runtime::scheduler::WorkerId;
 use std::collections::HashMap;
@@ -229,8 +229,8 @@ impl Observer for Recorder {
 mod tests {
     use super::*;
     use parrt_protocol::{Message, PixelFormat, TilePixels};
-    use parrt::settings::RenderSettings;
-    use parrt::tile::tiles;
+    use parrt_render::settings::RenderSettings;
+    use parrt_render::tile::tiles;
     use parrt_runtime::observer::Observers;
     use parrt_runtime::scheduler::{Event, SchedOptions, Scheduler};
     use std::sync::Arc;
@@ -246,7 +246,7 @@ mod tests {
                 id,
                 name: "same-name".into(),
                 threads: 1,
-                isa: parrt::isa::Isa::Scalar,
+                isa: parrt_render::isa::Isa::Scalar,
                 outbox: tx,
                 counters: Arc::default(),
             },

@@ -104,7 +104,7 @@ fn path(p: &Path) -> &str {
 fn sphere_json() -> serde_json::Value {
     let nff = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0.01 resolution 8 8\n\
                l 5 5 5\nf 1 0 0 1 0 0 0 0\ns 0 0 0 1\n";
-    let desc = parrt::nff::parse(nff, "ball.nff", &Default::default()).expect("valid NFF");
+    let desc = parrt_render::nff::parse(nff, "ball.nff", &Default::default()).expect("valid NFF");
     serde_json::to_value(&desc).expect("serialisable")
 }
 

@@ -55,7 +55,7 @@ fn version_names_the_build() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v = String::from_utf8_lossy(&o.stdout).into_owned();
     // The text parrt-worker prints too (worker/tests/version.rs), from this package's build.
-    assert_eq!(v, format!("parrt {}\n", parrt::version_text!()));
+    assert_eq!(v, format!("parrt {}\n", parrt_render::version_text!()));
     assert!(
         v.starts_with(&format!("parrt {} (", env!("CARGO_PKG_VERSION"))),
         "{v}"
@@ -189,7 +189,13 @@ fn cargo_run_from_the_root_runs_parrt_and_build_skips_the_test_crate() {
         .lines()
         .find(|l| l.starts_with("default-members"))
         .expect("the workspace names its default members");
-    for m in ["\"render\"", "\"protocol\"", "\"master\"", "\"worker\"", "\"scenes\""] {
+    for m in [
+        "\"render\"",
+        "\"protocol\"",
+        "\"master\"",
+        "\"worker\"",
+        "\"scenes\"",
+    ] {
         assert!(line.contains(m), "{line}");
     }
     assert!(!line.contains("\"tests\""), "{line}");

@@ -8,7 +8,7 @@ use std::process::Command;
 fn parrt_on(tier: &str, args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_parrt"))
         .args(args)
-        .env(parrt::isa::ENV, tier)
+        .env(parrt_render::isa::ENV, tier)
         .output()
         .expect("the parrt binary runs")
 }

@@ -48,8 +48,8 @@ fn the_output_file_names_the_format() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let limits = Default::default();
     assert_eq!(
-        parrt::nff::parse_file(&nff, &limits).unwrap(),
-        parrt::nff::parse_file(std::path::Path::new(&spd("balls-3.nff")), &limits).unwrap()
+        parrt_render::nff::parse_file(&nff, &limits).unwrap(),
+        parrt_render::nff::parse_file(std::path::Path::new(&spd("balls-3.nff")), &limits).unwrap()
     );
     // A generated scene as POV-Ray: the same objects as its NFF.
     let pov = converted(&["scene", "tetra", "--factor", "2", "--format", "pov"]);

@@ -12,10 +12,10 @@
 //! ```
 //! let text = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0.01 resolution 64 48\n\
 //!             l 5 5 5\nf 1 0 0 1 0 0 0 0\ns 0 0 0 1\n";
-//! let desc = parrt::nff::parse(text, "ball.nff", &parrt::nff::Limits::default())?;
+//! let desc = parrt_render::nff::parse(text, "ball.nff", &parrt_render::nff::Limits::default())?;
 //! assert_eq!(desc.primitives.len(), 1);
-//! assert_eq!(parrt::nff::parse(&parrt::nff::to_nff(&desc), "again", &Default::default())?, desc);
-//! # Ok::<(), parrt::nff::NffError>(())
+//! assert_eq!(parrt_render::nff::parse(&parrt_render::nff::to_nff(&desc), "again", &Default::default())?, desc);
+//! # Ok::<(), parrt_render::nff::NffError>(())
 //! ```
 
 pub mod checks;

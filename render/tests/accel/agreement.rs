@@ -7,16 +7,16 @@
 
 use crate::support::scene::{scene_of, v};
 use crate::support::spd::{load, Trio, TrioStats, SMALL_SCENES};
-use parrt::accel::Accel;
-use parrt::camera::Camera;
-use parrt::description::{SceneDescription, Shape, View};
-use parrt::geometry::{Aabb, PreparedRay, PrimHit, Ray};
-use parrt::real::Real;
-use parrt::render::Renderer;
-use parrt::settings::{AccelKind, Precision, RenderSettings, DEFAULT_GRID_DENSITY};
-use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt::stats::RayStats;
-use parrt::vec3::V3;
+use parrt_render::accel::Accel;
+use parrt_render::camera::Camera;
+use parrt_render::description::{SceneDescription, Shape, View};
+use parrt_render::geometry::{Aabb, PreparedRay, PrimHit, Ray};
+use parrt_render::real::Real;
+use parrt_render::render::Renderer;
+use parrt_render::settings::{AccelKind, Precision, RenderSettings, DEFAULT_GRID_DENSITY};
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::stats::RayStats;
+use parrt_render::vec3::V3;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -147,7 +147,7 @@ fn rays_from_hits<R: Real>(t: &Trio<R>, from: &[Ray<R>], seed: u64) -> Vec<Ray<R
     let mut st = TrioStats::default();
     let mut out = Vec::new();
     for r in from.iter().step_by(3) {
-        let pr = parrt::geometry::PreparedRay::new(*r);
+        let pr = parrt_render::geometry::PreparedRay::new(*r);
         let hit = t.brute.intersect(&pr, &mut st.brute, |i, tm| {
             t.scene.intersect_prim(i, &pr, tm)
         });

@@ -4,8 +4,8 @@
 //! over borrowed bounds makes. The peak memory it saves is measured in BENCHMARKS.md (peak RSS
 //! of `parrt render --scene mount:10`).
 
-use parrt::accel::Bvh;
-use parrt::geometry::Aabb;
+use parrt_render::accel::Bvh;
+use parrt_render::geometry::Aabb;
 
 /// The boxes of a height field's triangles, two per cell of a `side` × `side` grid, in the
 /// order a generator writes them.

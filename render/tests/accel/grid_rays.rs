@@ -6,12 +6,12 @@
 
 use crate::support::scene::{scene_of, tri, v};
 use crate::support::spd::Trio;
-use parrt::accel::{Accel, Grid};
-use parrt::description::{SceneDescription, Shape, View};
-use parrt::geometry::{PreparedRay, Ray};
-use parrt::real::Real;
-use parrt::stats::RayStats;
-use parrt::vec3::V3;
+use parrt_render::accel::{Accel, Grid};
+use parrt_render::description::{SceneDescription, Shape, View};
+use parrt_render::geometry::{PreparedRay, Ray};
+use parrt_render::real::Real;
+use parrt_render::stats::RayStats;
+use parrt_render::vec3::V3;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -258,7 +258,7 @@ fn corner_scene_agrees<R: Real>(with_bvh: bool) {
 // the slab test's (rounded) entry distance exceeded the best hit so far, so a primitive hit at
 // the best `t` or a few ulps below it — an edge or vertex shared with the current best, a ray
 // lying in a box face — was skipped and a larger-index or farther primitive returned. Fixed by
-// building the BVH over boxes widened by `parrt::accel::margin`.
+// building the BVH over boxes widened by `parrt_render::accel::margin`.
 #[test]
 fn corner_scene_agrees_f32() {
     corner_scene_agrees::<f32>(true);
@@ -272,7 +272,7 @@ fn corner_scene_agrees_f64() {
 #[test]
 fn mailbox_tests_each_primitive_once() {
     let (t, _) = corner_trio::<f32>();
-    assert!(t.scene.len() < parrt::accel::grid::mailbox::MAILBOX_SLOTS);
+    assert!(t.scene.len() < parrt_render::accel::grid::mailbox::MAILBOX_SLOTS);
     for r in corner_rays::<f32>(grid_of(&t), 11) {
         let pr = PreparedRay::new(r);
         let mut seen = Vec::new();

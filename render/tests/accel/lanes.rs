@@ -6,16 +6,16 @@
 
 use crate::support::scene::{scene_of, tri, v, view};
 use crate::support::spd::{key, load, Trio, SMALL_SCENES};
-use parrt::accel::bvh::packet::PACKET;
-use parrt::accel::{Accel, Bvh};
-use parrt::camera::Camera;
-use parrt::description::Shape;
-use parrt::geometry::lanes16::Lanes16;
-use parrt::geometry::{offset_ray_origin, PreparedRay, Ray};
-use parrt::packet_leaf::{LanesLeaf, PacketLeaf};
-use parrt::scene::Scene;
-use parrt::stats::RayStats;
-use parrt::vec3::V3;
+use parrt_render::accel::bvh::packet::PACKET;
+use parrt_render::accel::{Accel, Bvh};
+use parrt_render::camera::Camera;
+use parrt_render::description::Shape;
+use parrt_render::geometry::lanes16::Lanes16;
+use parrt_render::geometry::{offset_ray_origin, PreparedRay, Ray};
+use parrt_render::packet_leaf::{LanesLeaf, PacketLeaf};
+use parrt_render::scene::Scene;
+use parrt_render::stats::RayStats;
+use parrt_render::vec3::V3;
 use proptest::prelude::*;
 
 /// What a comparison covered.
@@ -34,7 +34,7 @@ fn check(
     l: &Lanes16,
     cov: &mut Covered,
     what: &str,
-) -> Vec<Option<parrt::geometry::PrimHit<f32>>> {
+) -> Vec<Option<parrt_render::geometry::PrimHit<f32>>> {
     let n = l.len();
     let prs: Vec<PreparedRay<f32>> = (0..n).map(|i| PreparedRay::new(l.ray(i))).collect();
     let mut buffer = [prs[0]; PACKET];
@@ -216,7 +216,7 @@ proptest! {
         prop_assume!(scene.is_some());
         let scene = scene.expect("assumed");
         let bounds = scene.all_bounds();
-        let accel = Accel::build(parrt::settings::AccelKind::Bvh, &bounds, 4.0);
+        let accel = Accel::build(parrt_render::settings::AccelKind::Bvh, &bounds, 4.0);
         let Accel::Bvh(bvh) = &accel else { panic!("a BVH") };
         let mut l = Lanes16::new();
         for &(jitter, target, aim, t_max) in &rays {

@@ -10,17 +10,17 @@
 
 use crate::support::scene::scene_of;
 use crate::support::spd::{key, load, SMALL_SCENES};
-use parrt::accel::bvh::packet::PACKET;
-use parrt::accel::Accel;
-use parrt::camera::Camera;
-use parrt::description::{SceneDescription, Shape, View};
-use parrt::geometry::{PreparedRay, Ray};
-use parrt::real::Real;
-use parrt::scene::{Prim, Scene};
-use parrt::scene_leaf::SceneLeaf;
-use parrt::settings::{AccelKind, DEFAULT_GRID_DENSITY};
-use parrt::stats::RayStats;
-use parrt::vec3::V3;
+use parrt_render::accel::bvh::packet::PACKET;
+use parrt_render::accel::Accel;
+use parrt_render::camera::Camera;
+use parrt_render::description::{SceneDescription, Shape, View};
+use parrt_render::geometry::{PreparedRay, Ray};
+use parrt_render::real::Real;
+use parrt_render::scene::{Prim, Scene};
+use parrt_render::scene_leaf::SceneLeaf;
+use parrt_render::settings::{AccelKind, DEFAULT_GRID_DENSITY};
+use parrt_render::stats::RayStats;
+use parrt_render::vec3::V3;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -271,7 +271,7 @@ fn exact_edges_vertices_and_ties_agree() {
 /// How many BVH leaves of `scene` hold two or more primitives, all cones (the cone kernel's
 /// leaves).
 fn cone_leaves<R: Real>(scene: &Scene<R>) -> usize {
-    use parrt::accel::bvh::wide::{is_leaf, leaf_range, EMPTY};
+    use parrt_render::accel::bvh::wide::{is_leaf, leaf_range, EMPTY};
     let Accel::Bvh(bvh) = Accel::build(AccelKind::Bvh, &scene.all_bounds(), DEFAULT_GRID_DENSITY)
     else {
         panic!("not a BVH");

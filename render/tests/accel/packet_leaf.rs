@@ -10,19 +10,19 @@
 
 use crate::support::scene::scene_of;
 use crate::support::spd::{key, load};
-use parrt::accel::RayPrimTest;
-use parrt::description::{Shape, View};
-use parrt::geometry::{Nearest, PreparedRay, Ray};
-use parrt::packet_leaf::PacketLeaf;
-use parrt::real::Real;
-use parrt::scene::{Prim, Scene};
-use parrt::scene_leaf::SceneLeaf;
-use parrt::vec3::V3;
+use parrt_render::accel::RayPrimTest;
+use parrt_render::description::{Shape, View};
+use parrt_render::geometry::{Nearest, PreparedRay, Ray};
+use parrt_render::packet_leaf::PacketLeaf;
+use parrt_render::real::Real;
+use parrt_render::scene::{Prim, Scene};
+use parrt_render::scene_leaf::SceneLeaf;
+use parrt_render::vec3::V3;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
 /// Rays per packet.
-const PACKET: usize = parrt::accel::bvh::packet::PACKET;
+const PACKET: usize = parrt_render::accel::bvh::packet::PACKET;
 
 /// What the comparison covered.
 #[derive(Default, Debug)]

@@ -6,17 +6,17 @@
 
 use crate::support::film::assert_same_bits;
 use crate::support::spd::{key, load, Trio, SMALL_SCENES};
-use parrt::accel::bvh::packet::PACKET;
-use parrt::accel::Accel;
-use parrt::camera::Camera;
-use parrt::description::SceneDescription;
-use parrt::geometry::{offset_ray_origin, PreparedRay, Ray};
-use parrt::real::Real;
-use parrt::render::Renderer;
-use parrt::settings::{Precision, RenderSettings, DEFAULT_GRID_DENSITY};
-use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt::stats::RayStats;
-use parrt::vec3::V3;
+use parrt_render::accel::bvh::packet::PACKET;
+use parrt_render::accel::Accel;
+use parrt_render::camera::Camera;
+use parrt_render::description::SceneDescription;
+use parrt_render::geometry::{offset_ray_origin, PreparedRay, Ray};
+use parrt_render::real::Real;
+use parrt_render::render::Renderer;
+use parrt_render::settings::{Precision, RenderSettings, DEFAULT_GRID_DENSITY};
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::stats::RayStats;
+use parrt_render::vec3::V3;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -132,7 +132,7 @@ fn random_packets<R: Real>(t: &Trio<R>, seed: u64, cov: &mut Covered) -> Result<
         .scene
         .all_bounds()
         .iter()
-        .fold(parrt::geometry::Aabb::EMPTY, |a, b| a.union(b));
+        .fold(parrt_render::geometry::Aabb::EMPTY, |a, b| a.union(b));
     let lo = V3::new(b.min[0] as f64, b.min[1] as f64, b.min[2] as f64);
     let hi = V3::new(b.max[0] as f64, b.max[1] as f64, b.max[2] as f64);
     let size = (hi - lo).length();
@@ -329,18 +329,18 @@ fn integrator<R: Real>(
     w: u32,
     h: u32,
     max_depth: u32,
-) -> (parrt::shade::Integrator<R>, Camera<R>) {
+) -> (parrt_render::shade::Integrator<R>, Camera<R>) {
     let s = RenderSettings::new(w, h);
-    let scene = parrt::scene::Scene::<R>::build(desc).expect("scene builds");
+    let scene = parrt_render::scene::Scene::<R>::build(desc).expect("scene builds");
     let accel = Accel::build(s.accel, &scene.all_bounds(), DEFAULT_GRID_DENSITY);
-    let opts = parrt::shade::ShadeOptions {
+    let opts = parrt_render::shade::ShadeOptions {
         max_depth,
         cutoff: R::from_f64(s.cutoff),
         spd: false,
         two_sided: false,
     };
     (
-        parrt::shade::Integrator { scene, accel, opts },
+        parrt_render::shade::Integrator { scene, accel, opts },
         Camera::new(&desc.view, w, h),
     )
 }
@@ -349,8 +349,8 @@ fn integrator<R: Real>(
 /// traced together with `trace_packet`, get the colour `trace` gives each alone, bit for bit;
 /// returns how many of those packets were coherent enough to go through the packet code.
 fn secondary_packets_match<R: Real>(name: &str, w: u32, h: u32, max_depth: u32) -> usize {
-    use parrt::packet_trace::directions_close;
-    use parrt::shade::RayKind;
+    use parrt_render::packet_trace::directions_close;
+    use parrt_render::shade::RayKind;
     let desc = load(name);
     let (integ, camera) = integrator::<R>(&desc, w, h, max_depth);
     let Accel::Bvh(bvh) = &integ.accel else {

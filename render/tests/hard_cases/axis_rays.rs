@@ -3,10 +3,10 @@
 
 use crate::setup::{f32_resolves, Direct, Placement, PLACEMENTS};
 use crate::support::scene::{mat, prim, v, view};
-use parrt::description::{SceneDescription, Shape};
-use parrt::real::Real;
-use parrt::settings::AccelKind;
-use parrt::vec3::Vec3d;
+use parrt_render::description::{SceneDescription, Shape};
+use parrt_render::real::Real;
+use parrt_render::settings::AccelKind;
+use parrt_render::vec3::Vec3d;
 
 /// Rays along ±x, ±y, ±z, including rays lying exactly in the planes of the accelerator's boxes
 /// (0·∞ in the slab test) and through polygon edges: every accelerator finds the same hit as

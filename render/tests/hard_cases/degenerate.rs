@@ -3,10 +3,10 @@
 
 use crate::setup::{settings, Direct};
 use crate::support::scene::{mat, prim, tri, v, view};
-use parrt::description::{SceneDescription, Shape};
-use parrt::render::Renderer;
-use parrt::scene::{Scene, SceneError};
-use parrt::settings::{AccelKind, Precision};
+use parrt_render::description::{SceneDescription, Shape};
+use parrt_render::render::Renderer;
+use parrt_render::scene::{Scene, SceneError};
+use parrt_render::settings::{AccelKind, Precision};
 
 const HEADER: &str = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0.01 resolution 8 8\n\
                       b 0 0 0\nl 1 1 5\nf 1 1 1 1 0 0 0 1\n";
@@ -25,7 +25,7 @@ fn degenerate_input_is_rejected_with_a_clear_message() {
     ];
     for (body, what) in bad_nff {
         let text = format!("{HEADER}{body}");
-        let err = parrt::nff::parse(&text, "bad.nff", &Default::default())
+        let err = parrt_render::nff::parse(&text, "bad.nff", &Default::default())
             .expect_err(what)
             .to_string();
         assert!(err.contains("bad.nff"), "{what}: {err}");
@@ -115,10 +115,11 @@ fn degenerate_input_is_rejected_with_a_clear_message() {
 
     // Collinear first three vertices of a valid square, and a true cone: accepted and visible.
     let ok = format!("{HEADER}p 5\n-1 -1 0\n0 -1 0\n1 -1 0\n1 1 0\n-1 1 0\nc 3 0 -1 1 3 0 1 0\n");
-    let d = parrt::nff::parse(&ok, "ok.nff", &Default::default()).expect("valid input parses");
+    let d =
+        parrt_render::nff::parse(&ok, "ok.nff", &Default::default()).expect("valid input parses");
     let r = Renderer::new(&d, &settings(8, Precision::F32)).expect("and builds");
     assert!(r.probe(4.0, 4.0).is_some(), "the square is there");
-    let edge = parrt::nff::parse(
+    let edge = parrt_render::nff::parse(
         &format!("{HEADER}p 5\n-1 -1 0\n0 -1 0\n1 -1 0\n1 1 0\n-1 1 0\n"),
         "ok.nff",
         &Default::default(),

@@ -6,7 +6,7 @@
 //!
 //! The scene-level cases run on every [`setup::PLACEMENTS`] copy of their scene — as written, moved by
 //! 1e7 (mixed signs), scaled by 1e-6 and by 1e6 — in f32 (wherever auto picks it), f64 and auto:
-//! the camera-relative frame ([`parrt::frame`]) must let no leak, acne or speckle in anywhere. (The
+//! the camera-relative frame ([`parrt_render::frame`]) must let no leak, acne or speckle in anywhere. (The
 //! input checks and the spawned-ray tests work on primitives, not scenes: the latter already
 //! span six orders of magnitude of scale and offsets of 100× it.)
 //!

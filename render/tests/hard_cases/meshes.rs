@@ -4,11 +4,11 @@
 
 use crate::setup::{f32_resolves, precisions, render, settings, Direct, Placement, PLACEMENTS};
 use crate::support::scene::{mat, prim, tri, v, view};
-use parrt::description::{Light, SceneDescription, Shape};
-use parrt::real::Real;
-use parrt::render::Renderer;
-use parrt::settings::AccelKind;
-use parrt::vec3::Vec3d;
+use parrt_render::description::{Light, SceneDescription, Shape};
+use parrt_render::real::Real;
+use parrt_render::render::Renderer;
+use parrt_render::settings::AccelKind;
+use parrt_render::vec3::Vec3d;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -203,8 +203,9 @@ fn concave_gear_polygon_inside_and_outside() {
             )],
         };
         // Through the NFF text as well: the parser's checks must accept the concave 144-gon.
-        let text = parrt::nff::to_nff(&desc);
-        let parsed = parrt::nff::parse(&text, "gear.nff", &Default::default()).expect("parses");
+        let text = parrt_render::nff::to_nff(&desc);
+        let parsed =
+            parrt_render::nff::parse(&text, "gear.nff", &Default::default()).expect("parses");
         fn check<R: Real>(
             d: &SceneDescription,
             place: Placement,

@@ -3,12 +3,12 @@
 
 use crate::setup::{compare, render, settings, transform};
 use crate::support::scene::v;
-use parrt::description::SceneDescription;
-use parrt::settings::Precision;
+use parrt_render::description::SceneDescription;
+use parrt_render::settings::Precision;
 
 fn mount4() -> SceneDescription {
     let path = crate::support::spd_dir().join("mount-4.nff");
-    parrt::nff::parse_file(&path, &Default::default()).expect("mount-4 parses")
+    parrt_render::nff::parse_file(&path, &Default::default()).expect("mount-4 parses")
 }
 
 /// mount-4 moved by 1e5 and by 1e7 (mixed signs) and scaled by 2⁻¹⁰, 1e-3, 1e-6 and 1e6, in

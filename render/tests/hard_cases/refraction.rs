@@ -3,9 +3,9 @@
 
 use crate::setup::{f32_resolves, Direct, PLACEMENTS};
 use crate::support::scene::{mat, prim, v, view};
-use parrt::description::{Light, SceneDescription, Shape};
-use parrt::settings::AccelKind;
-use parrt::vec3::Vec3d;
+use parrt_render::description::{Light, SceneDescription, Shape};
+use parrt_render::settings::AccelKind;
+use parrt_render::vec3::Vec3d;
 
 fn glass_scene(from: Vec3d, at: Vec3d) -> SceneDescription {
     let mut prims = vec![

@@ -3,13 +3,13 @@
 
 use crate::setup::{precisions, render, settings, PLACEMENTS};
 use crate::support::scene::{mat, prim, v, view};
-use parrt::description::{Light, SceneDescription, Shape};
-use parrt::geometry::cone::Cone;
-use parrt::geometry::sphere::Sphere;
-use parrt::geometry::triangle::{intersect_triangle, triangle_point};
-use parrt::geometry::{offset_ray_origin, PreparedRay, Ray};
-use parrt::real::Real;
-use parrt::vec3::{Vec3d, V3};
+use parrt_render::description::{Light, SceneDescription, Shape};
+use parrt_render::geometry::cone::Cone;
+use parrt_render::geometry::sphere::Sphere;
+use parrt_render::geometry::triangle::{intersect_triangle, triangle_point};
+use parrt_render::geometry::{offset_ray_origin, PreparedRay, Ray};
+use parrt_render::real::Real;
+use parrt_render::vec3::{Vec3d, V3};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 

@@ -2,19 +2,19 @@
 //! far, tiny, huge), the precisions it runs in, a two-thread render, and an integrator and camera
 //! built directly to see radiance and hits before the film cleans them.
 
-use parrt::accel::Accel;
-use parrt::camera::Camera;
-use parrt::description::SceneDescription;
-use parrt::film::Film;
-use parrt::geometry::Ray;
-use parrt::real::Real;
-use parrt::render::Renderer;
-use parrt::scene::Scene;
-use parrt::settings::{AccelKind, Precision, RenderSettings};
-use parrt::shade::{Integrator, RayKind, ShadeOptions};
-use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt::stats::RayStats;
-use parrt::vec3::{Vec3d, V3};
+use parrt_render::accel::Accel;
+use parrt_render::camera::Camera;
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::geometry::Ray;
+use parrt_render::real::Real;
+use parrt_render::render::Renderer;
+use parrt_render::scene::Scene;
+use parrt_render::settings::{AccelKind, Precision, RenderSettings};
+use parrt_render::shade::{Integrator, RayKind, ShadeOptions};
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::stats::RayStats;
+use parrt_render::vec3::{Vec3d, V3};
 
 pub use crate::support::film::compare;
 
@@ -78,7 +78,7 @@ impl Placement {
 /// the scene outside what f32 resolves (a 2e4 ground scaled by 1e6 squares past f32's range):
 /// there auto's choice of f64 is the answer, and forcing f32 is the user's risk.
 pub fn precisions(desc: &SceneDescription) -> Vec<Precision> {
-    let auto = parrt::precision::resolve(Precision::Auto, desc).precision;
+    let auto = parrt_render::precision::resolve(Precision::Auto, desc).precision;
     let mut all = vec![Precision::F64, Precision::Auto];
     if auto == Precision::F32 {
         all.insert(0, Precision::F32);
@@ -88,7 +88,7 @@ pub fn precisions(desc: &SceneDescription) -> Vec<Precision> {
 
 /// Whether auto picks f32 for `desc` (the Direct cases then test f32 as well as f64).
 pub fn f32_resolves(desc: &SceneDescription) -> bool {
-    parrt::precision::resolve(Precision::Auto, desc).precision == Precision::F32
+    parrt_render::precision::resolve(Precision::Auto, desc).precision == Precision::F32
 }
 
 pub fn settings(size: u32, precision: Precision) -> RenderSettings {
@@ -107,7 +107,7 @@ pub struct Direct<R> {
 
 impl<R: Real> Direct<R> {
     pub fn new(desc: &SceneDescription, accel: AccelKind, size: u32) -> Self {
-        let origin = parrt::frame::origin(desc);
+        let origin = parrt_render::frame::origin(desc);
         let scene = Scene::<R>::build_in(desc, origin).expect("scene builds");
         let accel = Accel::build(accel, &scene.all_bounds(), 3.0);
         Direct {

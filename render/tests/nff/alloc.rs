@@ -3,7 +3,7 @@
 //! NFF test binary records allocations with its own global allocator, per thread, so the other
 //! tests running beside this one do not count.
 
-use parrt::nff::{self, Limits};
+use parrt_render::nff::{self, Limits};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 

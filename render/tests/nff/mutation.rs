@@ -3,7 +3,7 @@
 
 use crate::support;
 
-use parrt::nff::{self, Limits, NffErrorKind};
+use parrt_render::nff::{self, Limits, NffErrorKind};
 use proptest::prelude::*;
 use std::sync::OnceLock;
 

@@ -1,7 +1,7 @@
 //! The reader's numbers are exactly what `str::parse::<f64>` (correctly rounded) gives, for every
 //! C `%g`-like spelling, including the forms its fast path takes and those it hands on.
 
-use parrt::nff::number::parse_real;
+use parrt_render::nff::number::parse_real;
 use proptest::prelude::*;
 
 /// Number spellings: sign, integer digits, optional point and fraction, optional exponent.

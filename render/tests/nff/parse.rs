@@ -1,13 +1,13 @@
 //! What the NFF reader accepts and how it reads it: number forms, layouts, whitespace and
 //! comments, defaults, and the error values (kind, position) of the library API.
 
-use parrt::description::{Material, Shape};
-use parrt::nff::{self, Limits, NffErrorKind};
-use parrt::vec3::Vec3d;
+use parrt_render::description::{Material, Shape};
+use parrt_render::nff::{self, Limits, NffErrorKind};
+use parrt_render::vec3::Vec3d;
 
 const V: &str = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0.01 resolution 64 48\n";
 
-fn ok(src: &str) -> parrt::description::SceneDescription {
+fn ok(src: &str) -> parrt_render::description::SceneDescription {
     nff::parse(src, "t.nff", &Limits::default()).unwrap_or_else(|e| panic!("{e}\n{src}"))
 }
 

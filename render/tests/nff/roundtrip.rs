@@ -1,10 +1,12 @@
 //! Round trip: any valid description → `to_nff` → `parse` gives the identical description. The
 //! generated descriptions obey the reader's validity rules, applied with the reader's own
-//! [`parrt::nff::checks`], and use materials in non-decreasing order as the writer requires.
+//! [`parrt_render::nff::checks`], and use materials in non-decreasing order as the writer requires.
 
-use parrt::description::{Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View};
-use parrt::nff::{self, checks, Limits};
-use parrt::vec3::Vec3d;
+use parrt_render::description::{
+    Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View,
+};
+use parrt_render::nff::{self, checks, Limits};
+use parrt_render::vec3::Vec3d;
 use proptest::prelude::*;
 
 /// Any finite double, with the awkward ones (zeros, tiny, huge, subnormal) well represented.

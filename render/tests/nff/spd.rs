@@ -2,8 +2,8 @@
 
 use crate::support;
 
-use parrt::description::Shape;
-use parrt::nff::{self, Limits};
+use parrt_render::description::Shape;
+use parrt_render::nff::{self, Limits};
 
 #[test]
 fn every_spd_file_parses_and_round_trips() {

@@ -1,16 +1,16 @@
 //! The image does not depend on thread count, tile size or executor: every combination gives the
 //! same bits as one thread with one big tile (docs/design.md, *Determinism*).
 
-use parrt::description::SceneDescription;
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::description::SceneDescription;
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 use std::path::PathBuf;
 
 fn spd(name: &str) -> SceneDescription {
     let dir = crate::support::spd_dir();
     let path: PathBuf = dir.join(name);
-    parrt::nff::parse_file(&path, &parrt::nff::Limits::default())
+    parrt_render::nff::parse_file(&path, &parrt_render::nff::Limits::default())
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 

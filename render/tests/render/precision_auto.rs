@@ -4,12 +4,12 @@
 //! it — in f32 alone; and auto picks f32 on SPD's seven default scenes, whose frame stays the
 //! world's (origin 0: their images keep their bits).
 
-use parrt::description::SceneDescription;
-use parrt::film::Film;
-use parrt::render::Renderer;
-use parrt::settings::{Precision, RenderSettings};
-use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt::vec3::V3;
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::render::Renderer;
+use parrt_render::settings::{Precision, RenderSettings};
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::vec3::V3;
 
 fn render(desc: &SceneDescription, size: u32, precision: Precision) -> Film {
     let mut s = RenderSettings::new(size, size);
@@ -62,7 +62,7 @@ fn far_and_scaled_scenes_render_like_the_untransformed_f64() {
         let reference = render(&desc, size, Precision::F64);
         for (how, s, t) in copies {
             let moved = desc.transformed(s, t);
-            let auto = parrt::precision::resolve(Precision::Auto, &moved);
+            let auto = parrt_render::precision::resolve(Precision::Auto, &moved);
             let share = off(&reference, &render(&moved, size, Precision::Auto));
             assert!(
                 share <= 0.001,
@@ -89,7 +89,7 @@ fn auto_picks_f32_and_the_world_frame_on_the_spd_scenes() {
         "balls", "gears", "mount", "rings", "teapot", "tetra", "tree",
     ] {
         let desc = parrt_scenes::generate(name, None).unwrap();
-        let choice = parrt::precision::resolve(Precision::Auto, &desc);
+        let choice = parrt_render::precision::resolve(Precision::Auto, &desc);
         assert_eq!(
             choice.precision,
             Precision::F32,
@@ -97,11 +97,11 @@ fn auto_picks_f32_and_the_world_frame_on_the_spd_scenes() {
             choice.reason
         );
         assert!(choice.reason.starts_with("auto: f32 resolves it"));
-        assert_eq!(parrt::frame::origin(&desc), V3::zero(), "{name}");
+        assert_eq!(parrt_render::frame::origin(&desc), V3::zero(), "{name}");
     }
     // SPD's standard teapot size too.
     let teapot = parrt_scenes::generate("teapot", Some(12)).unwrap();
-    let choice = parrt::precision::resolve(Precision::Auto, &teapot);
+    let choice = parrt_render::precision::resolve(Precision::Auto, &teapot);
     assert_eq!(choice.precision, Precision::F32, "{}", choice.reason);
 }
 
@@ -112,7 +112,7 @@ fn auto_picks_f64_when_the_eye_is_far_from_small_features() {
     let mut desc = parrt_scenes::generate("balls", Some(1)).unwrap();
     desc.view.from = desc.view.at + (desc.view.from - desc.view.at).normalize() * 1e7;
     desc.view.angle = 1e-5;
-    let choice = parrt::precision::resolve(Precision::Auto, &desc);
+    let choice = parrt_render::precision::resolve(Precision::Auto, &desc);
     assert_eq!(choice.precision, Precision::F64, "{}", choice.reason);
     assert!(choice.reason.contains("f32 does not resolve it"));
 }

@@ -3,10 +3,10 @@
 //! the same primitives, shading records and patch normals in the same order, for every kind of
 //! primitive and both precisions; and it refuses a bad primitive as the borrowed build does.
 
-use parrt::description::{Primitive, SceneDescription, Shape};
-use parrt::real::Real;
-use parrt::scene::{Scene, SceneError};
-use parrt::vec3::V3;
+use parrt_render::description::{Primitive, SceneDescription, Shape};
+use parrt_render::real::Real;
+use parrt_render::scene::{Scene, SceneError};
+use parrt_render::vec3::V3;
 
 fn same_scene<R: Real>(desc: &SceneDescription) {
     let a = Scene::<R>::build(desc).expect("borrowed build");
@@ -74,11 +74,11 @@ fn owned_build_refuses_bad_primitives() {
 // at 1e7 would not give.
 #[test]
 fn the_owned_build_renders_far_scenes_in_the_camera_relative_frame() {
-    use parrt::render::Renderer;
-    use parrt::settings::{Precision, RenderSettings};
-    use parrt::smp::{render_smp, Executor, SmpOptions};
+    use parrt_render::render::Renderer;
+    use parrt_render::settings::{Precision, RenderSettings};
+    use parrt_render::smp::{render_smp, Executor, SmpOptions};
     let near = parrt_scenes::generate("mount", Some(2)).expect("generate");
-    let far = near.transformed(1.0, parrt::vec3::Vec3d::new(1e7, -1e7, 3e6));
+    let far = near.transformed(1.0, parrt_render::vec3::Vec3d::new(1e7, -1e7, 3e6));
     let mut s = RenderSettings::new(48, 48);
     s.precision = Precision::F32;
     let opts = SmpOptions {

@@ -3,15 +3,15 @@
 //! accelerator, the thread count or the tile size. Runs at reduced size (64×64 pixels = 65×65
 //! corner rays) so it is fast.
 
-use parrt::description::SceneDescription;
-use parrt::render::Renderer;
-use parrt::settings::{AccelKind, RenderSettings};
-use parrt::smp::{render_smp, Executor, SmpOptions, SmpResult};
-use parrt::stats::RayStats;
+use parrt_render::description::SceneDescription;
+use parrt_render::render::Renderer;
+use parrt_render::settings::{AccelKind, RenderSettings};
+use parrt_render::smp::{render_smp, Executor, SmpOptions, SmpResult};
+use parrt_render::stats::RayStats;
 
 fn load(name: &str) -> SceneDescription {
     let path = crate::support::spd_dir().join(name);
-    parrt::nff::parse_file(&path, &Default::default())
+    parrt_render::nff::parse_file(&path, &Default::default())
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
@@ -123,7 +123,7 @@ fn corner_rays_are_counted_once() {
 }
 
 fn nff(text: &str) -> SceneDescription {
-    parrt::nff::parse(text, "test.nff", &Default::default()).expect("test scene parses")
+    parrt_render::nff::parse(text, "test.nff", &Default::default()).expect("test scene parses")
 }
 
 /// A mirror polygon filling the view, one light in front: every corner ray hits, casts one shadow

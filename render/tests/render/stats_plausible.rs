@@ -4,10 +4,10 @@
 //! the check, so an honest worker is never turned away.
 
 use crate::support::spd;
-use parrt::render::Renderer;
-use parrt::settings::{AccelKind, Precision, RenderSettings};
-use parrt::stats::RayStats;
-use parrt::tile::tiles;
+use parrt_render::render::Renderer;
+use parrt_render::settings::{AccelKind, Precision, RenderSettings};
+use parrt_render::stats::RayStats;
+use parrt_render::tile::tiles;
 
 fn check_every_tile(name: &str, settings: &RenderSettings, packets: bool, tile: u32) {
     let desc = spd::load(name);

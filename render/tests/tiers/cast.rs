@@ -1,13 +1,13 @@
 //! `parrt bench cast`'s rays (eye rays through pixel centres, one shadow ray per light per hit)
 //! on every SPD file at 48 × 48: in `f32` the packets live in lanes from the camera on
-//! ([`parrt::geometry::lanes16`]) on the `avx512` tier and are prepared rays on the others;
+//! ([`parrt_render::geometry::lanes16`]) on the `avx512` tier and are prepared rays on the others;
 //! every tier counts the same rays, hits, blockers and box and primitive tests, and the packets
 //! find the hits and blockers the rays find one by one.
 
 use crate::tiers::on_each_tier;
-use parrt::render::Renderer;
-use parrt::settings::{Precision, RenderSettings};
-use parrt::stats::RayStats;
+use parrt_render::render::Renderer;
+use parrt_render::settings::{Precision, RenderSettings};
+use parrt_render::stats::RayStats;
 
 const SIZE: u32 = 48;
 
@@ -15,7 +15,7 @@ const SIZE: u32 = 48;
 fn cast(r: &mut Renderer, packets: bool, cull: bool) -> RayStats {
     r.set_packets(packets);
     let mut st = RayStats::default();
-    for t in parrt::tile::tiles(SIZE, SIZE, 16) {
+    for t in parrt_render::tile::tiles(SIZE, SIZE, 16) {
         r.cast_tile(&t, cull, &mut st);
     }
     st

@@ -2,10 +2,10 @@
 //! run only on the AVX tiers, and a tier the CPU lacks cannot be forced.
 
 use crate::tiers::on_each_tier;
-use parrt::geometry::leaf16::{self, Rays16};
-use parrt::geometry::{PreparedRay, Ray};
-use parrt::isa::{self, Isa};
-use parrt::vec3::V3;
+use parrt_render::geometry::leaf16::{self, Rays16};
+use parrt_render::geometry::{PreparedRay, Ray};
+use parrt_render::isa::{self, Isa};
+use parrt_render::vec3::V3;
 
 #[test]
 fn packet_lanes_exist_only_on_the_avx_tiers() {

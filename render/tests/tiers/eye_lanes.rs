@@ -5,10 +5,10 @@
 //! every tier, and the same image and ray counts as tracing each pixel on its own.
 
 use crate::tiers::{assert_same_on_every_tier, bytes, on_each_tier};
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
-use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt::stats::RayStats;
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::stats::RayStats;
 
 /// 2 × 16 + 6: the last tiles' blocks are 4 × 2, 2 × 4 and 2 × 2.
 const SIZE: u32 = 38;

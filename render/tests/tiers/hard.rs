@@ -4,9 +4,9 @@
 
 use crate::support::scene::v;
 use crate::tiers::{assert_same_on_every_tier, bytes, on_each_tier};
-use parrt::render::Renderer;
-use parrt::settings::{Precision, RenderSettings};
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::render::Renderer;
+use parrt_render::settings::{Precision, RenderSettings};
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 
 const SIZE: u32 = 40;
 
@@ -20,11 +20,11 @@ fn hard_placements_and_precisions_render_the_same_bits_on_every_tier() {
     ];
     for scene in ["mount-4", "rings-2"] {
         let path = crate::support::spd_dir().join(format!("{scene}.nff"));
-        let base = parrt::nff::parse_file(&path, &Default::default())
+        let base = parrt_render::nff::parse_file(&path, &Default::default())
             .unwrap_or_else(|e| panic!("{scene}: {e}"));
         for (place, scale, shift) in placements {
             let desc = base.transformed(scale, shift);
-            let auto = parrt::precision::resolve(Precision::Auto, &desc).precision;
+            let auto = parrt_render::precision::resolve(Precision::Auto, &desc).precision;
             for precision in [Precision::F32, Precision::F64, Precision::Auto] {
                 if precision == Precision::F32 && auto != Precision::F32 {
                     continue; // outside what f32 resolves: auto's f64 is the answer

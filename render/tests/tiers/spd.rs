@@ -2,9 +2,9 @@
 //! rays, depth 5, no cut-off): the same image and counts on every tier.
 
 use crate::tiers::{assert_same_on_every_tier, bytes, on_each_tier};
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 
 const SIZE: u32 = 64;
 

@@ -1,8 +1,8 @@
 //! Running the same work on each tier this CPU has, one tier at a time.
 
-use parrt::film::Film;
-use parrt::isa::{self, Isa};
-use parrt::stats::RayStats;
+use parrt_render::film::Film;
+use parrt_render::isa::{self, Isa};
+use parrt_render::stats::RayStats;
 use std::sync::Mutex;
 
 /// Held by every test of this binary while it switches tiers: the tier is process-wide.
@@ -48,10 +48,10 @@ pub fn assert_same_on_every_tier(what: &str, runs: &[(Isa, Rendered)]) {
     }
 }
 
-/// The 8-bit bytes of `film` by [`parrt::film::to_u8_into`] on the current tier.
+/// The 8-bit bytes of `film` by [`parrt_render::film::to_u8_into`] on the current tier.
 pub fn bytes(film: &Film) -> Vec<u8> {
     let values: Vec<f32> = film.pixels.iter().flatten().copied().collect();
     let mut out = vec![0; values.len()];
-    parrt::film::to_u8_into(&mut out, &values);
+    parrt_render::film::to_u8_into(&mut out, &values);
     out
 }

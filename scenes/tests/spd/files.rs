@@ -4,8 +4,8 @@
 //! primitive's coordinates to SPD's printing precision (6 significant digits). Also checks that
 //! what we write reads back identically.
 
-use parrt::description::{SceneDescription, Shape};
-use parrt::nff::Limits;
+use parrt_render::description::{SceneDescription, Shape};
+use parrt_render::nff::Limits;
 use parrt_test_support::readme::{close, readme};
 use parrt_test_support::spd_dir;
 
@@ -19,7 +19,7 @@ fn pairs() -> Vec<(String, SceneDescription, SceneDescription)> {
         .into_iter()
         .filter(|f| !NOT_OURS.contains(&f.generator.as_str()))
         .map(|f| {
-            let spd = parrt::nff::parse_file(&dir.join(&f.file), &Limits::default())
+            let spd = parrt_render::nff::parse_file(&dir.join(&f.file), &Limits::default())
                 .unwrap_or_else(|e| panic!("{}: {e}", f.file));
             let ours = parrt_scenes::generate(&f.generator, Some(f.size)).unwrap();
             (f.file, ours, spd)
@@ -82,7 +82,7 @@ fn kind(s: &Shape) -> (u8, usize) {
 fn scenes_equal_spd_files_to_print_precision() {
     for (file, ours, spd) in pairs() {
         let v = [&ours.view, &spd.view];
-        let cam = |x: &parrt::description::View| {
+        let cam = |x: &parrt_render::description::View| {
             let mut c: Vec<f64> = [x.from, x.at, x.up]
                 .iter()
                 .flat_map(|p| p.to_array())
@@ -124,7 +124,7 @@ fn scenes_equal_spd_files_to_print_precision() {
             "{file}: materials"
         );
         for (i, (a, b)) in ours.materials.iter().zip(&spd.materials).enumerate() {
-            let m = |m: &parrt::description::Material| {
+            let m = |m: &parrt_render::description::Material| {
                 [
                     m.color.x, m.color.y, m.color.z, m.kd, m.ks, m.shine, m.t, m.ior,
                 ]
@@ -160,8 +160,8 @@ fn scenes_equal_spd_files_to_print_precision() {
 fn written_scenes_read_back_identically() {
     for g in parrt_scenes::generators() {
         let scene = parrt_scenes::generate(g.name, None).unwrap();
-        let text = parrt::nff::to_nff(&scene);
-        let back = parrt::nff::parse(&text, g.name, &Limits::default())
+        let text = parrt_render::nff::to_nff(&scene);
+        let back = parrt_render::nff::parse(&text, g.name, &Limits::default())
             .unwrap_or_else(|e| panic!("{}: {e}", g.name));
         assert!(
             back == scene,

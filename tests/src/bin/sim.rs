@@ -16,7 +16,7 @@ fn scale(a: &Scale) -> Result<ExitCode, String> {
     let scene = &a.scene.text;
     let desc = parrt_scenes::generate(&a.scene.name, a.scene.level)
         .map_err(|e| format!("--scene {scene}: {e}"))?;
-    let settings = parrt::settings::RenderSettings::new(size, size);
+    let settings = parrt_render::settings::RenderSettings::new(size, size);
     let path = a
         .replay_dir
         .join(format!("{}-{size}-t{tile}.replay", scene.replace(':', "-")));

@@ -16,13 +16,13 @@
 
 use super::net::SimDial;
 use super::tail::{Tail, TailTrace};
-use parrt::description::SceneDescription;
-use parrt::film::Film;
-use parrt_protocol::{PixelFormat, Token};
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
 use parrt_master::studies::simulate::{simulate, SimParams};
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt_protocol::{PixelFormat, Token};
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 use parrt_runtime::{DistResult, Master, MasterConfig};
 use parrt_worker::exec::InlineExec;
 use parrt_worker::replay::{self, Replay};

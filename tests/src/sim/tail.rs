@@ -3,9 +3,9 @@
 //! them how much thread time was idle once the queue had emptied (the tail) and what the
 //! tiles handed out last cost against the frame's mean.
 
-use parrt::film::Rgb;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::film::Rgb;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use parrt_runtime::observer::Observer;
 use parrt_runtime::scheduler::WorkerId;
 use std::sync::Mutex;

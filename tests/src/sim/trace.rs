@@ -2,9 +2,9 @@
 //! time (the trace hash a replay must reproduce), and every accepted tile (the "accepted
 //! exactly once" invariant). An [`parrt_runtime::observer::Observer`], like the live view.
 
-use parrt::film::Rgb;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
+use parrt_render::film::Rgb;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use parrt_runtime::observer::Observer;
 use parrt_runtime::scheduler::WorkerId;
 use sha2::{Digest, Sha256};

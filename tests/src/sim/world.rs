@@ -9,10 +9,10 @@ use super::net::{SimDial, SimListener};
 use super::plan::{Fault, Hostile, Plan};
 use super::trace::Trace;
 use crate::dist::{test_scene, token};
-use parrt::description::SceneDescription;
-use parrt::film::Film;
 use parrt_protocol::{Connection, Message, PixelFormat, TilePixels, Token, PROTOCOL_VERSION};
-use parrt::settings::RenderSettings;
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::settings::RenderSettings;
 use parrt_runtime::checkpoint::{self, JobKey};
 use parrt_runtime::mutation::Mutation;
 use parrt_runtime::{DistError, DistResult, Master, MasterConfig, Writer};
@@ -116,7 +116,7 @@ impl MasterHost {
         let mut master = Master::with_listener(SimListener(listener), &self.config, token())?;
         if let Some(path) = &self.checkpoint {
             let key = JobKey::new(&r.desc, &r.settings, TILE, PixelFormat::F32)?;
-            let list = parrt::tile::tiles(WIDTH, HEIGHT, TILE);
+            let list = parrt_render::tile::tiles(WIDTH, HEIGHT, TILE);
             let opened = checkpoint::open(path, &key, &list, true)?;
             *self.durable.lock().unwrap_or_else(|p| p.into_inner()) =
                 Some(opened.checkpoint.durable());
@@ -262,7 +262,7 @@ async fn impossible_results(addr: String, seed: u64) -> turmoil::Result {
         name: "liar".into(),
         threads: 1,
         nonce: ours,
-        isa: parrt::isa::Isa::Scalar,
+        isa: parrt_render::isa::Isa::Scalar,
     })
     .await?;
     let Some(Message::Challenge { nonce, .. }) = c.read().await? else {

@@ -7,7 +7,7 @@
 
 use crate::EXE;
 use parrt_protocol::PixelFormat;
-use parrt::tile::tiles;
+use parrt_render::tile::tiles;
 use parrt_runtime::checkpoint::{scan_records, scan_sealed_records, Scan, Seal, HEADER_LEN};
 use parrt_tests::{spawn_worker_process, ChildGuard, TEST_TOKEN};
 use parrt_worker::options::TILE_DELAY_ENV;

@@ -3,10 +3,10 @@
 //! with every tile delivered once; and the command line writes the promised JSON rows.
 
 use crate::EXE;
-use parrt::render::Renderer;
-use parrt::smp::{render_smp, Executor, SmpOptions};
 use parrt_master::studies::cluster::emulate::{self, EmulatedRun};
 use parrt_master::studies::cluster::link::LinkParams;
+use parrt_render::render::Renderer;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 use parrt_tests::*;
 use std::process::Command;
 use std::time::Duration;

@@ -177,7 +177,7 @@ async fn worker_reports_a_job_it_cannot_build() {
     c.write(&Message::Job(Box::new(parrt_protocol::JobSpec {
         job_id: 42,
         scene: desc,
-        settings: parrt::settings::RenderSettings::new(0, 8),
+        settings: parrt_render::settings::RenderSettings::new(0, 8),
         tile_size: 8,
         pixel_format: Default::default(),
     })))
@@ -196,7 +196,7 @@ async fn worker_reports_a_job_it_cannot_build() {
     }
     c.write(&Message::Assign {
         job_id: 42,
-        tile: parrt::tile::Tile {
+        tile: parrt_render::tile::Tile {
             id: 0,
             x: 0,
             y: 0,
@@ -283,7 +283,7 @@ fn spawned_workers_that_cannot_build_the_job_end_with_the_jobs_own_error() {
     let t0 = std::time::Instant::now();
     let job =
         parrt_runtime::Job::prepared(|| Ok::<_, LocalFailure>((desc, settings))).check(|d, s| {
-            parrt::render::validate_job(d, s).map_err(|e| LocalFailure::Job(e.to_string()))
+            parrt_render::render::validate_job(d, s).map_err(|e| LocalFailure::Job(e.to_string()))
         });
     let r = parrt_runtime::run(&opts, job, &mut |_| Ok(None), None);
     match r {

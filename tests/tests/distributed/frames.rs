@@ -9,7 +9,7 @@ use bytes::BytesMut;
 use parrt_protocol::codec::MessageCodec;
 use parrt_protocol::limits;
 use parrt_protocol::{JobSpec, Message};
-use parrt::tile::Tile;
+use parrt_render::tile::Tile;
 use parrt_tests::*;
 use parrt_worker::WorkerError;
 use std::time::Duration;
@@ -248,7 +248,7 @@ async fn master_takes_a_slow_result() {
             &vec![[0.25, 0.5, 0.75]; tile.0.pixel_count()],
             Default::default(),
         ),
-        stats: parrt::stats::RayStats {
+        stats: parrt_render::stats::RayStats {
             eye_rays: tile.0.pixel_count() as u64,
             ..Default::default()
         },
@@ -289,7 +289,7 @@ async fn a_batch_past_the_workers_budget_is_refused_not_held() {
     let worker = start_worker(w);
     let mut c = welcome_one(&listener).await;
     c.write(&job(64, 64, 32)).await.unwrap();
-    let tiles: Vec<(Tile, u32)> = parrt::tile::tiles(64, 64, 32)
+    let tiles: Vec<(Tile, u32)> = parrt_render::tile::tiles(64, 64, 32)
         .into_iter()
         .map(|t| (t, 1))
         .collect();

@@ -255,7 +255,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         name: "guesser".into(),
         threads: 1,
         nonce: [6; 32],
-        isa: parrt::isa::Isa::Scalar,
+        isa: parrt_render::isa::Isa::Scalar,
     })
     .await
     .unwrap();
@@ -280,7 +280,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         name: "future".into(),
         threads: 1,
         nonce: [1; 32],
-        isa: parrt::isa::Isa::Scalar,
+        isa: parrt_render::isa::Isa::Scalar,
     }))
     .await
     .unwrap();
@@ -319,7 +319,7 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
         name: "liar".into(),
         threads: 1,
         nonce: ours,
-        isa: parrt::isa::Isa::Scalar,
+        isa: parrt_render::isa::Isa::Scalar,
     })
     .await
     .unwrap();
@@ -351,13 +351,13 @@ async fn bad_peers_are_refused_while_a_good_worker_finishes() {
             other => panic!("the liar was given no tile: {other:?}"),
         }
     }
-    let last = parrt::tile::tiles(64, 64, 8).len() as u32 - 1;
+    let last = parrt_render::tile::tiles(64, 64, 8).len() as u32 - 1;
     c.write(&Message::TileResult {
         job_id: job.job_id,
         tile_id: last,
         attempt: 1,
         pixels: parrt_protocol::TilePixels::encode(&[[9.0; 3]; 64], Default::default()),
-        stats: parrt::stats::RayStats::default(),
+        stats: parrt_render::stats::RayStats::default(),
         seconds: 0.0,
     })
     .await

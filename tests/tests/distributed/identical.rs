@@ -29,12 +29,12 @@ async fn matches_smp_for_workers_threads_and_tile_sizes() {
                     .unwrap()
                     .unwrap_or_else(|e| panic!("{what}: {e}"));
                 assert_same_bits(&r.film, &reference, &what);
-                if tile % parrt::tile::BLOCK == 0 {
+                if tile % parrt_render::tile::BLOCK == 0 {
                     assert_eq!(r.stats, ref_stats, "{what}: stats");
                 } else {
                     // Tiles that cut the image's 4 × 4 packet blocks trace other packets, so
                     // the box and primitive test counts differ; the rays do not.
-                    let rays = |s: &parrt::stats::RayStats| {
+                    let rays = |s: &parrt_render::stats::RayStats| {
                         let mut s = *s;
                         (s.box_tests, s.primitive_tests) = (0, 0);
                         s
@@ -160,7 +160,7 @@ fn master_and_workers_on_the_command_line_write_the_smp_image() {
     let (status, log) = run_master_with_workers(&mut master, &[1, 2]);
     assert!(status.success(), "master failed: {log}");
     let img = image::open(&out).unwrap().into_rgb32f();
-    let film = parrt::film::Film::from_pixels(
+    let film = parrt_render::film::Film::from_pixels(
         img.width(),
         img.height(),
         img.pixels().map(|p| p.0).collect(),

@@ -76,7 +76,7 @@ fn refusal_flood_keeps_master_memory_and_log_bounded() {
             name: name_str.clone(),
             threads: 1,
             nonce: [0; 32],
-            isa: parrt::isa::Isa::Scalar,
+            isa: parrt_render::isa::Isa::Scalar,
         })
         .to_vec(),
         // Our version, offering no threads.

@@ -16,7 +16,7 @@ fn the_costliest_tile_goes_out_first_and_the_image_is_the_smp_image() {
     std::fs::write(&scene, serde_json::to_string(&desc).unwrap()).unwrap();
     // Costs a previous frame might have measured: the last tile (raster order would hand it
     // out last) is the costliest, then the first; the rest cheap.
-    let tiles = parrt::tile::tiles(64, 48, 8);
+    let tiles = parrt_render::tile::tiles(64, 48, 8);
     let last = tiles.len() - 1;
     let mut secs = vec![0.001; tiles.len()];
     secs[last] = 0.5;
@@ -69,9 +69,10 @@ fn a_cost_file_of_another_tiling_is_refused_with_exit_2() {
     let desc = test_scene(64, 48);
     let scene = dir.path().join("scene.json");
     std::fs::write(&scene, serde_json::to_string(&desc).unwrap()).unwrap();
-    let tiles = parrt::tile::tiles(64, 48, 16);
+    let tiles = parrt_render::tile::tiles(64, 48, 16);
     let costs = dir.path().join("costs.csv");
-    parrt_master::studies::efficiency::write_tile_costs(&costs, &tiles, &vec![0.01; tiles.len()]).unwrap();
+    parrt_master::studies::efficiency::write_tile_costs(&costs, &tiles, &vec![0.01; tiles.len()])
+        .unwrap();
     let out = master_command(&scene, &costs)
         .arg("-o")
         .arg(dir.path().join("out.png"))

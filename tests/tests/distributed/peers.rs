@@ -14,7 +14,7 @@ pub fn hello(name: &str, threads: u32, nonce: [u8; 32]) -> Message {
         name: name.into(),
         threads,
         nonce,
-        isa: parrt::isa::Isa::Scalar,
+        isa: parrt_render::isa::Isa::Scalar,
     }
 }
 

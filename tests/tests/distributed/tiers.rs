@@ -5,7 +5,7 @@
 //! refuses to start.
 
 use crate::EXE;
-use parrt::isa::Isa;
+use parrt_render::isa::Isa;
 use parrt_tests::*;
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -16,7 +16,7 @@ fn worker_on(addr: std::net::SocketAddr, tier: Isa) -> ChildGuard {
         .args(["worker", "--connect", &addr.to_string(), "--threads", "1"])
         .env("PARRT_TOKEN", TEST_TOKEN)
         .env("PARRT_LOG", "warn")
-        .env(parrt::isa::ENV, tier.name())
+        .env(parrt_render::isa::ENV, tier.name())
         .env_remove(parrt_worker::options::TILE_DELAY_ENV)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
@@ -32,8 +32,8 @@ async fn workers_on_different_tiers_render_the_smp_image() {
     // Triangles and spheres (mount), cones, cylinders and spheres (jacks).
     for scene in ["mount-4", "jacks-3"] {
         let path = crate::support::spd_dir().join(format!("{scene}.nff"));
-        let desc = parrt::nff::parse_file(&path, &Default::default()).unwrap();
-        let settings = parrt::settings::RenderSettings::new(64, 64);
+        let desc = parrt_render::nff::parse_file(&path, &Default::default()).unwrap();
+        let settings = parrt_render::settings::RenderSettings::new(64, 64);
         let (reference, ref_stats) = smp_reference(&desc, &settings, 8);
         let mut opts = test_options(8);
         opts.schedule.min_workers = 2;
@@ -67,7 +67,7 @@ fn a_worker_asked_for_an_unknown_tier_exits_2_naming_it() {
     let out = Command::new(EXE)
         .args(["worker", "--connect", "127.0.0.1:9"])
         .env("PARRT_TOKEN", TEST_TOKEN)
-        .env(parrt::isa::ENV, "avx1024")
+        .env(parrt_render::isa::ENV, "avx1024")
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);

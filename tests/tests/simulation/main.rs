@@ -82,14 +82,14 @@ fn every_planted_bug_is_caught() {
 /// same on every machine; measured costs would make each run of the test another test).
 fn small_recording(dir: &std::path::Path) -> std::path::PathBuf {
     let desc = parrt_scenes::generate("mount", Some(3)).expect("the mount scene");
-    let settings = parrt::settings::RenderSettings::new(64, 64);
-    let renderer = parrt::render::Renderer::new(&desc, &settings).expect("a renderer");
-    let opts = parrt::smp::SmpOptions {
+    let settings = parrt_render::settings::RenderSettings::new(64, 64);
+    let renderer = parrt_render::render::Renderer::new(&desc, &settings).expect("a renderer");
+    let opts = parrt_render::smp::SmpOptions {
         threads: 1,
         tile: 4,
-        executor: parrt::smp::Executor::Queue,
+        executor: parrt_render::smp::Executor::Queue,
     };
-    let film = parrt::smp::render_smp(&renderer, &opts, &|_, _| {}).film;
+    let film = parrt_render::smp::render_smp(&renderer, &opts, &|_, _| {}).film;
     let costs: Vec<f64> = (0..256u32).map(|i| 1.0 + f64::from(i * 7 % 5)).collect();
     let path = dir.join("mount-3-64-t4.replay");
     parrt_worker::replay::write(&path, 4, &costs, &film).expect("a recording");

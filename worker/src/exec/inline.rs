@@ -1,6 +1,6 @@
 //! The simulation executor: everything on the calling task, in a fixed order, in tokio time. A
 //! renderer is built at once (then counts as ready after a configured build cost); a tile is
-//! traced at once with the real [`parrt::render::Renderer`] (or its pixels come from a
+//! traced at once with the real [`parrt_render::render::Renderer`] (or its pixels come from a
 //! caller's function) and then occupies one of the worker's simulated threads for a configured
 //! cost. The threads take queued tiles first come, first served, as a rayon pool does; a batch's
 //! messages are delivered in tile order when its last tile's cost has elapsed. Under a paused
@@ -12,9 +12,9 @@ use crate::error::WorkerError;
 use crate::options::WorkerOptions;
 use crate::replay::Replay;
 use crate::tiles::{result_message, trace, JobHandle, Source};
-use parrt::film::Rgb;
 use parrt_protocol::{JobSpec, Message};
-use parrt::tile::Tile;
+use parrt_render::film::Rgb;
+use parrt_render::tile::Tile;
 use std::collections::{BTreeMap, VecDeque};
 use std::panic::AssertUnwindSafe;
 use std::sync::atomic::Ordering;
@@ -272,9 +272,9 @@ impl Execute for InlineExec {
 mod tests {
     use super::*;
     use parrt_protocol::{PixelFormat, Token};
-    use parrt::render::Renderer;
-    use parrt::settings::RenderSettings;
-    use parrt::tile::tiles;
+    use parrt_render::render::Renderer;
+    use parrt_render::settings::RenderSettings;
+    use parrt_render::tile::tiles;
     use std::sync::atomic::AtomicBool;
 
     fn job() -> JobHandle {

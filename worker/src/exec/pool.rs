@@ -7,7 +7,7 @@ use crate::error::WorkerError;
 use crate::options::WorkerOptions;
 use crate::tiles::{JobHandle, TileRenderer, UNSENT_RESULTS};
 use parrt_protocol::{JobSpec, Message};
-use parrt::tile::Tile;
+use parrt_render::tile::Tile;
 use std::time::Duration;
 use tokio::sync::mpsc;
 use tokio::task::{JoinError, JoinHandle};

@@ -22,14 +22,14 @@
 use crate::lifecycle::Lifecycle;
 pub use crate::lifecycle::{Rules, Step, Verdict};
 use crate::mutation::{self, Mutation};
-use parrt::film::Film;
-use parrt::film::Rgb;
-use parrt::isa::Isa;
-use parrt_protocol::{Message, PixelFormat, TilePixels, WireCounters};
-use parrt::settings::RenderSettings;
-use parrt::stats::RayStats;
-use parrt::tile::Tile;
 use crate::window::Window;
+use parrt_protocol::{Message, PixelFormat, TilePixels, WireCounters};
+use parrt_render::film::Film;
+use parrt_render::film::Rgb;
+use parrt_render::isa::Isa;
+use parrt_render::settings::RenderSettings;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::Tile;
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
@@ -614,7 +614,7 @@ pub struct Finished {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt::tile::tiles;
+    use parrt_render::tile::tiles;
     use tokio::sync::mpsc::{unbounded_channel, UnboundedReceiver};
 
     const JOB: u64 = 77;
@@ -646,7 +646,7 @@ mod tests {
                 id,
                 name: format!("w{id}"),
                 threads,
-                isa: parrt::isa::Isa::Scalar,
+                isa: parrt_render::isa::Isa::Scalar,
                 outbox: tx,
                 counters: Arc::default(),
             },
@@ -674,7 +674,7 @@ mod tests {
                 id: 4,
                 name: "w4".into(),
                 threads: 1,
-                isa: parrt::isa::Isa::Scalar,
+                isa: parrt_render::isa::Isa::Scalar,
                 outbox: tx,
                 counters: Arc::default(),
             },
@@ -1133,7 +1133,7 @@ mod tests {
                 id: 9,
                 name: "bad".into(),
                 threads: 1,
-                isa: parrt::isa::Isa::Scalar,
+                isa: parrt_render::isa::Isa::Scalar,
                 outbox: tx,
                 counters: Arc::default(),
             },

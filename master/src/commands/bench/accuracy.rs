@@ -13,7 +13,7 @@ use crate::studies::accuracy::report;
 use crate::studies::accuracy::study::{self, StudyOptions};
 use anyhow::Context;
 use clap::Args;
-use parrt::settings::Precision;
+use parrt_render::settings::Precision;
 use std::path::PathBuf;
 use std::process::ExitCode;
 

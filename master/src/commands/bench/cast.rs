@@ -5,9 +5,9 @@
 use crate::cli_args::{AccelArg, LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use clap::Args;
-use parrt::render::Renderer;
-use parrt::settings::RenderSettings;
-use parrt::stats::RayStats;
+use parrt_render::render::Renderer;
+use parrt_render::settings::RenderSettings;
+use parrt_render::stats::RayStats;
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -62,7 +62,7 @@ pub fn run(args: CastArgs) -> anyhow::Result<ExitCode> {
         settings.accel = args.accel.kind();
         let mut r = Renderer::new(&desc, &settings).map_err(input_error)?;
         r.set_packets(!args.no_packets);
-        let tiles = parrt::tile::tiles(w, h, 32);
+        let tiles = parrt_render::tile::tiles(w, h, 32);
         let mut frames = 0u64;
         let t0 = Instant::now();
         let c0 = parrt_runtime::cpu_time::thread_cpu_s();

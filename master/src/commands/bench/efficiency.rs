@@ -8,15 +8,15 @@ use crate::cli_args::{AccelArg, ExecutorArg, LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use crate::machine::machine;
 use crate::plot::{range_from_zero, save_chart, Chart, Reference, Series};
+use crate::studies::efficiency::{median, EfficiencyTable};
+use crate::studies::simulate::{simulate, SimParams};
 use crate::timeline::plot::save_figure;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use crate::studies::efficiency::{median, EfficiencyTable};
-use parrt::description::SceneDescription;
-use parrt::render::Renderer;
-use parrt::settings::{AccelKind, RenderSettings};
-use crate::studies::simulate::{simulate, SimParams};
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::description::SceneDescription;
+use parrt_render::render::Renderer;
+use parrt_render::settings::{AccelKind, RenderSettings};
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -97,7 +97,7 @@ pub struct EfficiencyArgs {
 /// Median tracing time of `repeat` distributed renders through `n` local one-thread workers,
 /// with the mean bytes on the wire and scene transfer time.
 fn time_distributed(
-    desc: &parrt::description::SceneDescription,
+    desc: &parrt_render::description::SceneDescription,
     settings: &RenderSettings,
     n: usize,
     tile: u32,
@@ -116,7 +116,7 @@ fn time_distributed(
 
 /// One distributed render through `n` local one-thread workers, recorded by `recorder`.
 fn run_distributed(
-    desc: &parrt::description::SceneDescription,
+    desc: &parrt_render::description::SceneDescription,
     settings: &RenderSettings,
     n: usize,
     tile: u32,
@@ -300,7 +300,7 @@ impl Case<'_> {
                 if ex == Executor::Queue && n > 1 {
                     // The simulator's prediction for the paper's queue: one worker with n
                     // threads, every tile queued locally, no network.
-                    let list = parrt::tile::tiles(size, size, tile);
+                    let list = parrt_render::tile::tiles(size, size, tile);
                     let px: Vec<u64> = list.iter().map(|t| t.pixel_count() as u64).collect();
                     let mut p = SimParams::ideal(1, n);
                     p.window = list.len();
@@ -319,7 +319,8 @@ impl Case<'_> {
         // Where the time went: one more run at the most threads, drawn as a timeline.
         let (n, tile) = timeline_case(self.threads, &self.args.tiles);
         let res = render(n, tile);
-        let tl = crate::timeline::Timeline::from_smp(&self.job(tile), n, &res.tile_spans, res.trace_s);
+        let tl =
+            crate::timeline::Timeline::from_smp(&self.job(tile), n, &res.tile_spans, res.trace_s);
         let stem = format!("timeline-{size}-{accel:?}-{}", ex.name()).to_lowercase();
         out.md.push_str(&save_figure(
             &tl,
@@ -353,7 +354,7 @@ impl Case<'_> {
                 let t1v = *t1.get_or_insert(tn);
                 trace.set(n, tile, t1v, tn);
                 whole.set(n, tile, self.pre + t1v, self.pre + tn);
-                let tiles = parrt::tile::tiles(size, size, tile).len() as f64;
+                let tiles = parrt_render::tile::tiles(size, size, tile).len() as f64;
                 let _ = writeln!(
                     overhead,
                     "| {tile} | {n} | {:.0} | {:.2} ms |",
@@ -464,7 +465,8 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
         md: String::new(),
         csv: csv::Writer::from_writer(Vec::new()),
     };
-    out.csv.write_record(crate::studies::efficiency::CSV_HEADER)?;
+    out.csv
+        .write_record(crate::studies::efficiency::CSV_HEADER)?;
     let _ = writeln!(
         out.md,
         "# Efficiency: {}\n\nMachine: {}. Command: `parrt {}`. Median of {} runs. e = t₁/(n·tₙ), \

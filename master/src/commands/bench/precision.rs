@@ -13,12 +13,12 @@ use crate::plot::{save_chart, Chart, Series};
 use crate::studies::accuracy::metrics::{compare, ImageError};
 use anyhow::Context;
 use clap::Args;
-use parrt::description::SceneDescription;
-use parrt::film::Film;
-use parrt::render::Renderer;
-use parrt::settings::{Precision, RenderSettings};
-use parrt::smp::{render_smp, Executor, SmpOptions};
-use parrt::vec3::Vec3d;
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::render::Renderer;
+use parrt_render::settings::{Precision, RenderSettings};
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::vec3::Vec3d;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -134,7 +134,7 @@ fn load(arg: &str, limits: &LimitArgs) -> anyhow::Result<(String, SceneDescripti
 }
 
 fn name(p: Precision) -> &'static str {
-    parrt::precision::name(p)
+    parrt_render::precision::name(p)
 }
 
 /// The modes measured for every placement, in the order of the report's columns.

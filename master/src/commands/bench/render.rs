@@ -3,10 +3,10 @@
 
 use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
-use clap::Args;
 use crate::studies::efficiency::median;
-use parrt::render::Renderer;
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use clap::Args;
+use parrt_render::render::Renderer;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 use std::process::ExitCode;
 
 /// Arguments of `parrt bench render`.

@@ -4,10 +4,10 @@
 
 use crate::exit::input_error;
 use crate::plot::{save_chart, Chart, Reference, Series};
-use clap::Args;
 use crate::studies::efficiency::aggregate_costs;
 use crate::studies::simulate::{simulate, SimParams};
-use parrt::tile::Tile;
+use clap::Args;
+use parrt_render::tile::Tile;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -62,7 +62,12 @@ pub struct SimulateArgs {
 
 /// What limits a simulated run, in words: the master, the start-up, per-tile round trips the
 /// window cannot hide, too few or too uneven tiles for the threads, or nothing much.
-fn limit_note(p: &SimParams, r: &crate::studies::simulate::SimResult, costs: &[f64], tile: u32) -> String {
+fn limit_note(
+    p: &SimParams,
+    r: &crate::studies::simulate::SimResult,
+    costs: &[f64],
+    tile: u32,
+) -> String {
     let n = r.n;
     let mean = r.work / costs.len().max(1) as f64;
     let round_trip = 2.0 * p.latency_s + p.master_per_tile_s;
@@ -238,7 +243,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         // The row's note explains its best tile size: what keeps even that from 1.
         let mut best: Option<(f64, String)> = None;
         for (i, &tile) in args.tiles.iter().enumerate() {
-            let list = parrt::tile::tiles(width, height, tile);
+            let list = parrt_render::tile::tiles(width, height, tile);
             let costs = aggregate_costs(&fine, &list, tile);
             let px: Vec<u64> = list.iter().map(|t| t.pixel_count() as u64).collect();
             let p = sim_params(&args, w);

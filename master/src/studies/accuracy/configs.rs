@@ -4,7 +4,7 @@
 //! plane in the default regime (f32, 1 sample), and a 3 × 3 sub-grid of it for f64 and for
 //! 4 samples, plus two f64/4-sample corners.
 
-use parrt::settings::{Precision, RenderSettings};
+use parrt_render::settings::{Precision, RenderSettings};
 
 /// The cut-off thresholds studied.
 pub const CUTOFFS: [f64; 5] = [0.0, 0.001, 0.01, 0.05, 0.1];
@@ -62,8 +62,8 @@ impl Config {
 
     /// True for the renderer's defaults (cut-off, depth, precision, one sample).
     pub fn is_default(&self) -> bool {
-        self.cutoff == parrt::settings::DEFAULT_CUTOFF
-            && self.depth == parrt::settings::DEFAULT_MAX_DEPTH
+        self.cutoff == parrt_render::settings::DEFAULT_CUTOFF
+            && self.depth == parrt_render::settings::DEFAULT_MAX_DEPTH
             && self.precision == Precision::F32
             && self.spp == 1
     }
@@ -148,7 +148,7 @@ mod tests {
         let s = c.settings(32, 16);
         assert_eq!((s.width, s.height, s.max_depth, s.spp), (32, 16, 3, 4));
         assert_eq!((s.cutoff, s.precision), (0.05, Precision::F64));
-        assert!(parrt::render::validate_settings(&s).is_ok());
+        assert!(parrt_render::render::validate_settings(&s).is_ok());
         assert_eq!(c.label(), "c0.05 d3 f64 4spp");
     }
 }

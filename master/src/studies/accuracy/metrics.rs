@@ -3,7 +3,7 @@
 //! could show); the metrics never look at the 8-bit PNG. Pure functions, no I/O. Both studies of
 //! error use them: `bench accuracy` and `bench precision`.
 
-use parrt::film::Rgb;
+use parrt_render::film::Rgb;
 
 /// One image's error against a reference.
 #[derive(Clone, Copy, Debug, PartialEq)]

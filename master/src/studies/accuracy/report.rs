@@ -5,7 +5,7 @@ use super::configs::{REF_DEPTH, REF_SPP};
 use super::metrics::ONE_STEP;
 use super::pareto::front;
 use super::study::{Row, SceneStudy};
-use parrt::settings::Precision;
+use parrt_render::settings::Precision;
 use std::fmt::Write;
 
 /// A configuration is "good enough" when the RMSE of its truncation error (against the f64,

@@ -4,11 +4,11 @@
 
 use super::configs::{reference, Config, REF_SPP};
 use super::metrics::{compare, ImageError};
-use parrt::description::SceneDescription;
 use crate::studies::efficiency::median;
-use parrt::film::Film;
-use parrt::render::Renderer;
-use parrt::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::render::Renderer;
+use parrt_render::smp::{render_smp, Executor, SmpOptions};
 
 /// How the study renders.
 #[derive(Clone, Copy, Debug)]

@@ -7,9 +7,9 @@
 use super::cpu::{CpuSampler, MASTER_THREAD};
 use super::link::{LinkParams, Relay};
 use anyhow::Context;
-use parrt::description::SceneDescription;
-use parrt::film::Film;
-use parrt::settings::RenderSettings;
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::settings::RenderSettings;
 use parrt_runtime::{generate_token, DistError, Job, MasterConfig, Spawn, WorkerCommand};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};

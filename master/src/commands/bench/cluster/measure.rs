@@ -7,9 +7,9 @@ use crate::studies::cluster::emulate::{self, EmulatedRun};
 use crate::studies::cluster::link::LinkParams;
 use crate::studies::simulate::{simulate, SimParams};
 use anyhow::Context;
-use parrt::description::SceneDescription;
-use parrt::film::Film;
-use parrt::settings::RenderSettings;
+use parrt_render::description::SceneDescription;
+use parrt_render::film::Film;
+use parrt_render::settings::RenderSettings;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
@@ -40,7 +40,11 @@ pub(super) type RunTimeline = (usize, usize, Arc<crate::timeline::Recorder>, f64
 
 impl Setup<'_> {
     /// Runs `workers` × `threads` and makes its row of the report.
-    pub(super) fn measure(&self, workers: usize, threads: usize) -> anyhow::Result<(Row, RunTimeline)> {
+    pub(super) fn measure(
+        &self,
+        workers: usize,
+        threads: usize,
+    ) -> anyhow::Result<(Row, RunTimeline)> {
         let args = self.args;
         crate::errln!("{workers} workers × {threads} threads ...");
         let recorder = std::sync::Arc::new(crate::timeline::Recorder::new());
