@@ -12,7 +12,9 @@
 //! - **eviction**: when a newcomer finds the budget (its address's or the whole) full, a
 //!   pre-auth connection in that budget is closed to make room, rather than the newcomer being
 //!   turned away: one that never sent a byte before one that did, and among those the one
-//!   silent longest (since its last byte, or since it was accepted). A squatter that sends
+//!   silent longest (since its last byte, or since it was accepted), provided it has been
+//!   silent at least [`EVICT_AFTER`]; with none that silent, the newcomer is turned away and
+//!   dials again, so honest workers arriving together never close each other. A squatter that sends
 //!   nothing always goes before a worker mid-handshake;
 //! - **penalty**: an address whose pre-auth connections keep ending silent (dropped at the
 //!   first-bytes deadline or evicted having sent nothing) gets a shorter first-bytes deadline,
@@ -43,6 +45,12 @@ pub const FIRST_BYTES_TIMEOUT: Duration = Duration::from_secs(2);
 /// The shortest first-bytes deadline a penalised address gets (still many network delays).
 pub const MIN_FIRST_BYTES: Duration = Duration::from_millis(250);
 
+/// How long a pre-auth connection must have been silent before a newcomer may take its place.
+/// Honest workers that arrive together (`render --workers 24`) are all fresh and are never
+/// closed for each other: a newcomer that finds only fresh connections is turned away and
+/// dials again, as before; a squatter's socket, held open to keep a slot, is silent far longer.
+pub const EVICT_AFTER: Duration = Duration::from_millis(500);
+
 /// A penalised address's strikes are forgotten after this long without a new one.
 pub const PENALTY_MEMORY: Duration = Duration::from_secs(60);
 
@@ -57,6 +65,9 @@ pub enum Turned {
     /// The handshake budget is full of peers that made progress more recently than this one
     /// could be judged on (none to evict).
     Handshakes,
+    /// The address's handshake budget is full of peers that made progress recently (none to
+    /// evict).
+    Address,
 }
 
 impl Turned {
@@ -65,6 +76,7 @@ impl Turned {
         match self {
             Turned::Connections => "too many connections",
             Turned::Handshakes => "too many handshakes at once, none silent to close",
+            Turned::Address => "too many handshakes from this address, none silent to close",
         }
     }
 }
@@ -109,10 +121,12 @@ impl Table {
 
     /// The id of the pending connection to evict (of `ip` only, if given): one that never sent
     /// a byte before one that did, then the longest silent, then the oldest.
-    fn most_silent(&self, ip: Option<IpAddr>) -> Option<u64> {
+    fn most_silent(&self, ip: Option<IpAddr>, now: u64) -> Option<u64> {
+        let grace = EVICT_AFTER.as_micros() as u64;
         self.pending
             .iter()
             .filter(|(_, p)| ip.is_none_or(|ip| p.ip == ip))
+            .filter(|(_, p)| now.saturating_sub(p.progress.load(Ordering::Relaxed)) >= grace)
             .min_by_key(|(id, p)| {
                 let heard = p.heard.load(Ordering::Relaxed) > 0;
                 (heard, p.progress.load(Ordering::Relaxed), **id)
@@ -200,13 +214,14 @@ impl Admission {
         let now = Instant::now();
         let mut t = self.lock();
         let mut victims = Vec::new();
-        if t.pending_from(ip) >= self.per_peer {
-            victims.extend(t.most_silent(Some(ip)));
-        } else if t.pending.len() >= self.max_handshaking {
-            victims.extend(t.most_silent(None));
-        }
-        if victims.is_empty() && t.pending.len() >= self.max_handshaking {
-            return Err(Turned::Handshakes);
+        let now_us = t.micros(now);
+        let address_full = t.pending_from(ip) >= self.per_peer;
+        if address_full || t.pending.len() >= self.max_handshaking {
+            match t.most_silent(address_full.then_some(ip), now_us) {
+                Some(v) => victims.push(v),
+                None if address_full => return Err(Turned::Address),
+                None => return Err(Turned::Handshakes),
+            }
         }
         let Ok(total) = self.total.clone().try_acquire_owned() else {
             return Err(Turned::Connections);
@@ -380,7 +395,13 @@ mod tests {
             squatters.push(a.admit(ip(1)).expect("room"));
             tokio::time::advance(Duration::from_millis(10)).await;
         }
-        // The worker gets in; the first (longest silent) squatter is told to go.
+        // While every squatter is fresh, a newcomer is turned away (workers arriving together
+        // never close each other) ...
+        assert_eq!(a.admit(ip(1)).unwrap_err(), Turned::Address);
+        assert!(squatters.iter().all(|(_, s)| !s.evicted().is_cancelled()));
+        tokio::time::advance(EVICT_AFTER).await;
+        // ... once they have been silent long enough, the worker gets in and the first
+        // (longest silent) squatter is told to go.
         let (_p, worker) = a.admit(ip(1)).expect("the newcomer is admitted");
         assert!(squatters[0].1.evicted().is_cancelled());
         assert!(squatters[1..]
@@ -412,6 +433,7 @@ mod tests {
         let mut b = [0u8; 1];
         watched.read_exact(&mut b).await.unwrap();
         assert!(slots[0].1.heard());
+        tokio::time::advance(EVICT_AFTER).await;
         let _n = a.admit(ip(1)).unwrap();
         assert!(!slots[0].1.evicted().is_cancelled());
         assert!(slots[1].1.evicted().is_cancelled());
@@ -427,6 +449,8 @@ mod tests {
                     .unwrap(),
             );
         }
+        assert_eq!(a.admit(ip(1)).unwrap_err(), Turned::Handshakes);
+        tokio::time::advance(EVICT_AFTER).await;
         let (_p, w) = a.admit(ip(1)).expect("room made for an address of its own");
         assert!(slots[0].1.evicted().is_cancelled());
         assert_eq!(w.first_bytes(), FIRST_BYTES_TIMEOUT);
@@ -447,10 +471,13 @@ mod tests {
         // A table of 2: one may handshake at a time.
         let a = Admission::new(2, Duration::from_secs(10));
         let (_px, x) = a.admit(ip(1)).unwrap();
+        tokio::time::advance(EVICT_AFTER).await;
         let (_py, y) = a.admit(ip(2)).expect("x is evicted for y");
         assert!(x.evicted().is_cancelled());
         // x's task has not ended yet (it holds its connection slot): no slot for z, and y
-        // keeps its place.
+        // keeps its place, silent long enough to be evicted or not.
+        assert_eq!(a.admit(ip(3)).unwrap_err(), Turned::Handshakes);
+        tokio::time::advance(EVICT_AFTER).await;
         assert_eq!(a.admit(ip(3)).unwrap_err(), Turned::Connections);
         assert!(!y.evicted().is_cancelled());
     }

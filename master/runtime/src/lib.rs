@@ -287,14 +287,17 @@ pub fn run<E: From<DistError>>(
         if let Some(o) = opened {
             master.set_checkpoint(o, Writer::Background);
         }
+        // Signals are heard from before anything is announced or started: the handlers are in
+        // place before `on_listen` prints where the master listens (a Ctrl-C right after that
+        // line cancels cleanly), and a master told to stop while it starts hundreds of workers
+        // stops starting them, and kills and reaps those it started.
+        let signals = StopSignals::listen();
         let addr = master.local_addr();
         let dial = on_listen(addr)?.unwrap_or_else(|| dial_address(addr));
-        // Signals are heard from before the first worker starts: a master told to stop while
-        // it starts hundreds stops starting them, and kills and reaps those it started.
         let cancel = cancel.unwrap_or_default();
         let on_signal = cancel.clone();
         let signal = tokio::spawn(async move {
-            if stop_signal().await {
+            if signals.wait().await {
                 on_signal.cancel();
             }
         });
@@ -348,32 +351,44 @@ pub fn stopped_by_signal() -> Option<i32> {
     }
 }
 
-/// Waits for SIGINT (Ctrl-C) or SIGTERM, and notes which ([`stopped_by_signal`]); `false` if
-/// neither can be listened for.
-async fn stop_signal() -> bool {
-    use tokio::signal::unix::{signal, SignalKind};
-    let heard = match signal(SignalKind::terminate()) {
-        Ok(mut term) => {
-            tokio::select! {
-                r = tokio::signal::ctrl_c() => {
-                    if r.is_err() {
-                        // No Ctrl-C handler: SIGTERM is still heard.
-                        term.recv().await;
-                        libc::SIGTERM
-                    } else {
-                        libc::SIGINT
-                    }
-                }
-                _ = term.recv() => libc::SIGTERM,
-            }
+/// SIGINT (Ctrl-C) and SIGTERM, listened for from the moment [`StopSignals::listen`] returns
+/// (the handlers are installed then, not when first awaited).
+struct StopSignals {
+    interrupt: Option<tokio::signal::unix::Signal>,
+    terminate: Option<tokio::signal::unix::Signal>,
+}
+
+impl StopSignals {
+    /// Installs the handlers; must run inside the tokio runtime.
+    fn listen() -> Self {
+        use tokio::signal::unix::{signal, SignalKind};
+        StopSignals {
+            interrupt: signal(SignalKind::interrupt()).ok(),
+            terminate: signal(SignalKind::terminate()).ok(),
         }
-        Err(_) => match tokio::signal::ctrl_c().await {
-            Ok(()) => libc::SIGINT,
-            Err(_) => return false,
-        },
-    };
-    STOPPED_BY.store(heard, std::sync::atomic::Ordering::Relaxed);
-    true
+    }
+
+    /// Waits for either signal and notes which ([`stopped_by_signal`]); `false` if neither
+    /// can be listened for.
+    async fn wait(mut self) -> bool {
+        let heard = match (&mut self.interrupt, &mut self.terminate) {
+            (Some(int), Some(term)) => tokio::select! {
+                _ = int.recv() => libc::SIGINT,
+                _ = term.recv() => libc::SIGTERM,
+            },
+            (Some(int), None) => {
+                int.recv().await;
+                libc::SIGINT
+            }
+            (None, Some(term)) => {
+                term.recv().await;
+                libc::SIGTERM
+            }
+            (None, None) => return false,
+        };
+        STOPPED_BY.store(heard, std::sync::atomic::Ordering::Relaxed);
+        true
+    }
 }
 
 /// Opens (or creates) the checkpoint of this job, refusing one of another job.
