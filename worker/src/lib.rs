@@ -16,6 +16,7 @@
 //!   simulated time).
 //! - [`tiles`]: the bridge from the async loop to the rayon pool.
 //! - [`replay`]: replaying a recorded render instead of tracing (a bench aid).
+//! - [`logging`]: diagnostics as plain lines for people, or the timestamped log on request.
 //! - [`cli`]: `parrt worker` / `parrt-worker` arguments and entry point (both binaries call it).
 //! - [`error`]: what can go wrong.
 //!
@@ -35,6 +36,7 @@ pub mod cli;
 pub mod dial;
 pub mod error;
 pub mod exec;
+pub mod logging;
 pub mod net;
 pub mod options;
 pub mod replay;

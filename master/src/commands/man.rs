@@ -59,7 +59,7 @@ Stopped by Ctrl\-C (SIGINT) or SIGTERM (128 + the signal's number), on one machi
 The shared secret of \fBmaster\fR and \fBworker\fR when neither \fB\-\-token\fR nor \fB\-\-token\-file\fR is given.
 .TP
 \fBPARRT_LOG\fR
-Turns on the timestamped log lines on stderr, by level and module as \fBtracing_subscriber\fR's EnvFilter reads them (e.g. \fBinfo\fR, \fBparrt_runtime=debug\fR); \fB\-v\fR on \fBmaster\fR, \fBworker\fR and \fBcluster\fR is \fBinfo\fR. Without either, only warnings and parrt's own lines are printed.
+Turns on the timestamped log lines on stderr, by level and module as \fBtracing_subscriber\fR's EnvFilter reads them (e.g. \fBinfo\fR, \fBparrt_runtime=debug\fR); \fB\-v\fR on \fBmaster\fR, \fBworker\fR and \fBcluster\fR is \fBinfo\fR. Without either, only parrt's own lines for people are printed, warnings among them as plain \fBparrt: warning: …\fR lines.
 .TP
 \fBPARRT_ISA\fR
 Forces the instruction\-set tier of the kernels: \fBscalar\fR, \fBsse2\fR, \fBavx2\fR or \fBavx512\fR (default: the widest this CPU runs). An unknown or unsupported tier exits 2. The image is the same bits on every tier.

@@ -590,11 +590,12 @@ fn polygons_of_zero_area_are_dropped_with_one_warning() {
     assert_eq!(err.matches("of zero area").count(), 1, "one warning: {err}");
     assert!(
         err.contains(&format!(
-            "{p}:4:1: 3 polygons and patches of zero area dropped (the vertices coincide or \
-             are collinear); the first is this polygon"
+            "parrt: warning: {p}:4:1: 3 polygons and patches of zero area dropped (the vertices \
+             coincide or are collinear); the first is this polygon\n"
         )),
-        "{err}"
+        "a line for people: {err}"
     );
+    assert!(!err.contains("WARN"), "no log line by default: {err}");
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
     assert_eq!(v["primitives"], 2, "{v}");
     assert_eq!(v["polygons"], 1, "{v}");

@@ -21,6 +21,7 @@ use std::process::{Command, Output};
 fn parrt(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_parrt"))
         .args(args)
+        .env_remove("PARRT_LOG")
         .output()
         .expect("the parrt binary runs")
 }
