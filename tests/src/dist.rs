@@ -244,7 +244,7 @@ impl Drop for ChildGuard {
 
 /// Starts `exe worker --connect addr --threads n` with the test token in its environment and
 /// an optional per-tile delay (the worker's test hook). Its stderr is dropped, so the expected
-/// ends of fault tests ("interrupted: disconnected from the master", WARN lines) do not read as
+/// ends of fault tests ("interrupted by SIGTERM", warnings) do not read as
 /// failures in a green run; set `PARRT_LOG` (e.g. `PARRT_LOG=info cargo test ...`) to see it.
 pub fn spawn_worker_process(
     exe: &Path,

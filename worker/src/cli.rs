@@ -10,6 +10,8 @@ use parrt_protocol::Token;
 use std::net::ToSocketAddrs;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicI32, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 use tokio_util::sync::CancellationToken;
 
@@ -19,8 +21,7 @@ pub const TOKEN_ENV: &str = "PARRT_TOKEN";
 /// The most bytes a `--token-file` may hold: a token is a line; anything larger is not one.
 pub const MAX_TOKEN_FILE_BYTES: u64 = 4096;
 
-/// The environment variable with the log filter (tracing-subscriber syntax, e.g. `debug`).
-pub const LOG_ENV: &str = "PARRT_LOG";
+pub use crate::logging::{human_lines, init_logging, log_level, LOG_ENV};
 
 /// A usage error (exit status 2): bad flags, missing token.
 #[derive(Debug, thiserror::Error)]
@@ -159,40 +160,8 @@ impl WorkerArgs {
     }
 }
 
-/// The log filter of a command with a `-v` flag when `$PARRT_LOG` is not set: `info` (the
-/// timestamped lines of what happens) with `-v`, else `warn` (warnings only, beside the
-/// command's own lines for people).
-pub fn log_level(verbose: bool) -> &'static str {
-    if verbose {
-        "info"
-    } else {
-        "warn"
-    }
-}
-
-/// Whether a command prints its lines for people: not when the log was asked for (`-v` or
-/// `$PARRT_LOG`), whose timestamped lines say the same and more. (The local workers a master
-/// starts are given `$PARRT_LOG`, so they print none.)
-pub fn human_lines(verbose: bool) -> bool {
-    !verbose && std::env::var_os(LOG_ENV).is_none()
-}
-
-/// Installs a stderr log subscriber filtered by `$PARRT_LOG` (default `default`); harmless if
-/// one is already installed.
-pub fn init_logging(default: &str) {
-    let filter = tracing_subscriber::EnvFilter::try_from_env(LOG_ENV)
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    // A closed stderr must not stop the work: the log's write errors are dropped, not
-    // reported with `eprintln!` (which panics on a closed stderr).
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .log_internal_errors(false)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .try_init();
-}
-
-/// Runs a worker until the master says Shutdown or goes away (exit 0), or Ctrl-C (exit 1).
+/// Runs a worker until the master says Shutdown or goes away (exit 0), or a signal stops it
+/// (Ctrl-C exits 130, SIGTERM 143).
 pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
     init_logging(log_level(args.verbose));
     let human = human_lines(args.verbose);
@@ -202,18 +171,14 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
             .map_err(|e| UsageError(e.to_string()))?;
         crate::replay::install(replay);
     }
+    let signal = Arc::new(AtomicI32::new(0));
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .context("cannot start the async runtime")?;
-    let summary = rt.block_on(async {
+    let summary: session::SessionSummary = rt.block_on(async {
         let stop = CancellationToken::new();
-        let on_signal = stop.clone();
-        tokio::spawn(async move {
-            if tokio::signal::ctrl_c().await.is_ok() {
-                on_signal.cancel();
-            }
-        });
+        watch_signals(stop.clone(), Arc::clone(&signal))?;
         if human {
             say(&format!(
                 "connecting to {} as {} ({} threads)…",
@@ -222,9 +187,10 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
                 opts.render_threads()
             ));
         }
-        session::run(&opts, stop).await
-    });
-    let summary = summary.with_context(|| format!("worker for {}", opts.connect))?;
+        session::run(&opts, stop)
+            .await
+            .with_context(|| format!("worker for {}", opts.connect))
+    })?;
     tracing::info!(
         jobs = summary.jobs,
         tiles = summary.tiles_rendered,
@@ -240,9 +206,36 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
         ));
     }
     if summary.end == SessionEnd::Stopped {
-        anyhow::bail!("interrupted: disconnected from the master");
+        // Stopped only by a signal: exit as a process the signal killed would (130 for
+        // Ctrl-C, 143 for SIGTERM), the way `parrt render` and `parrt master` do.
+        let sig = signal.load(Ordering::SeqCst);
+        let name = if sig == libc::SIGTERM {
+            "SIGTERM"
+        } else {
+            "Ctrl-C"
+        };
+        say(&format!("interrupted by {name}"));
+        return Ok(ExitCode::from(u8::try_from(128 + sig).unwrap_or(130)));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Cancels `stop` on SIGINT (Ctrl-C) or SIGTERM (what a batch system sends to end a job), and
+/// keeps which one came in `signal`. Both are watched before the worker dials, so a signal at
+/// any moment ends the session cleanly.
+fn watch_signals(stop: CancellationToken, signal: Arc<AtomicI32>) -> anyhow::Result<()> {
+    use tokio::signal::unix::{signal as unix_signal, SignalKind};
+    let mut int = unix_signal(SignalKind::interrupt()).context("cannot watch for Ctrl-C")?;
+    let mut term = unix_signal(SignalKind::terminate()).context("cannot watch for SIGTERM")?;
+    tokio::spawn(async move {
+        let which = tokio::select! {
+            _ = int.recv() => libc::SIGINT,
+            _ = term.recv() => libc::SIGTERM,
+        };
+        signal.store(which, Ordering::SeqCst);
+        stop.cancel();
+    });
+    Ok(())
 }
 
 /// A line for people on stderr, `parrt worker: …`; dropped if stderr is closed.

@@ -484,3 +484,46 @@ fn a_waiting_master_says_so_and_ctrl_c_exits_130() {
         "log lines by default: {rest}"
     );
 }
+
+/// A worker stopped by a signal while it dials exits as the signal would have it (130 for
+/// Ctrl-C, 143 for SIGTERM), as `parrt render` and `parrt master` do, and says so in a line for
+/// people, not a log line or an error.
+#[test]
+fn a_worker_stopped_by_a_signal_exits_128_plus_its_number() {
+    use std::io::{BufRead, BufReader};
+    // A port nothing listens on: the worker keeps dialling for its whole budget.
+    let closed = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = closed.local_addr().unwrap().to_string();
+    drop(closed);
+    for (sig, code, name) in [
+        (libc::SIGINT, 130, "Ctrl-C"),
+        (libc::SIGTERM, 143, "SIGTERM"),
+    ] {
+        let mut worker = Command::new(env!("CARGO_BIN_EXE_parrt"))
+            .args(["worker", "--connect", &addr, "--token", "a-token"])
+            .args(["--threads", "1", "--dial-timeout", "60"])
+            .env_remove("PARRT_LOG")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut err = BufReader::new(worker.stderr.take().unwrap());
+        let mut first = String::new();
+        err.read_line(&mut first).unwrap();
+        // SAFETY: a signal to a child this test started and has not reaped.
+        unsafe { libc::kill(worker.id() as libc::pid_t, sig) };
+        let mut rest = String::new();
+        std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+        let status = worker.wait().unwrap();
+        assert!(
+            first.starts_with("parrt worker: connecting to 127.0.0.1:"),
+            "{first}"
+        );
+        assert_eq!(status.code(), Some(code), "{name}: {rest}");
+        assert!(
+            rest.ends_with(&format!("parrt worker: interrupted by {name}\n")),
+            "{name}: {rest}"
+        );
+    }
+}
