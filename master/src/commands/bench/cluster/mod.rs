@@ -5,6 +5,7 @@
 //! efficiency, the schedule simulator's prediction and the hardware's limit, and checks every
 //! assembled image bit for bit against the recorded one.
 
+use crate::cli_args::size::parse_size;
 use crate::cli_args::{LimitArgs, SceneSpec};
 use crate::exit::input_error;
 use crate::machine::machine;
@@ -41,9 +42,9 @@ pub struct ClusterArgs {
     #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(value_name = "SCENE", default_value = "mount")]
     pub scene: String,
-    /// Image size in pixels, N for NxN (this study renders square images).
-    #[arg(long, value_name = "PX", default_value_t = 512)]
-    pub size: u32,
+    /// Image size in pixels, WxH or N for NxN.
+    #[arg(long, value_name = "WxH", default_value = "512")]
+    pub size: String,
     /// Samples per pixel of the recorded render.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub spp: u32,
@@ -163,14 +164,20 @@ pub struct Row {
 }
 
 /// The default replay file name for these settings.
-fn replay_path(args: &ClusterArgs, label: &str) -> PathBuf {
+fn replay_path(args: &ClusterArgs, label: &str, (width, height): (u32, u32)) -> PathBuf {
     let safe: String = label
         .chars()
         .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
         .collect();
     args.out.join(format!(
         "{safe}-{}-spp{}-t{}.replay",
-        args.size, args.spp, args.tile
+        if width == height {
+            width.to_string()
+        } else {
+            format!("{width}x{height}")
+        },
+        args.spp,
+        args.tile
     ))
 }
 
@@ -235,9 +242,9 @@ fn check(args: &ClusterArgs) -> anyhow::Result<()> {
     if args.threads.is_empty() || args.threads.iter().any(|&t| t == 0 || t > MAX_THREADS) {
         return Err(bad(format!("--threads must be in 1..={MAX_THREADS}")));
     }
-    if args.size == 0 || args.tile == 0 || args.spp == 0 || args.record_repeat == 0 {
+    if args.tile == 0 || args.spp == 0 || args.record_repeat == 0 {
         return Err(bad(
-            "--size, --tile, --spp and --record-repeat must be at least 1".into(),
+            "--tile, --spp and --record-repeat must be at least 1".into()
         ));
     }
     let positive = |v: f64| v.is_finite() && v > 0.0;
@@ -292,32 +299,33 @@ fn limit(
 /// Runs `parrt bench cluster`.
 pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     check(&args)?;
+    let (width, height) = parse_size(&args.size)?;
     // Before the recording allocates its film: an unchecked 65536² image aborted on 51.5 GB.
-    args.limits.check_image(args.size, args.size, args.tile)?;
+    args.limits.check_image(width, height, args.tile)?;
     let spec = SceneSpec::parse(&args.scene)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
-    let mut settings = RenderSettings::new(args.size, args.size);
+    let mut settings = RenderSettings::new(width, height);
     settings.spp = args.spp;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let path = args
         .replay
         .clone()
-        .unwrap_or_else(|| replay_path(&args, &spec.label()));
+        .unwrap_or_else(|| replay_path(&args, &spec.label(), (width, height)));
     if args.record || !path.exists() {
         let renderer = Renderer::new(&desc, &settings).map_err(input_error)?;
         record(&renderer, args.tile, args.record_repeat, &path)?;
     }
     let rec = Replay::open(&path, 1.0).map_err(|e| input_error(anyhow::Error::new(e)))?;
-    if (rec.width, rec.height, rec.tile) != (args.size, args.size, args.tile) {
+    if (rec.width, rec.height, rec.tile) != (width, height, args.tile) {
         return Err(bad(format!(
             "{} was recorded at {}x{} tile {}, not {}x{} tile {}: use --record",
             path.display(),
             rec.width,
             rec.height,
             rec.tile,
-            args.size,
-            args.size,
+            width,
+            height,
             args.tile
         )));
     }
@@ -375,14 +383,14 @@ pub fn run(args: ClusterArgs) -> anyhow::Result<ExitCode> {
     let title = format!(
         "Emulated cluster: {} {}×{}, {} spp, tile {} — {}",
         spec.label(),
-        args.size,
-        args.size,
+        width,
+        height,
         args.spp,
         args.tile,
         machine()
     );
     let mut md = report(&args, &title, &setup.path, &rec.costs, scale, &rows);
-    md += &draw_timelines(&args, &spec.label(), &timelines)?;
+    md += &draw_timelines(&args, &spec.label(), (width, height), &timelines)?;
     std::fs::write(args.out.join("cluster.csv"), csv(&rows)?)?;
     plot(&args, &title, &rows)?;
     if let Some(j) = &args.json {

@@ -163,6 +163,7 @@ pub(super) fn csv(rows: &[Row]) -> anyhow::Result<String> {
 pub(super) fn draw_timelines(
     args: &ClusterArgs,
     scene: &str,
+    (width, height): (u32, u32),
     runs: &[(usize, usize, std::sync::Arc<crate::timeline::Recorder>, f64)],
 ) -> anyhow::Result<String> {
     let mut md = String::new();
@@ -184,8 +185,8 @@ pub(super) fn draw_timelines(
             }
             let job = crate::timeline::Job {
                 scene,
-                width: args.size,
-                height: args.size,
+                width,
+                height,
                 tile_size: args.tile,
             };
             let tl = rec.timeline(&job, trace_s);
