@@ -28,7 +28,8 @@ pub struct AccuracyArgs {
     /// Image size in pixels of the reference and every configuration: WxH, or N for NxN.
     #[arg(long, value_name = "WxH", default_value = "256x256")]
     pub size: String,
-    /// Output directory for accuracy.md, accuracy.csv and the plots.
+    /// Output directory for accuracy.md (with a page per scene, accuracy-SCENE.md),
+    /// accuracy.csv and the plots.
     #[arg(long, value_name = "DIR", default_value = "accuracy-out")]
     pub out: PathBuf,
     /// Render threads (default: all cores).
@@ -222,8 +223,14 @@ pub fn run(args: AccuracyArgs) -> anyhow::Result<ExitCode> {
         studies.push(st);
     }
     let md = report::markdown(&studies, width, height, threads);
-    let md_path = args.out.join("accuracy.md");
-    std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
+    let mut pages = vec![("accuracy.md".to_string(), md.clone())];
+    for st in &studies {
+        pages.push((report::page_name(st), report::scene_page(st, width, height)));
+    }
+    for (name, text) in pages {
+        let path = args.out.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
     let csv_path = args.out.join("accuracy.csv");
     std::fs::write(&csv_path, report::csv(&studies)?)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;

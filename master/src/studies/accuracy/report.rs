@@ -122,7 +122,15 @@ pub fn recommend(studies: &[SceneStudy]) -> Option<(f64, u32, f64)> {
     best
 }
 
-/// The Markdown report of every study.
+/// The name of a scene's page beside `accuracy.md`: `accuracy-<scene>.md`.
+pub fn page_name(st: &SceneStudy) -> String {
+    format!("accuracy-{}.md", st.scene)
+}
+
+/// The study's front page, `accuracy.md`: the method, one line per scene (its reference and
+/// its cheapest good configuration, linking to the scene's page), the recommendation and what
+/// the plots show. Each scene's full table is on its own page ([`scene_page`]), so no page
+/// grows with the number of scenes times the grid.
 pub fn markdown(studies: &[SceneStudy], width: u32, height: u32, threads: usize) -> String {
     let mut s = String::new();
     let _ = writeln!(
@@ -134,48 +142,26 @@ pub fn markdown(studies: &[SceneStudy], width: u32, height: u32, threads: usize)
          pixels with a channel off by more than 1/255. `trunc` columns compare with the f64, \
          depth-{REF_DEPTH}, no-cut-off render with the *same* samples, isolating what cut-off, \
          depth and precision cost from sampling error. `front` marks the time–RMSE Pareto front; \
-         **bold** is the default configuration.\n"
+         **bold** is the default configuration.\n\n## Scenes\n"
     );
     for st in studies {
-        let f = front_of(st);
+        let good = match cheapest_good(st) {
+            Some(r) => format!(
+                "cheapest good f32/1-sample configuration: cut-off {}, depth {} ({:.3} s)",
+                r.config.cutoff, r.config.depth, r.time
+            ),
+            None => "no f32/1-sample configuration good enough".to_string(),
+        };
         let _ = writeln!(
             s,
-            "## {}\n\nReference: {:.3} s, {} rays.\n\n\
-             | cut-off | depth | prec | spp | time s | rays | RMSE | PSNR dB | max | off | trunc RMSE | trunc off | front |\n\
-             |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|:-:|",
-            st.scene, st.reference_time, st.reference_rays
+            "- [{}]({}): reference {:.3} s, {} rays; {good}.",
+            st.scene,
+            page_name(st),
+            st.reference_time,
+            st.reference_rays
         );
-        for (i, r) in st.rows.iter().enumerate() {
-            let c = &r.config;
-            let b = if c.is_default() { "**" } else { "" };
-            let _ = writeln!(
-                s,
-                "| {b}{}{b} | {b}{}{b} | {} | {} | {:.3} | {} | {:.5} | {} | {:.3} | {:.4} | {:.5} | {:.4} | {} |",
-                c.cutoff,
-                c.depth,
-                c.precision_name(),
-                c.spp,
-                r.time,
-                r.rays,
-                r.error.rmse,
-                db(r.error.psnr),
-                r.error.max,
-                r.error.off,
-                r.truncation.rmse,
-                r.truncation.off,
-                if f.contains(&i) { "●" } else { "" }
-            );
-        }
-        if let Some(r) = cheapest_good(st) {
-            let _ = writeln!(
-                s,
-                "\nCheapest f32/1-sample configuration whose truncation RMSE is at most {:.5} \
-                 (half of 1/255): cut-off {}, depth {} ({:.3} s).",
-                GOOD_ENOUGH_RMSE, r.config.cutoff, r.config.depth, r.time
-            );
-        }
-        let _ = writeln!(s);
     }
+    let _ = writeln!(s);
     match recommend(studies) {
         Some((c, d, rel)) => {
             let _ = writeln!(
@@ -199,6 +185,51 @@ pub fn markdown(studies: &[SceneStudy], width: u32, height: u32, threads: usize)
          reference, both log scale; grey f32/1 sample, green f64/1 sample, orange \
          4 samples, red line the Pareto front, blue ring the default."
     );
+    s
+}
+
+/// One scene's page: every configuration of the grid with its time, rays and errors, and the
+/// cheapest f32/1-sample configuration whose truncation error is at most half a step of 8 bits.
+pub fn scene_page(st: &SceneStudy, width: u32, height: u32) -> String {
+    let mut s = String::new();
+    let f = front_of(st);
+    let _ = writeln!(
+        s,
+        "# Speed against error: {}\n\n{width}×{height} pixels; the method and the columns are \
+         described in [accuracy.md](accuracy.md).\n\nReference: {:.3} s, {} rays.\n\n\
+         | cut-off | depth | prec | spp | time s | rays | RMSE | PSNR dB | max | off | trunc RMSE | trunc off | front |\n\
+         |---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|:-:|",
+        st.scene, st.reference_time, st.reference_rays
+    );
+    for (i, r) in st.rows.iter().enumerate() {
+        let c = &r.config;
+        let b = if c.is_default() { "**" } else { "" };
+        let _ = writeln!(
+            s,
+            "| {b}{}{b} | {b}{}{b} | {} | {} | {:.3} | {} | {:.5} | {} | {:.3} | {:.4} | {:.5} | {:.4} | {} |",
+            c.cutoff,
+            c.depth,
+            c.precision_name(),
+            c.spp,
+            r.time,
+            r.rays,
+            r.error.rmse,
+            db(r.error.psnr),
+            r.error.max,
+            r.error.off,
+            r.truncation.rmse,
+            r.truncation.off,
+            if f.contains(&i) { "●" } else { "" }
+        );
+    }
+    if let Some(r) = cheapest_good(st) {
+        let _ = writeln!(
+            s,
+            "\nCheapest f32/1-sample configuration whose truncation RMSE is at most {:.5} \
+             (half of 1/255): cut-off {}, depth {} ({:.3} s).",
+            GOOD_ENOUGH_RMSE, r.config.cutoff, r.config.depth, r.time
+        );
+    }
     s
 }
 
@@ -257,8 +288,16 @@ mod tests {
         assert_eq!((c, d), (0.1, 2));
         assert!((rel - (0.5 + 0.75) / 2.0).abs() < 1e-12);
         assert_eq!(cheapest_good(&a).map(|r| r.config.depth), Some(2));
-        let text = markdown(std::slice::from_ref(&a), 8, 8, 1);
-        assert!(text.contains("| **0.001** | **5** |"));
+        let text = scene_page(&a, 8, 8);
+        assert!(text.contains("| **0.001** | **5** |"), "{text}");
+        let index = markdown(std::slice::from_ref(&a), 8, 8, 1);
+        assert!(
+            index.contains(&format!(
+                "- [{}](accuracy-{}.md): reference ",
+                a.scene, a.scene
+            )),
+            "{index}"
+        );
         let csv = csv(&[a]).expect("writes");
         assert_eq!(csv.lines().count(), 4);
         assert!(csv.starts_with(
