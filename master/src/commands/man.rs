@@ -52,7 +52,7 @@ A failure that is not the input's fault (a file system error, no worker arrived,
 Bad input or usage: an unknown flag, a value out of range, a scene file that cannot be read or parsed, an output that cannot be written or would overwrite an input.
 .TP
 \fB130\fR, \fB143\fR
-Stopped by Ctrl\-C (SIGINT) or SIGTERM (128 + the signal's number), on one machine or through workers; local workers are stopped first.
+Stopped by Ctrl\-C (SIGINT) or SIGTERM (128 + the signal's number), on one machine, through workers or on a worker (\fBparrt worker\fR disconnects and its master requeues its tiles); local workers are stopped first.
 .SH ENVIRONMENT
 .TP
 \fBPARRT_TOKEN\fR
