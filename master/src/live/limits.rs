@@ -65,9 +65,9 @@ pub const KEPT_DEPARTED: usize = 32;
 pub const MAX_LINGER: Duration = Duration::from_secs(24 * 3600);
 
 /// What one connection buffers of a response before its client reads (hyper's write buffer).
-/// It also bounds a request head, but loosely: hyper checks the size only after a read that
-/// did not complete the head, and one read may take up to this much again, so heads of up to
-/// about twice this (128 KiB) can still be accepted; longer ones get 431.
+/// hyper bounds a request's head by it too, but loosely (it checks the size only after a read
+/// that did not complete the head, so heads of up to about twice this can get through); the
+/// limit a head is held to is [`super::head_limit::MAX_REQUEST_HEAD`], exact and well under it.
 pub const RESPONSE_BUFFER: usize = 64 * 1024;
 
 /// `/frame` and `/image.png` are sent in copied chunks of this many bytes, so a connection

@@ -17,7 +17,7 @@
 //! - [`snapshot`]: the one copy of the frame `/frame` and `/image.png` serve.
 //! - [`announce`]: where the page's address is told (the key only to a terminal or a 0600
 //!   file, never to a log).
-//! - [`limits`]: the server's limits.
+//! - [`limits`]: the server's limits; [`head_limit`]: the one on a request's head, exact.
 //! - [`encode`]: the bytes of the events (a batch of tiles as one PNG, in base64, at full
 //!   resolution or averaged over blocks when tiles land faster than `--http-full-rate`).
 //! - `page.html`: the page (HTML and plain JavaScript, served as it is).
@@ -27,6 +27,7 @@ pub mod auth;
 pub mod batcher;
 pub mod encode;
 pub mod gate;
+pub mod head_limit;
 pub mod limits;
 pub mod server;
 pub mod snapshot;

@@ -14,12 +14,13 @@
 //! Every route is behind [`super::auth`] (the `Host` check, then the key). Its own accept loop
 //! puts every connection through [`super::gate`] (a cap on connections and on event streams
 //! that never refuses a newcomer for the stuck ones) and gives each [`HEAD_TIMEOUT`] to send
-//! a request's head; `/frame` and `/image.png` send [`super::snapshot`]'s shared snapshot.
+//! a request's head, of at most [`super::head_limit::MAX_REQUEST_HEAD`] bytes; `/frame` and `/image.png` send [`super::snapshot`]'s shared snapshot.
 
 use super::auth::{allowed, encode_key, host_allowed, hosts};
 use super::batcher::{status_event, Batcher};
 use super::encode::event;
 use super::gate::{Conn, Gate, StreamSlot};
+use super::head_limit::too_large;
 use super::limits::{
     HEAD_TIMEOUT, KEEP_ALIVE, MAX_CONNECTIONS, MAX_STREAMS, RESPONSE_BUFFER, SEND_CHUNK,
 };
@@ -216,9 +217,13 @@ async fn serve(listener: tokio::net::TcpListener, router: Router, gate: Arc<Gate
     }
 }
 
-/// 421 unless the `Host` names this view (loopback), then 401 and nothing else unless the
+/// 431 for a head longer than [`super::head_limit::MAX_REQUEST_HEAD`]; then 421 unless the
+/// `Host` names this view (loopback), then 401 and nothing else unless the
 /// request carries the key (elsewhere).
 async fn guard(State(app): State<App>, req: Request, next: Next) -> Response {
+    if let Some(refused) = too_large(&req) {
+        return refused;
+    }
     let host = req.headers().get(header::HOST).map(|v| v.as_bytes());
     if !host_allowed(app.hosts.as_deref(), host) {
         return (
