@@ -4,7 +4,6 @@
 
 pub mod aabb;
 pub mod cone;
-pub mod cone4;
 pub mod hit;
 pub mod hits4;
 pub mod lanes16;

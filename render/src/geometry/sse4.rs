@@ -1,5 +1,5 @@
 //! Small SSE helpers the four-lane leaf kernels ([`super::triangle4`], [`super::sphere4`],
-//! [`super::cone4`]) share: a lane-by-lane select and a store to an array. Every x86-64 CPU has SSE2.
+//! [`super::cone::lanes`]) share: a lane-by-lane select and a store to an array. Every x86-64 CPU has SSE2.
 
 use std::arch::x86_64::*;
 
