@@ -4,12 +4,16 @@
 //! hit — the normal turned towards the eye, the cull test, the origin offset off the surface and
 //! rounded away from it ([`crate::geometry::offset_ray_origin`]), the unit direction and the
 //! distance — in the same IEEE operations and order. The rays that exist go into the packet in
-//! lane order. The `avx512` tier ([`crate::isa`]) computes the sixteen lanes in one register per
-//! component; the other tiers run the portable loop over the lanes hit.
+//! lane order. The arithmetic is written once, `shadow_ray`, over the lane types of
+//! [`crate::lanes`]: the `avx512` tier ([`crate::isa::dispatch`]) runs it on the sixteen lanes
+//! in one register per component, the other tiers on each lane hit, one by one.
 
 use crate::geometry::lanes16::{Lanes16, LANES};
 use crate::geometry::Ray;
+#[cfg(test)]
 use crate::isa::Isa;
+use crate::isa::{Kernel, Tier};
+use crate::lanes::{Lanes, Mask};
 use crate::scene::Surface;
 use crate::vec3::V3;
 
@@ -62,11 +66,20 @@ pub fn shadow_lanes(
     light: V3<f32>,
     cull: bool,
 ) {
-    shadow_lanes_on(crate::isa::current(), out, eye, s, light, cull)
+    let mut rays = Rays::default();
+    crate::isa::dispatch(Shadow {
+        r: &mut rays,
+        eye,
+        s,
+        light,
+        cull,
+    });
+    pack(out, &rays, s);
 }
 
-/// [`shadow_lanes`] with the code of `tier`, which must be a tier this CPU runs.
-#[inline(always)]
+/// [`shadow_lanes`] with the code of `tier` (for the tests that compare the tiers); `false`
+/// when this CPU does not run `tier`.
+#[cfg(test)]
 fn shadow_lanes_on(
     tier: Isa,
     out: &mut Lanes16,
@@ -74,22 +87,23 @@ fn shadow_lanes_on(
     s: &SurfaceLanes,
     light: V3<f32>,
     cull: bool,
-) {
+) -> bool {
     let mut rays = Rays::default();
-    #[cfg(target_arch = "x86_64")]
-    {
-        if tier.avx512() {
-            // SAFETY: the avx512 tier is only chosen on a CPU with AVX-512 F, BW, DQ, VL.
-            unsafe { rays_avx512(&mut rays, eye, s, light, cull) };
-        } else {
-            rays_lanes(&mut rays, eye, s, light, cull);
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = tier;
-        rays_lanes(&mut rays, eye, s, light, cull);
-    }
+    let k = Shadow {
+        r: &mut rays,
+        eye,
+        s,
+        light,
+        cull,
+    };
+    let ran = crate::isa::dispatch_on(tier, k).is_some();
+    pack(out, &rays, s);
+    ran
+}
+
+/// The rays that exist, into `out` in lane order.
+#[inline(always)]
+fn pack(out: &mut Lanes16, rays: &Rays, s: &SurfaceLanes) {
     out.clear();
     for i in crate::bits::SetBits(rays.valid & s.mask) {
         out.push(&Ray {
@@ -115,136 +129,155 @@ struct Rays {
     valid: u32,
 }
 
-/// [`rays_lanes`] for the `avx512` tier, the sixteen lanes in one register per component:
-/// the same operations (sign flips by the sign bit, as `-x` is; `f32::next_up`/`next_down`
-/// on the bits, their NaN and infinity cases kept).
-///
-/// # Safety
-/// The CPU must support AVX-512 F, BW, DQ and VL.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,avx2,avx512f,avx512bw,avx512dq,avx512vl")]
-unsafe fn rays_avx512(r: &mut Rays, eye: &Lanes16, s: &SurfaceLanes, light: V3<f32>, cull: bool) {
-    use std::arch::x86_64::*;
-    // SAFETY: every load and store covers sixteen `f32` of a `[f32; 16]` (unaligned).
-    let ld = |a: &[f32; LANES]| unsafe { _mm512_loadu_ps(a.as_ptr()) };
-    let ld3 = |v: &[[f32; LANES]; 3]| [ld(&v[0]), ld(&v[1]), ld(&v[2])];
-    let zero = _mm512_setzero_ps();
-    let sign = _mm512_set1_ps(-0.0);
-    let dot = |a: [__m512; 3], b: [__m512; 3]| {
-        _mm512_add_ps(
-            _mm512_add_ps(_mm512_mul_ps(a[0], b[0]), _mm512_mul_ps(a[1], b[1])),
-            _mm512_mul_ps(a[2], b[2]),
-        )
-    };
-    let lt = |a, b| _mm512_cmp_ps_mask::<_CMP_LT_OQ>(a, b);
-    let gt = |a, b| _mm512_cmp_ps_mask::<_CMP_GT_OQ>(a, b);
-    let flip = |v: __m512, k: __mmask16| _mm512_mask_xor_ps(v, k, v, sign);
-    let (p, p_err, ng) = (ld3(&s.p), ld3(&s.p_err), ld3(&s.ng));
-    let back = ld3(&eye.tri.d).map(|c| _mm512_xor_ps(c, sign));
-    let turn = lt(dot(ng, back), zero);
-    let n = ng.map(|c| flip(c, turn));
-    let pos = light.to_array().map(|c| _mm512_set1_ps(c));
-    let to = [0, 1, 2].map(|a| _mm512_sub_ps(pos[a], p[a]));
-    let culled = if cull {
-        _mm512_cmp_ps_mask::<_CMP_LE_OQ>(dot(n, to), zero)
-    } else {
-        0
-    };
-    let dist = _mm512_sqrt_ps(dot(to, to));
-    let valid = !culled & gt(dist, zero);
-    let w = to.map(|c| _mm512_div_ps(c, dist));
-    let off_len = dot(ng.map(|c| _mm512_andnot_ps(sign, c)), p_err);
-    let away = lt(dot(w, ng), zero);
-    let off = ng.map(|c| flip(_mm512_mul_ps(c, off_len), away));
-    let one = _mm512_set1_epi32(1);
-    let o = [0, 1, 2].map(|a| {
-        let v = _mm512_add_ps(p[a], off[a]);
-        let bits = _mm512_castps_si512(v);
-        let negative = _mm512_cmplt_epi32_mask(bits, _mm512_setzero_si512());
-        let zero_abs = _mm512_cmpeq_epi32_mask(
-            _mm512_and_si512(bits, _mm512_set1_epi32(0x7fff_ffff)),
-            _mm512_setzero_si512(),
-        );
-        let nan = _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(v, v);
-        let eq = |x: i32| _mm512_cmpeq_epi32_mask(bits, _mm512_set1_epi32(x));
-        let plus = _mm512_add_epi32(bits, one);
-        let minus = _mm512_sub_epi32(bits, one);
-        // `next_up`: +1 on the bits of a positive value, −1 of a negative one, the smallest
-        // positive from ±0, unchanged for NaN and +∞.
-        let up = _mm512_mask_blend_epi32(negative, plus, minus);
-        let up = _mm512_mask_blend_epi32(zero_abs, up, one);
-        let up = _mm512_mask_blend_epi32(nan | eq(0x7f80_0000), up, bits);
-        // `next_down`: the mirror image.
-        let down = _mm512_mask_blend_epi32(negative, minus, plus);
-        let down =
-            _mm512_mask_blend_epi32(zero_abs, down, _mm512_set1_epi32(0x8000_0001u32 as i32));
-        let down = _mm512_mask_blend_epi32(nan | eq(0xff80_0000u32 as i32), down, bits);
-        let rounded = _mm512_mask_blend_epi32(gt(off[a], zero), bits, up);
-        let rounded = _mm512_mask_blend_epi32(lt(off[a], zero), rounded, down);
-        _mm512_castsi512_ps(rounded)
-    });
-    let d = [0, 1, 2].map(|a| _mm512_sub_ps(pos[a], o[a]));
-    let len = _mm512_sqrt_ps(dot(d, d));
-    // SAFETY: as the loads.
-    let st = |a: &mut [f32; LANES], v| unsafe { _mm512_storeu_ps(a.as_mut_ptr(), v) };
-    for a in 0..3 {
-        st(&mut r.o[a], o[a]);
-        st(&mut r.d[a], _mm512_div_ps(d[a], len));
-    }
-    st(&mut r.len, len);
-    r.valid = u32::from(valid);
+/// The shadow rays of a packet: the kernel [`crate::isa::dispatch`] runs.
+struct Shadow<'a> {
+    r: &'a mut Rays,
+    eye: &'a Lanes16,
+    s: &'a SurfaceLanes,
+    light: V3<f32>,
+    cull: bool,
 }
 
-/// `cast::shadow_ray` lane by lane for the lanes with a hit; `valid` says which have a ray.
-/// (The compiler does not vectorise this loop: below the `avx512` tier it runs only the lanes
-/// hit, one by one.)
-#[inline(always)]
-fn rays_lanes(r: &mut Rays, eye: &Lanes16, s: &SurfaceLanes, light: V3<f32>, cull: bool) {
-    let pos = light.to_array();
-    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let mut valid = [false; LANES];
-    for i in crate::bits::SetBits(s.mask) {
-        let get = |v: &[[f32; LANES]; 3]| [v[0][i], v[1][i], v[2][i]];
-        let (p, p_err, ng) = (get(&s.p), get(&s.p_err), get(&s.ng));
-        let back = get(&eye.tri.d).map(|c| -c);
-        // `face_forward(-ray.d)`.
-        let n = if dot(ng, back) < 0.0 {
-            ng.map(|c| -c)
-        } else {
-            ng
-        };
-        let to = [0, 1, 2].map(|a| pos[a] - p[a]);
-        let culled = cull & (dot(n, to) <= 0.0);
-        let dist = dot(to, to).sqrt();
-        valid[i] = !culled & (dist > 0.0);
-        let w = to.map(|c| c / dist);
-        // `offset_ray_origin(p, p_err, ng, w)`, with the normal as the surface gives it.
-        let off_len = dot(ng.map(f32::abs), p_err);
-        let mut off = ng.map(|c| c * off_len);
-        if dot(w, ng) < 0.0 {
-            off = off.map(|c| -c);
+impl Kernel for Shadow<'_> {
+    type Output = ();
+
+    /// The sixteen lanes in one register per component on `avx512`; elsewhere the lanes hit,
+    /// one by one (the compiler does not vectorise that loop).
+    #[inline(always)]
+    fn run<T: Tier>(self) {
+        #[cfg(target_arch = "x86_64")]
+        if T::ISA.avx512() {
+            return rays_wide::<crate::lanes::X16>(self);
         }
-        let o = [0, 1, 2].map(|a| {
-            let v = p[a] + off[a];
-            if off[a] > 0.0 {
-                v.next_up()
-            } else if off[a] < 0.0 {
-                v.next_down()
-            } else {
-                v
-            }
-        });
-        let d = [0, 1, 2].map(|a| pos[a] - o[a]);
-        let len = dot(d, d).sqrt();
-        for a in 0..3 {
-            r.o[a][i] = o[a];
-            r.d[a][i] = d[a] / len;
-        }
-        r.len[i] = len;
+        rays_one_by_one(self)
     }
-    r.valid = 0;
-    for (i, &v) in valid.iter().enumerate() {
-        r.valid |= u32::from(v) << i;
+}
+
+/// The shadow rays of the lanes, computed `L::N` (= [`LANES`]) at a time.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn rays_wide<L: Lanes<Elem = f32>>(k: Shadow<'_>) {
+    let ld3 = load3::<L>;
+    let ray = shadow_ray(
+        ld3(&k.eye.tri.d),
+        ld3(&k.s.p),
+        ld3(&k.s.p_err),
+        ld3(&k.s.ng),
+        splat3(k.light.to_array()),
+        k.cull,
+    );
+    for a in 0..3 {
+        ray.o[a].store(&mut k.r.o[a]);
+        ray.d[a].store(&mut k.r.d[a]);
+    }
+    ray.len.store(&mut k.r.len);
+    k.r.valid = ray.valid;
+}
+
+/// The shadow rays of the lanes hit, one lane at a time.
+#[inline(always)]
+fn rays_one_by_one(k: Shadow<'_>) {
+    let mut valid = 0;
+    for i in crate::bits::SetBits(k.s.mask) {
+        let lane = |v: &[[f32; LANES]; 3]| [v[0][i], v[1][i], v[2][i]];
+        let (p, p_err, ng) = (lane(&k.s.p), lane(&k.s.p_err), lane(&k.s.ng));
+        let ray = shadow_ray::<f32>(lane(&k.eye.tri.d), p, p_err, ng, k.light.to_array(), k.cull);
+        for a in 0..3 {
+            k.r.o[a][i] = ray.o[a];
+            k.r.d[a][i] = ray.d[a];
+        }
+        k.r.len[i] = ray.len;
+        valid |= (ray.valid & 1) << i;
+    }
+    k.r.valid = valid;
+}
+
+/// Three rows of lanes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn load3<L: Lanes<Elem = f32>>(v: &[[f32; LANES]; 3]) -> [L; 3] {
+    [L::load(&v[0]), L::load(&v[1]), L::load(&v[2])]
+}
+
+/// `x` in every lane of each of three values.
+#[inline(always)]
+fn splat3<L: Lanes<Elem = f32>>(x: [f32; 3]) -> [L; 3] {
+    [L::splat(x[0]), L::splat(x[1]), L::splat(x[2])]
+}
+
+/// `u · v` in the scalar vector's order.
+#[inline(always)]
+fn dot<L: Lanes>(u: [L; 3], v: [L; 3]) -> L {
+    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+}
+
+/// `v` negated in the lanes of `m`.
+#[inline(always)]
+fn flip<L: Lanes>(v: [L; 3], m: L::Mask) -> [L; 3] {
+    [
+        L::select(m, v[0].neg(), v[0]),
+        L::select(m, v[1].neg(), v[1]),
+        L::select(m, v[2].neg(), v[2]),
+    ]
+}
+
+/// `u − v` by axis.
+#[inline(always)]
+fn sub3<L: Lanes>(u: [L; 3], v: [L; 3]) -> [L; 3] {
+    [u[0] - v[0], u[1] - v[1], u[2] - v[2]]
+}
+
+/// The shadow rays of some lanes, and which lanes have one (bit `i` lane `i`).
+struct ShadowRays<L> {
+    o: [L; 3],
+    d: [L; 3],
+    len: L,
+    valid: u32,
+}
+
+/// `cast::shadow_ray` written once for every lane type ([`crate::lanes`]): from the hit `p`
+/// (error bound `p_err`, geometric normal `ng`) of an eye ray of direction `eye_d` to the light
+/// at `pos`, the normal turned towards the eye, the cull test, the origin offset off the
+/// surface and rounded away from it ([`crate::geometry::offset_ray_origin`]), the unit direction
+/// and the distance, in the same IEEE operations and order. A lane has a ray when it is not
+/// culled and the light is off the surface.
+#[inline(always)]
+fn shadow_ray<L: Lanes<Elem = f32>>(
+    eye_d: [L; 3],
+    p: [L; 3],
+    p_err: [L; 3],
+    ng: [L; 3],
+    pos: [L; 3],
+    cull: bool,
+) -> ShadowRays<L> {
+    // No closures over lane operations here: a closure is compiled apart from the tier's entry,
+    // without its instruction sets, and its lane operations would become calls.
+    let zero = L::zero();
+    // `face_forward(-ray.d)`.
+    let back = [eye_d[0].neg(), eye_d[1].neg(), eye_d[2].neg()];
+    let n = flip(ng, dot(ng, back).lt(zero));
+    let to = sub3(pos, p);
+    let culled = if cull { dot(n, to).le(zero).bits() } else { 0 };
+    let dist = dot(to, to).sqrt();
+    let valid = !culled & dist.gt(zero).bits();
+    let w = [to[0] / dist, to[1] / dist, to[2] / dist];
+    // `offset_ray_origin(p, p_err, ng, w)`, with the normal as the surface gives it.
+    let off_len = dot([ng[0].abs(), ng[1].abs(), ng[2].abs()], p_err);
+    let off = [ng[0] * off_len, ng[1] * off_len, ng[2] * off_len];
+    let off = flip(off, dot(w, ng).lt(zero));
+    let mut o = [zero; 3];
+    for a in 0..3 {
+        let v = p[a] + off[a];
+        let away = L::select(off[a].lt(zero), v.next_down(), v);
+        o[a] = L::select(off[a].gt(zero), v.next_up(), away);
+    }
+    let d = sub3(pos, o);
+    let len = dot(d, d).sqrt();
+    ShadowRays {
+        o,
+        d: [d[0] / len, d[1] / len, d[2] / len],
+        len,
+        valid,
     }
 }
 
@@ -297,7 +330,7 @@ mod tests {
             }
             for tier in Isa::supported_tiers() {
                 let mut out = Lanes16::new();
-                shadow_lanes_on(tier, &mut out, &eye, &s, light, cull);
+                prop_assert!(shadow_lanes_on(tier, &mut out, &eye, &s, light, cull));
                 prop_assert_eq!(out.len(), want.len(), "{}", tier);
                 for (k, w) in want.iter().enumerate() {
                     prop_assert_eq!(format!("{:?}", out.ray(k)), format!("{:?}", w), "{}", tier);

@@ -97,6 +97,29 @@ pub trait Lanes:
     /// `if m { a } else { b }` lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
 
+    /// `f32::next_up` lane by lane: the least value above (the smallest positive from `±0`;
+    /// NaN and `+∞` unchanged). This portable form goes through memory; a width whose kernels
+    /// need it fast computes it on the bits.
+    #[inline(always)]
+    fn next_up(self) -> Self {
+        let mut a = [<Self::Elem as Real>::ZERO; 16];
+        self.store(&mut a);
+        for x in &mut a[..Self::N] {
+            *x = Real::next_up(*x);
+        }
+        Self::load(&a)
+    }
+    /// `f32::next_down` lane by lane: the mirror image of [`Lanes::next_up`].
+    #[inline(always)]
+    fn next_down(self) -> Self {
+        let mut a = [<Self::Elem as Real>::ZERO; 16];
+        self.store(&mut a);
+        for x in &mut a[..Self::N] {
+            *x = Real::next_down(*x);
+        }
+        Self::load(&a)
+    }
+
     /// Zero in every lane.
     #[inline(always)]
     fn zero() -> Self {
