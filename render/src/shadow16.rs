@@ -13,7 +13,7 @@ use crate::geometry::Ray;
 #[cfg(test)]
 use crate::isa::Isa;
 use crate::isa::{Kernel, Tier};
-use crate::lanes::{Lanes, Mask};
+use crate::lanes::{dot3 as dot, splat3, Lanes, Mask};
 use crate::scene::Surface;
 use crate::vec3::V3;
 
@@ -197,18 +197,6 @@ fn rays_one_by_one(k: Shadow<'_>) {
 #[inline(always)]
 fn load3<L: Lanes<Elem = f32>>(v: &[[f32; LANES]; 3]) -> [L; 3] {
     [L::load(&v[0]), L::load(&v[1]), L::load(&v[2])]
-}
-
-/// `x` in every lane of each of three values.
-#[inline(always)]
-fn splat3<L: Lanes<Elem = f32>>(x: [f32; 3]) -> [L; 3] {
-    [L::splat(x[0]), L::splat(x[1]), L::splat(x[2])]
-}
-
-/// `u · v` in the scalar vector's order.
-#[inline(always)]
-fn dot<L: Lanes>(u: [L; 3], v: [L; 3]) -> L {
-    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 }
 
 /// `v` negated in the lanes of `m`.

@@ -7,11 +7,11 @@
 //! form on `avx2` and `avx512`), the portable lane loops ([`intersect4_lanes`],
 //! [`intersect_rays4_lanes`]) on `scalar` and elsewhere.
 
-use super::{lateral_hits, splat3, Cone, ConeLanes, RayLanes};
+use super::{lateral_hits, Cone, ConeLanes, RayLanes};
 use crate::geometry::hits4::DistanceHits4;
 use crate::geometry::ray::Ray;
 use crate::isa::{Isa, Kernel, Tier};
-use crate::lanes::{Lanes, Mask};
+use crate::lanes::{splat3, Lanes, Mask};
 use crate::real::Real;
 
 /// Cones per call.

@@ -10,7 +10,7 @@
 pub mod lanes;
 
 use super::ray::Ray;
-use crate::lanes::{Lanes, Mask};
+use crate::lanes::{dot3 as dot, splat3, Lanes, Mask};
 use crate::real::Real;
 use crate::vec3::V3;
 
@@ -191,18 +191,6 @@ impl<R: Real> RayLanes<R> {
             t_max,
         }
     }
-}
-
-/// `x` in every lane of each of three values.
-#[inline(always)]
-pub(crate) fn splat3<L: Lanes>(x: [L::Elem; 3]) -> [L; 3] {
-    [L::splat(x[0]), L::splat(x[1]), L::splat(x[2])]
-}
-
-/// `u · v` in the scalar vector's order.
-#[inline(always)]
-fn dot<L: Lanes>(u: [L; 3], v: [L; 3]) -> L {
-    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 }
 
 /// `u − v · s` by axis.
