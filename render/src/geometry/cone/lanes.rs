@@ -1,7 +1,7 @@
 //! Four cones against one ray, or one cone against four rays, at once: [`Cone::intersect`] with
 //! one cone per SIMD lane for BVH leaves of cones and cylinders (rings, tree, jacks), or one ray
 //! per lane for a packet's rays entering a leaf with a cone. The arithmetic is the one cone
-//! test, [`lateral_hits`], on four lanes, so each lane's answer is bit for bit the scalar one.
+//! test, `lateral_hits`, on four lanes, so each lane's answer is bit for bit the scalar one.
 //! [`intersect4`] and [`intersect_rays4`] run it with the code of the process's tier
 //! ([`crate::isa::dispatch`]) like [`crate::geometry::sphere4`]: four SSE2 lanes (in their VEX
 //! form on `avx2` and `avx512`), the portable lane loops ([`intersect4_lanes`],

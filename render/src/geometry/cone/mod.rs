@@ -3,7 +3,7 @@
 //! are re-projected onto the surface. Rays whose line passes the axis well outside the largest
 //! radius are turned away first, without a division or a square root.
 //!
-//! The lateral surface test is written once, [`lateral_hits`], over the lane types of
+//! The lateral surface test is written once, `lateral_hits`, over the lane types of
 //! [`crate::lanes`]: the scalar test here and the SIMD kernels of [`lanes`] (four cones against
 //! one ray, one cone against four rays) are its instances.
 
