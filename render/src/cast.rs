@@ -4,7 +4,7 @@
 //! go in 4 × 4 packets like a render's eye rays, or one by one. In `f32` on the `avx512` tier, a
 //! packet's rays live in lanes ([`Lanes16`]) from the camera through the traversal and the leaf
 //! kernels, and each light's shadow packet is made in lanes from the hits
-//! ([`crate::shadow16`]); the other tiers trace prepared rays. Both give the same rays, hits and
+//! ([`crate::packet::shadow`]); the other tiers trace prepared rays. Both give the same rays, hits and
 //! counts.
 
 use std::any::Any;
@@ -13,11 +13,11 @@ use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
 use crate::geometry::lanes16::Lanes16;
 use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
-use crate::packet_leaf::LanesLeaf;
+use crate::packet::leaf::LanesLeaf;
+use crate::packet::shadow::{shadow_lanes, SurfaceLanes};
 use crate::real::Real;
 use crate::scene::Surface;
 use crate::shade::Integrator;
-use crate::shadow16::{shadow_lanes, SurfaceLanes};
 use crate::stats::RayStats;
 use crate::tile::Tile;
 use crate::vec3::V3;

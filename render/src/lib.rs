@@ -46,15 +46,15 @@
 //!   `f32` or `f64` a scene needs.
 //! - [`camera`]: the pinhole camera of the NFF view.
 //! - [`shade`]: Whitted shading and the recursion of reflected and refracted rays.
-//! - [`packet_trace`]: eye rays and their shadow, reflection and refraction rays in packets.
+//! - [`packet`]: rays in packets: eye rays and their shadow, reflection and refraction rays
+//!   ([`packet::trace`]), a packet against a leaf ([`packet::leaf`]), its shadow rays made in
+//!   lanes ([`packet::shadow`]).
 //! - [`real`], [`vec3`]: the scalar trait (`f32` fast path, `f64` reference path) and vectors.
 //!
 //! Geometry and acceleration:
 //! - [`geometry`]: rays, boxes, the primitives' intersection tests, hit records, SIMD kernels.
 //! - [`accel`]: the BVH, the uniform grid and brute force, which all return the same hit.
 //! - [`scene_leaf`]: the scene's primitive test as the accelerators call it, four at a time.
-//! - [`packet_leaf`]: a packet's rays against a leaf, a ray per lane.
-//! - [`shadow16`]: a packet's shadow rays made sixteen lanes at a time.
 //! - [`isa`]: the instruction-set tier every SIMD kernel follows, chosen once per process, and
 //!   the one dispatch point that runs a kernel on it.
 //! - [`lanes`]: the lane types every SIMD kernel is written against (scalar, 4, 8, 16 lanes).
@@ -88,8 +88,7 @@ pub mod heap;
 pub mod isa;
 pub mod lanes;
 pub mod nff;
-pub mod packet_leaf;
-pub mod packet_trace;
+pub mod packet;
 pub mod precision;
 pub mod real;
 pub mod render;
@@ -97,7 +96,6 @@ pub mod scene;
 pub mod scene_leaf;
 pub mod settings;
 pub mod shade;
-pub mod shadow16;
 pub mod smp;
 pub mod stats;
 pub mod tile;

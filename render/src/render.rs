@@ -367,7 +367,7 @@ impl Renderer {
     }
 
     /// Traces eye rays (with one sample per pixel), their shadow rays and their coherent
-    /// reflection and refraction rays in 4 × 4 packets ([`crate::packet_trace`]; the default),
+    /// reflection and refraction rays in 4 × 4 packets ([`crate::packet::trace`]; the default),
     /// or each ray on its own. The pixels are the same
     /// bits either way; the box and primitive test counts differ.
     pub fn set_packets(&mut self, on: bool) {

@@ -2,10 +2,10 @@
 //! primitive at a time through [`Scene::intersect_prim`], except that a BVH leaf of two or more
 //! triangles, of two or more spheres, or of two or more cones in `f32` goes to a four-at-a-time
 //! SIMD kernel ([`crate::geometry::triangle4`], [`crate::geometry::sphere4`],
-//! [`crate::geometry::cone4`]), which gives each primitive exactly the scalar test's answer. A
+//! [`crate::geometry::cone::lanes`]), which gives each primitive exactly the scalar test's answer. A
 //! packet's rays entering a leaf of triangles or spheres share one gather of its primitives
 //! into the kernel's lanes ([`RayPrimTest::closest_many`]); those entering a leaf with a cone
-//! meet each of its cones four rays at a time ([`cone4::intersect_rays4`]). The choice of
+//! meet each of its cones four rays at a time ([`cone_lanes::intersect_rays4`]). The choice of
 //! precision is by type and folds away at compile time; the kernel is chosen at run time by
 //! CPU features.
 
@@ -13,7 +13,7 @@ use crate::bits::SetBits;
 use std::any::Any;
 
 use crate::accel::{OneRay, RayPrimTest};
-use crate::geometry::cone4::{self, Cones4};
+use crate::geometry::cone::lanes::{self as cone_lanes, Cones4};
 use crate::geometry::sphere4::{self, SphereLanes, Spheres4};
 use crate::geometry::triangle4::{self, TriLanes, Tris4, LANES};
 use crate::geometry::{Nearest, PreparedRay, PrimHit, Ray};
@@ -88,7 +88,7 @@ enum Gathered {
 }
 
 impl Gathered {
-    /// `None` for cones (a packet meets them ray-per-lane, [`cone4::intersect_rays4`]).
+    /// `None` for cones (a packet meets them ray-per-lane, [`cone_lanes::intersect_rays4`]).
     #[inline(always)]
     fn new(leaf: &Simd<'_>) -> Option<Self> {
         match leaf {
@@ -218,7 +218,7 @@ fn run(pr: &PreparedRay<f32>, leaf: &Simd<'_>, used: usize, t_max: f32) -> (u32,
             (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
         }
         Simd::Cones(cones) => {
-            let h = cone4::intersect4(&pr.ray, cones, used, t_max);
+            let h = cone_lanes::intersect4(&pr.ray, cones, used, t_max);
             (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
         }
     }
@@ -357,7 +357,7 @@ impl<R: Real> SceneLeaf<'_, R> {
             };
             ray_groups(rays, which, |idx, group, used| {
                 let t_max = idx.map(|i| best[i].t.to_f32());
-                let h = cone4::intersect_rays4(cone, group, used, t_max);
+                let h = cone_lanes::intersect_rays4(cone, group, used, t_max);
                 for l in SetBits(h.mask) {
                     best[idx[l]].offer(Some(PrimHit {
                         t: R::from_f32(h.t[l]),
@@ -399,7 +399,7 @@ impl<R: Real> SceneLeaf<'_, R> {
             };
             ray_groups(rays, open, |idx, group, used| {
                 let t_max = idx.map(|i| rays[i].ray.t_max.to_f32());
-                let h = cone4::intersect_rays4(cone, group, used, t_max);
+                let h = cone_lanes::intersect_rays4(cone, group, used, t_max);
                 for l in SetBits(h.mask) {
                     hit |= 1 << idx[l];
                     first[idx[l]] = k;

@@ -4,7 +4,6 @@
 
 pub mod aabb;
 pub mod cone;
-pub mod cone4;
 pub mod hit;
 pub mod hits4;
 pub mod lanes16;
@@ -15,8 +14,6 @@ pub mod slab8;
 pub mod slab_dispatch;
 pub mod sphere;
 pub mod sphere4;
-#[cfg(target_arch = "x86_64")]
-pub mod sse4;
 pub mod triangle;
 pub mod triangle4;
 pub mod triangulate;

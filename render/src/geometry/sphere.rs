@@ -7,7 +7,7 @@
 //! and [`super::leaf16`] (a packet's rays against one sphere) are its instances.
 
 use super::ray::Ray;
-use crate::lanes::{Lanes, Mask};
+use crate::lanes::{dot3 as dot, Lanes, Mask};
 use crate::real::Real;
 use crate::vec3::V3;
 
@@ -48,12 +48,6 @@ impl<R: Real> Sphere<R> {
         let err = (rel.abs() + self.center.abs()) * R::gamma(6);
         (p, err, rel / self.radius)
     }
-}
-
-/// `u · v` in the scalar test's order.
-#[inline(always)]
-fn dot<L: Lanes>(u: [L; 3], v: [L; 3]) -> L {
-    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 }
 
 /// The answers of `nearest_root`: bit `i` of `mask` is set when lane `i` is hit, at `t`

@@ -97,9 +97,46 @@ pub trait Lanes:
     /// `if m { a } else { b }` lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
 
+    /// `f32::next_up` lane by lane: the least value above (the smallest positive from `±0`;
+    /// NaN and `+∞` unchanged). This portable form goes through memory; a width whose kernels
+    /// need it fast computes it on the bits.
+    #[inline(always)]
+    fn next_up(self) -> Self {
+        each(self, Real::next_up)
+    }
+    /// `f32::next_down` lane by lane: the mirror image of [`Lanes::next_up`].
+    #[inline(always)]
+    fn next_down(self) -> Self {
+        each(self, Real::next_down)
+    }
+
     /// Zero in every lane.
     #[inline(always)]
     fn zero() -> Self {
         Self::splat(<Self::Elem as Real>::ZERO)
     }
+}
+
+/// `f` on each lane of `v`, through memory (for the operations a width has no instruction
+/// for).
+#[inline(always)]
+fn each<L: Lanes>(v: L, f: fn(L::Elem) -> L::Elem) -> L {
+    let mut a = [<L::Elem as Real>::ZERO; 16];
+    v.store(&mut a);
+    for x in &mut a[..L::N] {
+        *x = f(*x);
+    }
+    L::load(&a)
+}
+
+/// `u · v` in the order the scalar vector type sums it: `(x + y) + z`.
+#[inline(always)]
+pub(crate) fn dot3<L: Lanes>(u: [L; 3], v: [L; 3]) -> L {
+    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+}
+
+/// `x` in every lane of each of three values.
+#[inline(always)]
+pub(crate) fn splat3<L: Lanes>(x: [L::Elem; 3]) -> [L; 3] {
+    [L::splat(x[0]), L::splat(x[1]), L::splat(x[2])]
 }

@@ -82,6 +82,14 @@ impl<R: Real> Lanes for R {
         self == o
     }
     #[inline(always)]
+    fn next_up(self) -> R {
+        Real::next_up(self)
+    }
+    #[inline(always)]
+    fn next_down(self) -> R {
+        Real::next_down(self)
+    }
+    #[inline(always)]
     fn select(m: bool, a: R, b: R) -> R {
         if m {
             a

@@ -117,4 +117,37 @@ impl Lanes for X16 {
     fn zero() -> X16 {
         X16(unsafe { _mm512_setzero_ps() })
     }
+    #[inline(always)]
+    fn next_up(self) -> X16 {
+        X16(unsafe { next_toward(self.0, false) })
+    }
+    #[inline(always)]
+    fn next_down(self) -> X16 {
+        X16(unsafe { next_toward(self.0, true) })
+    }
+}
+
+/// `f32::next_up` (`down` false) or `f32::next_down` (`down` true) on the bits of each lane:
+/// one step away from zero on the bits of the side the step goes to, one towards it on the
+/// other; from `±0` the smallest value of the step's sign; NaN and the infinity the step goes
+/// to unchanged.
+#[inline(always)]
+unsafe fn next_toward(v: __m512, down: bool) -> __m512 {
+    let bits = _mm512_castps_si512(v);
+    let (zero, one) = (_mm512_setzero_si512(), _mm512_set1_epi32(1));
+    let negative = _mm512_cmplt_epi32_mask(bits, zero);
+    let abs = _mm512_and_si512(bits, _mm512_set1_epi32(0x7fff_ffff));
+    let zero_abs = _mm512_cmpeq_epi32_mask(abs, zero);
+    let nan = _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(v, v);
+    // Where the bits go down: a negative value stepping up, a positive one stepping down.
+    let (minus_where, from_zero, end) = if down {
+        (!negative, 0x8000_0001u32 as i32, 0xff80_0000u32 as i32)
+    } else {
+        (negative, 1, 0x7f80_0000)
+    };
+    let plus = _mm512_add_epi32(bits, one);
+    let r = _mm512_mask_blend_epi32(minus_where, plus, _mm512_sub_epi32(bits, one));
+    let r = _mm512_mask_blend_epi32(zero_abs, r, _mm512_set1_epi32(from_zero));
+    let fixed = nan | _mm512_cmpeq_epi32_mask(bits, _mm512_set1_epi32(end));
+    _mm512_castsi512_ps(_mm512_mask_blend_epi32(fixed, r, bits))
 }

@@ -12,7 +12,7 @@ use parrt_render::camera::Camera;
 use parrt_render::description::Shape;
 use parrt_render::geometry::lanes16::Lanes16;
 use parrt_render::geometry::{offset_ray_origin, PreparedRay, Ray};
-use parrt_render::packet_leaf::{LanesLeaf, PacketLeaf};
+use parrt_render::packet::leaf::{LanesLeaf, PacketLeaf};
 use parrt_render::scene::Scene;
 use parrt_render::stats::RayStats;
 use parrt_render::vec3::V3;

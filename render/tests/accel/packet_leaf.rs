@@ -13,7 +13,7 @@ use crate::support::spd::{key, load};
 use parrt_render::accel::RayPrimTest;
 use parrt_render::description::{Shape, View};
 use parrt_render::geometry::{Nearest, PreparedRay, Ray};
-use parrt_render::packet_leaf::PacketLeaf;
+use parrt_render::packet::leaf::PacketLeaf;
 use parrt_render::real::Real;
 use parrt_render::scene::{Prim, Scene};
 use parrt_render::scene_leaf::SceneLeaf;

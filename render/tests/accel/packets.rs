@@ -349,7 +349,7 @@ fn integrator<R: Real>(
 /// traced together with `trace_packet`, get the colour `trace` gives each alone, bit for bit;
 /// returns how many of those packets were coherent enough to go through the packet code.
 fn secondary_packets_match<R: Real>(name: &str, w: u32, h: u32, max_depth: u32) -> usize {
-    use parrt_render::packet_trace::directions_close;
+    use parrt_render::packet::trace::directions_close;
     use parrt_render::shade::RayKind;
     let desc = load(name);
     let (integ, camera) = integrator::<R>(&desc, w, h, max_depth);

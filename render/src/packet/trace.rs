@@ -14,10 +14,10 @@ use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
 use crate::geometry::lanes16::Lanes16;
 use crate::geometry::{PreparedRay, PrimHit, Ray};
-use crate::packet_leaf::{LanesLeaf, PacketLeaf};
+use crate::packet::leaf::{LanesLeaf, PacketLeaf};
+use crate::packet::shadow::{shadow_lanes, SurfaceLanes};
 use crate::real::Real;
 use crate::shade::{Integrator, Lit, RayKind};
-use crate::shadow16::{shadow_lanes, SurfaceLanes};
 use crate::stats::RayStats;
 use crate::vec3::V3;
 
@@ -77,7 +77,7 @@ impl<R: Real> Integrator<R> {
     /// `by..by + bh` (at most [`PACKET`], row by row), into `out`'s first `bw × bh`: the colours
     /// [`Integrator::trace_eye_packet`] gives `camera.ray(x + 0.5, y + 0.5)`. In `f32` on the
     /// `avx512` tier the rays are made in lanes and the hits and their shadow rays found in
-    /// lanes ([`Lanes16`], [`crate::shadow16`]), as `bench cast` does; the rest (shading,
+    /// lanes ([`Lanes16`], [`crate::packet::shadow`]), as `bench cast` does; the rest (shading,
     /// secondary rays) is the same code either way. Other tiers and `f64` make the rays one by
     /// one (the lanes do not pay there, as measured in bench/results/).
     pub fn trace_eye_block(

@@ -2,8 +2,15 @@
 //! ray's closest approach to the cone's centre, so distant rays keep their precision; hit points
 //! are re-projected onto the surface. Rays whose line passes the axis well outside the largest
 //! radius are turned away first, without a division or a square root.
+//!
+//! The lateral surface test is written once, `lateral_hits`, over the lane types of
+//! [`crate::lanes`]: the scalar test here and the SIMD kernels of [`lanes`] (four cones against
+//! one ray, one cone against four rays) are its instances.
+
+pub mod lanes;
 
 use super::ray::Ray;
+use crate::lanes::{dot3 as dot, splat3, Lanes, Mask};
 use crate::real::Real;
 use crate::vec3::V3;
 
@@ -85,61 +92,23 @@ impl<R: Real> Cone<R> {
         self.solve(ray, t_max)
     }
 
-    /// The full test behind [`Cone::intersect`]: the quadratic, its roots and their range.
+    /// The full test behind [`Cone::intersect`]: the lane kernel [`lateral_hits`] with one lane.
     #[inline(always)]
     fn solve(&self, ray: &Ray<R>, t_max: R) -> Option<R> {
-        let a = self.axis;
-        // Move the origin along the ray to its closest approach to the cone's middle.
-        let mid = self.base + a * (self.height * R::HALF);
-        let dd = ray.d.length_squared();
-        let shift = (mid - ray.o).dot(ray.d) / dd;
-        let o = ray.o + ray.d * shift;
-        let w = o - self.base;
-        let d = ray.d;
-        let wz = w.dot(a);
-        let dz = d.dot(a);
-        let wp = w - a * wz;
-        let dp = d - a * dz;
-        let rw = self.radius_at(wz);
-        let k = self.slope;
-        let qa = dp.length_squared() - k * k * dz * dz;
-        let qb = wp.dot(dp) - k * rw * dz; // half b
-        let qc = wp.length_squared() - rw * rw;
-        let (t0, t1) = if qa.abs() <= R::gamma(8) * (dp.length_squared() + k * k * dz * dz) {
-            // Ray parallel to a generator line: one root of the linear equation.
-            if qb == R::ZERO {
-                return None;
-            }
-            let t = -qc / (R::TWO * qb);
-            (t, t)
-        } else {
-            let disc = qb * qb - qa * qc;
-            if disc < R::ZERO {
-                return None;
-            }
-            let root = disc.sqrt();
-            let q = -(qb + root.copysign(qb));
-            if q == R::ZERO {
-                return None;
-            }
-            let (x, y) = (q / qa, qc / q);
-            if x < y {
-                (x, y)
-            } else {
-                (y, x)
-            }
-        };
-        for tl in [t0, t1] {
-            let t = tl + shift;
-            if t < ray.t_min || t > t_max || t <= R::ZERO {
-                continue;
-            }
-            let z = wz + dz * tl;
-            if z >= R::ZERO && z <= self.height && self.radius_at(z) >= R::ZERO {
-                return Some(t);
-            }
+        let (hit, t) = lateral_hits(&self.lanes(), &RayLanes::of(ray, t_max));
+        hit.then_some(t)
+    }
+
+    /// The cone in one lane.
+    #[inline(always)]
+    pub(crate) fn lanes(&self) -> ConeLanes<R> {
+        ConeLanes {
+            base: self.base.to_array(),
+            axis: self.axis.to_array(),
+            height: self.height,
+            r0: self.r0,
+            slope: self.slope,
         }
-        None
     }
 
     /// The hit point re-projected onto the surface, its error bound, and the outward normal.
@@ -167,6 +136,148 @@ impl<R: Real> Cone<R> {
         let n = (dir - self.axis * self.slope).normalize();
         (p, err, n)
     }
+}
+
+/// A cone's fields in lanes: one cone per lane, or one cone in all.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ConeLanes<L> {
+    /// Centre of the base circle, by axis.
+    pub base: [L; 3],
+    /// Unit axis, by axis.
+    pub axis: [L; 3],
+    /// Distance from base to apex.
+    pub height: L,
+    /// Base radius.
+    pub r0: L,
+    /// Radius change per unit height.
+    pub slope: L,
+}
+
+impl<L: Lanes> ConeLanes<L> {
+    /// One cone (`one`) in every lane.
+    #[inline(always)]
+    pub(crate) fn splat(one: &ConeLanes<L::Elem>) -> Self {
+        ConeLanes {
+            base: splat3(one.base),
+            axis: splat3(one.axis),
+            height: L::splat(one.height),
+            r0: L::splat(one.r0),
+            slope: L::splat(one.slope),
+        }
+    }
+}
+
+/// A ray's fields and `t` range in lanes: one ray per lane, or one ray in all.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RayLanes<L> {
+    /// Origin, by axis.
+    pub o: [L; 3],
+    /// Direction, by axis.
+    pub d: [L; 3],
+    /// Nearest `t` that counts.
+    pub t_min: L,
+    /// Farthest `t` that counts.
+    pub t_max: L,
+}
+
+impl<R: Real> RayLanes<R> {
+    /// `ray` within `t_max` in one lane.
+    #[inline(always)]
+    pub(crate) fn of(ray: &Ray<R>, t_max: R) -> Self {
+        RayLanes {
+            o: ray.o.to_array(),
+            d: ray.d.to_array(),
+            t_min: ray.t_min,
+            t_max,
+        }
+    }
+}
+
+/// `u − v · s` by axis.
+#[inline(always)]
+fn sub_scaled<L: Lanes>(u: [L; 3], v: [L; 3], s: L) -> [L; 3] {
+    [u[0] - v[0] * s, u[1] - v[1] * s, u[2] - v[2] * s]
+}
+
+/// Whether a root `tl` (in the moved frame) is taken: its `t` in range (not `t < t_min`, not
+/// `t > t_max`, not `t <= 0`: a NaN `t` passes here and fails the height test) and its point
+/// within the height on a non-negative radius. The answer and the root's `t`.
+#[inline(always)]
+fn accept<L: Lanes>(
+    c: &ConeLanes<L>,
+    r: &RayLanes<L>,
+    wz: L,
+    dz: L,
+    shift: L,
+    tl: L,
+) -> (L::Mask, L) {
+    let zero = L::zero();
+    let t = tl + shift;
+    let t_out = t.lt(r.t_min) | t.gt(r.t_max) | t.le(zero);
+    let z = wz + dz * tl;
+    let z_ok = z.ge(zero) & z.le(c.height) & (c.r0 + c.slope * z).ge(zero);
+    (t_out.andnot(z_ok), t)
+}
+
+/// The cone's lateral surface test, written once for every lane type ([`crate::lanes`]): the
+/// scalar [`Cone::intersect`] (past its far-miss filter) is its one-lane instance, the SIMD
+/// kernels of [`lanes`] its four-lane instances. The quadratic is solved in a frame moved to
+/// the ray's closest approach to the cone's middle; each early answer of the scalar reasoning
+/// (a ray parallel to a generator, a negative discriminant, `q == 0`, the roots in order, the
+/// `t` and height ranges) is a lane mask. The lanes hit, and their `t` (meaningful in the lanes
+/// hit).
+#[inline(always)]
+pub(crate) fn lateral_hits<L: Lanes>(c: &ConeLanes<L>, r: &RayLanes<L>) -> (L::Mask, L) {
+    // No closures over lane operations here: a closure is compiled apart from the tier's entry,
+    // without its instruction sets, and its lane operations would become calls.
+    let zero = L::zero();
+    let (a, d, k) = (c.axis, r.d, c.slope);
+    // Move the origin along the ray to its closest approach to the cone's middle.
+    let hh = c.height * L::splat(<L::Elem as Real>::HALF);
+    let mid = [
+        c.base[0] + a[0] * hh,
+        c.base[1] + a[1] * hh,
+        c.base[2] + a[2] * hh,
+    ];
+    let dd = dot(d, d);
+    let to_mid = [mid[0] - r.o[0], mid[1] - r.o[1], mid[2] - r.o[2]];
+    let shift = dot(to_mid, d) / dd;
+    let w = [
+        r.o[0] + d[0] * shift - c.base[0],
+        r.o[1] + d[1] * shift - c.base[1],
+        r.o[2] + d[2] * shift - c.base[2],
+    ];
+    let wz = dot(w, a);
+    let dz = dot(d, a);
+    let wp = sub_scaled(w, a, wz);
+    let dp = sub_scaled(d, a, dz);
+    let rw = c.r0 + k * wz;
+    let dp2 = dot(dp, dp);
+    let kkdd = k * k * dz * dz;
+    let qa = dp2 - kkdd;
+    let qb = dot(wp, dp) - k * rw * dz; // half b
+    let qc = dot(wp, wp) - rw * rw;
+    // A ray parallel to a generator line: one root of the linear equation, t = −qc / (2 qb),
+    // missed when qb == 0.
+    let gamma8 = L::splat(<L::Elem as Real>::gamma(8));
+    let parallel = qa.abs().le(gamma8 * (dp2 + kkdd));
+    let t_lin = qc.neg() / (L::splat(<L::Elem as Real>::TWO) * qb);
+    let miss_lin = qb.eq(zero);
+    // Otherwise the two roots, missed when disc < 0 or q == 0.
+    let disc = qb * qb - qa * qc;
+    let root = disc.sqrt();
+    let q = (qb + root.copysign(qb)).neg();
+    let miss_quad = disc.lt(zero) | q.eq(zero);
+    let (x, y) = (q / qa, qc / q);
+    let x_first = x.lt(y);
+    let (t0, t1) = (L::select(x_first, x, y), L::select(x_first, y, x));
+    let t0 = L::select(parallel, t_lin, t0);
+    let t1 = L::select(parallel, t_lin, t1);
+    let miss = (parallel & miss_lin) | parallel.andnot(miss_quad);
+    // The first root (in order) whose t is in range and whose point is within the height.
+    let (ok0, ta) = accept(c, r, wz, dz, shift, t0);
+    let (ok1, tb) = accept(c, r, wz, dz, shift, t1);
+    (miss.andnot(ok0 | ok1), L::select(ok0, ta, tb))
 }
 
 #[cfg(test)]

@@ -1,0 +1,406 @@
+//! Four cones against one ray, or one cone against four rays, at once: [`Cone::intersect`] with
+//! one cone per SIMD lane for BVH leaves of cones and cylinders (rings, tree, jacks), or one ray
+//! per lane for a packet's rays entering a leaf with a cone. The arithmetic is the one cone
+//! test, `lateral_hits`, on four lanes, so each lane's answer is bit for bit the scalar one.
+//! [`intersect4`] and [`intersect_rays4`] run it with the code of the process's tier
+//! ([`crate::isa::dispatch`]) like [`crate::geometry::sphere4`]: four SSE2 lanes (in their VEX
+//! form on `avx2` and `avx512`), the portable lane loops ([`intersect4_lanes`],
+//! [`intersect_rays4_lanes`]) on `scalar` and elsewhere.
+
+use super::{lateral_hits, Cone, ConeLanes, RayLanes};
+use crate::geometry::hits4::DistanceHits4;
+use crate::geometry::ray::Ray;
+use crate::isa::{Isa, Kernel, Tier};
+use crate::lanes::{splat3, Lanes, Mask};
+use crate::real::Real;
+
+/// Cones per call.
+pub const LANES: usize = 4;
+
+/// The cones of the lanes (unused lanes repeat a used one; `used` says how many count).
+pub type Cones4<'a, R> = [&'a Cone<R>; LANES];
+
+/// The portable kernel: the scalar test lane by lane, in any precision.
+#[inline(always)]
+pub fn intersect4_lanes<R: Real>(
+    ray: &Ray<R>,
+    cones: &Cones4<'_, R>,
+    used: usize,
+    t_max: R,
+) -> DistanceHits4<R> {
+    DistanceHits4::from_tests(cones.iter().take(used).map(|c| c.intersect(ray, t_max)))
+}
+
+/// The `f32` test of `used` (1..=4) cones, with the kernel of the process's tier.
+#[inline]
+pub fn intersect4(
+    ray: &Ray<f32>,
+    cones: &Cones4<'_, f32>,
+    used: usize,
+    t_max: f32,
+) -> DistanceHits4<f32> {
+    crate::isa::dispatch(FourCones {
+        ray,
+        cones,
+        used,
+        t_max,
+    })
+}
+
+/// [`intersect4`] with the code of `tier`, or `None` when this CPU does not run `tier` (for the
+/// tests that compare the tiers).
+pub fn intersect4_on(
+    tier: Isa,
+    ray: &Ray<f32>,
+    cones: &Cones4<'_, f32>,
+    used: usize,
+    t_max: f32,
+) -> Option<DistanceHits4<f32>> {
+    let k = FourCones {
+        ray,
+        cones,
+        used,
+        t_max,
+    };
+    crate::isa::dispatch_on(tier, k)
+}
+
+/// The portable kernel of one cone against up to four rays (lane `i`: `rays[i]` within
+/// `t_max[i]`), the scalar test lane by lane.
+#[inline(always)]
+pub fn intersect_rays4_lanes<R: Real>(
+    cone: &Cone<R>,
+    rays: &[&Ray<R>; LANES],
+    used: usize,
+    t_max: [R; LANES],
+) -> DistanceHits4<R> {
+    DistanceHits4::from_tests(
+        rays.iter()
+            .zip(t_max)
+            .take(used)
+            .map(|(r, t)| cone.intersect(r, t)),
+    )
+}
+
+/// One `f32` cone against `used` (1..=4) rays (a packet's rays entering a leaf), with the
+/// kernel of the process's tier; lane `i` is [`Cone::intersect`] of `rays[i]` within `t_max[i]`.
+#[inline]
+pub fn intersect_rays4(
+    cone: &Cone<f32>,
+    rays: &[&Ray<f32>; LANES],
+    used: usize,
+    t_max: [f32; LANES],
+) -> DistanceHits4<f32> {
+    crate::isa::dispatch(FourRays {
+        cone,
+        rays,
+        used,
+        t_max,
+    })
+}
+
+/// [`intersect_rays4`] with the code of `tier`, or `None` when this CPU does not run `tier`.
+pub fn intersect_rays4_on(
+    tier: Isa,
+    cone: &Cone<f32>,
+    rays: &[&Ray<f32>; LANES],
+    used: usize,
+    t_max: [f32; LANES],
+) -> Option<DistanceHits4<f32>> {
+    let k = FourRays {
+        cone,
+        rays,
+        used,
+        t_max,
+    };
+    crate::isa::dispatch_on(tier, k)
+}
+
+/// One ray against four cones: the kernel [`crate::isa::dispatch`] runs.
+struct FourCones<'a> {
+    ray: &'a Ray<f32>,
+    cones: &'a Cones4<'a, f32>,
+    used: usize,
+    t_max: f32,
+}
+
+impl Kernel for FourCones<'_> {
+    type Output = DistanceHits4<f32>;
+
+    /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
+    /// portable lane loop on `scalar` and on other targets.
+    #[inline(always)]
+    fn run<T: Tier>(self) -> DistanceHits4<f32> {
+        #[cfg(target_arch = "x86_64")]
+        if T::ISA.sse2() {
+            return cones_kernel::<crate::lanes::X4>(self.ray, self.cones, self.used, self.t_max);
+        }
+        intersect4_lanes(self.ray, self.cones, self.used, self.t_max)
+    }
+}
+
+/// One cone against four rays: the kernel [`crate::isa::dispatch`] runs.
+struct FourRays<'a> {
+    cone: &'a Cone<f32>,
+    rays: &'a [&'a Ray<f32>; LANES],
+    used: usize,
+    t_max: [f32; LANES],
+}
+
+impl Kernel for FourRays<'_> {
+    type Output = DistanceHits4<f32>;
+
+    /// As [`FourCones`].
+    #[inline(always)]
+    fn run<T: Tier>(self) -> DistanceHits4<f32> {
+        #[cfg(target_arch = "x86_64")]
+        if T::ISA.sse2() {
+            return rays_kernel::<crate::lanes::X4>(self.cone, self.rays, self.used, self.t_max);
+        }
+        intersect_rays4_lanes(self.cone, self.rays, self.used, self.t_max)
+    }
+}
+
+/// Field `f` of the four lanes' values, as lanes (`f` a plain function, not a closure, so that
+/// it compiles inside the tier's entry).
+#[inline(always)]
+fn gather<T, L: Lanes<Elem = f32>>(items: &[&T; LANES], f: fn(&T) -> f32) -> L {
+    L::load(&[f(items[0]), f(items[1]), f(items[2]), f(items[3])])
+}
+
+/// Four cones against one ray ([`lateral_hits`] with a cone per lane).
+#[inline(always)]
+fn cones_kernel<L: Lanes<Elem = f32>>(
+    ray: &Ray<f32>,
+    cones: &Cones4<'_, f32>,
+    used: usize,
+    t_max: f32,
+) -> DistanceHits4<f32> {
+    let c = ConeLanes {
+        base: [
+            gather(cones, |c| c.base.x),
+            gather(cones, |c| c.base.y),
+            gather(cones, |c| c.base.z),
+        ],
+        axis: [
+            gather(cones, |c| c.axis.x),
+            gather(cones, |c| c.axis.y),
+            gather(cones, |c| c.axis.z),
+        ],
+        height: gather(cones, |c| c.height),
+        r0: gather(cones, |c| c.r0),
+        slope: gather(cones, |c| c.slope),
+    };
+    let r = RayLanes {
+        o: splat3(ray.o.to_array()),
+        d: splat3(ray.d.to_array()),
+        t_min: L::splat(ray.t_min),
+        t_max: L::splat(t_max),
+    };
+    finish(lateral_hits(&c, &r), used)
+}
+
+/// One cone against four rays ([`lateral_hits`] with a ray per lane).
+#[inline(always)]
+fn rays_kernel<L: Lanes<Elem = f32>>(
+    cone: &Cone<f32>,
+    rays: &[&Ray<f32>; LANES],
+    used: usize,
+    t_max: [f32; LANES],
+) -> DistanceHits4<f32> {
+    let c = ConeLanes::splat(&cone.lanes());
+    let r = RayLanes {
+        o: [
+            gather(rays, |r| r.o.x),
+            gather(rays, |r| r.o.y),
+            gather(rays, |r| r.o.z),
+        ],
+        d: [
+            gather(rays, |r| r.d.x),
+            gather(rays, |r| r.d.y),
+            gather(rays, |r| r.d.z),
+        ],
+        t_min: gather(rays, |r| r.t_min),
+        t_max: L::load(&t_max),
+    };
+    finish(lateral_hits(&c, &r), used)
+}
+
+/// The used lanes' answers.
+#[inline(always)]
+fn finish<L: Lanes<Elem = f32>>((hit, t): (L::Mask, L), used: usize) -> DistanceHits4<f32> {
+    let mut out = DistanceHits4 {
+        mask: hit.bits() & ((1u32 << used) - 1),
+        t: [0.0; LANES],
+    };
+    t.store(&mut out.t);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vec3::V3;
+    use proptest::prelude::*;
+
+    /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit.
+    fn check(ray: &Ray<f32>, c: &Cones4<'_, f32>, used: usize, t_max: f32) -> u32 {
+        let want = intersect4_lanes(ray, c, used, t_max);
+        let mut kernels = vec![intersect4(ray, c, used, t_max)];
+        for tier in Isa::ALL {
+            kernels.extend(intersect4_on(tier, ray, c, used, t_max));
+        }
+        for got in kernels {
+            assert_eq!(got.mask, want.mask, "{ray:?} used {used} t_max {t_max}");
+            for i in 0..LANES {
+                if want.mask & (1 << i) != 0 {
+                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "lane {i}");
+                }
+            }
+        }
+        want.mask
+    }
+
+    /// [`check`] for the one-cone, four-ray kernels.
+    fn check_rays(c: &Cone<f32>, rays: &[&Ray<f32>; LANES], used: usize, t_max: [f32; 4]) -> u32 {
+        let want = intersect_rays4_lanes(c, rays, used, t_max);
+        let mut kernels = vec![intersect_rays4(c, rays, used, t_max)];
+        for tier in Isa::ALL {
+            kernels.extend(intersect_rays4_on(tier, c, rays, used, t_max));
+        }
+        for got in kernels {
+            assert_eq!(
+                got.mask, want.mask,
+                "{c:?} {rays:?} used {used} t_max {t_max:?}"
+            );
+            for i in 0..LANES {
+                if want.mask & (1 << i) != 0 {
+                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "lane {i}");
+                }
+            }
+        }
+        want.mask
+    }
+
+    /// A direction from `o` that, by `aim`, runs along the cone's axis, along a generator
+    /// line (the parallel-ray branch), at the base rim, or is `d` as given.
+    fn aimed(c: &Cone<f32>, o: V3<f32>, d: V3<f32>, aim: usize) -> V3<f32> {
+        let apex = c.base + c.axis * c.height;
+        let side = c.axis.cross(V3::new(0.3, 0.5, 0.8)).normalize();
+        match aim {
+            0 => c.axis,
+            1 => apex + side * (c.r0 + c.slope * c.height) - (c.base + side * c.r0),
+            2 => c.base + side * c.r0 - o,
+            _ => d,
+        }
+    }
+
+    fn coord() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            4 => -4.0f32..4.0,
+            1 => Just(0.0f32),
+            1 => Just(1.0f32),
+            1 => -3.0e4f32..3.0e4,
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4000))]
+        /// Random cones, cylinders and true cones (some around the ray's origin, some far),
+        /// rays along an axis, parallel to a generator line and aimed at a rim: the kernels
+        /// agree lane for lane.
+        #[test]
+        fn kernels_agree_on_random_cones(
+            ends in proptest::array::uniform4(proptest::array::uniform2(
+                proptest::array::uniform3(coord()))),
+            radii in proptest::array::uniform4(proptest::array::uniform2(
+                prop_oneof![0.01f32..3.0, Just(1.0f32), Just(0.0f32)])),
+            o in proptest::array::uniform3(coord()),
+            d in proptest::array::uniform3(coord()),
+            aim in 0usize..13,
+            used in 1usize..=4,
+            t_max in prop_oneof![Just(f32::INFINITY), 0.0f32..50.0],
+        ) {
+            let mut cones = Vec::new();
+            for i in 0..4 {
+                let (r0, r1) = (radii[i][0], radii[i][1]);
+                let c = Cone::new(V3::from_array(ends[i][0]), r0, V3::from_array(ends[i][1]), r1);
+                cones.push(c.unwrap_or_else(|| {
+                    Cone::new(V3::zero(), 1.0, V3::new(0.0, 0.0, 1.0), 0.5).unwrap()
+                }));
+            }
+            let o = V3::from_array(o);
+            let d = aimed(&cones[aim % 4], o, V3::from_array(d), aim / 4);
+            prop_assume!(d.length() > 0.0 && d.length().is_finite());
+            let ray = Ray { o, d: d.normalize(), t_min: 0.0, t_max };
+            let refs = [&cones[0], &cones[1], &cones[2], &cones[3]];
+            check(&ray, &refs, used, t_max);
+        }
+
+        /// One random cone against four random rays, each aimed as above and with its own
+        /// `t_max`: the one-cone kernels agree lane for lane.
+        #[test]
+        fn ray_kernels_agree_on_random_rays(
+            ends in proptest::array::uniform2(proptest::array::uniform3(coord())),
+            radii in proptest::array::uniform2(prop_oneof![0.01f32..3.0, Just(1.0f32), Just(0.0f32)]),
+            o in proptest::array::uniform4(proptest::array::uniform3(coord())),
+            d in proptest::array::uniform4(proptest::array::uniform3(coord())),
+            aim in proptest::array::uniform4(0usize..5),
+            used in 1usize..=4,
+            t_max in proptest::array::uniform4(prop_oneof![Just(f32::INFINITY), 0.0f32..50.0]),
+        ) {
+            let c = Cone::new(V3::from_array(ends[0]), radii[0], V3::from_array(ends[1]), radii[1]);
+            let c = c.unwrap_or_else(|| Cone::new(V3::zero(), 1.0, V3::new(0.0, 0.0, 1.0), 0.5).unwrap());
+            let mut rays = [Ray { o: V3::zero(), d: V3::new(1.0f32, 0.0, 0.0), t_min: 0.0, t_max: 0.0 }; 4];
+            for i in 0..4 {
+                let o = V3::from_array(o[i]);
+                let d = aimed(&c, o, V3::from_array(d[i]), aim[i]);
+                prop_assume!(d.length() > 0.0 && d.length().is_finite());
+                rays[i] = Ray { o, d: d.normalize(), t_min: 0.0, t_max: t_max[i] };
+            }
+            let refs = [&rays[0], &rays[1], &rays[2], &rays[3]];
+            check_rays(&c, &refs, used, t_max);
+        }
+    }
+
+    #[test]
+    fn kernels_agree_through_sides_ends_and_axis() {
+        let c = [
+            Cone::new(V3::new(0.0f32, 0.0, 5.0), 1.0, V3::new(0.0, 0.0, 7.0), 1.0),
+            Cone::new(V3::new(0.0, 0.0, -1.0), 2.0, V3::new(0.0, 0.0, 1.0), 0.0),
+            Cone::new(V3::new(0.0, -3.0, 0.0), 0.5, V3::new(0.0, 3.0, 0.0), 1.5),
+            Cone::new(V3::new(1.0e5, 0.0, 0.0), 0.1, V3::new(1.0e5, 0.0, 1.0), 0.1),
+        ]
+        .map(|c| c.unwrap());
+        let refs = [&c[0], &c[1], &c[2], &c[3]];
+        let mut hits = 0;
+        for o in [[0.0f32, 0.0, 0.0], [-5.0, 0.0, 0.5], [0.0, 0.0, 6.0]] {
+            for d in [
+                [0.0f32, 0.0, 1.0],
+                [0.0, 0.0, -1.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.2, 0.0, 1.0],
+                [1.0, 0.0, 1.0],
+            ] {
+                let ray = Ray {
+                    o: V3::from_array(o),
+                    d: V3::from_array(d).normalize(),
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                };
+                for used in 1..=4 {
+                    for t_max in [f32::INFINITY, 1.0e5, 4.0, 1.0] {
+                        hits += check(&ray, &refs, used, t_max).count_ones();
+                        let rays = [&ray; 4];
+                        let t4 = [t_max, f32::INFINITY, 1.0, 4.0];
+                        for c in &c {
+                            hits += check_rays(c, &rays, used, t4).count_ones();
+                        }
+                    }
+                }
+            }
+        }
+        assert!(hits > 30, "{hits}");
+    }
+}

@@ -1,0 +1,8 @@
+//! Rays in packets: the eye rays of a 4 × 4 pixel block and the shadow, reflection and
+//! refraction rays they make ([`trace`]), a packet's rays against a leaf, a ray per lane
+//! ([`leaf`]), and a packet's shadow rays towards one light made sixteen lanes at a time
+//! ([`shadow`]).
+
+pub mod leaf;
+pub mod shadow;
+pub mod trace;
