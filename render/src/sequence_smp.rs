@@ -95,6 +95,10 @@ struct Open {
     seconds: Vec<f64>,
 }
 
+/// The latest measured seconds of each tile, by tile id, for images of one width, height and
+/// tile edge (the key): what orders the next frame's tiles.
+type TileCosts = Option<((u32, u32, u32), Vec<f64>)>;
+
 /// The queue spanning frames, under one lock.
 struct State<E> {
     /// The next frame to open.
@@ -104,7 +108,7 @@ struct State<E> {
     /// Frames being built or written (alive, but not in `open`).
     elsewhere: usize,
     /// Latest measured seconds of each tile, for images of this width, height and tile size.
-    costs: Option<((u32, u32, u32), Vec<f64>)>,
+    costs: TileCosts,
     failed: Option<E>,
     result: SequenceResult,
 }
@@ -261,12 +265,7 @@ pub fn render_sequence<E: Send>(
 }
 
 /// Frame `index` opened with its renderer: its film, and its tiles in handout order.
-fn open(
-    index: usize,
-    renderer: Renderer,
-    opts: &SequenceOptions,
-    costs: &Option<((u32, u32, u32), Vec<f64>)>,
-) -> Open {
+fn open(index: usize, renderer: Renderer, opts: &SequenceOptions, costs: &TileCosts) -> Open {
     let (w, h) = (renderer.settings().width, renderer.settings().height);
     let key = (w, h, opts.tile);
     let list = tiles(w, h, opts.tile);
