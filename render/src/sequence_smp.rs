@@ -335,3 +335,119 @@ fn land<E>(
         tile_seconds: f.seconds,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequence::Sequence;
+    use crate::settings::RenderSettings;
+    use crate::smp::{render_smp, SmpOptions};
+
+    fn renderers() -> (Sequence, RenderSettings) {
+        let text = "v from 0 -6 2 at 0 0 0.5 up 0 0 1 angle 40 hither 0.01 resolution 24 16\n\
+                    l 5 -5 5\nf 1 0 0 1 0 0 0 0\ns 0 0 0.5 1\nf 0 1 0 1 0 0 0 0\n\
+                    p 4 -3 -3 0 3 -3 0 3 3 0 -3 3 0\n";
+        let d = crate::nff::parse(text, "t.nff", &crate::nff::Limits::default()).unwrap();
+        (
+            Sequence::orbit(d, 300.0, 5).unwrap(),
+            RenderSettings::new(24, 16),
+        )
+    }
+
+    /// Every frame written once, each the bits of its own render, at most `window` alive.
+    #[test]
+    fn each_frame_once_and_the_same_bits_whatever_the_window() {
+        let (seq, settings) = renderers();
+        let build = |k: usize| Renderer::new(&seq.frames()[k].description(), &settings);
+        let alone: Vec<Film> = (0..seq.len())
+            .map(|k| {
+                let opts = SmpOptions {
+                    threads: 1,
+                    tile: 8,
+                    executor: Executor::Queue,
+                };
+                render_smp(&build(k).unwrap(), &opts, &|_, _| {}).film
+            })
+            .collect();
+        for (threads, tile, window) in [(1, 8, 1), (2, 5, 2), (3, 8, 3), (2, 16, 5)] {
+            let opts = SequenceOptions {
+                threads,
+                tile,
+                executor: Executor::Morton,
+                window,
+            };
+            let written = Mutex::new(Vec::new());
+            let write = |f: FrameDone| -> Result<(), crate::render::RenderError> {
+                written.lock().unwrap().push((f.index, f.film));
+                Ok(())
+            };
+            let r = render_sequence(
+                seq.len(),
+                &opts,
+                &build,
+                &write,
+                &|_| {},
+                &AtomicBool::new(false),
+            )
+            .unwrap();
+            let mut got = written.into_inner().unwrap();
+            got.sort_by_key(|(k, _)| *k);
+            let ids: Vec<usize> = got.iter().map(|(k, _)| *k).collect();
+            assert_eq!(ids, [0, 1, 2, 3, 4], "each frame once");
+            for (k, film) in got {
+                assert!(
+                    film == alone[k],
+                    "frame {k}, {threads} threads, tile {tile}"
+                );
+            }
+            assert_eq!((r.frames, r.stopped), (5, false));
+            assert!(
+                r.most_alive <= window && r.most_alive >= 1,
+                "{}",
+                r.most_alive
+            );
+            let per_frame = tiles(24, 16, tile).len();
+            assert_eq!(r.tiles, 5 * per_frame);
+        }
+    }
+
+    #[test]
+    fn a_stopped_sequence_writes_nothing_more_and_says_so() {
+        let (seq, settings) = renderers();
+        let build = |k: usize| Renderer::new(&seq.frames()[k].description(), &settings);
+        let opts = SequenceOptions {
+            threads: 2,
+            tile: 8,
+            executor: Executor::Queue,
+            window: 2,
+        };
+        let write = |_: FrameDone| -> Result<(), crate::render::RenderError> {
+            panic!("nothing is written once stopped")
+        };
+        let r = render_sequence(5, &opts, &build, &write, &|_| {}, &AtomicBool::new(true));
+        let r = r.unwrap();
+        assert_eq!((r.frames, r.tiles, r.stopped), (0, 0, true));
+    }
+
+    /// After frame 0, a frame's tiles go out costliest first by the latest measured costs;
+    /// unmeasured tiles keep the usual order, last.
+    #[test]
+    fn later_frames_go_costliest_first() {
+        let (seq, settings) = renderers();
+        let r = || Renderer::new(&seq.frames()[0].description(), &settings).unwrap();
+        let opts = SequenceOptions {
+            threads: 1,
+            tile: 8,
+            executor: Executor::Queue,
+            window: 2,
+        };
+        // 24 × 16 in tiles of 8: 3 × 2 tiles, ids 0..6 row by row.
+        let first = open(0, r(), &opts, &None);
+        let ids = |o: &Open| o.order.iter().map(|t| t.id).collect::<Vec<_>>();
+        assert_eq!(ids(&first), [0, 1, 2, 3, 4, 5]);
+        let costs = Some(((24, 16, 8), vec![0.1, 0.0, 0.5, 0.0, 0.3, 0.0]));
+        assert_eq!(ids(&open(1, r(), &opts, &costs)), [2, 4, 0, 1, 3, 5]);
+        let other_size = Some(((32, 16, 8), vec![0.0, 0.0, 0.0, 0.0, 0.9, 0.0, 0.0, 0.0]));
+        assert_eq!(ids(&open(1, r(), &opts, &other_size)), [0, 1, 2, 3, 4, 5]);
+    }
+}

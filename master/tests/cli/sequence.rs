@@ -242,3 +242,75 @@ fn a_bad_line_of_a_frame_list_is_named() {
         "no frame before the check"
     );
 }
+
+/// Ctrl-C once the first frame is written: exit 130, every frame on disk complete (a PNG of
+/// the full size), no temporary file left, and not every frame written. Waits for a file, not
+/// for a time.
+#[test]
+fn ctrl_c_leaves_only_complete_frames_and_exits_130() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("f-%03d.png");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_parrt"))
+        .args([
+            "render",
+            &spd("mount-6.nff"),
+            "--orbit",
+            "360",
+            "--frames",
+            "400",
+        ])
+        .args([
+            "--width",
+            "96",
+            "--height",
+            "64",
+            "--threads",
+            "1",
+            "--tile",
+            "16",
+        ])
+        .arg("-o")
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("parrt starts");
+    let first = dir.path().join("f-000.png");
+    while !first.exists() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("parrt ended before its first frame: {status}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let killed = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.starts_with("parrt: stopped by Ctrl-C; "), "{err}");
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        !names.is_empty() && names.len() < 400,
+        "{} frames",
+        names.len()
+    );
+    for n in &names {
+        assert!(
+            n.starts_with("f-") && n.ends_with(".png"),
+            "left behind: {n}"
+        );
+        let img = bytes(&dir.path().join(n));
+        assert_eq!(&img[1..4], b"PNG", "{n}");
+        let be = |i: usize| u32::from_be_bytes([img[i], img[i + 1], img[i + 2], img[i + 3]]);
+        assert_eq!((be(16), be(20)), (96, 64), "{n}");
+    }
+    assert!(
+        err.contains(&format!("{} of 400 frames written", names.len())),
+        "{err}"
+    );
+}
