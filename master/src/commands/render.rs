@@ -1,7 +1,8 @@
 //! `parrt render`: renders an NFF file, a generated scene or the built-in default scene to an
 //! image on this machine's cores (or through local workers with `--workers`), with a progress
 //! bar on a terminal and the ray statistics (docs/design-measures.md, *Ray statistics*) on
-//! request.
+//! request. Several frames (several files, `--frames-from`, `--orbit`) are a sequence, rendered
+//! by [`super::render_sequence`].
 
 use super::report::RenderReport;
 use super::watch::{start_live, watchers};
