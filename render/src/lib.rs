@@ -63,6 +63,8 @@
 //! Parallel work and its output:
 //! - [`tile`]: the image's tiles, in a fixed order.
 //! - [`smp`]: shared-memory executors (`queue`, `rayon`, `morton`, `guided`).
+//! - [`sequence`], [`sequence_smp`]: many frames as one job (several scenes, or one scene and
+//!   an orbit of the camera), rendered on this machine with a window of frames in flight.
 //! - [`film`]: the image, and its output as PNG, PPM or EXR.
 //! - [`stats`]: ray statistics, counted per tile and merged by addition.
 //! - [`cast`]: casting only (eye and shadow rays, no shading), to compare raw ray throughput.
@@ -94,6 +96,8 @@ pub mod real;
 pub mod render;
 pub mod scene;
 pub mod scene_leaf;
+pub mod sequence;
+pub mod sequence_smp;
 pub mod settings;
 pub mod shade;
 pub mod smp;

@@ -14,15 +14,20 @@
 //! - [`listen`]: `--listen ADDR`.
 //! - [`live`]: the live view's flags (`--http`, ...).
 //! - [`tile_order`]: `--costly-first FILE`, the handout order from a previous render's costs.
+//! - [`sequence`]: the flags that make a render a sequence (`--frames-from`, `--orbit`,
+//!   `--frames`, `--window`) and the reading of a frame LIST.
+//! - [`frame_pattern`]: a sequence's output pattern (`-o out/frame-%04d.png`).
 
 pub mod arg_error;
 pub mod durations;
+pub mod frame_pattern;
 pub mod limits;
 pub mod listen;
 pub mod live;
 pub mod output;
 pub mod render_flags;
 pub mod scene_arg;
+pub mod sequence;
 pub mod size;
 pub mod tile_order;
 

@@ -11,6 +11,7 @@ pub mod man;
 pub mod master;
 pub mod plot_timeline;
 pub mod render;
+pub mod render_sequence;
 pub mod report;
 pub mod scene;
 pub mod watch;

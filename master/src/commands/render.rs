@@ -1,7 +1,8 @@
 //! `parrt render`: renders an NFF file, a generated scene or the built-in default scene to an
 //! image on this machine's cores (or through local workers with `--workers`), with a progress
 //! bar on a terminal and the ray statistics (docs/design-measures.md, *Ray statistics*) on
-//! request.
+//! request. Several frames (several files, `--frames-from`, `--orbit`) are a sequence, rendered
+//! by [`super::render_sequence`].
 
 use super::report::RenderReport;
 use super::watch::{start_live, watchers};
@@ -24,9 +25,9 @@ use std::process::ExitCode;
 #[derive(Debug, Args)]
 pub struct RenderArgs {
     /// NFF scene file, or parrt's JSON form if it ends in .json (omit it, and --scene, to render
-    /// the built-in default scene: mount).
+    /// the built-in default scene: mount). Several files render a sequence, one frame each.
     #[arg(value_name = "SCENE.nff")]
-    pub file: Option<PathBuf>,
+    pub files: Vec<PathBuf>,
     /// Render a generated scene instead of a file: NAME or NAME:SIZE (see `parrt scene --list`).
     #[arg(long, value_name = "NAME[:SIZE]")]
     pub scene: Option<String>,
@@ -82,6 +83,9 @@ pub struct RenderArgs {
     /// Parser limits.
     #[command(flatten)]
     pub limits: LimitArgs,
+    /// Sequences: several frames as one job.
+    #[command(flatten)]
+    pub sequence: crate::cli_args::sequence::SequenceArgs,
 }
 
 /// What one way of rendering produced, for the common reporting.
@@ -366,7 +370,11 @@ fn load_job(
 
 /// Runs `parrt render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
-    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref(), None)?;
+    if super::render_sequence::wanted(&args) {
+        return super::render_sequence::run(&args);
+    }
+    let file = args.files.first().cloned();
+    let spec = SceneSpec::from_args(file.clone(), args.scene.as_deref(), None)?;
     // Every output is checked before the render, so a typo costs nothing.
     check_image_output(&args.output)?;
     for p in [
@@ -382,7 +390,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     }
     check_distinct(&[
         ("-o", Some(&args.output)),
-        ("the scene", args.file.as_deref()),
+        ("the scene", file.as_deref()),
         ("--stats-json", args.stats_json.as_deref()),
         ("--tile-costs", args.tile_costs.as_deref()),
         ("--checkpoint", args.checkpoint.as_deref()),

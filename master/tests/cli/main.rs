@@ -1,8 +1,8 @@
 //! The `parrt` command line end to end through the real binary, one test binary with a file per
 //! subject: `parrt info` (`info`), `parrt render` (`render`), `parrt scene --format pov`
 //! (`pov`), the instruction-set tier (`isa`), the bench studies (`studies`), what a Rust CLI
-//! user expects (`conventions`), and careless flags and files refused before any work
-//! (`careless`).
+//! user expects (`conventions`), sequences of frames (`sequence`), and careless flags and files
+//! refused before any work (`careless`).
 
 use parrt_test_support as support;
 
@@ -13,6 +13,7 @@ mod info;
 mod isa;
 mod pov;
 mod render;
+mod sequence;
 mod studies;
 
 use std::process::{Command, Output};

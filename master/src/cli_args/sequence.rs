@@ -1,0 +1,115 @@
+//! The flags that make a render a sequence of frames (`parrt render`): the frames listed in a
+//! file (`--frames-from LIST`), or one scene and a camera path (`--orbit DEGREES --frames N`),
+//! and the window of frames in flight (`--window W`). Several scene files on the command line
+//! make a sequence too (the positional argument). Reading a LIST is here; its errors name the
+//! LIST and the line (bad input, exit 2).
+
+use super::ArgError;
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+/// Sequence flags, flattened into `parrt render`.
+#[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Sequences (several scene files, --frames-from or --orbit)")]
+pub struct SequenceArgs {
+    /// Render the scenes listed in LIST as a sequence, frame k from line k: one NFF (or .json)
+    /// file a line, relative to LIST's folder; blank lines and lines starting with # skipped.
+    /// With a sequence, -o is a pattern with one %d or %0Nd frame number field (frames count
+    /// from 0; %% is a literal %), e.g. -o out/frame-%04d.png; its folder is created if missing.
+    #[arg(long, value_name = "LIST")]
+    pub frames_from: Option<PathBuf>,
+    /// Turn the eye about the look-at point, around the up vector, by DEGREES over the
+    /// --frames N frames: frame k is turned by k·DEGREES/N, so frame 0 is the scene's own view
+    /// (needs --frames).
+    #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
+    pub orbit: Option<f64>,
+    /// With --orbit: the number of frames.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<usize>,
+    /// Most frames alive at once (opened, rendering or being written): the threads fill one
+    /// frame's tail with the next frame's tiles; the images take at most W × width × height ×
+    /// 12 bytes.
+    #[arg(long, value_name = "W", default_value_t = 2)]
+    pub window: usize,
+}
+
+impl SequenceArgs {
+    /// Whether these flags ask for a sequence (besides several scene files).
+    pub fn asked(&self) -> bool {
+        self.frames_from.is_some() || self.orbit.is_some() || self.frames.is_some()
+    }
+}
+
+/// One frame's scene file named by a LIST: its path (resolved against LIST's folder) and the
+/// line that named it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ListedFrame {
+    /// The scene file.
+    pub path: PathBuf,
+    /// Its line in LIST (from 1).
+    pub line: usize,
+}
+
+/// Reads LIST (at most `max_bytes`): one path a line, relative to LIST's folder unless
+/// absolute; blank lines and lines whose first non-blank character is `#` skipped.
+pub fn read_frame_list(list: &Path, max_bytes: u64) -> anyhow::Result<Vec<ListedFrame>> {
+    let bytes = super::limits::read_path(list, max_bytes)?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let line = 1 + e.as_bytes()[..e.utf8_error().valid_up_to()]
+            .iter()
+            .filter(|b| **b == b'\n')
+            .count();
+        ArgError::Value(format!("{}:{line}: not UTF-8 text", list.display()))
+    })?;
+    let dir = list.parent().unwrap_or(Path::new(""));
+    let frames: Vec<ListedFrame> = text
+        .lines()
+        .enumerate()
+        .filter_map(|(i, l)| {
+            let l = l.trim();
+            (!l.is_empty() && !l.starts_with('#')).then(|| ListedFrame {
+                path: dir.join(l),
+                line: i + 1,
+            })
+        })
+        .collect();
+    if frames.is_empty() {
+        return Err(ArgError::Value(format!(
+            "{}: names no frames (one scene file a line)",
+            list.display()
+        ))
+        .into());
+    }
+    Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_are_relative_to_the_list_and_comments_are_skipped() {
+        let dir = tempfile::tempdir().unwrap();
+        let list = dir.path().join("frames.txt");
+        std::fs::write(&list, "# frames\n\na.nff\n  sub/b.nff  \n/abs/c.nff\n").unwrap();
+        let got = read_frame_list(&list, 1 << 20).unwrap();
+        let want = [
+            (dir.path().join("a.nff"), 3),
+            (dir.path().join("sub/b.nff"), 4),
+            (PathBuf::from("/abs/c.nff"), 5),
+        ];
+        assert_eq!(got.len(), 3);
+        for (g, (p, l)) in got.iter().zip(want) {
+            assert_eq!((&g.path, g.line), (&p, l));
+        }
+        std::fs::write(&list, "# nothing\n").unwrap();
+        let e = read_frame_list(&list, 1 << 20).unwrap_err().to_string();
+        assert!(
+            e.ends_with("frames.txt: names no frames (one scene file a line)"),
+            "{e}"
+        );
+        std::fs::write(&list, b"a.nff\n\xff.nff\n").unwrap();
+        let e = read_frame_list(&list, 1 << 20).unwrap_err().to_string();
+        assert!(e.ends_with("frames.txt:2: not UTF-8 text"), "{e}");
+    }
+}

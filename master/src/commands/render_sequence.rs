@@ -1,0 +1,331 @@
+//! `parrt render` of a sequence: several scene files, a LIST of them (`--frames-from`) or one
+//! scene and an orbit of the camera (`--orbit DEGREES --frames N`), rendered on this machine's
+//! threads with a window of frames in flight ([`parrt_render::sequence_smp`]), each frame
+//! written to the file the `-o` pattern names for it as soon as it is finished (docs/sequences.md).
+//! Sequences render on one machine so far: `--workers` is refused, and so are the flags that
+//! describe one frame's render (`--timeline`, `--tile-costs`, the live view). Every frame is
+//! checked (its scene read, its settings and size) before the first is rendered.
+
+use super::render::RenderArgs;
+use super::report::RenderReport;
+use crate::cli_args::frame_pattern::FramePattern;
+use crate::cli_args::output::{check_distinct, check_file_output, check_image_output, write_whole};
+use crate::cli_args::sequence::read_frame_list;
+use crate::cli_args::{ArgError, SceneSpec};
+use crate::exit::input_error;
+use crate::sequence_progress::SequenceProgress;
+use anyhow::Context;
+use parrt_render::nff::Limits;
+use parrt_render::precision::Choice;
+use parrt_render::render::Renderer;
+use parrt_render::sequence::Sequence;
+use parrt_render::sequence_smp::{render_sequence, FrameDone, SequenceOptions};
+use parrt_render::settings::RenderSettings;
+use serde_json::json;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// Whether `args` ask for a sequence rather than one frame.
+pub fn wanted(args: &RenderArgs) -> bool {
+    args.files.len() > 1 || args.sequence.asked()
+}
+
+/// Set by Ctrl-C while a sequence renders: the threads stop taking tiles.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_sigint(_: libc::c_int) {
+    STOP.store(true, Ordering::Relaxed);
+    // A second Ctrl-C kills at once. signal() is async-signal-safe.
+    // SAFETY: restoring the default disposition of SIGINT has no other effect.
+    unsafe {
+        libc::signal(libc::SIGINT, libc::SIG_DFL);
+    }
+}
+
+/// Makes Ctrl-C stop the sequence between tiles, so that the frames being written are finished
+/// and no half-written file is left.
+fn stop_on_ctrl_c() {
+    let handler = on_sigint as extern "C" fn(libc::c_int);
+    // SAFETY: the handler only stores to an atomic and calls signal(), both async-signal-safe.
+    unsafe {
+        libc::signal(libc::SIGINT, handler as libc::sighandler_t);
+    }
+}
+
+/// What a sequence is made of, loaded: the frames, the input files (for the alias checks) and
+/// a label per frame for messages.
+struct Loaded {
+    sequence: Sequence,
+    inputs: Vec<(&'static str, PathBuf)>,
+    labels: Vec<String>,
+    scene: String,
+}
+
+/// Refuses what a sequence cannot do yet, or flags that contradict one another.
+fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
+    let seq = &args.sequence;
+    let conflict = |m: &str| Err(ArgError::Conflict(m.to_string()).into());
+    if args.workers.is_some() {
+        return conflict(
+            "--workers: sequences render on one machine so far; drop --workers to render the \
+             frames on this machine's threads",
+        );
+    }
+    for (flag, given) in [
+        ("--timeline", args.timeline.is_some()),
+        ("--tile-costs", args.tile_costs.is_some()),
+        ("--http", args.live.http.is_some()),
+    ] {
+        if given {
+            return conflict(&format!(
+                "{flag} is not available for sequences yet; render the frame alone for it"
+            ));
+        }
+    }
+    if seq.frames.is_some() && seq.orbit.is_none() {
+        return conflict(
+            "--frames N counts the frames of --orbit; give --orbit DEGREES too (several files \
+             or --frames-from make one frame each)",
+        );
+    }
+    if seq.orbit.is_some() {
+        if seq.frames.is_none() {
+            return conflict("--orbit needs --frames N (how many frames the turn is cut into)");
+        }
+        if args.files.len() > 1 || seq.frames_from.is_some() {
+            return conflict(
+                "--orbit turns the camera about one scene; give one scene file (or --scene), \
+                 not several files or --frames-from",
+            );
+        }
+    }
+    if seq.frames_from.is_some() && !args.files.is_empty() {
+        return conflict("give the frames either as scene files or with --frames-from, not both");
+    }
+    if args.scene.is_some() && (seq.frames_from.is_some() || args.files.len() > 1) {
+        return conflict("--scene renders one generated scene; give it without scene files");
+    }
+    if args.tile == 0 {
+        return Err(ArgError::Value("--tile must be at least 1".into()).into());
+    }
+    if args.threads == Some(0) {
+        return Err(ArgError::Value("--threads must be at least 1".into()).into());
+    }
+    if seq.window == 0 {
+        return Err(ArgError::Value("--window must be at least 1".into()).into());
+    }
+    Ok(())
+}
+
+/// Reads the scenes (or generates the one an orbit turns about) into a sequence.
+fn load(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Loaded> {
+    let seq = &args.sequence;
+    if let (Some(degrees), Some(n)) = (seq.orbit, seq.frames) {
+        let spec = SceneSpec::from_args(args.files.first().cloned(), args.scene.as_deref(), None)?;
+        let (desc, _) = spec.load(limits)?;
+        let sequence = Sequence::orbit(desc, degrees, n).map_err(ArgError::refused)?;
+        let scene = format!("{}, orbit {degrees}° in {n} frames", spec.label());
+        let labels = (0..n).map(|k| format!("frame {k} of {}", spec.label()));
+        return Ok(Loaded {
+            sequence,
+            inputs: args
+                .files
+                .iter()
+                .map(|f| ("the scene", f.clone()))
+                .collect(),
+            labels: labels.collect(),
+            scene,
+        });
+    }
+    let (files, mut inputs, scene) = match &seq.frames_from {
+        Some(list) => {
+            let listed = read_frame_list(list, limits.max_file_bytes)?;
+            let named = listed
+                .into_iter()
+                .map(|f| {
+                    let at = format!("{}:{}", list.display(), f.line);
+                    (f.path, Some(at))
+                })
+                .collect::<Vec<_>>();
+            let scene = format!("{} frames from {}", named.len(), list.display());
+            (named, vec![("--frames-from", list.clone())], scene)
+        }
+        None => {
+            let named = args.files.iter().map(|f| (f.clone(), None)).collect();
+            let scene = format!("{} scene files", args.files.len());
+            (named, Vec::new(), scene)
+        }
+    };
+    let mut scenes = Vec::with_capacity(files.len());
+    let mut labels = Vec::with_capacity(files.len());
+    for (path, at) in files {
+        let read = SceneSpec::file(path.clone()).load(limits);
+        let (desc, _) = match at {
+            Some(at) => read.context(at)?,
+            None => read?,
+        };
+        scenes.push(desc);
+        labels.push(path.display().to_string());
+        inputs.push(("a scene", path));
+    }
+    let sequence = Sequence::from_scenes(scenes).map_err(ArgError::refused)?;
+    Ok(Loaded {
+        sequence,
+        inputs,
+        labels,
+        scene,
+    })
+}
+
+/// Runs `parrt render` of a sequence.
+pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+    refuse_unsupported(args)?;
+    let limits = args.limits.limits();
+    let t0 = Instant::now();
+    let loaded = load(args, &limits)?;
+    let parse_s = t0.elapsed().as_secs_f64();
+    let n = loaded.sequence.len();
+    // Every frame's settings, as rendering it alone would make them, checked before any work.
+    let mut settings: Vec<(RenderSettings, Choice)> = Vec::with_capacity(n);
+    for (k, frame) in loaded.sequence.frames().iter().enumerate() {
+        let desc = frame.description();
+        let s = args
+            .render
+            .settings_and_precision(&desc)
+            .with_context(|| loaded.labels[k].clone())?;
+        args.limits
+            .check_image(s.0.width, s.0.height, args.tile)
+            .with_context(|| loaded.labels[k].clone())?;
+        let first_of_scene =
+            k == 0 || !std::sync::Arc::ptr_eq(&frame.scene, &loaded.sequence.frames()[k - 1].scene);
+        if first_of_scene {
+            parrt_render::render::validate_job(&desc, &s.0)
+                .map_err(input_error)
+                .with_context(|| format!("cannot prepare {}", loaded.labels[k]))?;
+        }
+        settings.push(s);
+    }
+    let pattern = FramePattern::parse(&args.output, n)?;
+    let outputs: Vec<PathBuf> = (0..n).map(|k| pattern.path(k)).collect();
+    if !pattern.dir().as_os_str().is_empty() && !pattern.dir().exists() {
+        std::fs::create_dir_all(pattern.dir()).map_err(|e| {
+            ArgError::file(
+                pattern.dir(),
+                format!("cannot create the output folder: {e}"),
+            )
+        })?;
+    }
+    check_image_output(&outputs[0])?;
+    if let Some(p) = &args.stats_json {
+        check_file_output(p)?;
+    }
+    let mut files: Vec<(&str, Option<&std::path::Path>)> =
+        outputs.iter().map(|p| ("-o", Some(p.as_path()))).collect();
+    files.extend(loaded.inputs.iter().map(|(f, p)| (*f, Some(p.as_path()))));
+    files.push(("--stats-json", args.stats_json.as_deref()));
+    check_distinct(&files)?;
+
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let opts = SequenceOptions {
+        threads,
+        tile: args.tile,
+        executor: args.executor.executor(),
+        window: args.sequence.window,
+    };
+    let total_tiles = settings
+        .iter()
+        .map(|(s, _)| parrt_render::tile::tiles(s.width, s.height, args.tile).len())
+        .sum();
+    let progress = SequenceProgress::new(total_tiles, n);
+    let build_s = Mutex::new(0.0f64);
+    let build = |k: usize| -> anyhow::Result<Renderer> {
+        let t = Instant::now();
+        let desc = loaded.sequence.frames()[k].description();
+        let mut r = Renderer::new(&desc, &settings[k].0)
+            .map_err(input_error)
+            .with_context(|| format!("cannot prepare {}", loaded.labels[k]))?;
+        r.set_packets(!args.no_packets);
+        *build_s.lock().unwrap_or_else(|e| e.into_inner()) += t.elapsed().as_secs_f64();
+        Ok(r)
+    };
+    let write = |done: FrameDone| -> anyhow::Result<()> {
+        let path = &outputs[done.index];
+        done.film
+            .save(path)
+            .with_context(|| format!("cannot write frame {}", done.index))?;
+        progress.frame();
+        Ok(())
+    };
+    stop_on_ctrl_c();
+    let result = render_sequence(n, &opts, &build, &write, &|_| progress.tile(), &STOP)?;
+    progress.finish();
+    if result.stopped {
+        crate::errln!(
+            "parrt: stopped by Ctrl-C; {} of {n} frames written, each complete",
+            result.frames
+        );
+        // As a process SIGINT killed would exit (128 + 2), like a single render.
+        return Ok(ExitCode::from(128 + libc::SIGINT as u8));
+    }
+    let build_s = build_s.into_inner().unwrap_or_else(|e| e.into_inner());
+    let report = RenderReport {
+        stats: result.stats,
+        parse_s,
+        build_s,
+        trace_s: result.wall_s,
+    };
+    let (s0, choice) = &settings[0];
+    let same_size = settings
+        .iter()
+        .all(|(s, _)| (s.width, s.height) == (s0.width, s0.height));
+    let size = if same_size {
+        format!("{}x{}", s0.width, s0.height)
+    } else {
+        "sizes differ".to_string()
+    };
+    let precision = parrt_render::precision::name(choice.precision);
+    if args.stats {
+        crate::outln!("scene             {}", loaded.scene);
+        crate::outln!(
+            "precision         {precision} ({}) [frame 0]",
+            choice.reason
+        );
+        crate::outln!(
+            "frames            {n}, {size}, {threads} threads, tile {}, window {} (at most {} alive)",
+            args.tile,
+            opts.window,
+            result.most_alive
+        );
+        crate::outln!("tiles             {}", result.tiles);
+        report.print();
+    }
+    if let Some(path) = &args.stats_json {
+        let extra = json!({
+            "scene": loaded.scene,
+            "frames": n,
+            "width": s0.width,
+            "height": s0.height,
+            "tile": args.tile,
+            "threads": threads,
+            "executor": opts.executor.name(),
+            "window": opts.window,
+            "most_alive": result.most_alive,
+            "tiles": result.tiles,
+            "precision": precision,
+        });
+        let text = serde_json::to_string_pretty(&report.to_json(extra))?;
+        write_whole(path, (text + "\n").as_bytes())?;
+    }
+    crate::errln!(
+        "parrt: wrote {n} frames ({} … {}, {size}) in {:.2}s",
+        outputs[0].display(),
+        outputs[n - 1].display(),
+        parse_s + result.wall_s
+    );
+    Ok(ExitCode::SUCCESS)
+}
