@@ -1,6 +1,6 @@
 //! Number tokens: C `%g`-style reals, correctly rounded, and whole-number counts. Pure functions
 //! from bytes to values; they say what is wrong, never where (the parser adds the location).
-//! And the way back for the writers ([`write_real`]): the shortest text that reads as the same
+//! And the way back for the writers (`write_real`): the shortest text that reads as the same
 //! `f64`.
 //!
 //! Reals: an optional sign, digits with an optional `.` (`1`, `.5`, `5.`), and an optional
