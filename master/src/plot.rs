@@ -145,6 +145,41 @@ fn bounds(chart: &Chart) -> ((f64, f64), (f64, f64)) {
     ((x0, x1), y)
 }
 
+/// The series' colours, in order (then again from the first).
+const COLORS: [RGBColor; 8] = [
+    RED,
+    BLUE,
+    GREEN,
+    MAGENTA,
+    CYAN,
+    BLACK,
+    RGBColor(230, 140, 0),
+    RGBColor(120, 60, 160),
+];
+
+/// The chart's note, if any (and text can be drawn), in a strip of its own under the chart:
+/// returns the area left for the chart.
+fn with_note<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart,
+    text: bool,
+) -> anyhow::Result<DrawingArea<DB, plotters::coord::Shift>>
+where
+    DB::ErrorType: 'static,
+{
+    Ok(match note(chart).filter(|_| text) {
+        Some(n) => {
+            let (_, h) = root.dim_in_pixel();
+            let (upper, lower) = root.split_vertically(h.saturating_sub(28));
+            lower
+                .draw(&Text::new(n.to_string(), (16, 4), ("sans-serif", 14)))
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            upper
+        }
+        None => root,
+    })
+}
+
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     chart: &Chart,
@@ -156,18 +191,7 @@ where
     root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
     let ((x0, x1), (y0, y1)) = bounds(chart);
     let y_desc = y_label(chart, y0);
-    // The note, if any, gets a strip of its own under the chart.
-    let root = match note(chart).filter(|_| text) {
-        Some(n) => {
-            let (_, h) = root.dim_in_pixel();
-            let (upper, lower) = root.split_vertically(h.saturating_sub(28));
-            lower
-                .draw(&Text::new(n.to_string(), (16, 4), ("sans-serif", 14)))
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-            upper
-        }
-        None => root,
-    };
+    let root = with_note(root, chart, text)?;
     let mut builder = ChartBuilder::on(&root);
     builder
         .margin(16)
@@ -176,16 +200,6 @@ where
     if text {
         builder.caption(&chart.title, ("sans-serif", 20));
     }
-    let colors = [
-        RED,
-        BLUE,
-        GREEN,
-        MAGENTA,
-        CYAN,
-        BLACK,
-        RGBColor(230, 140, 0),
-        RGBColor(120, 60, 160),
-    ];
     macro_rules! body {
         ($ctx:expr, $map:expr) => {{
             let mut ctx = $ctx;
@@ -206,7 +220,7 @@ where
                     .map_err(|e| anyhow::anyhow!("{e:?}"))?;
             }
             for (i, s) in chart.series.iter().enumerate() {
-                let color = colors[i % colors.len()];
+                let color = COLORS[i % COLORS.len()];
                 let pts: Vec<(f64, f64)> = s.points.iter().map($map).collect();
                 if s.line {
                     let anno = ctx

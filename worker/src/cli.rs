@@ -1,6 +1,8 @@
 //! `parrt worker` and `parrt-worker`: the same arguments and the same entry point, so the master
 //! can spawn workers from its own executable. Also the token flags shared with `parrt master`.
 
+use crate::exec::ReplayExec;
+use crate::net::TcpDial;
 use crate::options::WorkerOptions;
 use crate::session::{self, SessionEnd};
 use anyhow::Context;
@@ -166,11 +168,14 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
     init_logging(log_level(args.verbose));
     let human = human_lines(args.verbose);
     let opts = args.options()?;
-    if let Some(path) = &args.replay {
-        let replay = crate::replay::Replay::open(path, args.cost_scale)
-            .map_err(|e| UsageError(e.to_string()))?;
-        crate::replay::install(replay);
-    }
+    // A replaying worker (bench aid) plays the recording instead of tracing.
+    let replay = match &args.replay {
+        Some(path) => Some(Arc::new(
+            crate::replay::Replay::open(path, args.cost_scale)
+                .map_err(|e| UsageError(e.to_string()))?,
+        )),
+        None => None,
+    };
     let signal = Arc::new(AtomicI32::new(0));
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
@@ -187,9 +192,11 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
                 opts.render_threads()
             ));
         }
-        session::run(&opts, stop)
-            .await
-            .with_context(|| format!("worker for {}", opts.connect))
+        match replay {
+            Some(r) => session::run_with(&opts, stop, &TcpDial, ReplayExec::pool(r)).await,
+            None => session::run(&opts, stop).await,
+        }
+        .with_context(|| format!("worker for {}", opts.connect))
     })?;
     tracing::info!(
         jobs = summary.jobs,

@@ -4,13 +4,16 @@
 //! [`RayonExec`] is the real worker (a rayon pool, builds on blocking threads: never the
 //! runtime); [`InlineExec`] does everything on the calling task and spends simulated costs in
 //! tokio time, so a deterministic simulation (turmoil, a paused clock) runs the real session
-//! loop. An executor never touches the connection: the session writes what it delivers.
+//! loop; [`ReplayExec`] wraps either to play a recorded render instead of tracing. An executor
+//! never touches the connection: the session writes what it delivers.
 
 mod inline;
 mod pool;
+mod replay;
 
 pub use inline::{CostFn, InlineExec, PixelFn};
 pub use pool::RayonExec;
+pub use replay::ReplayExec;
 
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;

@@ -13,9 +13,9 @@
 //! - [`session`]: handshake and the message loop with one master ([`session::run`] for the
 //!   real worker, [`session::run_with`] for a simulation or a test).
 //! - [`exec`]: the execution seam, where builds and tiles run (the rayon pool, or inline in
-//!   simulated time).
+//!   simulated time; either replaying a recording).
 //! - [`tiles`]: the bridge from the async loop to the rayon pool.
-//! - [`replay`]: replaying a recorded render instead of tracing (a bench aid).
+//! - [`replay`]: the recorded render a replaying worker plays instead of tracing (a bench aid).
 //! - [`logging`]: diagnostics as plain lines for people, or the timestamped log on request.
 //! - [`cli`]: `parrt worker` / `parrt-worker` arguments and entry point (both binaries call it).
 //! - [`error`]: what can go wrong.

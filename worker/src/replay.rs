@@ -1,5 +1,5 @@
 //! Replaying a recorded render (a bench aid for `parrt bench cluster`): instead of tracing a
-//! tile, a worker started with `--replay FILE` sleeps for the tile's measured one-thread cost
+//! tile, a worker started with `--replay FILE` (its executor a [`crate::exec::ReplayExec`]) sleeps for the tile's measured one-thread cost
 //! (times `--cost-scale`) on the rayon thread that took it, then returns the recorded render's
 //! real pixels for the tile. Everything else (connection, scheduling, result encoding, film
 //! assembly) is the real code, so an emulated cluster of many such workers on one machine
@@ -15,7 +15,7 @@ use parrt_render::tile::{tiles, Tile};
 use std::fs::File;
 use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use thiserror::Error;
 
@@ -291,7 +291,7 @@ impl Replay {
     }
 
     /// `tile`'s recorded pixels into `out`, at once (no sleeping): for a simulated worker,
-    /// which spends the cost in virtual time instead (`exec::InlineExec::replaying`).
+    /// which spends the cost in virtual time instead ([`crate::exec::ReplayExec::simulated`]).
     pub fn pixels(&self, tile: &Tile, out: &mut Vec<Rgb>) -> Result<(), ReplayError> {
         let i = self.index(tile)?;
         self.read_pixels(i, out)
@@ -302,20 +302,6 @@ impl Replay {
         let i = self.index(tile)?;
         Ok(Duration::from_secs_f64(self.costs[i] * self.scale))
     }
-}
-
-static INSTALLED: OnceLock<Arc<Replay>> = OnceLock::new();
-
-/// Makes this process a replaying worker (the `--replay` flag): every tile it is assigned from
-/// now on is replayed from `replay` instead of rendered. Process-wide because the flag is; a
-/// second call is ignored.
-pub fn install(replay: Replay) {
-    let _ = INSTALLED.set(Arc::new(replay));
-}
-
-/// The replay installed by [`install`], if any.
-pub fn installed() -> Option<Arc<Replay>> {
-    INSTALLED.get().cloned()
 }
 
 #[cfg(test)]

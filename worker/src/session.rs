@@ -11,7 +11,7 @@
 
 use crate::dial::Dialer;
 use crate::error::WorkerError;
-use crate::exec::{ExecEvent, Execute, RayonExec};
+use crate::exec::{Built, ExecEvent, Execute, RayonExec};
 use crate::net::{Dial, TcpDial};
 use crate::options::WorkerOptions;
 use crate::tiles::JobHandle;
@@ -364,31 +364,7 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                 }
             }
             event = exec.next() => match event? {
-                ExecEvent::Built(b) => {
-                    let Some(j) = job.as_mut().filter(|j| j.spec_id == b.job_id) else { continue };
-                    match b.result {
-                        Ok(r) => {
-                            info!(job = b.job_id, build_s = b.seconds, "renderer built");
-                            let handle = JobHandle {
-                                job_id: b.job_id,
-                                renderer: Arc::new(r),
-                                cancelled: j.cancelled.clone(),
-                                pixel_format: j.pixel_format,
-                            };
-                            write_within(&mut conn, &Message::Ready { job_id: b.job_id, build_s: b.seconds }, limit).await?;
-                            for batch in j.waiting.drain(..) {
-                                exec.submit(&handle, batch);
-                            }
-                            j.handle = Some(handle);
-                        }
-                        Err(reason) => {
-                            warn!(job = b.job_id, %reason, "cannot build the job");
-                            let reason = limits::capped_reason(format!("cannot build job {}: {reason}", b.job_id));
-                            write_within(&mut conn, &Message::Error { reason }, limit).await?;
-                            job = None;
-                        }
-                    }
-                }
+                ExecEvent::Built(b) => built(&mut conn, exec, &mut job, *b, limit).await?,
                 ExecEvent::Results(msgs) => {
                     summary.tiles_rendered += msgs
                         .iter()
@@ -410,6 +386,48 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
             }
         }
     }
+}
+
+/// A renderer build ended: for the current job, Ready and the tiles that waited for it go to
+/// the executor, or the build's error goes to the master and the job is dropped; a build of a
+/// job since replaced is ignored.
+async fn built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
+    conn: &mut Connection<S>,
+    exec: &mut E,
+    job: &mut Option<CurrentJob>,
+    b: Built,
+    limit: Duration,
+) -> Result<(), WorkerError> {
+    let Some(j) = job.as_mut().filter(|j| j.spec_id == b.job_id) else {
+        return Ok(());
+    };
+    match b.result {
+        Ok(r) => {
+            info!(job = b.job_id, build_s = b.seconds, "renderer built");
+            let handle = JobHandle {
+                job_id: b.job_id,
+                renderer: Arc::new(r),
+                cancelled: j.cancelled.clone(),
+                pixel_format: j.pixel_format,
+            };
+            let ready = Message::Ready {
+                job_id: b.job_id,
+                build_s: b.seconds,
+            };
+            write_within(conn, &ready, limit).await?;
+            for batch in j.waiting.drain(..) {
+                exec.submit(&handle, batch);
+            }
+            j.handle = Some(handle);
+        }
+        Err(reason) => {
+            warn!(job = b.job_id, %reason, "cannot build the job");
+            let reason = limits::capped_reason(format!("cannot build job {}: {reason}", b.job_id));
+            write_within(conn, &Message::Error { reason }, limit).await?;
+            *job = None;
+        }
+    }
+    Ok(())
 }
 
 /// Checks an assignment of `tiles` for job `job_id` and queues the valid ones as one batch

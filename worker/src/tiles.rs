@@ -5,6 +5,7 @@
 //! pixels. Never renders on the runtime. How one tile becomes its result message is shared
 //! with the inline executor ([`crate::exec::InlineExec`]).
 
+use crate::exec::PixelFn;
 use parrt_protocol::{Message, PixelFormat, TilePixels};
 use parrt_render::film::Rgb;
 use parrt_render::render::Renderer;
@@ -38,6 +39,7 @@ pub struct TileRenderer {
     pool: rayon::ThreadPool,
     out: Sender<Vec<Message>>,
     delay: Option<Duration>,
+    pixels: Option<PixelFn>,
 }
 
 /// A batch in progress: its finished messages and how many tiles are still to come.
@@ -61,13 +63,21 @@ impl Batch {
 }
 
 impl TileRenderer {
-    /// Wraps `pool`; results go to `out`; `delay` is the test hook slept before each tile.
+    /// Wraps `pool`; results go to `out`; `delay` is the test hook slept before each tile;
+    /// `pixels`, when given, gives each tile's pixels instead of tracing them (a replaying
+    /// worker, [`crate::exec::ReplayExec`]).
     pub fn new(
         pool: rayon::ThreadPool,
         out: Sender<Vec<Message>>,
         delay: Option<Duration>,
+        pixels: Option<PixelFn>,
     ) -> Self {
-        TileRenderer { pool, out, delay }
+        TileRenderer {
+            pool,
+            out,
+            delay,
+            pixels,
+        }
     }
 
     /// Queues a batch of tiles (each with its attempt) for rendering, spread over the pool's
@@ -80,6 +90,7 @@ impl TileRenderer {
         });
         for (tile, attempt) in tiles {
             let (job, batch, delay) = (job.clone(), batch.clone(), self.delay);
+            let pixels = self.pixels.clone();
             self.pool.spawn(move || {
                 if job.cancelled.load(Ordering::Relaxed) {
                     batch.finish_one(None);
@@ -88,7 +99,7 @@ impl TileRenderer {
                 if let Some(d) = delay {
                     std::thread::sleep(d);
                 }
-                batch.finish_one(Some(render_one(&job, tile, attempt)));
+                batch.finish_one(Some(render_one(&job, tile, attempt, pixels.as_ref())));
             });
         }
     }
@@ -148,18 +159,13 @@ pub(crate) fn result_message(
     }
 }
 
-/// Renders one tile into its result message (an Error if rendering panicked).
-fn render_one(job: &JobHandle, tile: Tile, attempt: u32) -> Message {
+/// Renders one tile into its result message (an Error if rendering panicked), or takes its
+/// pixels from `pixels` when given (a replaying worker).
+fn render_one(job: &JobHandle, tile: Tile, attempt: u32, pixels: Option<&PixelFn>) -> Message {
     let t0 = Instant::now();
-    let traced = std::panic::catch_unwind(AssertUnwindSafe(|| {
-        // A replaying worker (bench aid, `--replay`) returns recorded pixels instead.
-        match crate::replay::installed() {
-            Some(r) => {
-                let play = |t: &Tile, out: &mut Vec<Rgb>| r.play(t, out).map_err(|e| e.to_string());
-                trace(job, &tile, Source::Given(&play))
-            }
-            None => trace(job, &tile, Source::Render),
-        }
+    let traced = std::panic::catch_unwind(AssertUnwindSafe(|| match pixels {
+        Some(f) => trace(job, &tile, Source::Given(&**f)),
+        None => trace(job, &tile, Source::Render),
     }));
     result_message(job, &tile, attempt, traced, || t0.elapsed().as_secs_f64())
 }
@@ -183,7 +189,7 @@ mod tests {
             .build()
             .unwrap();
         let (tx, mut rx) = tokio::sync::mpsc::channel(UNSENT_RESULTS);
-        let tiles = TileRenderer::new(pool, tx, None);
+        let tiles = TileRenderer::new(pool, tx, None, None);
         let job = JobHandle {
             job_id: 1,
             renderer: Arc::new(renderer()),

@@ -1,7 +1,9 @@
 //! Planted bugs, for the deterministic simulation's proof that its invariants can fail: each
 //! [`Mutation`] breaks one rule of the runtime on purpose, and the simulation's explorer must
-//! catch it. Compiled in only with the `mutations` feature (the test crate turns it on);
-//! without it [`is`] is a constant `false` and every planted branch vanishes. Planted per
+//! catch it. Compiled in only with the `mutations` feature, which the test crate turns on for
+//! its test builds alone (a dev-dependency, or its own `planted` feature for `sim mutants`), so
+//! no `parrt` or `parrt-worker` carries it; without it [`is`] is a constant `false` and every
+//! planted branch vanishes. Planted per
 //! thread: the simulation runs a whole world on one thread, so parallel tests do not meet each
 //! other's bugs.
 
@@ -36,6 +38,10 @@ impl Mutation {
         Mutation::TrustTornRecord,
     ];
 }
+
+/// Whether this build has the planted bugs (the `mutations` feature): without them
+/// [`plant`] does nothing, so a search for them can only report every one missed.
+pub const COMPILED_IN: bool = cfg!(feature = "mutations");
 
 #[cfg(feature = "mutations")]
 thread_local! {

@@ -4,6 +4,7 @@
 //! only: the environment is read by [`parrt_runtime::launcher`], the file protocol is
 //! [`parrt_runtime::rendezvous`], the render is [`parrt_runtime::run`]'s.
 
+use super::distributed::{master_config, MasterSetup};
 use super::report::print_summary;
 use super::watch::{start_live, Watch};
 use crate::cli_args::durations::{seconds_flag, MAX_FLAG_DURATION};
@@ -16,7 +17,7 @@ use clap::Args;
 use parrt_protocol::Token;
 use parrt_runtime::launcher::{self, Rank};
 use parrt_runtime::rendezvous::{self, Rendezvous};
-use parrt_runtime::{Job, MasterConfig};
+use parrt_runtime::Job;
 use parrt_worker::cli::{init_logging, log_level, TokenArgs, WorkerArgs};
 use rand::Rng;
 use std::net::SocketAddr;
@@ -144,12 +145,14 @@ fn advertised(args: &ClusterArgs, bound: SocketAddr) -> String {
     }
 }
 
-fn run_master(
+/// Rank 0's checks of what the user gave, before the scene is read: the flags, the outputs,
+/// the listen address and the rendezvous directory (a leftover file there is refused).
+/// Returns `--wait-workers`.
+fn check_master_flags(
     args: &ClusterArgs,
-    rank: &Rank,
     job: &str,
     timeout: Duration,
-) -> anyhow::Result<ExitCode> {
+) -> anyhow::Result<Duration> {
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
     }
@@ -183,6 +186,16 @@ fn run_master(
     // A leftover file is refused before the scene is even read.
     rendezvous::check_free(&args.rendezvous, job, timeout)
         .map_err(|e| input_error(anyhow::Error::new(e)))?;
+    Ok(wait_workers)
+}
+
+fn run_master(
+    args: &ClusterArgs,
+    rank: &Rank,
+    job: &str,
+    timeout: Duration,
+) -> anyhow::Result<ExitCode> {
+    let wait_workers = check_master_flags(args, job, timeout)?;
     let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref(), None)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     let label = spec.label();
@@ -205,23 +218,17 @@ fn run_master(
             tile_size: args.tile,
         },
     );
-    let mut config = MasterConfig {
+    let mut config = master_config(MasterSetup {
         observers: watch.observers(),
-        checkpoint: args
-            .checkpoint
-            .clone()
-            .map(|path| parrt_runtime::CheckpointAt {
-                path,
-                resume: args.resume,
-                // The job's token is fresh in every run: nothing to key a resume with.
-                keyed: false,
-            }),
-        ..MasterConfig::default()
-    };
-    config.schedule.tile = args.tile;
-    config.schedule.min_workers = rank.size - 1;
+        checkpoint: args.checkpoint.as_ref(),
+        resume: args.resume,
+        // The job's token is fresh in every run: nothing to key a resume with.
+        keyed: false,
+        tile: args.tile,
+        min_workers: rank.size - 1,
+        output: &args.output,
+    });
     config.schedule.wait_workers = wait_workers;
-    config.schedule.pixel_format = parrt_runtime::pixel_format_for(&args.output);
     config.schedule.await_all_workers = true;
     config.schedule.order = args
         .order

@@ -1,6 +1,7 @@
 //! `parrt master`: loads a scene, listens for workers, hands them tiles, writes the image.
 //! Argument parsing and reporting only; the work is in [`parrt_runtime::run`].
 
+use super::distributed::{master_config, MasterSetup};
 use super::report::{print_summary, report_json};
 use super::watch::{start_live, Watch};
 use crate::cli_args::durations::{
@@ -14,7 +15,7 @@ use crate::live::state::JobInfo;
 use anyhow::Context;
 use clap::Args;
 use parrt_render::description::SceneDescription;
-use parrt_runtime::{Job, MasterConfig, DEFAULT_LISTEN};
+use parrt_runtime::{Job, DEFAULT_LISTEN};
 use parrt_worker::cli::{init_logging, log_level, TokenArgs};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -61,10 +62,9 @@ pub struct MasterArgs {
     /// per thread until it is measured).
     #[arg(long, value_name = "N|auto", default_value = "2")]
     pub window: parrt_runtime::window::Window,
-    /// Most tiles in one assignment. Batches are guided: large while much is queued and
-    /// tiles are cheap (at most 50 ms of work), single tiles at the tail; 1 sends every tile
-    /// on its own; at most 256.
-    #[arg(long, value_name = "N", default_value_t = 8)]
+    /// Most tiles in one assignment (the help text is `max_batch_help`'s, which reads the
+    /// batch rule's constants).
+    #[arg(long, value_name = "N", default_value_t = 8, help = max_batch_help())]
     pub max_batch: usize,
     /// Never duplicate in-flight tiles onto idle workers.
     #[arg(long)]
@@ -106,6 +106,18 @@ pub struct MasterArgs {
     /// warnings.
     #[arg(short, long)]
     pub verbose: bool,
+}
+
+/// `--max-batch`'s help, with the batch rule's own bound on a batch's work
+/// ([`parrt_runtime::batch::BATCH_SECONDS`]) and the protocol's largest batch.
+fn max_batch_help() -> String {
+    format!(
+        "Most tiles in one assignment. Batches are guided: large while much is queued and tiles \
+         are cheap (at most {} ms of work), single tiles at the tail; 1 sends every tile on its \
+         own; at most {}",
+        parrt_runtime::batch::BATCH_SECONDS * 1e3,
+        parrt_protocol::limits::MAX_BATCH
+    )
 }
 
 /// The scene: a file, `--scene` or `--scene-json`, and its label for messages.
@@ -195,22 +207,17 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
             tile_size: args.tile,
         },
     );
-    let mut config = MasterConfig {
+    let mut config = master_config(MasterSetup {
         observers: watch.observers(),
-        checkpoint: args
-            .checkpoint
-            .clone()
-            .map(|path| parrt_runtime::CheckpointAt {
-                path,
-                resume: args.resume,
-                // The token outlives the run (the user gives it again to resume).
-                keyed: true,
-            }),
-        ..MasterConfig::default()
-    };
+        checkpoint: args.checkpoint.as_ref(),
+        resume: args.resume,
+        // The token outlives the run (the user gives it again to resume).
+        keyed: true,
+        tile: args.tile,
+        min_workers: args.min_workers.max(1),
+        output: &args.output,
+    });
     let s = &mut config.schedule;
-    s.tile = args.tile;
-    s.min_workers = args.min_workers.max(1);
     s.wait_workers = wait_workers;
     s.tile_deadline = tile_deadline;
     s.window = args.window;
@@ -219,7 +226,6 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     s.order = args
         .order
         .order(settings.width, settings.height, args.tile)?;
-    s.pixel_format = parrt_runtime::pixel_format_for(&args.output);
     config.net.listen = args.listen.clone();
     config.net.token = Some(token);
     config.net.heartbeat_timeout = heartbeat_timeout;

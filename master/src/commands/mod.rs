@@ -1,11 +1,13 @@
 //! One module per subcommand; each exposes an `Args` struct and `run(args)`. Two modules are
 //! shared by the commands that render, and import no command: [`watch`] (the observers the
-//! flags ask for) and [`report`] (what a finished render prints). The flags several commands
+//! flags ask for) and [`report`] (what a finished render prints); [`distributed`] builds the
+//! master configuration the three distributed entry points share. The flags several commands
 //! take are [`crate::cli_args`]'s.
 
 pub mod bench;
 pub mod cluster;
 pub mod completions;
+pub mod distributed;
 pub mod info;
 pub mod man;
 pub mod master;

@@ -218,7 +218,7 @@ fn render_through_workers(
     n: usize,
     live: Option<&crate::live::Live>,
 ) -> anyhow::Result<(Outcome, f64, RenderSettings, Choice)> {
-    use parrt_runtime::{DistError, Job, MasterConfig};
+    use parrt_runtime::{DistError, Job};
     /// A failure of the distributed render or of preparing its job.
     enum Failed {
         Dist(DistError),
@@ -255,24 +255,18 @@ fn render_through_workers(
         .timeline
         .as_ref()
         .map(|_| std::sync::Arc::new(crate::timeline::Recorder::new()));
-    let mut config = MasterConfig {
+    let mut config = super::distributed::master_config(super::distributed::MasterSetup {
         observers: watchers(recorder.as_ref(), live),
-        ..MasterConfig::default()
-    };
+        checkpoint: args.checkpoint.as_ref(),
+        resume: args.resume,
+        // The workers' token is made for this run only: nothing to key a resume with.
+        keyed: false,
+        tile: args.tile,
+        min_workers: n,
+        output: &args.output,
+    });
     config.spawn.count = n;
     config.spawn.threads = threads;
-    config.schedule.tile = args.tile;
-    config.schedule.min_workers = n;
-    config.schedule.pixel_format = parrt_runtime::pixel_format_for(&args.output);
-    config.checkpoint = args
-        .checkpoint
-        .clone()
-        .map(|path| parrt_runtime::CheckpointAt {
-            path,
-            resume: args.resume,
-            // The workers' token is made for this run only: nothing to key a resume with.
-            keyed: false,
-        });
     let (r, settings) = match parrt_runtime::run(&config, job, &mut |_| Ok(None), None) {
         Ok(done) => (done.result, done.settings),
         Err(Failed::Job(e)) => return Err(e),
@@ -289,34 +283,8 @@ fn render_through_workers(
         );
     }
     let build_s = r.per_worker.iter().map(|w| w.build_s).fold(0.0, f64::max);
-    let mut describe = vec![format!(
-        "image             {}x{}, {n} local workers × {threads} threads, tile {}, {:?}",
-        settings.width, settings.height, args.tile, settings.accel
-    )];
-    for w in &r.per_worker {
-        describe.push(format!(
-            "  worker {:<10} {} threads, {}, {} tiles, render {:.3}s, build {:.3}s{}",
-            w.name,
-            w.threads,
-            w.isa,
-            w.tiles,
-            w.render_s,
-            w.build_s,
-            w.left
-                .as_deref()
-                .map(|l| format!(", left: {l}"))
-                .unwrap_or_default()
-        ));
-    }
-    describe.push(format!(
-        "network           {} bytes sent, {} received, scene transfer {:.4}s",
-        r.bytes_sent, r.bytes_received, r.scene_transfer_s
-    ));
+    let describe = describe_workers(&r, &settings, n, threads, args.tile);
     let (per_tile_us, per_mb_ms) = (r.master_cpu_per_tile_us(), r.master_cpu_per_mb_ms());
-    describe.push(format!(
-        "master CPU        {:.4}s ({per_tile_us:.1} µs per tile, {per_mb_ms:.2} ms per MB received)",
-        r.master_cpu_s
-    ));
     let outcome = Outcome {
         film: r.film,
         stats: r.stats,
@@ -347,6 +315,46 @@ fn render_through_workers(
         reason: String::new(),
     });
     Ok((outcome, parse_s.get(), settings, choice))
+}
+
+/// The `--stats` lines of a render through `n` local workers of `threads` threads: the image,
+/// each worker, the network and the master's CPU.
+fn describe_workers(
+    r: &parrt_runtime::DistResult,
+    settings: &RenderSettings,
+    n: usize,
+    threads: usize,
+    tile: u32,
+) -> Vec<String> {
+    let mut describe = vec![format!(
+        "image             {}x{}, {n} local workers × {threads} threads, tile {}, {:?}",
+        settings.width, settings.height, tile, settings.accel
+    )];
+    for w in &r.per_worker {
+        describe.push(format!(
+            "  worker {:<10} {} threads, {}, {} tiles, render {:.3}s, build {:.3}s{}",
+            w.name,
+            w.threads,
+            w.isa,
+            w.tiles,
+            w.render_s,
+            w.build_s,
+            w.left
+                .as_deref()
+                .map(|l| format!(", left: {l}"))
+                .unwrap_or_default()
+        ));
+    }
+    describe.push(format!(
+        "network           {} bytes sent, {} received, scene transfer {:.4}s",
+        r.bytes_sent, r.bytes_received, r.scene_transfer_s
+    ));
+    let (per_tile_us, per_mb_ms) = (r.master_cpu_per_tile_us(), r.master_cpu_per_mb_ms());
+    describe.push(format!(
+        "master CPU        {:.4}s ({per_tile_us:.1} µs per tile, {per_mb_ms:.2} ms per MB received)",
+        r.master_cpu_s
+    ));
+    describe
 }
 
 /// Loads the scene and the settings the flags make of it, checking the image's size: the

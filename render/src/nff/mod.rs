@@ -3,7 +3,8 @@
 //! - [`lexer`]: bytes to tokens with line and column.
 //! - [`number`]: correctly rounded reals and whole-number counts.
 //! - [`checks`]: the geometric validity rules (camera, cone, polygon).
-//! - [`parser`]: the entity grammar; [`parse`], [`parse_file`] and their detailed forms.
+//! - [`parser`]: the file grammar; [`parse`], [`parse_file`] and their detailed forms.
+//! - `entities`: each entity's fields after its keyword (the parser's, continued).
 //! - [`read`]: a named file's bytes, bounded (regular files only, a size limit).
 //! - [`summary`]: what a parsed file contains, counted (for `parrt info`).
 //! - [`writer`]: [`to_nff`], which the parser reads back to the identical description.
@@ -19,6 +20,7 @@
 //! ```
 
 pub mod checks;
+mod entities;
 pub mod error;
 pub mod lexer;
 pub mod limits;

@@ -1,5 +1,7 @@
 //! Number tokens: C `%g`-style reals, correctly rounded, and whole-number counts. Pure functions
 //! from bytes to values; they say what is wrong, never where (the parser adds the location).
+//! And the way back for the writers (`write_real`): the shortest text that reads as the same
+//! `f64`.
 //!
 //! Reals: an optional sign, digits with an optional `.` (`1`, `.5`, `5.`), and an optional
 //! exponent (`1e-3`, `2E+5`). The common case — at most 19 significant digits and a small decimal
@@ -195,6 +197,18 @@ pub fn parse_count(tok: &[u8]) -> Result<u64, CountError> {
             .ok_or(CountError::TooLarge)?;
     }
     Ok(n)
+}
+
+/// Writes `v` in the shortest form that reads back as the same `f64` (Rust's shortest
+/// round-trip digits; exponent notation outside 1e-4..1e15), for the NFF and POV-Ray writers.
+pub(crate) fn write_real(out: &mut String, v: f64) {
+    use std::fmt::Write;
+    let a = v.abs();
+    if a != 0.0 && !(1e-4..1e15).contains(&a) {
+        let _ = write!(out, "{v:e}");
+    } else {
+        let _ = write!(out, "{v}");
+    }
 }
 
 #[cfg(test)]

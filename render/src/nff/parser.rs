@@ -20,12 +20,11 @@
 //! one warning naming the first one's line, as a missing `f` is; a file left with no
 //! primitive by the dropping is refused at the first one.
 
-use super::checks::{self, CameraProblem, ConeProblem, PolygonProblem};
 use super::error::{NffError, NffErrorKind};
 use super::lexer::{Lexer, Position, Token};
 use super::limits::Limits;
 use super::number::{self, CountError, RealError};
-use crate::description::{Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View};
+use crate::description::{Light, Material, Primitive, SceneDescription, View};
 use crate::vec3::Vec3d;
 use std::path::Path;
 
@@ -44,6 +43,37 @@ pub struct ParsedNff {
 /// What a polygon of zero area is, in the parser's messages.
 const ZERO_AREA: &str =
     "zero area (its Newell normal is zero: the vertices coincide or are collinear)";
+
+/// What the file has declared so far, entity by entity.
+struct Gathered {
+    background: Option<Vec3d>,
+    /// The view block and its keyword (for "a second view block").
+    view: Option<(View, Token)>,
+    lights: Vec<Light>,
+    materials: Vec<Material>,
+    primitives: Vec<Primitive>,
+    /// `f` lines read (the inserted default material is not one).
+    material_lines: usize,
+    default_material_inserted: bool,
+    /// Polygons and patches of zero area, dropped (reported once, after the file).
+    flat: Flat,
+}
+
+impl Gathered {
+    /// Nothing yet, with room for `primitives`.
+    fn with_room(primitives: usize) -> Self {
+        Gathered {
+            background: None,
+            view: None,
+            lights: Vec::new(),
+            materials: Vec::new(),
+            primitives: Vec::with_capacity(primitives),
+            material_lines: 0,
+            default_material_inserted: false,
+            flat: Flat::default(),
+        }
+    }
+}
 
 /// The polygons and patches of zero area a file held, dropped as they were read.
 #[derive(Default)]
@@ -96,13 +126,9 @@ const KEYWORDS: &str = "b, v, l, f, c, s, p or pp";
 /// The order of a view block, for messages.
 const VIEW_ORDER: &str = "v from x y z at x y z up x y z angle a hither h resolution w h";
 
-/// Minimum bytes one vertex of `p` takes: three numbers, each at least one byte after at least one
-/// separator. `pp` vertices take twice this.
-const MIN_VERTEX_BYTES: u64 = 6;
-
 /// Which number is being read, for messages; formatted only on error.
 #[derive(Clone, Copy)]
-enum Field {
+pub(super) enum Field {
     /// A named field: "the sphere radius".
     Named(&'static str),
     /// A coordinate of a polygon or patch vertex.
@@ -132,14 +158,15 @@ impl Field {
     }
 }
 
-struct Parser<'a> {
-    lx: Lexer<'a>,
-    file: &'a str,
-    limits: &'a Limits,
+/// The reader's state: the tokens, the file's name for messages, and the limits.
+pub(super) struct Parser<'a> {
+    pub(super) lx: Lexer<'a>,
+    pub(super) file: &'a str,
+    pub(super) limits: &'a Limits,
 }
 
 /// Shows a token in a message: lossy UTF-8, control characters escaped, long tokens cut.
-fn show(bytes: &[u8]) -> String {
+pub(super) fn show(bytes: &[u8]) -> String {
     const MAX: usize = 40;
     let s = String::from_utf8_lossy(&bytes[..bytes.len().min(MAX)]);
     let mut out: String = s.chars().flat_map(char::escape_debug).collect();
@@ -150,7 +177,7 @@ fn show(bytes: &[u8]) -> String {
 }
 
 impl<'a> Parser<'a> {
-    fn error_at(&self, pos: Position, kind: NffErrorKind, message: String) -> NffError {
+    pub(super) fn error_at(&self, pos: Position, kind: NffErrorKind, message: String) -> NffError {
         NffError {
             file: self.file.to_string(),
             line: pos.line,
@@ -161,18 +188,18 @@ impl<'a> Parser<'a> {
     }
 
     #[cold]
-    fn syntax(&self, t: &Token, message: String) -> NffError {
+    pub(super) fn syntax(&self, t: &Token, message: String) -> NffError {
         self.error_at(t.position(), NffErrorKind::Syntax, message)
     }
 
     #[cold]
-    fn limit(&self, t: &Token, message: String) -> NffError {
+    pub(super) fn limit(&self, t: &Token, message: String) -> NffError {
         self.error_at(t.position(), NffErrorKind::Limit, message)
     }
 
     /// "expected X, found 'tok'" at the token, or "..., found the end of the file" at the end.
     #[cold]
-    fn expected(&self, tok: Option<Token>, what: String) -> NffError {
+    pub(super) fn expected(&self, tok: Option<Token>, what: String) -> NffError {
         match tok {
             Some(t) => {
                 let text = show(self.lx.text(&t));
@@ -190,7 +217,12 @@ impl<'a> Parser<'a> {
     }
 
     #[cold]
-    fn bad_number(&self, tok: Option<Token>, field: Field, e: Option<RealError>) -> NffError {
+    pub(super) fn bad_number(
+        &self,
+        tok: Option<Token>,
+        field: Field,
+        e: Option<RealError>,
+    ) -> NffError {
         let what = field.describe();
         match (tok, e) {
             (Some(t), Some(RealError::NotFinite)) => {
@@ -213,7 +245,7 @@ impl<'a> Parser<'a> {
 
     /// Reads one real number and its token.
     #[inline]
-    fn real_tok(&mut self, field: Field) -> Result<(f64, Token), NffError> {
+    pub(super) fn real_tok(&mut self, field: Field) -> Result<(f64, Token), NffError> {
         let tok = match self.lx.next_number() {
             Some((t, Some(v))) => return Ok((v, t)),
             Some((t, None)) => Some(t),
@@ -229,12 +261,12 @@ impl<'a> Parser<'a> {
     }
 
     #[inline]
-    fn real(&mut self, field: Field) -> Result<f64, NffError> {
+    pub(super) fn real(&mut self, field: Field) -> Result<f64, NffError> {
         self.real_tok(field).map(|(v, _)| v)
     }
 
     #[inline]
-    fn vec3(&mut self, names: &[&'static str; 3]) -> Result<Vec3d, NffError> {
+    pub(super) fn vec3(&mut self, names: &[&'static str; 3]) -> Result<Vec3d, NffError> {
         Ok(Vec3d::new(
             self.real(Field::Named(names[0]))?,
             self.real(Field::Named(names[1]))?,
@@ -243,7 +275,7 @@ impl<'a> Parser<'a> {
     }
 
     /// Reads a whole number (a count or a resolution) and its token.
-    fn count(&mut self, what: &str) -> Result<(u64, Token), NffError> {
+    pub(super) fn count(&mut self, what: &str) -> Result<(u64, Token), NffError> {
         let tok = self.lx.next();
         let Some(t) = tok else {
             return Err(self.expected(tok, format!("a whole number for {what}")));
@@ -261,7 +293,7 @@ impl<'a> Parser<'a> {
     }
 
     /// Consumes the view sub-keyword `word` or fails.
-    fn view_word(&mut self, word: &str) -> Result<Token, NffError> {
+    pub(super) fn view_word(&mut self, word: &str) -> Result<Token, NffError> {
         let tok = self.lx.next();
         match tok {
             Some(t) if self.lx.text(&t) == word.as_bytes() => Ok(t),
@@ -273,24 +305,14 @@ impl<'a> Parser<'a> {
     }
 
     fn file(mut self) -> Result<ParsedNff, NffError> {
-        let mut background: Option<Vec3d> = None;
-        let mut view: Option<(View, Token)> = None;
-        let mut lights = Vec::new();
-        let mut materials: Vec<Material> = Vec::new();
         // SPD files spend 50-200 bytes per primitive: reserving for one per 64 bytes avoids
         // regrowth copies and costs only untouched address space when too much.
         let guess = (self.lx.src().len() / 64) as u64;
-        let mut primitives: Vec<Primitive> =
-            Vec::with_capacity(guess.min(self.limits.max_primitives).min(1 << 24) as usize);
-        let mut material_lines = 0usize;
-        let mut default_material_inserted = false;
+        let mut g =
+            Gathered::with_room(guess.min(self.limits.max_primitives).min(1 << 24) as usize);
         // The last entity read, for "extra field" messages.
         let mut last: Option<(&'static str, Token)> = None;
         let mut first = true;
-        // Polygons and patches of zero area, dropped: how many, and the first one's keyword
-        // (they are reported once, after the file, in one warning).
-        let mut flat = Flat::default();
-
         while let Some(t) = self.lx.next() {
             let kw = self.lx.text(&t);
             if first && kw.eq_ignore_ascii_case(b"nff") {
@@ -304,104 +326,130 @@ impl<'a> Parser<'a> {
             first = false;
             let name: &'static str = match kw {
                 b"b" => {
-                    let c = self.vec3(&[
-                        "the background red",
-                        "the background green",
-                        "the background blue",
-                    ])?;
-                    if background.is_some() {
-                        tracing::warn!(
-                            "{}:{}:{}: a second background 'b' replaces the first",
-                            self.file,
-                            t.line,
-                            t.column
-                        );
-                    }
-                    background = Some(c);
+                    self.background(&t, &mut g)?;
                     "background"
                 }
                 b"v" => {
-                    if let Some((_, first_v)) = &view {
-                        return Err(self.syntax(
-                            &t,
-                            format!(
-                                "a second view block 'v' (the first is at line {}); a file has exactly one",
-                                first_v.line
-                            ),
-                        ));
-                    }
-                    if !primitives.is_empty() {
-                        tracing::warn!(
-                            "{}:{}:{}: the view block comes after objects (allowed, but NFF puts it first)",
-                            self.file,
-                            t.line,
-                            t.column
-                        );
-                    }
-                    view = Some((self.view()?, t));
+                    self.view_entity(&t, &mut g)?;
                     "view block"
                 }
                 b"l" => {
-                    lights.push(self.light()?);
+                    g.lights.push(self.light()?);
                     "light"
                 }
                 b"f" => {
-                    materials.push(self.material()?);
-                    material_lines += 1;
+                    g.materials.push(self.material()?);
+                    g.material_lines += 1;
                     "material"
                 }
-                b"c" | b"s" | b"p" | b"pp" => {
-                    if primitives.len() as u64 >= self.limits.max_primitives {
-                        return Err(self.limit(
-                            &t,
-                            format!(
-                                "more than {} primitives: the limit is {} (raise it with --max-primitives)",
-                                self.limits.max_primitives, self.limits.max_primitives
-                            ),
-                        ));
-                    }
-                    let (shape, name) = match kw {
-                        b"c" => (Some(self.cone(&t)?), "cone"),
-                        b"s" => (Some(self.sphere()?), "sphere"),
-                        b"p" => (self.polygon(&t)?, "polygon"),
-                        _ => (self.patch(&t)?, "patch"),
-                    };
-                    let Some(shape) = shape else {
-                        flat.count += 1;
-                        flat.first.get_or_insert((name, t));
-                        last = Some((name, t));
-                        continue;
-                    };
-                    if materials.is_empty() {
-                        tracing::warn!(
-                            "{}:{}:{}: a primitive before any material 'f': using white, diffuse (Kd 1) material",
-                            self.file,
-                            t.line,
-                            t.column
-                        );
-                        materials.push(Material::default_white());
-                        default_material_inserted = true;
-                    }
-                    let material = u32::try_from(materials.len() - 1)
-                        .map_err(|_| self.limit(&t, "more than 2^32 materials".to_string()))?;
-                    primitives.push(Primitive { shape, material });
-                    name
-                }
+                b"c" | b"s" | b"p" | b"pp" => self.primitive(kw, &t, &mut g)?,
                 _ => return Err(self.unexpected(&t, last)),
             };
             last = Some((name, t));
         }
+        self.finish(g)
+    }
 
-        let Some((view, _)) = view else {
+    /// A background `b` (a second one replaces the first, with a warning).
+    fn background(&mut self, t: &Token, g: &mut Gathered) -> Result<(), NffError> {
+        let c = self.vec3(&[
+            "the background red",
+            "the background green",
+            "the background blue",
+        ])?;
+        if g.background.is_some() {
+            tracing::warn!(
+                "{}:{}:{}: a second background 'b' replaces the first",
+                self.file,
+                t.line,
+                t.column
+            );
+        }
+        g.background = Some(c);
+        Ok(())
+    }
+
+    /// The view block `v` at keyword `t`: exactly one per file, after objects with a warning.
+    fn view_entity(&mut self, t: &Token, g: &mut Gathered) -> Result<(), NffError> {
+        if let Some((_, first_v)) = &g.view {
+            return Err(self.syntax(
+                t,
+                format!(
+                    "a second view block 'v' (the first is at line {}); a file has exactly one",
+                    first_v.line
+                ),
+            ));
+        }
+        if !g.primitives.is_empty() {
+            tracing::warn!(
+                "{}:{}:{}: the view block comes after objects (allowed, but NFF puts it first)",
+                self.file,
+                t.line,
+                t.column
+            );
+        }
+        g.view = Some((self.view()?, *t));
+        Ok(())
+    }
+
+    /// A primitive of keyword `kw` at `t` (`c`, `s`, `p` or `pp`), with the last material (the
+    /// default white one, with a warning, before any `f`); one of zero area is counted in
+    /// [`Gathered::flat`] and dropped. Returns the entity's name.
+    fn primitive(
+        &mut self,
+        kw: &[u8],
+        t: &Token,
+        g: &mut Gathered,
+    ) -> Result<&'static str, NffError> {
+        if g.primitives.len() as u64 >= self.limits.max_primitives {
+            return Err(self.limit(
+                t,
+                format!(
+                    "more than {} primitives: the limit is {} (raise it with --max-primitives)",
+                    self.limits.max_primitives, self.limits.max_primitives
+                ),
+            ));
+        }
+        let (shape, name) = match kw {
+            b"c" => (Some(self.cone(t)?), "cone"),
+            b"s" => (Some(self.sphere()?), "sphere"),
+            b"p" => (self.polygon(t)?, "polygon"),
+            _ => (self.patch(t)?, "patch"),
+        };
+        let Some(shape) = shape else {
+            g.flat.count += 1;
+            g.flat.first.get_or_insert((name, *t));
+            return Ok(name);
+        };
+        if g.materials.is_empty() {
+            tracing::warn!(
+                "{}:{}:{}: a primitive before any material 'f': using white, diffuse (Kd 1) material",
+                self.file,
+                t.line,
+                t.column
+            );
+            g.materials.push(Material::default_white());
+            g.default_material_inserted = true;
+        }
+        let material = u32::try_from(g.materials.len() - 1)
+            .map_err(|_| self.limit(t, "more than 2^32 materials".to_string()))?;
+        g.primitives.push(Primitive { shape, material });
+        Ok(name)
+    }
+
+    /// The file's end: a view block is required; the polygons and patches of zero area are
+    /// reported in one warning (refused if nothing else is left to render).
+    fn finish(&self, g: Gathered) -> Result<ParsedNff, NffError> {
+        let Some((view, _)) = g.view else {
             return Err(self.error_at(
                 self.lx.end_position(),
                 NffErrorKind::Syntax,
                 format!("the file has no view block: expected one ({VIEW_ORDER}) before the end of the file"),
             ));
         };
-        if let Some((entity, t)) = flat.first {
-            let n = flat.count;
-            if primitives.is_empty() {
+        if let Some((entity, t)) = g.flat.first {
+            let n = g.flat.count;
+            if g.primitives.is_empty() {
                 // Nothing would be left to render: refused, as before any was dropped.
                 return Err(self.syntax(
                     &t,
@@ -426,14 +474,14 @@ impl<'a> Parser<'a> {
         }
         Ok(ParsedNff {
             description: SceneDescription {
-                background: background.unwrap_or_else(Vec3d::zero),
+                background: g.background.unwrap_or_else(Vec3d::zero),
                 view,
-                lights,
-                materials,
-                primitives,
+                lights: g.lights,
+                materials: g.materials,
+                primitives: g.primitives,
             },
-            material_lines,
-            default_material_inserted,
+            material_lines: g.material_lines,
+            default_material_inserted: g.default_material_inserted,
         })
     }
 
@@ -457,287 +505,6 @@ impl<'a> Parser<'a> {
             )
         } else {
             self.syntax(t, format!("unknown keyword '{text}': expected {KEYWORDS}"))
-        }
-    }
-
-    fn view(&mut self) -> Result<View, NffError> {
-        self.view_word("from")?;
-        let from = self.vec3(&[
-            "the view's from x",
-            "the view's from y",
-            "the view's from z",
-        ])?;
-        let at_tok = self.view_word("at")?;
-        let at = self.vec3(&["the view's at x", "the view's at y", "the view's at z"])?;
-        let up_tok = self.view_word("up")?;
-        let up = self.vec3(&["the view's up x", "the view's up y", "the view's up z"])?;
-        match checks::camera(from, at, up) {
-            Ok(()) => {}
-            Err(CameraProblem::NoViewDirection) => {
-                return Err(self.syntax(
-                    &at_tok,
-                    "degenerate camera: 'from' and 'at' are the same point (or too far apart to compute), so there is no view direction".into(),
-                ))
-            }
-            Err(CameraProblem::ZeroUp) => {
-                return Err(self.syntax(&up_tok, "degenerate camera: the 'up' vector is zero".into()))
-            }
-            Err(CameraProblem::UpParallel) => {
-                return Err(self.syntax(
-                    &up_tok,
-                    "degenerate camera: 'up' is parallel to the view direction (at - from)".into(),
-                ))
-            }
-        }
-        self.view_word("angle")?;
-        let (angle, angle_tok) = self.real_tok(Field::Named("the view angle (degrees)"))?;
-        if !(angle > 0.0 && angle < 180.0) {
-            let text = show(self.lx.text(&angle_tok));
-            return Err(self.syntax(
-                &angle_tok,
-                format!(
-                    "the view angle must lie strictly between 0 and 180 degrees, found '{text}'"
-                ),
-            ));
-        }
-        self.view_word("hither")?;
-        let (hither, hither_tok) = self.real_tok(Field::Named("the view's hither distance"))?;
-        if hither < 0.0 {
-            let text = show(self.lx.text(&hither_tok));
-            return Err(self.syntax(
-                &hither_tok,
-                format!("the hither distance must not be negative, found '{text}'"),
-            ));
-        }
-        self.view_word("resolution")?;
-        let (w, wt) = self.count("the resolution width")?;
-        let (h, ht) = self.count("the resolution height")?;
-        for (v, t, name) in [(w, wt, "width"), (h, ht, "height")] {
-            if v == 0 {
-                return Err(self.syntax(
-                    &t,
-                    format!("the resolution {name} must be at least 1, found 0"),
-                ));
-            }
-        }
-        let pixels = w.checked_mul(h);
-        let width = u32::try_from(w);
-        let height = u32::try_from(h);
-        match (width, height, pixels) {
-            (Ok(width), Ok(height), Some(p)) if p <= self.limits.max_pixels => Ok(View {
-                from,
-                at,
-                up,
-                angle,
-                hither,
-                width,
-                height,
-            }),
-            _ => Err(self.limit(
-                &wt,
-                format!(
-                    "resolution {w} × {h} exceeds the limit of {} pixels (raise it with --max-pixels)",
-                    self.limits.max_pixels
-                ),
-            )),
-        }
-    }
-
-    fn light(&mut self) -> Result<Light, NffError> {
-        let position = self.vec3(&["the light's x", "the light's y", "the light's z"])?;
-        let has_color = match self.lx.peek() {
-            Some(t) => number::looks_numeric(self.lx.text(&t)),
-            None => false,
-        };
-        let color = if has_color {
-            Some(self.vec3(&[
-                "the light's red (a light has 3 or 6 numbers)",
-                "the light's green (a light has 3 or 6 numbers)",
-                "the light's blue (a light has 3 or 6 numbers)",
-            ])?)
-        } else {
-            None
-        };
-        Ok(Light { position, color })
-    }
-
-    fn material(&mut self) -> Result<Material, NffError> {
-        let color = self.vec3(&[
-            "the material's red",
-            "the material's green",
-            "the material's blue",
-        ])?;
-        Ok(Material {
-            color,
-            kd: self.real(Field::Named(
-                "the material's Kd (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-            ks: self.real(Field::Named(
-                "the material's Ks (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-            shine: self.real(Field::Named(
-                "the material's Shine (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-            t: self.real(Field::Named(
-                "the material's T (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-            ior: self.real(Field::Named(
-                "the material's ior (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-        })
-    }
-
-    fn sphere(&mut self) -> Result<Shape, NffError> {
-        let center = self.vec3(&[
-            "the sphere centre's x",
-            "the sphere centre's y",
-            "the sphere centre's z",
-        ])?;
-        let (radius, rt) = self.real_tok(Field::Named("the sphere radius"))?;
-        if radius == 0.0 {
-            return Err(self.syntax(&rt, "the sphere radius must not be zero".into()));
-        }
-        Ok(Shape::Sphere { center, radius })
-    }
-
-    fn cone(&mut self, kw: &Token) -> Result<Shape, NffError> {
-        let base = self.vec3(&[
-            "the cone base's x",
-            "the cone base's y",
-            "the cone base's z",
-        ])?;
-        let (base_radius, brt) = self.real_tok(Field::Named("the cone base radius"))?;
-        let apex = self.vec3(&[
-            "the cone apex's x",
-            "the cone apex's y",
-            "the cone apex's z",
-        ])?;
-        let (apex_radius, art) = self.real_tok(Field::Named("the cone apex radius"))?;
-        match checks::cone(base, base_radius, apex, apex_radius) {
-            Ok(()) => Ok(Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            }),
-            Err(ConeProblem::NoAxis) => Err(self.syntax(
-                kw,
-                "degenerate cone: the base and apex centres are the same point (no axis)".into(),
-            )),
-            Err(ConeProblem::MixedSigns) => Err(self.syntax(
-                if base_radius < 0.0 { &brt } else { &art },
-                "cone with exactly one negative radius: both must be negative (inside only) or neither".into(),
-            )),
-            Err(ConeProblem::ZeroRadii) => Err(self.syntax(
-                kw,
-                "degenerate cone: both radii are zero".into(),
-            )),
-        }
-    }
-
-    /// Reads a vertex count and checks it before anything is allocated: at least 3, small enough
-    /// for the bytes left in the file, and within the vertex limit.
-    fn vertex_count(
-        &mut self,
-        entity: &'static str,
-        bytes_per_vertex: u64,
-    ) -> Result<usize, NffError> {
-        let what = if entity == "patch" {
-            "the patch's vertex count"
-        } else {
-            "the polygon's vertex count"
-        };
-        let (n, t) = self.count(what)?;
-        if n < 3 {
-            return Err(self.syntax(
-                &t,
-                format!("a {entity} needs at least 3 vertices, its count is {n}"),
-            ));
-        }
-        let left = self.lx.remaining_after(&t) as u64;
-        if n.checked_mul(bytes_per_vertex)
-            .is_none_or(|need| need > left)
-        {
-            return Err(self.syntax(
-                &t,
-                format!(
-                    "the {entity}'s count says {n} vertices, which need at least {bytes_per_vertex} bytes each, \
-                     but only {left} bytes are left in the file: the count disagrees with the file"
-                ),
-            ));
-        }
-        if n > u64::from(self.limits.max_vertices) {
-            return Err(self.limit(
-                &t,
-                format!(
-                    "a {entity} with {n} vertices exceeds the limit of {} (raise it with --max-vertices)",
-                    self.limits.max_vertices
-                ),
-            ));
-        }
-        usize::try_from(n).map_err(|_| self.limit(&t, format!("{n} vertices do not fit in memory")))
-    }
-
-    /// A polygon, or `None` for one of zero area (its vertices read; the caller drops it).
-    fn polygon(&mut self, kw: &Token) -> Result<Option<Shape>, NffError> {
-        let n = self.vertex_count("polygon", MIN_VERTEX_BYTES)?;
-        let mut vs = Vec::with_capacity(n);
-        for i in 1..=n as u64 {
-            let f = |what| Field::Vertex {
-                entity: "polygon",
-                what,
-                index: i,
-                count: n as u64,
-            };
-            vs.push(Vec3d::new(
-                self.real(f("x"))?,
-                self.real(f("y"))?,
-                self.real(f("z"))?,
-            ));
-        }
-        let flat = self.plane(kw, "polygon", checks::polygon(vs.iter().copied()))?;
-        Ok((!flat).then(|| Shape::Polygon(vs.into())))
-    }
-
-    /// A patch, or `None` for one of zero area (its vertices read; the caller drops it).
-    fn patch(&mut self, kw: &Token) -> Result<Option<Shape>, NffError> {
-        let n = self.vertex_count("patch", 2 * MIN_VERTEX_BYTES)?;
-        let mut vs = Vec::with_capacity(n);
-        for i in 1..=n as u64 {
-            let f = |what| Field::Vertex {
-                entity: "patch",
-                what,
-                index: i,
-                count: n as u64,
-            };
-            let position = Vec3d::new(self.real(f("x"))?, self.real(f("y"))?, self.real(f("z"))?);
-            let normal = Vec3d::new(
-                self.real(f("normal x"))?,
-                self.real(f("normal y"))?,
-                self.real(f("normal z"))?,
-            );
-            vs.push(PatchVertex { position, normal });
-        }
-        let flat = self.plane(kw, "patch", checks::polygon(vs.iter().map(|v| v.position)))?;
-        Ok((!flat).then_some(Shape::Patch(vs)))
-    }
-
-    /// Whether a polygon's plane is usable: `Ok(false)` yes, `Ok(true)` for zero area (such a
-    /// polygon is dropped, as SPD's own generators can emit one: a teapot patch at size 1 is
-    /// collinear), an error for coordinates too large to compute with.
-    fn plane(
-        &self,
-        kw: &Token,
-        entity: &str,
-        r: Result<(), PolygonProblem>,
-    ) -> Result<bool, NffError> {
-        match r {
-            Ok(()) => Ok(false),
-            Err(PolygonProblem::ZeroArea) => Ok(true),
-            Err(PolygonProblem::Overflow) => Err(self.syntax(
-                kw,
-                format!("{entity} coordinates too large: its normal overflows a double"),
-            )),
         }
     }
 }

@@ -15,22 +15,13 @@
 //! the gears' 144-vertex outlines); one that cannot be cut (collinear runs, a self-touching
 //! outline) is written as a POV-Ray `polygon` instead, which draws the same area.
 
+use super::number::write_real as num;
 use crate::description::{Material, SceneDescription, Shape};
 use crate::vec3::Vec3d;
 use std::fmt::Write;
 
 /// The `Shine` value SPD writes for a material with no highlight.
 const NO_HIGHLIGHT: f64 = 100000.0;
-
-/// Writes one number in the shortest form that reads back as the same `f64`.
-fn num(out: &mut String, v: f64) {
-    let a = v.abs();
-    if a != 0.0 && !(1e-4..1e15).contains(&a) {
-        let _ = write!(out, "{v:e}");
-    } else {
-        let _ = write!(out, "{v}");
-    }
-}
 
 /// Writes `<x, y, z>`.
 fn vector(out: &mut String, v: Vec3d) {

@@ -2,18 +2,9 @@
 //! description: numbers in their shortest round-trip form, one entity per line, SPD's layout
 //! (`b`, `v` block, lights, then `f` and primitive runs; a cone on one line).
 
+use super::number::write_real as num;
 use crate::description::{Material, SceneDescription, Shape};
 use std::fmt::Write;
-
-/// Writes one number in the shortest form that parses back to the same `f64`.
-fn num(out: &mut String, v: f64) {
-    let a = v.abs();
-    if a != 0.0 && !(1e-4..1e15).contains(&a) {
-        let _ = write!(out, "{v:e}");
-    } else {
-        let _ = write!(out, "{v}");
-    }
-}
 
 fn nums(out: &mut String, vs: &[f64]) {
     for v in vs {

@@ -97,8 +97,16 @@ fn explore(e: &Explore) -> Result<ExitCode, String> {
     })
 }
 
-/// Each planted bug must be caught within `n` seeds.
-fn mutants(n: u64) -> ExitCode {
+/// Each planted bug must be caught within `n` seeds. A build without them is refused (exit 2):
+/// it would report every bug missed.
+fn mutants(n: u64) -> Result<ExitCode, String> {
+    if !parrt_runtime::mutation::COMPILED_IN {
+        return Err(
+            "built without planted bugs; run `cargo run -p parrt-tests --features \
+             planted --bin sim -- mutants`"
+                .into(),
+        );
+    }
     let mut missed = 0;
     println!("| planted bug | caught by seed | seeds run | invariant |");
     println!("|---|---:|---:|---|");
@@ -118,11 +126,11 @@ fn mutants(n: u64) -> ExitCode {
             }
         }
     }
-    if missed == 0 {
+    Ok(if missed == 0 {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
-    }
+    })
 }
 
 fn replay(seed: u64) -> ExitCode {
@@ -155,7 +163,7 @@ fn main() -> ExitCode {
     let r = match &cli.command {
         Command::Explore(e) => explore(e),
         Command::Replay { seed } => Ok(replay(*seed)),
-        Command::Mutants { seeds } => Ok(mutants(*seeds)),
+        Command::Mutants { seeds } => mutants(*seeds),
         Command::Scale(s) => scale(s),
     };
     match r {

@@ -46,7 +46,8 @@ pub enum Command {
         /// The seed.
         seed: u64,
     },
-    /// Plants each known bug in the runtime and says which seed caught it.
+    /// Plants each known bug in the runtime and says which seed caught it (needs a build with
+    /// them: `--features planted`, or exit 2).
     Mutants {
         /// Seeds tried per planted bug.
         #[arg(long, default_value_t = 1_000, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]

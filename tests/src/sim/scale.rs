@@ -24,7 +24,7 @@ use parrt_render::render::Renderer;
 use parrt_render::settings::RenderSettings;
 use parrt_render::smp::{render_smp, Executor, SmpOptions};
 use parrt_runtime::{DistResult, Master, MasterConfig};
-use parrt_worker::exec::InlineExec;
+use parrt_worker::exec::ReplayExec;
 use parrt_worker::replay::{self, Replay};
 use parrt_worker::WorkerOptions;
 use serde::Serialize;
@@ -273,7 +273,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
                     // dilated ×4 096, 4 096 workers' heartbeats alone would fill a 1 Gbit/s
                     // master link.
                     o.heartbeat = o.heartbeat.mul_f64(k);
-                    let exec = InlineExec::replaying(replay.clone());
+                    let exec = ReplayExec::simulated(replay.clone());
                     async move {
                         let _ = parrt_worker::session::run_with(
                             &o,

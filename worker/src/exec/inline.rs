@@ -10,7 +10,6 @@
 use super::{build_renderer, Built, ExecEvent, Execute};
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;
-use crate::replay::Replay;
 use crate::tiles::{result_message, trace, JobHandle, Source};
 use parrt_protocol::{JobSpec, Message};
 use parrt_render::film::Rgb;
@@ -92,14 +91,6 @@ impl InlineExec {
     /// Traces with the job's renderer; every tile costs `per_tile`.
     pub fn constant(per_tile: Duration) -> Self {
         InlineExec::new(move |_| per_tile)
-    }
-
-    /// Replays a recorded render: each tile costs its recorded time × the replay's scale, and
-    /// its pixels are the recorded ones (a tile the recording lacks is answered with an Error).
-    pub fn replaying(replay: Arc<Replay>) -> Self {
-        let r = replay.clone();
-        InlineExec::new(move |t| r.cost(t).unwrap_or(Duration::ZERO))
-            .with_pixels(move |t, out| replay.pixels(t, out).map_err(|e| e.to_string()))
     }
 
     /// Takes tiles' pixels from `pixels` instead of tracing them (cost-only simulation).

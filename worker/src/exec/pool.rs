@@ -2,7 +2,7 @@
 //! threads takes seconds), each job's renderer too, and tiles run on the pool through
 //! [`TileRenderer`]; everything comes back through channels. Nothing here runs on the runtime.
 
-use super::{build_renderer, Built, ExecEvent, Execute};
+use super::{build_renderer, Built, ExecEvent, Execute, PixelFn};
 use crate::error::WorkerError;
 use crate::options::WorkerOptions;
 use crate::tiles::{JobHandle, TileRenderer, UNSENT_RESULTS};
@@ -20,6 +20,8 @@ pub struct RayonExec {
     pool_build: Option<PoolBuild>,
     threads: usize,
     tile_delay: Option<Duration>,
+    /// Where tiles' pixels come from instead of tracing (a replaying worker), if anywhere.
+    pixels: Option<PixelFn>,
     /// The pool, once up.
     tiles: Option<TileRenderer>,
     /// Batches given before the pool was up, in order.
@@ -46,6 +48,7 @@ impl RayonExec {
             pool_build: None,
             threads: 1,
             tile_delay: None,
+            pixels: None,
             tiles: None,
             early: Vec::new(),
             out_tx: Some(out_tx),
@@ -53,6 +56,19 @@ impl RayonExec {
             built_tx,
             built_rx,
         }
+    }
+
+    /// Takes tiles' pixels from `pixels` instead of tracing them, on the pool's threads (a
+    /// replaying worker, [`super::ReplayExec`]).
+    pub fn with_pixels(
+        mut self,
+        pixels: impl Fn(&Tile, &mut Vec<parrt_render::film::Rgb>) -> Result<(), String>
+            + Send
+            + Sync
+            + 'static,
+    ) -> Self {
+        self.pixels = Some(std::sync::Arc::new(pixels));
+        self
     }
 
     /// The pool build ended: keep the pool and hand it the batches that waited for it.
@@ -73,7 +89,7 @@ impl RayonExec {
         let Some(tx) = self.out_tx.take() else {
             return Ok(());
         };
-        let r = TileRenderer::new(pool, tx, self.tile_delay);
+        let r = TileRenderer::new(pool, tx, self.tile_delay, self.pixels.clone());
         for (job, batch) in self.early.drain(..) {
             r.submit(&job, batch);
         }
