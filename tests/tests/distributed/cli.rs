@@ -1,7 +1,7 @@
 //! `parrt master` and `parrt worker` as processes, their command lines: a master without
 //! workers gives up with a clear message (exit 1), a master or worker without a token and a
 //! worker with an address that does not resolve or an absurd --dial-timeout are usage errors
-//! (exit 2), and Ctrl-C on the master tells its workers to shut down and exits 1.
+//! (exit 2), and Ctrl-C on the master tells its workers to shut down and exits 130.
 
 use crate::EXE;
 use parrt_tests::*;

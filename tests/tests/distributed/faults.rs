@@ -243,7 +243,11 @@ async fn interrupted_worker_disconnects_and_its_tiles_are_requeued() {
     let r = finish(m).await;
     assert_same_bits(&r.film, &reference, "after a worker's Ctrl-C");
     let st = status.await.unwrap();
-    assert_eq!(st.code(), Some(1), "an interrupted worker exits 1");
+    assert_eq!(
+        st.code(),
+        Some(130),
+        "a worker stopped by Ctrl-C exits 130 (128 + SIGINT)"
+    );
     assert!(r.faults.requeued >= 1, "{:?}", r.faults);
 }
 
