@@ -19,7 +19,7 @@ use crate::smp::{morton_order, Executor, TileSpan};
 use crate::stats::RayStats;
 use crate::tile::{tiles, Tile};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::Instant;
 
 /// Options of a sequence render on this machine.
@@ -117,6 +117,33 @@ impl<E> State<E> {
     fn alive(&self) -> usize {
         self.open.len() + self.elsewhere
     }
+
+    /// What a thread does next, of `frames` frames with at most `window` alive: the next tile
+    /// of the oldest open frame with tiles left, else open the next frame if the window has
+    /// room, else wait for a frame to open or finish, or end (stopped, failed or all done).
+    fn next_step(&mut self, frames: usize, window: usize, stop: &AtomicBool) -> Step {
+        if stop.load(Ordering::Relaxed) || self.failed.is_some() {
+            return Step::Done;
+        }
+        if let Some(f) = self.open.iter_mut().find(|f| f.next < f.order.len()) {
+            let tile = f.order[f.next];
+            f.next += 1;
+            return Step::Tile(f.index, f.renderer.clone(), tile);
+        }
+        if self.next_frame < frames && self.alive() < window {
+            let k = self.next_frame;
+            self.next_frame += 1;
+            self.elsewhere += 1;
+            let alive = self.alive();
+            self.result.most_alive = self.result.most_alive.max(alive);
+            return Step::Open(k);
+        }
+        if self.next_frame >= frames && self.open.is_empty() {
+            Step::Done
+        } else {
+            Step::Wait
+        }
+    }
 }
 
 /// What a thread does next.
@@ -151,34 +178,11 @@ pub fn render_sequence<E: Send>(
     let changed = Condvar::new();
     let start = Instant::now();
     let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
-    let next_step = |st: &mut MutexGuard<'_, State<E>>| -> Step {
-        if stop.load(Ordering::Relaxed) || st.failed.is_some() {
-            return Step::Done;
-        }
-        if let Some(f) = st.open.iter_mut().find(|f| f.next < f.order.len()) {
-            let tile = f.order[f.next];
-            f.next += 1;
-            return Step::Tile(f.index, f.renderer.clone(), tile);
-        }
-        if st.next_frame < frames && st.alive() < window {
-            let k = st.next_frame;
-            st.next_frame += 1;
-            st.elsewhere += 1;
-            let alive = st.alive();
-            st.result.most_alive = st.result.most_alive.max(alive);
-            return Step::Open(k);
-        }
-        if st.next_frame >= frames && st.open.is_empty() {
-            Step::Done
-        } else {
-            Step::Wait
-        }
-    };
     let work = |thread: usize| {
         let mut buf: Vec<Rgb> = Vec::new();
         let mut st = lock();
         loop {
-            match next_step(&mut st) {
+            match st.next_step(frames, window, stop) {
                 Step::Done => {
                     changed.notify_all();
                     return;

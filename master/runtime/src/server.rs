@@ -178,37 +178,8 @@ impl<L: Listener> Master<L> {
         let job_id = rng.gen::<u64>();
         let list = tiles(settings.width, settings.height, sched_opts.tile);
         let n_tiles = list.len();
-        // With a token of its own making only the workers it started can join.
-        let closed_to =
-            (net.token.is_none() && config.spawn.count > 0).then_some(config.spawn.count);
-        let mut sched = Scheduler::new(
-            job_id,
-            settings,
-            desc.lights.len(),
-            list,
-            SchedOptions {
-                window: sched_opts.window,
-                tile_deadline: sched_opts.tile_deadline,
-                max_failures: sched_opts.max_failures,
-                backups: sched_opts.backups,
-                max_batch: sched_opts
-                    .max_batch
-                    .clamp(1, parrt_protocol::limits::MAX_BATCH),
-                batch_seconds: sched_opts.batch_seconds,
-                pixel_format: sched_opts.pixel_format,
-                rules: super::lifecycle::Rules {
-                    min_workers: sched_opts.min_workers,
-                    wait_workers: sched_opts.wait_workers,
-                    await_all_workers: sched_opts.await_all_workers,
-                    closed_to,
-                },
-            },
-        );
-        if let Some(order) = &sched_opts.order {
-            sched.set_order(order);
-        }
         let observers = config.observers.clone();
-        sched.set_observers(observers.clone());
+        let mut sched = new_scheduler(job_id, desc, settings, list, &config);
         let (mut sink, blocking_close, restored_tiles, checkpoint_bad_records) = match sink {
             Some(s) => {
                 sched.keep_accepted();
@@ -217,22 +188,8 @@ impl<L: Listener> Master<L> {
             }
             None => (None, false, 0, 0),
         };
-        let job = Message::Job(Box::new(JobSpec {
-            job_id,
-            scene: desc.clone(),
-            settings: settings.clone(),
-            tile_size: sched_opts.tile,
-            pixel_format: sched_opts.pixel_format,
-        }));
-        // Encoded once, for every worker (and to size the time allowed for sending it).
-        let job = Encoded::new(&job).map_err(DistError::EncodeJob)?;
+        let job = encode_job(job_id, desc, settings, &config)?;
         let job_bytes = job.len();
-        if job_bytes > net.max_frame {
-            return Err(DistError::JobTooLarge {
-                bytes: job_bytes,
-                max_frame: net.max_frame,
-            });
-        }
         let ctx = Arc::new(ConnContext {
             job,
             token,
@@ -246,7 +203,6 @@ impl<L: Listener> Master<L> {
             outbox_peak: Default::default(),
         });
         let conn_ctx = ctx.clone();
-        let mut events_peak = 0;
         let (events_tx, mut events) = mpsc::unbounded_channel::<Event>();
         let stop = CancellationToken::new();
         let tracker = TaskTracker::new();
@@ -259,53 +215,18 @@ impl<L: Listener> Master<L> {
             net.max_connections,
         ));
 
-        let mut tick = interval(TICK);
-        tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
-        let mut cpu_at_start = 0.0;
-        let outcome: Result<(), DistError> = loop {
-            let now = Instant::now();
-            match sched.step(now) {
-                Step::Done => break Ok(()),
-                Step::Fail(v) => break Err(failure(v, &sched, n_tiles)),
-                Step::Run { started } => {
-                    if started {
-                        cpu_at_start = clock.cpu_s();
-                    }
-                    sched.fill(now);
-                }
-                Step::Wait => {}
-            }
-            if !observers.is_empty() {
-                let (done, total) = sched.progress();
-                let rates = sched.throughput(now);
-                observers.each(|o| o.progress(done, total, &rates));
-            }
-            // Polled in this order (not at random), so a run replays exactly under the
-            // simulation; deadlines come before events, so a busy master still checks them.
-            tokio::select! {
-                biased;
-                _ = cancel.cancelled() => break Err(DistError::Interrupted),
-                _ = tick.tick() => sched.expire(Instant::now()),
-                ev = events.recv() => match ev {
-                    Some(ev) => {
-                        events_peak = events_peak.max(events.len() + 1);
-                        // Take every event already waiting before handing out tiles again:
-                        // a batch's results arrive together and are answered together.
-                        let now = Instant::now();
-                        sched.handle(ev, now);
-                        while let Ok(ev) = events.try_recv() {
-                            sched.handle(ev, now);
-                        }
-                    }
-                    None => break Err(DistError::AcceptFailed),
-                },
-            }
-            if let Some(s) = &mut sink {
-                if let Err(e) = s.take(sched.take_accepted()) {
-                    break Err(e.into());
-                }
-            }
-        };
+        let driven = drive(
+            &mut sched,
+            &mut events,
+            &mut sink,
+            &cancel,
+            &clock,
+            &observers,
+            n_tiles,
+        )
+        .await;
+        let (outcome, cpu_at_start, events_peak) =
+            (driven.outcome, driven.cpu_at_start, driven.events_peak);
         let started = sched.started();
         let trace_s = started.map_or(0.0, |s| s.elapsed().as_secs_f64());
         let master_cpu_s = if started.is_some() {
@@ -330,61 +251,249 @@ impl<L: Listener> Master<L> {
         // Shutdown: the scheduler closes every outbox after a Shutdown; the stop signal ends
         // the accept loop and any handshake still running; then wait for the tasks.
         let finished = sched.finish();
-        stop.cancel();
-        tracker.close();
-        let closing = async {
-            if timeout(SHUTDOWN_WAIT, tracker.wait()).await.is_err() {
-                warn!("some connections did not close within {SHUTDOWN_WAIT:?}");
-            }
-        };
-        // An incomplete render's sink finishes while the workers are told goodbye.
-        let sink_closed = async {
-            match closed_early {
-                Some(r) => r,
-                None => close_sink(sink, blocking_close).await,
-            }
-        };
-        let ((), closed) = tokio::join!(closing, sink_closed);
-        if let Err(e) = closed {
-            warn!(error = %e, "cannot finish the checkpoint");
-        }
+        shut_down(stop, tracker, closed_early, sink, blocking_close).await;
         // Late events (Gone of the last workers) are of no interest now.
         drop(events);
         outcome?;
-        let bytes_sent = finished.reports.iter().map(|r| r.bytes_sent).sum();
-        let bytes_received = finished.reports.iter().map(|r| r.bytes_received).sum();
-        let transfers: Vec<f64> = finished
-            .reports
-            .iter()
-            .filter(|r| r.build_s > 0.0 || r.scene_transfer_s > 0.0)
-            .map(|r| r.scene_transfer_s)
-            .collect();
-        let scene_transfer_s = if transfers.is_empty() {
-            0.0
-        } else {
-            transfers.iter().sum::<f64>() / transfers.len() as f64
-        };
-        Ok(DistResult {
-            film: finished.film,
-            stats: finished.stats,
-            tile_seconds: finished.tile_seconds,
+        Ok(dist_result(
+            finished,
+            Counts {
+                tiles: n_tiles,
+                restored_tiles,
+                checkpoint_bad_records,
+                events_peak,
+            },
             trace_s,
             master_cpu_s,
-            per_worker: finished.reports,
-            bytes_sent,
-            bytes_received,
-            scene_transfer_s,
-            faults: finished.faults,
-            tiles: n_tiles,
-            restored_tiles,
-            checkpoint_bad_records,
-            queue_peaks: crate::QueuePeaks {
-                events: events_peak,
-                outbox: conn_ctx
-                    .outbox_peak
-                    .load(std::sync::atomic::Ordering::Relaxed),
+            &conn_ctx,
+        ))
+    }
+}
+
+/// What driving a job to its end gave: how it ended, the master's CPU seconds when the first
+/// tile went out, and the most events that waited at once.
+struct Driven {
+    outcome: Result<(), DistError>,
+    cpu_at_start: f64,
+    events_peak: usize,
+}
+
+/// The master's loop: steps the scheduler, reports progress, and waits for Ctrl-C, the
+/// deadline tick or the connections' events, in that order, until the job is done, fails or is
+/// cancelled; each round's accepted tiles go to the checkpoint's sink.
+async fn drive(
+    sched: &mut Scheduler,
+    events: &mut mpsc::UnboundedReceiver<Event>,
+    sink: &mut Option<Box<dyn TileSink>>,
+    cancel: &CancellationToken,
+    clock: &SharedClock,
+    observers: &crate::observer::Observers,
+    n_tiles: usize,
+) -> Driven {
+    let mut tick = interval(TICK);
+    tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
+    let mut cpu_at_start = 0.0;
+    let mut events_peak = 0;
+    let outcome: Result<(), DistError> = loop {
+        let now = Instant::now();
+        match sched.step(now) {
+            Step::Done => break Ok(()),
+            Step::Fail(v) => break Err(failure(v, sched, n_tiles)),
+            Step::Run { started } => {
+                if started {
+                    cpu_at_start = clock.cpu_s();
+                }
+                sched.fill(now);
+            }
+            Step::Wait => {}
+        }
+        if !observers.is_empty() {
+            let (done, total) = sched.progress();
+            let rates = sched.throughput(now);
+            observers.each(|o| o.progress(done, total, &rates));
+        }
+        // Polled in this order (not at random), so a run replays exactly under the
+        // simulation; deadlines come before events, so a busy master still checks them.
+        tokio::select! {
+            biased;
+            _ = cancel.cancelled() => break Err(DistError::Interrupted),
+            _ = tick.tick() => sched.expire(Instant::now()),
+            ev = events.recv() => match ev {
+                Some(ev) => {
+                    events_peak = events_peak.max(events.len() + 1);
+                    // Take every event already waiting before handing out tiles again:
+                    // a batch's results arrive together and are answered together.
+                    let now = Instant::now();
+                    sched.handle(ev, now);
+                    while let Ok(ev) = events.try_recv() {
+                        sched.handle(ev, now);
+                    }
+                }
+                None => break Err(DistError::AcceptFailed),
             },
-        })
+        }
+        if let Some(s) = sink {
+            if let Err(e) = s.take(sched.take_accepted()) {
+                break Err(e.into());
+            }
+        }
+    };
+    Driven {
+        outcome,
+        cpu_at_start,
+        events_peak,
+    }
+}
+
+/// A finished job's counts that the scheduler does not hold.
+struct Counts {
+    tiles: usize,
+    restored_tiles: usize,
+    checkpoint_bad_records: usize,
+    events_peak: usize,
+}
+
+/// What a finished render returns: the scheduler's film and reports, the traffic summed over
+/// the workers and the mean scene transfer of those that built the scene.
+fn dist_result(
+    finished: crate::scheduler::Finished,
+    counts: Counts,
+    trace_s: f64,
+    master_cpu_s: f64,
+    conn_ctx: &ConnContext,
+) -> DistResult {
+    let bytes_sent = finished.reports.iter().map(|r| r.bytes_sent).sum();
+    let bytes_received = finished.reports.iter().map(|r| r.bytes_received).sum();
+    let transfers: Vec<f64> = finished
+        .reports
+        .iter()
+        .filter(|r| r.build_s > 0.0 || r.scene_transfer_s > 0.0)
+        .map(|r| r.scene_transfer_s)
+        .collect();
+    let scene_transfer_s = if transfers.is_empty() {
+        0.0
+    } else {
+        transfers.iter().sum::<f64>() / transfers.len() as f64
+    };
+    DistResult {
+        film: finished.film,
+        stats: finished.stats,
+        tile_seconds: finished.tile_seconds,
+        trace_s,
+        master_cpu_s,
+        per_worker: finished.reports,
+        bytes_sent,
+        bytes_received,
+        scene_transfer_s,
+        faults: finished.faults,
+        tiles: counts.tiles,
+        restored_tiles: counts.restored_tiles,
+        checkpoint_bad_records: counts.checkpoint_bad_records,
+        queue_peaks: crate::QueuePeaks {
+            events: counts.events_peak,
+            outbox: conn_ctx
+                .outbox_peak
+                .load(std::sync::atomic::Ordering::Relaxed),
+        },
+    }
+}
+
+/// The scheduler of one job: `list`'s tiles under the configuration's schedule, its order and
+/// its observers.
+fn new_scheduler(
+    job_id: u64,
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    list: Vec<parrt_render::tile::Tile>,
+    config: &MasterConfig,
+) -> Scheduler {
+    let sched_opts = &config.schedule;
+    // With a token of its own making only the workers it started can join.
+    let closed_to =
+        (config.net.token.is_none() && config.spawn.count > 0).then_some(config.spawn.count);
+    let mut sched = Scheduler::new(
+        job_id,
+        settings,
+        desc.lights.len(),
+        list,
+        SchedOptions {
+            window: sched_opts.window,
+            tile_deadline: sched_opts.tile_deadline,
+            max_failures: sched_opts.max_failures,
+            backups: sched_opts.backups,
+            max_batch: sched_opts
+                .max_batch
+                .clamp(1, parrt_protocol::limits::MAX_BATCH),
+            batch_seconds: sched_opts.batch_seconds,
+            pixel_format: sched_opts.pixel_format,
+            rules: super::lifecycle::Rules {
+                min_workers: sched_opts.min_workers,
+                wait_workers: sched_opts.wait_workers,
+                await_all_workers: sched_opts.await_all_workers,
+                closed_to,
+            },
+        },
+    );
+    if let Some(order) = &sched_opts.order {
+        sched.set_order(order);
+    }
+    sched.set_observers(config.observers.clone());
+    sched
+}
+
+/// The job message, encoded once for every worker, refused if it would not fit a frame.
+fn encode_job(
+    job_id: u64,
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    config: &MasterConfig,
+) -> Result<Encoded, DistError> {
+    let (sched_opts, net) = (&config.schedule, &config.net);
+    let job = Message::Job(Box::new(JobSpec {
+        job_id,
+        scene: desc.clone(),
+        settings: settings.clone(),
+        tile_size: sched_opts.tile,
+        pixel_format: sched_opts.pixel_format,
+    }));
+    // Encoded once, for every worker (and to size the time allowed for sending it).
+    let job = Encoded::new(&job).map_err(DistError::EncodeJob)?;
+    let job_bytes = job.len();
+    if job_bytes > net.max_frame {
+        return Err(DistError::JobTooLarge {
+            bytes: job_bytes,
+            max_frame: net.max_frame,
+        });
+    }
+    Ok(job)
+}
+
+/// Ends the accept loop and every connection task (waiting at most [`SHUTDOWN_WAIT`]) while
+/// the checkpoint's sink finishes, if it was not closed early.
+async fn shut_down(
+    stop: CancellationToken,
+    tracker: TaskTracker,
+    closed_early: Option<Result<(), super::checkpoint::CheckpointError>>,
+    sink: Option<Box<dyn TileSink>>,
+    blocking_close: bool,
+) {
+    stop.cancel();
+    tracker.close();
+    let closing = async {
+        if timeout(SHUTDOWN_WAIT, tracker.wait()).await.is_err() {
+            warn!("some connections did not close within {SHUTDOWN_WAIT:?}");
+        }
+    };
+    // An incomplete render's sink finishes while the workers are told goodbye.
+    let sink_closed = async {
+        match closed_early {
+            Some(r) => r,
+            None => close_sink(sink, blocking_close).await,
+        }
+    };
+    let ((), closed) = tokio::join!(closing, sink_closed);
+    if let Err(e) = closed {
+        warn!(error = %e, "cannot finish the checkpoint");
     }
 }
 

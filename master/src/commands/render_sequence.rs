@@ -19,7 +19,7 @@ use parrt_render::nff::Limits;
 use parrt_render::precision::Choice;
 use parrt_render::render::Renderer;
 use parrt_render::sequence::Sequence;
-use parrt_render::sequence_smp::{render_sequence, FrameDone, SequenceOptions};
+use parrt_render::sequence_smp::{render_sequence, FrameDone, SequenceOptions, SequenceResult};
 use parrt_render::settings::RenderSettings;
 use serde_json::json;
 use std::path::PathBuf;
@@ -180,15 +180,13 @@ fn load(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Loaded> {
     })
 }
 
-/// Runs `parrt render` of a sequence.
-pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
-    refuse_unsupported(args)?;
-    let limits = args.limits.limits();
-    let t0 = Instant::now();
-    let loaded = load(args, &limits)?;
-    let parse_s = t0.elapsed().as_secs_f64();
+/// Every frame's settings, as rendering it alone would make them, each checked (image limits,
+/// the job's own checks once per distinct scene) before any work.
+fn frame_settings(
+    args: &RenderArgs,
+    loaded: &Loaded,
+) -> anyhow::Result<Vec<(RenderSettings, Choice)>> {
     let n = loaded.sequence.len();
-    // Every frame's settings, as rendering it alone would make them, checked before any work.
     let mut settings: Vec<(RenderSettings, Choice)> = Vec::with_capacity(n);
     for (k, frame) in loaded.sequence.frames().iter().enumerate() {
         let desc = frame.description();
@@ -208,6 +206,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         }
         settings.push(s);
     }
+    Ok(settings)
+}
+
+/// The frames' output paths from the `-o` pattern, their folder made if missing, and every
+/// output checked against the inputs and the other outputs.
+fn frame_outputs(args: &RenderArgs, loaded: &Loaded) -> anyhow::Result<Vec<PathBuf>> {
+    let n = loaded.sequence.len();
     let pattern = FramePattern::parse(&args.output, n)?;
     let outputs: Vec<PathBuf> = (0..n).map(|k| pattern.path(k)).collect();
     if !pattern.dir().as_os_str().is_empty() && !pattern.dir().exists() {
@@ -227,52 +232,23 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     files.extend(loaded.inputs.iter().map(|(f, p)| (*f, Some(p.as_path()))));
     files.push(("--stats-json", args.stats_json.as_deref()));
     check_distinct(&files)?;
+    Ok(outputs)
+}
 
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let opts = SequenceOptions {
-        threads,
-        tile: args.tile,
-        executor: args.executor.executor(),
-        window: args.sequence.window,
-    };
-    let total_tiles = settings
-        .iter()
-        .map(|(s, _)| parrt_render::tile::tiles(s.width, s.height, args.tile).len())
-        .sum();
-    let progress = SequenceProgress::new(total_tiles, n);
-    let build_s = Mutex::new(0.0f64);
-    let build = |k: usize| -> anyhow::Result<Renderer> {
-        let t = Instant::now();
-        let desc = loaded.sequence.frames()[k].description();
-        let mut r = Renderer::new(&desc, &settings[k].0)
-            .map_err(input_error)
-            .with_context(|| format!("cannot prepare {}", loaded.labels[k]))?;
-        r.set_packets(!args.no_packets);
-        *build_s.lock().unwrap_or_else(|e| e.into_inner()) += t.elapsed().as_secs_f64();
-        Ok(r)
-    };
-    let write = |done: FrameDone| -> anyhow::Result<()> {
-        let path = &outputs[done.index];
-        done.film
-            .save(path)
-            .with_context(|| format!("cannot write frame {}", done.index))?;
-        progress.frame();
-        Ok(())
-    };
-    stop_on_ctrl_c();
-    let result = render_sequence(n, &opts, &build, &write, &|_| progress.tile(), &STOP)?;
-    progress.finish();
-    if result.stopped {
-        crate::errln!(
-            "parrt: stopped by Ctrl-C; {} of {n} frames written, each complete",
-            result.frames
-        );
-        // As a process SIGINT killed would exit (128 + 2), like a single render.
-        return Ok(ExitCode::from(128 + libc::SIGINT as u8));
-    }
-    let build_s = build_s.into_inner().unwrap_or_else(|e| e.into_inner());
+/// What a finished sequence prints: `--stats`, `--stats-json` and the closing line.
+#[allow(clippy::too_many_arguments)]
+fn print_report(
+    args: &RenderArgs,
+    loaded: &Loaded,
+    settings: &[(RenderSettings, Choice)],
+    outputs: &[PathBuf],
+    opts: &SequenceOptions,
+    result: SequenceResult,
+    parse_s: f64,
+    build_s: f64,
+) -> anyhow::Result<()> {
+    let n = loaded.sequence.len();
+    let threads = opts.threads;
     let report = RenderReport {
         stats: result.stats,
         parse_s,
@@ -327,5 +303,67 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         outputs[n - 1].display(),
         parse_s + result.wall_s
     );
+    Ok(())
+}
+
+/// Runs `parrt render` of a sequence.
+pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+    refuse_unsupported(args)?;
+    let limits = args.limits.limits();
+    let t0 = Instant::now();
+    let loaded = load(args, &limits)?;
+    let parse_s = t0.elapsed().as_secs_f64();
+    let n = loaded.sequence.len();
+    let settings = frame_settings(args, &loaded)?;
+    let outputs = frame_outputs(args, &loaded)?;
+
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let opts = SequenceOptions {
+        threads,
+        tile: args.tile,
+        executor: args.executor.executor(),
+        window: args.sequence.window,
+    };
+    let total_tiles = settings
+        .iter()
+        .map(|(s, _)| parrt_render::tile::tiles(s.width, s.height, args.tile).len())
+        .sum();
+    let progress = SequenceProgress::new(total_tiles, n);
+    let build_s = Mutex::new(0.0f64);
+    let build = |k: usize| -> anyhow::Result<Renderer> {
+        let t = Instant::now();
+        let desc = loaded.sequence.frames()[k].description();
+        let mut r = Renderer::new(&desc, &settings[k].0)
+            .map_err(input_error)
+            .with_context(|| format!("cannot prepare {}", loaded.labels[k]))?;
+        r.set_packets(!args.no_packets);
+        *build_s.lock().unwrap_or_else(|e| e.into_inner()) += t.elapsed().as_secs_f64();
+        Ok(r)
+    };
+    let write = |done: FrameDone| -> anyhow::Result<()> {
+        let path = &outputs[done.index];
+        done.film
+            .save(path)
+            .with_context(|| format!("cannot write frame {}", done.index))?;
+        progress.frame();
+        Ok(())
+    };
+    stop_on_ctrl_c();
+    let result = render_sequence(n, &opts, &build, &write, &|_| progress.tile(), &STOP)?;
+    progress.finish();
+    if result.stopped {
+        crate::errln!(
+            "parrt: stopped by Ctrl-C; {} of {n} frames written, each complete",
+            result.frames
+        );
+        // As a process SIGINT killed would exit (128 + 2), like a single render.
+        return Ok(ExitCode::from(128 + libc::SIGINT as u8));
+    }
+    let build_s = build_s.into_inner().unwrap_or_else(|e| e.into_inner());
+    print_report(
+        args, &loaded, &settings, &outputs, &opts, result, parse_s, build_s,
+    )?;
     Ok(ExitCode::SUCCESS)
 }
