@@ -433,43 +433,54 @@ fn same_file_named(args: &[&str]) -> (Option<i32>, String) {
     (o.status.code(), stderr(&o))
 }
 
-/// A master waiting for its workers says so after "listening on", in lines for people (no
-/// timestamped log lines unless asked for), and Ctrl-C stops it with exit status 130, as it
-/// stops an SMP render.
-#[test]
-fn a_waiting_master_says_so_and_ctrl_c_exits_130() {
-    use std::io::{BufRead, BufReader};
-    let dir = tempfile::tempdir().unwrap();
-    let nff = scene(dir.path());
-    let mut master = Command::new(env!("CARGO_BIN_EXE_parrt"))
-        .args([
-            "master",
-            path(&nff),
-            "--token",
-            "a-token",
-            "--listen",
-            "127.0.0.1:0",
-        ])
-        .args(["--wait-workers", "60", "-o"])
-        .arg(dir.path().join("never.png"))
+/// Runs `parrt ARGS` with stderr piped and `$PARRT_LOG` unset, reads its first `lines` lines
+/// of stderr, sends it `signal`, and returns those lines, the rest of stderr and its exit code.
+fn signalled(args: &[&str], lines: usize, signal: i32) -> (Vec<String>, String, Option<i32>) {
+    use std::io::{BufRead, BufReader, Read};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_parrt"))
+        .args(args)
         .env_remove("PARRT_LOG")
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let mut err = BufReader::new(master.stderr.take().unwrap());
-    let mut lines = Vec::new();
-    for _ in 0..2 {
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut first = Vec::new();
+    for _ in 0..lines {
         let mut line = String::new();
         err.read_line(&mut line).unwrap();
-        lines.push(line);
+        first.push(line);
     }
-    // SAFETY: kill with a signal to a child this test started and has not reaped.
-    unsafe { libc::kill(master.id() as libc::pid_t, libc::SIGINT) };
+    // SAFETY: a signal to a child this test started and has not reaped.
+    unsafe { libc::kill(child.id() as libc::pid_t, signal) };
     let mut rest = String::new();
-    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
-    let status = master.wait().unwrap();
+    err.read_to_string(&mut rest).unwrap();
+    let status = child.wait().unwrap();
+    (first, rest, status.code())
+}
+
+/// A master waiting for its workers says so after "listening on", in lines for people (no
+/// timestamped log lines unless asked for), and Ctrl-C stops it with exit status 130, as it
+/// stops an SMP render.
+#[test]
+fn a_waiting_master_says_so_and_ctrl_c_exits_130() {
+    let dir = tempfile::tempdir().unwrap();
+    let nff = scene(dir.path());
+    let out = dir.path().join("never.png");
+    let args = [
+        "master",
+        path(&nff),
+        "--token",
+        "a-token",
+        "--listen",
+        "127.0.0.1:0",
+        "--wait-workers",
+        "60",
+        "-o",
+        path(&out),
+    ];
+    let (lines, rest, code) = signalled(&args, 2, libc::SIGINT);
     assert!(
         lines[0].starts_with("parrt master: listening on 127.0.0.1:"),
         "{lines:?}"
@@ -478,7 +489,7 @@ fn a_waiting_master_says_so_and_ctrl_c_exits_130() {
         lines[1],
         "parrt master: waiting for 1 worker (up to 60 s)…\n"
     );
-    assert_eq!(status.code(), Some(130), "{lines:?} {rest}");
+    assert_eq!(code, Some(130), "{lines:?} {rest}");
     assert!(
         !rest.contains("INFO") && !rest.contains("parrt_runtime::"),
         "log lines by default: {rest}"
@@ -490,37 +501,31 @@ fn a_waiting_master_says_so_and_ctrl_c_exits_130() {
 /// people, not a log line or an error.
 #[test]
 fn a_worker_stopped_by_a_signal_exits_128_plus_its_number() {
-    use std::io::{BufRead, BufReader};
     // A port nothing listens on: the worker keeps dialling for its whole budget.
     let closed = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = closed.local_addr().unwrap().to_string();
     drop(closed);
+    let args = [
+        "worker",
+        "--connect",
+        &addr,
+        "--token",
+        "a-token",
+        "--threads",
+        "1",
+        "--dial-timeout",
+        "60",
+    ];
     for (sig, code, name) in [
         (libc::SIGINT, 130, "Ctrl-C"),
         (libc::SIGTERM, 143, "SIGTERM"),
     ] {
-        let mut worker = Command::new(env!("CARGO_BIN_EXE_parrt"))
-            .args(["worker", "--connect", &addr, "--token", "a-token"])
-            .args(["--threads", "1", "--dial-timeout", "60"])
-            .env_remove("PARRT_LOG")
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let mut err = BufReader::new(worker.stderr.take().unwrap());
-        let mut first = String::new();
-        err.read_line(&mut first).unwrap();
-        // SAFETY: a signal to a child this test started and has not reaped.
-        unsafe { libc::kill(worker.id() as libc::pid_t, sig) };
-        let mut rest = String::new();
-        std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
-        let status = worker.wait().unwrap();
+        let (first, rest, status) = signalled(&args, 1, sig);
         assert!(
-            first.starts_with("parrt worker: connecting to 127.0.0.1:"),
-            "{first}"
+            first[0].starts_with("parrt worker: connecting to 127.0.0.1:"),
+            "{first:?}"
         );
-        assert_eq!(status.code(), Some(code), "{name}: {rest}");
+        assert_eq!(status, Some(code), "{name}: {rest}");
         assert!(
             rest.ends_with(&format!("parrt worker: interrupted by {name}\n")),
             "{name}: {rest}"
