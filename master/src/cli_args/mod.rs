@@ -13,6 +13,8 @@
 //! - [`output`]: the outputs a command writes, checked before any work.
 //! - [`listen`]: `--listen ADDR`.
 //! - [`live`]: the live view's flags (`--http`, ...).
+//! - [`job_flags`]: what the distributed entry points share (`--checkpoint`, `--resume`,
+//!   `--timeline` and the live view).
 //! - [`tile_order`]: `--costly-first FILE`, the handout order from a previous render's costs.
 //! - [`sequence`]: the flags that make a render a sequence (`--frames-from`, `--orbit`,
 //!   `--frames`, `--window`) and the reading of a frame LIST.
@@ -21,6 +23,7 @@
 pub mod arg_error;
 pub mod durations;
 pub mod frame_pattern;
+pub mod job_flags;
 pub mod limits;
 pub mod listen;
 pub mod live;
@@ -32,6 +35,7 @@ pub mod size;
 pub mod tile_order;
 
 pub use arg_error::ArgError;
+pub use job_flags::JobFlags;
 pub use limits::LimitArgs;
 pub use render_flags::{AccelArg, ExecutorArg, RenderFlags};
 pub use scene_arg::SceneSpec;

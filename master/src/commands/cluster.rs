@@ -9,8 +9,8 @@ use super::report::print_summary;
 use super::watch::{start_live, Watch};
 use crate::cli_args::durations::{seconds_flag, MAX_FLAG_DURATION};
 use crate::cli_args::listen::check_listen;
-use crate::cli_args::output::{check_distinct, check_file_output, check_image_output};
-use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
+use crate::cli_args::output::check_image_output;
+use crate::cli_args::{JobFlags, LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use anyhow::Context;
 use clap::Args;
@@ -67,19 +67,9 @@ pub struct ClusterArgs {
     /// all have left) before giving up; at most a week.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub wait_workers: f64,
-    /// Record each accepted tile in FILE on rank 0 (see `parrt master --checkpoint`).
-    #[arg(long, value_name = "FILE")]
-    pub checkpoint: Option<PathBuf>,
-    /// Continue the render recorded in --checkpoint FILE.
-    #[arg(long, requires = "checkpoint")]
-    pub resume: bool,
-    /// Write the render's timeline to FILE: per tile which worker rendered it, when, and which
-    /// attempt; faults as events (CSV for .csv, else JSON; columns in docs/timeline.md).
-    #[arg(long, value_name = "FILE")]
-    pub timeline: Option<PathBuf>,
-    /// Live view in a browser (off loopback: the master's token is required).
+    /// Checkpoint (kept on rank 0), timeline and live view.
     #[command(flatten)]
-    pub live: crate::cli_args::live::LiveArgs,
+    pub job: JobFlags,
     /// The order tiles are handed out in.
     #[command(flatten)]
     pub order: crate::cli_args::tile_order::OrderArgs,
@@ -163,17 +153,9 @@ fn check_master_flags(
         MAX_FLAG_DURATION,
     )?;
     check_image_output(&args.output)?;
-    if let Some(c) = &args.checkpoint {
-        check_file_output(c)?;
-    }
-    if let Some(t) = &args.timeline {
-        check_file_output(t)?;
-    }
-    check_distinct(&[
+    args.job.check_outputs(&[
         ("-o", Some(&args.output)),
         ("the scene", args.file.as_deref()),
-        ("--checkpoint", args.checkpoint.as_deref()),
-        ("--timeline", args.timeline.as_deref()),
         ("--costly-first", args.order.costly_first.as_deref()),
     ])?;
     check_listen(&args.listen)?;
@@ -206,9 +188,9 @@ fn run_master(
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
     let (token_text, token) = fresh_token()?;
-    let live = start_live(&args.live, Some(token.as_bytes()))?;
+    let live = start_live(&args.job.live, Some(token.as_bytes()))?;
     let watch = Watch::new(
-        args.timeline.as_deref(),
+        args.job.timeline.as_deref(),
         live,
         crate::live::state::JobInfo {
             scene: label.clone(),
@@ -220,8 +202,7 @@ fn run_master(
     );
     let mut config = master_config(MasterSetup {
         observers: watch.observers(),
-        checkpoint: args.checkpoint.as_ref(),
-        resume: args.resume,
+        job: &args.job,
         // The job's token is fresh in every run: nothing to key a resume with.
         keyed: false,
         tile: args.tile,

@@ -1,21 +1,20 @@
 //! The master configuration the three distributed entry points (`render --workers`, `master`,
-//! `cluster`) share: who observes the render, the checkpoint and how its records are sealed,
+//! `cluster`) share, with their flags ([`JobFlags`]): who observes the render, the checkpoint and how its records are sealed,
 //! the tile size, how many workers to wait for and the pixel format the output needs. Each
 //! command adds what only it has (spawned workers, a listen address and token, schedule
 //! tuning).
 
+use crate::cli_args::JobFlags;
 use parrt_runtime::observer::Observers;
 use parrt_runtime::{CheckpointAt, MasterConfig};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// What every distributed entry point decides about its master.
 pub struct MasterSetup<'a> {
     /// Who watches the render (progress, timeline, live view).
     pub observers: Observers,
-    /// `--checkpoint FILE`, if given.
-    pub checkpoint: Option<&'a PathBuf>,
-    /// `--resume`.
-    pub resume: bool,
+    /// The job's flags (`--checkpoint FILE`, `--resume`).
+    pub job: &'a JobFlags,
     /// Whether checkpoint records are sealed with the token: only when the token outlives the
     /// run (the user gives it again to resume); a token made for one run keys nothing.
     pub keyed: bool,
@@ -31,9 +30,9 @@ pub struct MasterSetup<'a> {
 pub fn master_config(s: MasterSetup<'_>) -> MasterConfig {
     let mut config = MasterConfig {
         observers: s.observers,
-        checkpoint: s.checkpoint.map(|path| CheckpointAt {
+        checkpoint: s.job.checkpoint.as_ref().map(|path| CheckpointAt {
             path: path.clone(),
-            resume: s.resume,
+            resume: s.job.resume,
             keyed: s.keyed,
         }),
         ..MasterConfig::default()

@@ -8,8 +8,8 @@ use crate::cli_args::durations::{
     seconds_flag, MAX_FLAG_DURATION, MIN_HEARTBEAT_TIMEOUT, MIN_TILE_DEADLINE,
 };
 use crate::cli_args::listen::check_listen;
-use crate::cli_args::output::{check_distinct, check_file_output, check_image_output};
-use crate::cli_args::{LimitArgs, RenderFlags, SceneSpec};
+use crate::cli_args::output::{check_file_output, check_image_output};
+use crate::cli_args::{JobFlags, LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use crate::live::state::JobInfo;
 use anyhow::Context;
@@ -69,29 +69,15 @@ pub struct MasterArgs {
     /// Never duplicate in-flight tiles onto idle workers.
     #[arg(long)]
     pub no_backups: bool,
-    /// Record each accepted tile in FILE: append-only, every record checksummed, synced to disk
-    /// at least every second. If the master dies, run the same command with --resume to render
-    /// only the tiles not in FILE. An existing FILE is refused without --resume.
-    #[arg(long, value_name = "FILE")]
-    pub checkpoint: Option<PathBuf>,
-    /// Continue the render recorded in --checkpoint FILE: its good records are kept (a torn or
-    /// corrupt record is dropped and its tile rendered again), the rest is rendered. A FILE of
-    /// another scene or other settings is refused (exit 2) and left unchanged.
-    #[arg(long, requires = "checkpoint")]
-    pub resume: bool,
     /// Write timings, traffic and per-worker figures as JSON.
     #[arg(long, value_name = "FILE")]
     pub report_json: Option<PathBuf>,
     /// Token flags (a token is required).
     #[command(flatten)]
     pub token: TokenArgs,
-    /// Write the render's timeline to FILE: per tile which worker rendered it, when, and which
-    /// attempt; faults as events (CSV for .csv, else JSON; columns in docs/timeline.md).
-    #[arg(long, value_name = "FILE")]
-    pub timeline: Option<PathBuf>,
-    /// Live view in a browser (off loopback: the master's token is required).
+    /// Checkpoint, timeline and live view.
     #[command(flatten)]
-    pub live: crate::cli_args::live::LiveArgs,
+    pub job: JobFlags,
     /// The order tiles are handed out in.
     #[command(flatten)]
     pub order: crate::cli_args::tile_order::OrderArgs,
@@ -171,19 +157,14 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         MAX_FLAG_DURATION,
     )?;
     check_image_output(&args.output)?;
-    for p in [&args.report_json, &args.checkpoint, &args.timeline]
-        .into_iter()
-        .flatten()
-    {
+    if let Some(p) = &args.report_json {
         check_file_output(p)?;
     }
-    check_distinct(&[
+    args.job.check_outputs(&[
         ("-o", Some(&args.output)),
         ("the scene", args.file.as_deref()),
         ("--scene-json", args.scene_json.as_deref()),
         ("--report-json", args.report_json.as_deref()),
-        ("--checkpoint", args.checkpoint.as_deref()),
-        ("--timeline", args.timeline.as_deref()),
         ("--costly-first", args.order.costly_first.as_deref()),
         ("--token-file", args.token.token_file.as_deref()),
     ])?;
@@ -195,9 +176,9 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     parrt_render::render::validate_job(&desc, &settings)
         .map_err(input_error)
         .with_context(|| format!("no worker could render {label}"))?;
-    let live = start_live(&args.live, Some(token.as_bytes()))?;
+    let live = start_live(&args.job.live, Some(token.as_bytes()))?;
     let watch = Watch::new(
-        args.timeline.as_deref(),
+        args.job.timeline.as_deref(),
         live,
         JobInfo {
             scene: label.clone(),
@@ -209,8 +190,7 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     );
     let mut config = master_config(MasterSetup {
         observers: watch.observers(),
-        checkpoint: args.checkpoint.as_ref(),
-        resume: args.resume,
+        job: &args.job,
         // The token outlives the run (the user gives it again to resume).
         keyed: true,
         tile: args.tile,

@@ -6,8 +6,8 @@
 
 use super::report::RenderReport;
 use super::watch::{start_live, watchers};
-use crate::cli_args::output::{check_distinct, check_file_output, check_image_output};
-use crate::cli_args::{ExecutorArg, LimitArgs, RenderFlags, SceneSpec};
+use crate::cli_args::output::{check_file_output, check_image_output};
+use crate::cli_args::{ExecutorArg, JobFlags, LimitArgs, RenderFlags, SceneSpec};
 use crate::exit::input_error;
 use crate::observed_smp::render_smp_observed;
 use anyhow::Context;
@@ -61,22 +61,9 @@ pub struct RenderArgs {
     /// Render through N local worker processes (master/worker over TCP on 127.0.0.1).
     #[arg(long, value_name = "N")]
     pub workers: Option<usize>,
-    /// With --workers: record each accepted tile in FILE (append-only, checksummed, synced
-    /// every second) so that a killed render can be continued with --resume. An existing FILE
-    /// is refused without --resume.
-    #[arg(long, value_name = "FILE", requires = "workers")]
-    pub checkpoint: Option<PathBuf>,
-    /// Continue the render recorded in --checkpoint FILE, rendering only the tiles not in it.
-    /// A FILE of another scene or other settings is refused (exit 2) and left unchanged.
-    #[arg(long, requires = "checkpoint")]
-    pub resume: bool,
-    /// Write the render's timeline to FILE: per tile who rendered it, when, and which attempt;
-    /// faults as events (CSV for .csv, else JSON; columns in docs/timeline.md).
-    #[arg(long, value_name = "FILE")]
-    pub timeline: Option<PathBuf>,
-    /// Live view in a browser.
+    /// Checkpoint (with --workers), timeline and live view.
     #[command(flatten)]
-    pub live: crate::cli_args::live::LiveArgs,
+    pub job: JobFlags,
     /// Render settings.
     #[command(flatten)]
     pub render: RenderFlags,
@@ -146,7 +133,7 @@ fn render_here(
     // The SMP timeline comes from the render's own per-tile spans (measured on the threads),
     // not from a recorder.
     let result = render_smp_observed(&renderer, &opts, &watchers(None, live));
-    let timeline = args.timeline.as_ref().map(|_| {
+    let timeline = args.job.timeline.as_ref().map(|_| {
         let label = spec.label();
         let job = timeline_job(&label, settings, args.tile);
         crate::timeline::Timeline::from_smp(&job, threads, &result.tile_spans, result.trace_s)
@@ -252,13 +239,13 @@ fn render_through_workers(
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
     let recorder = args
+        .job
         .timeline
         .as_ref()
         .map(|_| std::sync::Arc::new(crate::timeline::Recorder::new()));
     let mut config = super::distributed::master_config(super::distributed::MasterSetup {
         observers: watchers(recorder.as_ref(), live),
-        checkpoint: args.checkpoint.as_ref(),
-        resume: args.resume,
+        job: &args.job,
         // The workers' token is made for this run only: nothing to key a resume with.
         keyed: false,
         tile: args.tile,
@@ -274,7 +261,7 @@ fn render_through_workers(
             return Err(crate::exit::dist_error(e).context("distributed render failed"))
         }
     };
-    if let Some(c) = &args.checkpoint {
+    if let Some(c) = &args.job.checkpoint {
         crate::errln!(
             "parrt: checkpoint {}: {} tiles restored, {} bad records dropped",
             c.display(),
@@ -378,6 +365,12 @@ fn load_job(
 
 /// Runs `parrt render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
+    if args.workers.is_none() && args.job.checkpoint.is_some() {
+        return Err(input_error(anyhow::anyhow!(
+            "--checkpoint records the tiles of a render through workers; add --workers N (a \
+             render on this machine's threads keeps no checkpoint)"
+        )));
+    }
     if super::render_sequence::wanted(&args) {
         return super::render_sequence::run(&args);
     }
@@ -385,24 +378,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let spec = SceneSpec::from_args(file.clone(), args.scene.as_deref(), None)?;
     // Every output is checked before the render, so a typo costs nothing.
     check_image_output(&args.output)?;
-    for p in [
-        &args.stats_json,
-        &args.tile_costs,
-        &args.checkpoint,
-        &args.timeline,
-    ]
-    .into_iter()
-    .flatten()
-    {
+    for p in [&args.stats_json, &args.tile_costs].into_iter().flatten() {
         check_file_output(p)?;
     }
-    check_distinct(&[
+    args.job.check_outputs(&[
         ("-o", Some(&args.output)),
         ("the scene", file.as_deref()),
         ("--stats-json", args.stats_json.as_deref()),
         ("--tile-costs", args.tile_costs.as_deref()),
-        ("--checkpoint", args.checkpoint.as_deref()),
-        ("--timeline", args.timeline.as_deref()),
     ])?;
     if args.tile == 0 {
         return Err(input_error(anyhow::anyhow!("--tile must be at least 1")));
@@ -410,7 +393,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if args.threads == Some(0) {
         return Err(input_error(anyhow::anyhow!("--threads must be at least 1")));
     }
-    let live = start_live(&args.live, None)?;
+    let live = start_live(&args.job.live, None)?;
     let (out, parse_s, settings, choice) = match args.workers {
         Some(n) => render_through_workers(&args, &spec, n, live.as_ref())?,
         None => {
@@ -446,7 +429,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         crate::studies::efficiency::write_tile_costs(path, &list, &out.tile_seconds)
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    if let (Some(path), Some(t)) = (&args.timeline, &out.timeline) {
+    if let (Some(path), Some(t)) = (&args.job.timeline, &out.timeline) {
         t.write(path)?;
     }
     if let Some(path) = &args.stats_json {

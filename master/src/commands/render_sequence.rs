@@ -75,9 +75,9 @@ fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     for (flag, given) in [
-        ("--timeline", args.timeline.is_some()),
+        ("--timeline", args.job.timeline.is_some()),
         ("--tile-costs", args.tile_costs.is_some()),
-        ("--http", args.live.http.is_some()),
+        ("--http", args.job.live.http.is_some()),
     ] {
         if given {
             return conflict(&format!(

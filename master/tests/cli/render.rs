@@ -91,6 +91,8 @@ fn bad_usage_exits_2_with_a_reason() {
     let png = dir.path().join("x.png");
     let png = png.to_str().unwrap();
     let scene = spd("tetra-4.nff");
+    let ck = dir.path().join("render.ck");
+    let ck = ck.to_str().unwrap();
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["render", &scene, "-o", png, "--tile", "0"], "--tile"),
         (
@@ -144,6 +146,10 @@ fn bad_usage_exits_2_with_a_reason() {
             "cannot read",
         ),
         (vec!["render", "--bogus-flag"], "unexpected argument"),
+        (
+            vec!["render", &scene, "-o", png, "--checkpoint", ck],
+            "--checkpoint records the tiles of a render through workers; add --workers N",
+        ),
         (
             vec!["bench", "simulate", "--tile-costs", "/nonexistent.csv"],
             "cannot read",
