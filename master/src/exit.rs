@@ -46,6 +46,12 @@ pub fn code_for(e: &anyhow::Error) -> u8 {
     }
 }
 
+/// The exit status of a render that stopped itself on `signal` (a sequence stopping at a
+/// frame boundary on Ctrl-C): 128 + the signal's number, as a process the signal killed.
+pub fn stopped_by(signal: libc::c_int) -> std::process::ExitCode {
+    std::process::ExitCode::from(u8::try_from(128 + signal).unwrap_or(130))
+}
+
 /// A distributed render's error for the command line: bad input (a wrong checkpoint, a listen
 /// address that does not resolve, ...) exits 2, anything else 1.
 pub fn dist_error(e: parrt_runtime::DistError) -> anyhow::Error {

@@ -28,15 +28,23 @@ pub struct SequenceArgs {
     pub frames: Option<usize>,
     /// Most frames alive at once (opened, rendering or being written): the threads fill one
     /// frame's tail with the next frame's tiles; the images take at most W × width × height ×
-    /// 12 bytes.
-    #[arg(long, value_name = "W", default_value_t = 2)]
-    pub window: usize,
+    /// 12 bytes. Default 2; a sequence's flag only (refused for a render of one frame).
+    #[arg(long, value_name = "W")]
+    pub window: Option<usize>,
 }
+
+/// Frames alive at once when `--window` is not given: one frame's tail filled by the next.
+pub const DEFAULT_WINDOW: usize = 2;
 
 impl SequenceArgs {
     /// Whether these flags ask for a sequence (besides several scene files).
     pub fn asked(&self) -> bool {
         self.frames_from.is_some() || self.orbit.is_some() || self.frames.is_some()
+    }
+
+    /// The window of frames in flight (`--window`, else [`DEFAULT_WINDOW`]).
+    pub fn window(&self) -> usize {
+        self.window.unwrap_or(DEFAULT_WINDOW)
     }
 }
 

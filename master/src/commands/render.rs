@@ -374,6 +374,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if super::render_sequence::wanted(&args) {
         return super::render_sequence::run(&args);
     }
+    if args.sequence.window.is_some() {
+        return Err(crate::cli_args::ArgError::Conflict(
+            "--window sets how many frames of a sequence are in flight; this render has one \
+             frame (give several scene files, --frames-from or --orbit)"
+                .into(),
+        )
+        .into());
+    }
     let file = args.files.first().cloned();
     let spec = SceneSpec::from_args(file.clone(), args.scene.as_deref(), None)?;
     // Every output is checked before the render, so a typo costs nothing.

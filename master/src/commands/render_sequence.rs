@@ -114,7 +114,7 @@ fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
     if args.threads == Some(0) {
         return Err(ArgError::Value("--threads must be at least 1".into()).into());
     }
-    if seq.window == 0 {
+    if seq.window() == 0 {
         return Err(ArgError::Value("--window must be at least 1".into()).into());
     }
     Ok(())
@@ -324,7 +324,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         threads,
         tile: args.tile,
         executor: args.executor.executor(),
-        window: args.sequence.window,
+        window: args.sequence.window(),
     };
     let total_tiles = settings
         .iter()
@@ -358,8 +358,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             "parrt: stopped by Ctrl-C; {} of {n} frames written, each complete",
             result.frames
         );
-        // As a process SIGINT killed would exit (128 + 2), like a single render.
-        return Ok(ExitCode::from(128 + libc::SIGINT as u8));
+        return Ok(crate::exit::stopped_by(libc::SIGINT));
     }
     let build_s = build_s.into_inner().unwrap_or_else(|e| e.into_inner());
     print_report(

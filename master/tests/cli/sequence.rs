@@ -194,6 +194,11 @@ fn output_patterns_and_sequence_flags_are_checked_before_any_work() {
         "--workers: sequences render on one machine so far; drop --workers to render the \
          frames on this machine's threads",
     );
+    refused(
+        &[&a, "--window", "3", "-o", &format!("{d}/one.png")],
+        "--window sets how many frames of a sequence are in flight; this render has one frame \
+         (give several scene files, --frames-from or --orbit)",
+    );
     let written: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
     assert_eq!(written.len(), 1, "only the copied scene: {written:?}");
 }
