@@ -262,6 +262,17 @@ impl Film {
         }
     }
 
+    /// A black film that keeps what `format` writes and no more: 8-bit RGB for PNG and PPM
+    /// ([`Film::new_rgb8`], 3 bytes a pixel), linear floats for EXR ([`Film::new`], 12). The
+    /// file written is the same bytes either way: tiles land in an 8-bit film through the one
+    /// conversion ([`to_u8`]) a linear film's PNG goes through when it is written.
+    pub fn for_output(width: u32, height: u32, format: ImageFormat) -> Self {
+        match format {
+            ImageFormat::Png | ImageFormat::Ppm => Film::new_rgb8(width, height),
+            ImageFormat::Exr => Film::new(width, height),
+        }
+    }
+
     /// Whether this film keeps 8-bit RGB ([`Film::new_rgb8`]).
     pub fn is_rgb8(&self) -> bool {
         self.rgb8.is_some()

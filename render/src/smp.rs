@@ -147,9 +147,27 @@ pub fn render_smp_with(
     progress: &(dyn Fn(TileDone<'_>) + Sync),
 ) -> SmpResult {
     let s = renderer.settings();
+    render_smp_into(renderer, opts, Film::new(s.width, s.height), progress)
+}
+
+/// [`render_smp_with`] into `film`, a black film of the renderer's size: an 8-bit one
+/// ([`Film::for_output`]) for an 8-bit output keeps 3 bytes a pixel instead of 12, each tile
+/// converted as it lands; the progress still sees the tile's linear pixels.
+pub fn render_smp_into(
+    renderer: &Renderer,
+    opts: &SmpOptions,
+    film: Film,
+    progress: &(dyn Fn(TileDone<'_>) + Sync),
+) -> SmpResult {
+    let s = renderer.settings();
+    assert_eq!(
+        (film.width, film.height),
+        (s.width, s.height),
+        "the film is the image's size"
+    );
     let list = tiles(s.width, s.height, opts.tile);
     let threads = opts.threads.max(1);
-    let film = Mutex::new(Film::new(s.width, s.height));
+    let film = Mutex::new(film);
     let totals = Mutex::new((
         RayStats::default(),
         vec![0.0f64; list.len()],
