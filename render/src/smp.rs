@@ -202,12 +202,15 @@ pub fn render_smp_into(
         };
         finish(tile, buf, st, span);
     };
-    // N OS threads, each running `work` (given its index) until it returns.
+    // N threads, each running `work` (given its index) until it returns: the calling thread
+    // is thread 0 and N − 1 are spawned, so a one-thread render starts no thread and waits
+    // for none to be scheduled (on a loaded machine that wake-up costs milliseconds).
     let run_threads = |work: &(dyn Fn(usize, &mut Vec<Rgb>) + Sync)| {
         std::thread::scope(|scope| {
-            for i in 0..threads {
+            for i in 1..threads {
                 scope.spawn(move || work(i, &mut Vec::new()));
             }
+            work(0, &mut Vec::new());
         });
     };
     match opts.executor {
