@@ -7,8 +7,9 @@
 //!
 //! [`Observer`]: parrt_runtime::observer::Observer
 
+use parrt_render::film::Film;
 use parrt_render::render::Renderer;
-use parrt_render::smp::{render_smp_with, SmpOptions, SmpResult};
+use parrt_render::smp::{render_smp_into, SmpOptions, SmpResult};
 use parrt_runtime::observer::Observers;
 use parrt_runtime::scheduler::WorkerId;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -19,10 +20,13 @@ use tokio::time::Instant;
 /// happens: each thread joins and is ready, the trace starts, each tile is assigned to the
 /// thread that rendered it (at the time it began) and its result comes in with its pixels,
 /// then the progress, and at the end the render finishes, complete. Returns what
-/// [`render_smp_with`] returns: the image is the same bits whoever watches.
+/// [`parrt_render::smp::render_smp_with`] returns, in `film` (a black film of the image's size, 8-bit for an
+/// 8-bit output: [`parrt_render::film::Film::for_output`]): the image is the same bits whoever
+/// watches.
 pub fn render_smp_observed(
     renderer: &Renderer,
     opts: &SmpOptions,
+    film: Film,
     observers: &Observers,
 ) -> SmpResult {
     let s = renderer.settings();
@@ -40,7 +44,7 @@ pub fn render_smp_observed(
     let origin = Instant::now();
     observers.each(|o| o.started(origin));
     let done = AtomicUsize::new(0);
-    let result = render_smp_with(renderer, opts, &|tile| {
+    let result = render_smp_into(renderer, opts, film, &|tile| {
         let id = WorkerId::from(tile.span.thread);
         let began = Duration::try_from_secs_f64(tile.span.start_s).unwrap_or_default();
         let seconds = (tile.span.end_s - tile.span.start_s).max(0.0);
@@ -121,7 +125,12 @@ mod tests {
             executor: Executor::Queue,
         };
         let log = Arc::new(Log::default());
-        let watched = render_smp_observed(&renderer, &opts, &Observers(vec![log.clone()]));
+        let watched = render_smp_observed(
+            &renderer,
+            &opts,
+            Film::new(16, 8),
+            &Observers(vec![log.clone()]),
+        );
         let plain = parrt_render::smp::render_smp(&renderer, &opts, &|_, _| {});
         assert_eq!(watched.film, plain.film, "the same bits");
         let log = log.0.lock().unwrap().clone();

@@ -262,6 +262,17 @@ impl Film {
         }
     }
 
+    /// A black film that keeps what `format` writes and no more: 8-bit RGB for PNG and PPM
+    /// ([`Film::new_rgb8`], 3 bytes a pixel), linear floats for EXR ([`Film::new`], 12). The
+    /// file written is the same bytes either way: tiles land in an 8-bit film through the one
+    /// conversion ([`to_u8`]) a linear film's PNG goes through when it is written.
+    pub fn for_output(width: u32, height: u32, format: ImageFormat) -> Self {
+        match format {
+            ImageFormat::Png | ImageFormat::Ppm => Film::new_rgb8(width, height),
+            ImageFormat::Exr => Film::new(width, height),
+        }
+    }
+
     /// Whether this film keeps 8-bit RGB ([`Film::new_rgb8`]).
     pub fn is_rgb8(&self) -> bool {
         self.rgb8.is_some()
@@ -399,14 +410,30 @@ impl Film {
                         image::ExtendedColorType::Rgb8,
                     )
             }
+            // Encoded from the film's own floats: no full-size copy (12 bytes a pixel) first.
             ImageFormat::Exr => {
-                let flat: Vec<f32> = match &self.rgb8 {
-                    None => self.pixels.iter().flatten().copied().collect(),
-                    Some(b) => b.iter().map(|&v| unit(v)).collect(),
+                use image::codecs::openexr::OpenExrEncoder;
+                use image::ImageEncoder;
+                let converted: Vec<f32>;
+                let floats: &[f32] = match &self.rgb8 {
+                    None => self.pixels.as_flattened(),
+                    Some(b) => {
+                        converted = b.iter().map(|&v| unit(v)).collect();
+                        &converted
+                    }
                 };
-                let img = image::Rgb32FImage::from_raw(self.width, self.height, flat)
-                    .expect("buffer size matches dimensions");
-                img.save_with_format(path, image::ImageFormat::OpenExr)
+                // SAFETY: the bytes of initialized `f32`s, in their own memory, for as long as
+                // `floats` lives; `u8` needs no alignment and any byte value is valid.
+                let bytes = unsafe {
+                    std::slice::from_raw_parts(floats.as_ptr().cast::<u8>(), size_of_val(floats))
+                };
+                let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+                OpenExrEncoder::new(file).write_image(
+                    bytes,
+                    self.width,
+                    self.height,
+                    image::ExtendedColorType::Rgb32F,
+                )
             }
         }
     }
@@ -502,6 +529,29 @@ mod tests {
             .collect();
         names.sort();
         assert_eq!(names, ["ok.exr", "ok.png", "sub.png"]);
+    }
+
+    /// The EXR is written from the film's own floats: the bytes `image` writes for the same
+    /// values handed over as an owned buffer, every float bit kept.
+    #[test]
+    fn an_exr_is_the_films_floats_as_image_writes_them() {
+        let (w, h) = (7u32, 3u32);
+        let px: Vec<Rgb> = (0..w * h)
+            .map(|i| [i as f32 * 0.37, -1.5e-3 * i as f32, 1e9 / (1 + i) as f32])
+            .collect();
+        let film = Film::from_pixels(w, h, px.clone());
+        let d = tempfile::tempdir().unwrap();
+        let (ours, theirs) = (d.path().join("a.exr"), d.path().join("b.exr"));
+        film.save(&ours).unwrap();
+        image::Rgb32FImage::from_raw(w, h, px.as_flattened().to_vec())
+            .unwrap()
+            .save_with_format(&theirs, image::ImageFormat::OpenExr)
+            .unwrap();
+        let bytes = std::fs::read(&ours).unwrap();
+        assert!(bytes.len() > (w * h * 12) as usize / 4, "{}", bytes.len());
+        assert!(bytes == std::fs::read(&theirs).unwrap());
+        let back = image::open(&ours).unwrap().into_rgb32f();
+        assert!(back.as_raw() == px.as_flattened());
     }
 
     /// A `.ppm` is a binary netpbm pixmap (`P6`), which every PPM reader takes, not a PAM

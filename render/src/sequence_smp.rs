@@ -3,7 +3,8 @@
 //! next frame is opened (its renderer built by the thread that opens it, while the others
 //! finish frame k), so frame k+1's tiles fill the tail of frame k. At most `window` frames are
 //! alive at once — opened, being rendered or being written — so the films take at most
-//! `window × width × height × 12` bytes (three `f32` a pixel), besides each frame's renderer.
+//! `window × width × height × 12` bytes (three `f32` a pixel), or `× 3` with 8-bit films for an
+//! 8-bit output ([`SequenceOptions::rgb8`]), besides each frame's renderer.
 //!
 //! Each frame is handed to `write` by the thread that finished its last tile, as soon as it is
 //! finished: frames may complete out of order, and each is written exactly once. Frame 0's
@@ -34,9 +35,12 @@ pub struct SequenceOptions {
     pub executor: Executor,
     /// Most frames alive at once (at least 1).
     pub window: usize,
+    /// Films of 8-bit RGB ([`Film::new_rgb8`]), for outputs that keep no more (PNG, PPM): a
+    /// quarter of the memory, and the same file bytes.
+    pub rgb8: bool,
 }
 
-/// Bytes a film takes a pixel (three `f32`).
+/// Bytes a linear film takes a pixel (three `f32`).
 pub const FILM_BYTES_PER_PIXEL: u64 = 12;
 
 /// A finished frame, as `write` receives it.
@@ -291,7 +295,11 @@ fn open(index: usize, renderer: Renderer, opts: &SequenceOptions, costs: &TileCo
         seconds: vec![0.0; order.len()],
         order,
         next: 0,
-        film: Film::new(w, h),
+        film: if opts.rgb8 {
+            Film::new_rgb8(w, h)
+        } else {
+            Film::new(w, h)
+        },
         stats: RayStats::default(),
     }
 }
@@ -373,12 +381,20 @@ mod tests {
                 render_smp(&build(k).unwrap(), &opts, &|_, _| {}).film
             })
             .collect();
-        for (threads, tile, window) in [(1, 8, 1), (2, 5, 2), (3, 8, 3), (2, 16, 5)] {
+        for (threads, tile, window, rgb8) in [
+            (1, 8, 1, false),
+            (2, 5, 2, false),
+            (3, 8, 3, false),
+            (2, 16, 5, false),
+            (2, 5, 2, true),
+            (1, 7, 3, true),
+        ] {
             let opts = SequenceOptions {
                 threads,
                 tile,
                 executor: Executor::Morton,
                 window,
+                rgb8,
             };
             let written = Mutex::new(Vec::new());
             let write = |f: FrameDone| -> Result<(), crate::render::RenderError> {
@@ -399,10 +415,12 @@ mod tests {
             let ids: Vec<usize> = got.iter().map(|(k, _)| *k).collect();
             assert_eq!(ids, [0, 1, 2, 3, 4], "each frame once");
             for (k, film) in got {
-                assert!(
-                    film == alone[k],
-                    "frame {k}, {threads} threads, tile {tile}"
-                );
+                // An 8-bit frame holds the bytes the linear frame's PNG holds.
+                let same = match rgb8 {
+                    false => film == alone[k],
+                    true => film.is_rgb8() && film.to_rgb8() == alone[k].to_rgb8(),
+                };
+                assert!(same, "frame {k}, {threads} threads, tile {tile}, {rgb8}");
             }
             assert_eq!((r.frames, r.stopped), (5, false));
             assert!(
@@ -424,6 +442,7 @@ mod tests {
             tile: 8,
             executor: Executor::Queue,
             window: 2,
+            rgb8: false,
         };
         let write = |_: FrameDone| -> Result<(), crate::render::RenderError> {
             panic!("nothing is written once stopped")
@@ -444,6 +463,7 @@ mod tests {
             tile: 8,
             executor: Executor::Queue,
             window: 2,
+            rgb8: false,
         };
         // 24 × 16 in tiles of 8: 3 × 2 tiles, ids 0..6 row by row.
         let first = open(0, r(), &opts, &None);

@@ -147,9 +147,27 @@ pub fn render_smp_with(
     progress: &(dyn Fn(TileDone<'_>) + Sync),
 ) -> SmpResult {
     let s = renderer.settings();
+    render_smp_into(renderer, opts, Film::new(s.width, s.height), progress)
+}
+
+/// [`render_smp_with`] into `film`, a black film of the renderer's size: an 8-bit one
+/// ([`Film::for_output`]) for an 8-bit output keeps 3 bytes a pixel instead of 12, each tile
+/// converted as it lands; the progress still sees the tile's linear pixels.
+pub fn render_smp_into(
+    renderer: &Renderer,
+    opts: &SmpOptions,
+    film: Film,
+    progress: &(dyn Fn(TileDone<'_>) + Sync),
+) -> SmpResult {
+    let s = renderer.settings();
+    assert_eq!(
+        (film.width, film.height),
+        (s.width, s.height),
+        "the film is the image's size"
+    );
     let list = tiles(s.width, s.height, opts.tile);
     let threads = opts.threads.max(1);
-    let film = Mutex::new(Film::new(s.width, s.height));
+    let film = Mutex::new(film);
     let totals = Mutex::new((
         RayStats::default(),
         vec![0.0f64; list.len()],
@@ -184,12 +202,15 @@ pub fn render_smp_with(
         };
         finish(tile, buf, st, span);
     };
-    // N OS threads, each running `work` (given its index) until it returns.
+    // N threads, each running `work` (given its index) until it returns: the calling thread
+    // is thread 0 and N − 1 are spawned, so a one-thread render starts no thread and waits
+    // for none to be scheduled (on a loaded machine that wake-up costs milliseconds).
     let run_threads = |work: &(dyn Fn(usize, &mut Vec<Rgb>) + Sync)| {
         std::thread::scope(|scope| {
-            for i in 0..threads {
+            for i in 1..threads {
                 scope.spawn(move || work(i, &mut Vec::new()));
             }
+            work(0, &mut Vec::new());
         });
     };
     match opts.executor {

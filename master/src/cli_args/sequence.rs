@@ -28,7 +28,7 @@ pub struct SequenceArgs {
     pub frames: Option<usize>,
     /// Most frames alive at once (opened, rendering or being written): the threads fill one
     /// frame's tail with the next frame's tiles; the images take at most W × width × height ×
-    /// 12 bytes. Default 2; a sequence's flag only (refused for a render of one frame).
+    /// 3 bytes (12 with an EXR output). Default 2; a sequence's flag only (refused for a render of one frame).
     #[arg(long, value_name = "W")]
     pub window: Option<usize>,
 }

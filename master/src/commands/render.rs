@@ -12,6 +12,7 @@ use crate::exit::input_error;
 use crate::observed_smp::render_smp_observed;
 use anyhow::Context;
 use clap::Args;
+use parrt_render::film::{Film, ImageFormat};
 use parrt_render::precision::Choice;
 use parrt_render::render::Renderer;
 use parrt_render::settings::RenderSettings;
@@ -132,7 +133,11 @@ fn render_here(
     }
     // The SMP timeline comes from the render's own per-tile spans (measured on the threads),
     // not from a recorder.
-    let result = render_smp_observed(&renderer, &opts, &watchers(None, live));
+    // An 8-bit output's film keeps 8 bits as tiles land (3 bytes a pixel, not 12), and is
+    // written from its own bytes.
+    let format = ImageFormat::from_path(&args.output).map_err(input_error)?;
+    let film = Film::for_output(settings.width, settings.height, format);
+    let result = render_smp_observed(&renderer, &opts, film, &watchers(None, live));
     let timeline = args.job.timeline.as_ref().map(|_| {
         let label = spec.label();
         let job = timeline_job(&label, settings, args.tile);

@@ -220,3 +220,37 @@ fn help_explains_every_render_flag() {
         assert!(help.contains(flag), "--help lacks {flag}");
     }
 }
+
+/// A write that fails part-way (the file-size limit reached: `ulimit -f`, SIGXFSZ ignored so
+/// the write itself fails) exits 1 naming the image and leaves no partial file: the old image
+/// at the path is as it was, and no temporary file is left beside it. Each format, and both
+/// the 8-bit (PNG, PPM) and the linear (EXR) film.
+#[test]
+fn a_write_that_fails_part_way_leaves_no_partial_file() {
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["png", "ppm", "exr"] {
+        let out = dir.path().join(format!("m.{ext}"));
+        std::fs::write(&out, b"the old image").unwrap();
+        let o = std::process::Command::new("sh")
+            .args(["-c", "trap '' XFSZ; ulimit -f 2 && exec \"$0\" \"$@\""])
+            .arg(env!("CARGO_BIN_EXE_parrt"))
+            .args(["render", "--scene", "balls:2", "--size", "160x120", "-o"])
+            .arg(&out)
+            .env_remove("PARRT_LOG")
+            .output()
+            .expect("sh runs");
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{ext}: {err}");
+        assert!(
+            err.contains(&format!("cannot write image {}", out.display())),
+            "{ext}: {err}"
+        );
+        assert_eq!(std::fs::read(&out).unwrap(), b"the old image", "{ext}");
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .filter(|n| n.starts_with('.'))
+            .collect();
+        assert!(names.is_empty(), "{ext}: left behind: {names:?}");
+    }
+}
