@@ -13,7 +13,7 @@
 
 use super::leaf16::Rays16;
 use super::ray::{PreparedRay, Ray};
-use super::slab16::RayLanes;
+use super::slab::RayLanes;
 use crate::camera::Camera;
 use crate::isa::Isa;
 use crate::vec3::V3;

@@ -21,15 +21,15 @@ use super::Bvh;
 use crate::accel::prim_test::{OneRay, RayPrimTest};
 use crate::bits::SetBits;
 use crate::geometry::lanes16::Lanes16;
-use crate::geometry::slab16::RayLanes;
-use crate::geometry::slab8::Box8;
-use crate::geometry::slab_dispatch;
+use crate::geometry::slab;
+use crate::geometry::slab::Box8;
+use crate::geometry::slab::RayLanes;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
 
 /// Most rays in a packet (a 4 × 4 block of pixels).
-pub const PACKET: usize = crate::geometry::slab16::LANES;
+pub const PACKET: usize = crate::geometry::slab::LANES;
 
 /// Widest spread of a packet's origins, relative to its shortest ray, that is still traced as a
 /// packet. Measured with `parrt bench cast` on the SPD scenes at 0.003, 0.01, 0.03, 0.1 and
@@ -546,7 +546,7 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += n as u64;
-                let enter = slab_dispatch::enter16(lanes, &lo, &hi, &reach_ray) & all;
+                let enter = slab::enter16(lanes, &lo, &hi, &reach_ray) & all;
                 if enter == 0 {
                     continue;
                 }
@@ -728,7 +728,7 @@ impl Bvh {
                 let (first, count) = leaf_range(c);
                 let prims = &self.order[first..first + count];
                 box_tests += u64::from((all & !done).count_ones());
-                let open = slab_dispatch::enter16(lanes, &lo, &hi, &reach) & all & !done;
+                let open = slab::enter16(lanes, &lo, &hi, &reach) & all & !done;
                 if open == 0 {
                     continue;
                 }

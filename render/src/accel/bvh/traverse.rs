@@ -20,8 +20,8 @@ use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
 use crate::accel::prim_test::PrimTest;
 use crate::bits::SetBits;
-use crate::geometry::slab8::SlabRay;
-use crate::geometry::slab_dispatch;
+use crate::geometry::slab;
+use crate::geometry::slab::SlabRay;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::isa::{self, Isa};
 use crate::real::Real;
@@ -168,7 +168,7 @@ impl Bvh {
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
-                let (mask, t) = slab_dispatch::slab8_on(tier, &n.bounds, &sr, best.t + slack);
+                let (mask, t) = slab::slab8_on(tier, &n.bounds, &sr, best.t + slack);
                 // Empty lanes are never entered; the mask makes that independent of the ray.
                 let mask = mask & n.lanes();
                 if mask != 0 {
@@ -267,7 +267,7 @@ impl Bvh {
             } else {
                 let n = &self.nodes[cur as usize];
                 box_tests += u64::from(n.used);
-                let (mask, t) = slab_dispatch::slab8_on(tier, &n.bounds, &sr, reach);
+                let (mask, t) = slab::slab8_on(tier, &n.bounds, &sr, reach);
                 let mut mask = mask & n.lanes();
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
