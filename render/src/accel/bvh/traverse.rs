@@ -25,7 +25,7 @@ use super::Bvh;
 use crate::accel::prim_test::PrimTest;
 use crate::bits::SetBits;
 use crate::geometry::slab;
-use crate::geometry::slab::SlabRay;
+use crate::geometry::slab::NodeRay;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::isa::{self, Isa};
 use crate::real::Real;
@@ -271,7 +271,7 @@ impl Bvh {
         tier: Isa,
     ) -> Q::Answer {
         let (o, inv) = (pr.ray.o, pr.inv_d);
-        let sr = SlabRay {
+        let sr = NodeRay {
             o: [o.x, o.y, o.z],
             inv: [inv.x, inv.y, inv.z],
             neg: pr.neg,

@@ -22,8 +22,8 @@ use crate::real::Real;
 pub mod node;
 pub mod packet;
 
-pub use node::{Box8, SlabRay, WIDTH};
-pub use packet::{RayLanes, LANES};
+pub use node::{Box8, NodeRay, WIDTH};
+pub use packet::{LeafRays, LANES};
 
 /// The slab test on a box given by its corners, in the ray's precision: `Some(t_near)` when
 /// the ray meets the box within `[t_min, t_max]`.
@@ -87,7 +87,7 @@ pub fn interval<L: Lanes>(s: LaneSlab<L>, mut t0: L, mut t1: L) -> (L::Mask, L) 
 
 /// The eight boxes of `b` against `r` ([`node::node`]) with the kernel of the process's tier.
 #[inline(always)]
-pub fn slab8<R: Real>(b: &Box8, r: &SlabRay<R>, t_max: R) -> (u32, [R; WIDTH]) {
+pub fn slab8<R: Real>(b: &Box8, r: &NodeRay<R>, t_max: R) -> (u32, [R; WIDTH]) {
     slab8_on(isa::current(), b, r, t_max)
 }
 
@@ -95,7 +95,7 @@ pub fn slab8<R: Real>(b: &Box8, r: &SlabRay<R>, t_max: R) -> (u32, [R; WIDTH]) {
 /// caller: the walks read the tier once per ray, and in a walk compiled for AVX the eight-lane
 /// kernel is a few instructions.
 #[inline(always)]
-pub fn slab8_on<R: Real>(tier: Isa, b: &Box8, r: &SlabRay<R>, t_max: R) -> (u32, [R; WIDTH]) {
+pub fn slab8_on<R: Real>(tier: Isa, b: &Box8, r: &NodeRay<R>, t_max: R) -> (u32, [R; WIDTH]) {
     // SAFETY: the caller passes a tier this CPU runs (the process's tier, or one checked).
     unsafe { isa::run_inline(tier, NodeTest { b, r, t_max }) }
 }
@@ -103,10 +103,10 @@ pub fn slab8_on<R: Real>(tier: Isa, b: &Box8, r: &SlabRay<R>, t_max: R) -> (u32,
 /// One box against the rays of a packet ([`packet::enter`]) with the kernel of the process's
 /// tier: bit `i` set when ray `i` enters within `reach[i]`.
 #[inline(always)]
-pub fn enter16<R: Real>(l: &RayLanes<R>, lo: &[f32; 3], hi: &[f32; 3], reach: &[R; LANES]) -> u32 {
+pub fn enter16<R: Real>(l: &LeafRays<R>, lo: &[f32; 3], hi: &[f32; 3], reach: &[R; LANES]) -> u32 {
     let tier = isa::current();
     let k = PacketTest { l, lo, hi, reach };
-    if tier.avx512() && (l as &dyn Any).is::<RayLanes<f32>>() {
+    if tier.avx512() && (l as &dyn Any).is::<LeafRays<f32>>() {
         // Sixteen lanes need AVX-512 enabled, which the packet walk is not compiled with: the
         // tier's own compiled entry.
         return isa::dispatch(k);
@@ -118,7 +118,7 @@ pub fn enter16<R: Real>(l: &RayLanes<R>, lo: &[f32; 3], hi: &[f32; 3], reach: &[
 /// One ray against eight boxes: the kernel [`slab8_on`] runs.
 struct NodeTest<'a, R> {
     b: &'a Box8,
-    r: &'a SlabRay<R>,
+    r: &'a NodeRay<R>,
     t_max: R,
 }
 
@@ -129,7 +129,7 @@ impl<R: Real> Kernel for NodeTest<'_, R> {
     #[inline(always)]
     fn run<T: Tier>(self) -> (u32, [R; WIDTH]) {
         #[cfg(target_arch = "x86_64")]
-        if let Some(r32) = (self.r as &dyn Any).downcast_ref::<SlabRay<f32>>() {
+        if let Some(r32) = (self.r as &dyn Any).downcast_ref::<NodeRay<f32>>() {
             use crate::lanes::{X4, X8};
             let t_max = self.t_max.to_f32();
             // R is f32 here: the conversions are the identity.
@@ -148,7 +148,7 @@ impl<R: Real> Kernel for NodeTest<'_, R> {
 
 /// One box against a packet's rays: the kernel [`enter16`] runs.
 struct PacketTest<'a, R> {
-    l: &'a RayLanes<R>,
+    l: &'a LeafRays<R>,
     lo: &'a [f32; 3],
     hi: &'a [f32; 3],
     reach: &'a [R; LANES],
@@ -164,7 +164,7 @@ impl<R: Real> Kernel for PacketTest<'_, R> {
         let PacketTest { l, lo, hi, reach } = self;
         #[cfg(target_arch = "x86_64")]
         if let (Some(l32), Some(reach32)) = (
-            (l as &dyn Any).downcast_ref::<RayLanes<f32>>(),
+            (l as &dyn Any).downcast_ref::<LeafRays<f32>>(),
             (reach as &dyn Any).downcast_ref::<[f32; LANES]>(),
         ) {
             use crate::lanes::{X16, X4, X8};
@@ -185,7 +185,7 @@ impl<R: Real> Kernel for PacketTest<'_, R> {
 /// [`slab8`] with the code of `tier`, or `None` when this CPU does not run `tier` (for the
 /// tests that compare the tiers).
 #[cfg(test)]
-fn slab8_tier<R: Real>(tier: Isa, b: &Box8, r: &SlabRay<R>, t_max: R) -> Option<(u32, [R; WIDTH])> {
+fn slab8_tier<R: Real>(tier: Isa, b: &Box8, r: &NodeRay<R>, t_max: R) -> Option<(u32, [R; WIDTH])> {
     isa::dispatch_on(tier, NodeTest { b, r, t_max })
 }
 
@@ -193,7 +193,7 @@ fn slab8_tier<R: Real>(tier: Isa, b: &Box8, r: &SlabRay<R>, t_max: R) -> Option<
 #[cfg(test)]
 fn enter16_tier<R: Real>(
     tier: Isa,
-    l: &RayLanes<R>,
+    l: &LeafRays<R>,
     lo: &[f32; 3],
     hi: &[f32; 3],
     reach: &[R; LANES],

@@ -1,5 +1,5 @@
 //! One ray against the eight child boxes of a wide BVH node ([`crate::accel::bvh::wide`]): the
-//! boxes side by side ([`Box8`]), the ray's constants ([`SlabRay`]) and the test written once
+//! boxes side by side ([`Box8`]), the ray's constants ([`NodeRay`]) and the test written once
 //! over the lanes ([`node`]), which [`super::slab8_on`] instantiates per tier.
 
 use super::{interval, LaneSlab};
@@ -57,7 +57,7 @@ impl Box8 {
 
 /// The per-ray constants of the slab test.
 #[derive(Clone, Copy, Debug)]
-pub struct SlabRay<R> {
+pub struct NodeRay<R> {
     /// Origin.
     pub o: [R; 3],
     /// Reciprocal direction.
@@ -72,7 +72,7 @@ pub struct SlabRay<R> {
 /// `i` of the mask is set when box `i` is entered, and then `t[i]` is its entry distance
 /// (what the scalar [`super::slab`] answers for box `i`).
 #[inline(always)]
-pub fn node<L: Lanes>(b: &Box8, r: &SlabRay<L::Elem>, t_max: L::Elem) -> (u32, [L::Elem; WIDTH]) {
+pub fn node<L: Lanes>(b: &Box8, r: &NodeRay<L::Elem>, t_max: L::Elem) -> (u32, [L::Elem; WIDTH]) {
     let (x, y, z) = (b.rows(&r.neg, 0), b.rows(&r.neg, 1), b.rows(&r.neg, 2));
     let (near_rows, far_rows) = ([x.0, y.0, z.0], [x.1, y.1, z.1]);
     let (o, inv) = (splat3::<L>(r.o), splat3::<L>(r.inv));

@@ -1,5 +1,5 @@
 //! One box against the sixteen rays of a packet: the leaf test of packet traversal
-//! ([`crate::accel::bvh::packet`]). The rays side by side ([`RayLanes`]) share their direction
+//! ([`crate::accel::bvh::packet`]). The rays side by side ([`LeafRays`]) share their direction
 //! signs, so the near and far planes are the same for all of them; the test is written once
 //! over the lanes ([`enter`]) and [`super::enter16`] instantiates it per tier.
 
@@ -15,7 +15,7 @@ pub const LANES: usize = 16;
 /// repeat its first ray.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-pub struct RayLanes<R> {
+pub struct LeafRays<R> {
     /// Origins, per axis.
     pub o: [[R; LANES]; 3],
     /// Reciprocal directions, per axis.
@@ -26,10 +26,10 @@ pub struct RayLanes<R> {
     pub neg: [bool; 3],
 }
 
-impl<R: Real> RayLanes<R> {
+impl<R: Real> LeafRays<R> {
     /// The lanes of `rays` (at least one, at most [`LANES`], all with direction signs `neg`).
     pub fn new(rays: &[PreparedRay<R>], neg: [bool; 3]) -> Self {
-        let mut l = RayLanes {
+        let mut l = LeafRays {
             o: [[R::ZERO; LANES]; 3],
             inv: [[R::ZERO; LANES]; 3],
             t_min: [R::ZERO; LANES],
@@ -52,7 +52,7 @@ impl<R: Real> RayLanes<R> {
 /// ray `i`).
 #[inline(always)]
 pub fn enter<L: Lanes>(
-    l: &RayLanes<L::Elem>,
+    l: &LeafRays<L::Elem>,
     lo: &[f32; 3],
     hi: &[f32; 3],
     reach: &[L::Elem; LANES],

@@ -6,8 +6,8 @@ use crate::geometry::Ray;
 use crate::vec3::V3;
 use proptest::prelude::*;
 
-fn slab_ray<R: Real>(pr: &PreparedRay<R>) -> SlabRay<R> {
-    SlabRay {
+fn slab_ray<R: Real>(pr: &PreparedRay<R>) -> NodeRay<R> {
+    NodeRay {
         o: [pr.ray.o.x, pr.ray.o.y, pr.ray.o.z],
         inv: [pr.inv_d.x, pr.inv_d.y, pr.inv_d.z],
         neg: pr.neg,
@@ -92,7 +92,7 @@ proptest! {
         let neg = prs[0].neg;
         prop_assume!(prs.iter().all(|p| p.neg == neg));
         let hi = [lo[0] + ext[0], lo[1] + ext[1], lo[2] + ext[2]];
-        let lanes = RayLanes::new(&prs, neg);
+        let lanes = LeafRays::new(&prs, neg);
         let mut reach = [0.0f32; LANES];
         for (i, r) in reach.iter_mut().enumerate() {
             *r = prs.get(i).unwrap_or(&prs[0]).ray.t_max;
@@ -131,7 +131,7 @@ fn the_f64_kernels_agree_with_the_scalar_test() {
         assert_eq!(t[3], 7.0);
     }
     assert_eq!(slab8(&b, &sr, 100.0).0, 0b1001);
-    let lanes = RayLanes::new(&[pr], pr.neg);
+    let lanes = LeafRays::new(&[pr], pr.neg);
     let reach = [100.0f64; LANES];
     assert_eq!(
         enter16(&lanes, &[2.0, -1.0, -1.0], &[3.0, 1.0, 1.0], &reach),
@@ -152,7 +152,7 @@ fn every_tier_takes_the_boxes_on_an_axis_parallel_ray() {
     b.set(2, [2.0, -1.0, -1.0], [3.0, 1.0, 1.0]);
     b.set(6, [4.0, -1.0, -1.0], [5.0, 1.0, 1.0]);
     b.set(7, [4.0, 2.0, -1.0], [5.0, 3.0, 1.0]);
-    let r32 = SlabRay::<f32> {
+    let r32 = NodeRay::<f32> {
         o: [-5.0, 0.25, 0.5],
         inv: [1.0, f32::INFINITY, f32::INFINITY],
         neg: [false; 3],

@@ -4,7 +4,7 @@
 
 use super::{COHERENCE, PACKET};
 use crate::accel::bvh::wide::WIDTH;
-use crate::geometry::lanes16::Lanes16;
+use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::slab::Box8;
 use crate::geometry::PreparedRay;
 use crate::real::Real;
@@ -72,7 +72,7 @@ impl<R: Real> Frustum<R> {
     /// [`Frustum::new`] of a packet in lanes (its lanes past the packet repeat lane 0, so
     /// the bounds over all sixteen are the bounds of its rays).
     #[inline(always)]
-    pub(super) fn from_lanes(l: &Lanes16) -> Option<Frustum<f32>> {
+    pub(super) fn from_lanes(l: &RayPacket) -> Option<Frustum<f32>> {
         let s = &l.slab;
         let mut f = Frustum {
             o_lo: [0.0; 3],
@@ -159,7 +159,7 @@ impl<R: Real> Frustum<R> {
 /// The CPU must support AVX-512 F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-pub(super) unsafe fn frustum_avx512(l: &Lanes16) -> Option<Frustum<f32>> {
+pub(super) unsafe fn frustum_avx512(l: &RayPacket) -> Option<Frustum<f32>> {
     use std::arch::x86_64::*;
     let s = &l.slab;
     // SAFETY: every load reads sixteen `f32` of a `[f32; 16]` (unaligned loads).
@@ -238,7 +238,7 @@ mod tests {
         ) {
             #[cfg(target_arch = "x86_64")]
             if crate::isa::Isa::Avx512.supported() {
-                let mut l = Lanes16::new();
+                let mut l = RayPacket::new();
                 for &(jitter, d, flip, t_max, t_min) in &rays {
                     let o = V3::from_array([0, 1, 2].map(|a| base[a] + jitter[a]));
                     let mut d = [0, 1, 2].map(|a| if signs[a] { -d[a] } else { d[a] });

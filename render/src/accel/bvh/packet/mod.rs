@@ -20,7 +20,7 @@ use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
 use crate::accel::prim_test::{OneRay, RayPrimTest};
 use crate::bits::SetBits;
-use crate::geometry::lanes16::Lanes16;
+use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::slab;
 use crate::geometry::{PreparedRay, PrimHit};
 use crate::real::Real;
@@ -95,7 +95,7 @@ impl Bvh {
 
     /// The bounds a packet in lanes is traced together with, or `None` when its rays go one by
     /// one (the same decision as [`Bvh::takes_as_packet`] on its prepared rays).
-    fn lanes_bounds(&self, rays: &Lanes16) -> Option<Frustum<f32>> {
+    fn lanes_bounds(&self, rays: &RayPacket) -> Option<Frustum<f32>> {
         if rays.len() <= 1 || self.nodes.is_empty() {
             return None;
         }
@@ -132,7 +132,7 @@ impl Bvh {
     /// When `out` is shorter than the packet.
     pub fn intersect_lanes<T: LanesPrimTest>(
         &self,
-        rays: &Lanes16,
+        rays: &RayPacket,
         out: &mut [Option<PrimHit<f32>>],
         stats: &mut RayStats,
         test: T,
@@ -164,7 +164,7 @@ impl Bvh {
     /// When `out` is shorter than the packet.
     pub fn occluded_lanes<T: LanesPrimTest>(
         &self,
-        rays: &Lanes16,
+        rays: &RayPacket,
         out: &mut [bool],
         stats: &mut RayStats,
         test: T,
@@ -192,7 +192,7 @@ impl Bvh {
     #[inline(always)]
     fn packet_lanes<T: LanesPrimTest, Q: PacketQuery<f32>>(
         &self,
-        rays: &Lanes16,
+        rays: &RayPacket,
         stats: &mut RayStats,
         test: T,
         q: Q,

@@ -7,7 +7,7 @@ use super::PACKET;
 use crate::accel::bvh::Bvh;
 use crate::accel::prim_test::PrimTest;
 use crate::bits::SetBits;
-use crate::geometry::lanes16::Lanes16;
+use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;
@@ -29,7 +29,7 @@ impl<R: Real> RayList<R> for [PreparedRay<R>] {
     }
 }
 
-impl RayList<f32> for Lanes16 {
+impl RayList<f32> for RayPacket {
     fn count(&self) -> usize {
         self.len()
     }

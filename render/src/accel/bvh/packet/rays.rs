@@ -1,21 +1,21 @@
 //! A packet's rays as the walk reads them ([`PacketRays`]): prepared rays with their box-test
-//! lanes ([`Slice`]) or a packet already in lanes ([`Lanes16`]), and the primitive test a
+//! lanes ([`Slice`]) or a packet already in lanes ([`RayPacket`]), and the primitive test a
 //! packet in lanes needs ([`LanesPrimTest`]).
 
 use crate::accel::prim_test::RayPrimTest;
-use crate::geometry::lanes16::Lanes16;
-use crate::geometry::slab::RayLanes;
+use crate::geometry::ray_packet::RayPacket;
+use crate::geometry::slab::LeafRays;
 use crate::geometry::{Nearest, PreparedRay};
 use crate::real::Real;
 
-/// The primitive test of a packet in lanes ([`Lanes16`]): [`RayPrimTest`] (for rays traced one
+/// The primitive test of a packet in lanes ([`RayPacket`]): [`RayPrimTest`] (for rays traced one
 /// by one, prepared from their lanes) plus a leaf against several of the packet's rays, each
 /// with exactly the answer [`RayPrimTest::closest`] or [`RayPrimTest::any`] gives it alone.
 pub trait LanesPrimTest: RayPrimTest<f32> {
     /// [`RayPrimTest::closest_many`] for the rays of `rays` whose bits are set in `mask`.
     fn closest_lanes(
         &mut self,
-        rays: &Lanes16,
+        rays: &RayPacket,
         mask: u32,
         prims: &[u32],
         best: &mut [Nearest<f32>],
@@ -23,11 +23,12 @@ pub trait LanesPrimTest: RayPrimTest<f32> {
 
     /// [`RayPrimTest::any_many`] for the rays of `rays` whose bits are set in `mask`, each
     /// within its own `t_max`.
-    fn any_lanes(&mut self, rays: &Lanes16, mask: u32, prims: &[u32], first: &mut [usize]) -> u32;
+    fn any_lanes(&mut self, rays: &RayPacket, mask: u32, prims: &[u32], first: &mut [usize])
+        -> u32;
 }
 
 /// A packet's rays as the walks read them: a slice of prepared rays with their box-test lanes,
-/// or a [`Lanes16`]; `T` is the primitive test the rays go to.
+/// or a [`RayPacket`]; `T` is the primitive test the rays go to.
 pub(super) trait PacketRays<R: Real, T> {
     /// Rays in the packet.
     fn len(&self) -> usize;
@@ -36,7 +37,7 @@ pub(super) trait PacketRays<R: Real, T> {
     /// The length of ray `i`'s direction.
     fn d_length(&self, i: usize) -> R;
     /// The rays' lanes for the box test.
-    fn slab(&self) -> &RayLanes<R>;
+    fn slab(&self) -> &LeafRays<R>;
     /// [`RayPrimTest::closest_many`].
     fn closest(&self, test: &mut T, mask: u32, prims: &[u32], best: &mut [Nearest<R>]);
     /// [`RayPrimTest::any_many`].
@@ -46,7 +47,7 @@ pub(super) trait PacketRays<R: Real, T> {
 /// Prepared rays and their box-test lanes.
 pub(super) struct Slice<'a, R> {
     rays: &'a [PreparedRay<R>],
-    lanes: RayLanes<R>,
+    lanes: LeafRays<R>,
 }
 
 impl<'a, R: Real> Slice<'a, R> {
@@ -54,7 +55,7 @@ impl<'a, R: Real> Slice<'a, R> {
     pub(super) fn new(rays: &'a [PreparedRay<R>], neg: [bool; 3]) -> Self {
         Slice {
             rays,
-            lanes: RayLanes::new(rays, neg),
+            lanes: LeafRays::new(rays, neg),
         }
     }
 }
@@ -73,7 +74,7 @@ impl<R: Real, T: RayPrimTest<R>> PacketRays<R, T> for Slice<'_, R> {
         self.rays[i].ray.d.length()
     }
     #[inline(always)]
-    fn slab(&self) -> &RayLanes<R> {
+    fn slab(&self) -> &LeafRays<R> {
         &self.lanes
     }
     #[inline(always)]
@@ -86,10 +87,10 @@ impl<R: Real, T: RayPrimTest<R>> PacketRays<R, T> for Slice<'_, R> {
     }
 }
 
-impl<T: LanesPrimTest> PacketRays<f32, T> for Lanes16 {
+impl<T: LanesPrimTest> PacketRays<f32, T> for RayPacket {
     #[inline(always)]
     fn len(&self) -> usize {
-        Lanes16::len(self)
+        RayPacket::len(self)
     }
     #[inline(always)]
     fn t_max(&self, i: usize) -> f32 {
@@ -101,7 +102,7 @@ impl<T: LanesPrimTest> PacketRays<f32, T> for Lanes16 {
         self.tri.a[i].sqrt()
     }
     #[inline(always)]
-    fn slab(&self) -> &RayLanes<f32> {
+    fn slab(&self) -> &LeafRays<f32> {
         &self.slab
     }
     #[inline(always)]
