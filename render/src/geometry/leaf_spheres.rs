@@ -6,9 +6,9 @@
 //! [`super::leaf_triangles`]: four SSE2 lanes (in their VEX form on `avx2` and `avx512`), the
 //! portable lane loop ([`intersect4_lanes`]) on `scalar` and elsewhere.
 //! [`LeafSpheres`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
-//! that enter the leaf share one gather ([`intersect4_gathered`]).
+//! that enter the leaf share one gather ([`intersect4`] on [`LeafSpheres`]).
 
-use super::lane_hits::DistanceHits;
+use super::distance_hits::DistanceHits;
 use super::ray::Ray;
 use super::sphere::{nearest_root, Sphere};
 use crate::isa::{Isa, Kernel, Tier};
@@ -75,39 +75,24 @@ pub fn intersect4_lanes<R: Real>(
     DistanceHits::from_tests(spheres.iter().take(used).map(|s| s.intersect(ray, t_max)))
 }
 
-/// The `f32` test of `used` (1..=4) spheres, with the kernel of the process's tier.
+/// The `f32` test of `used` (1..=4) spheres, gathered on the spot or already in lanes (as
+/// `src` is: the same answers bit for bit), with the kernel of the process's tier.
 #[inline]
-pub fn intersect4(
+pub fn intersect4<S: Source>(
     ray: &Ray<f32>,
-    spheres: &Spheres4<'_, f32>,
+    src: &S,
     used: usize,
     t_max: f32,
 ) -> DistanceHits<f32> {
     crate::isa::dispatch(Four {
         ray,
-        src: spheres,
+        src,
         used,
         t_max,
     })
 }
 
-/// [`intersect4`] on spheres already gathered into lanes: the same answers bit for bit.
-#[inline]
-pub fn intersect4_gathered(
-    ray: &Ray<f32>,
-    spheres: &LeafSpheres,
-    used: usize,
-    t_max: f32,
-) -> DistanceHits<f32> {
-    crate::isa::dispatch(Four {
-        ray,
-        src: spheres,
-        used,
-        t_max,
-    })
-}
-
-/// [`intersect4`] or [`intersect4_gathered`] (as `src` is) with the code of `tier`, or `None`
+/// [`intersect4`] with the code of `tier`, or `None`
 /// when this CPU does not run `tier` (for the tests that compare the tiers).
 pub fn intersect4_on<S: Source>(
     tier: Isa,
@@ -247,7 +232,7 @@ mod tests {
         let lanes = LeafSpheres::gather(s);
         let mut kernels = vec![
             intersect4(ray, s, used, t_max),
-            intersect4_gathered(ray, &lanes, used, t_max),
+            intersect4(ray, &lanes, used, t_max),
         ];
         for tier in Isa::ALL {
             kernels.extend(intersect4_on(tier, ray, s, used, t_max));

@@ -9,7 +9,7 @@
 //! `sse2`, the same in their three-operand VEX form on `avx2` and `avx512`, and the portable
 //! lane-by-lane loop ([`intersect4_lanes`]) on `scalar`, on other targets and for `f64`.
 //! [`LeafTriangles`] holds a leaf's triangles already gathered into lanes, so the rays of a packet
-//! that enter the leaf share one gather ([`intersect4_gathered`]).
+//! that enter the leaf share one gather ([`intersect4`] on [`LeafTriangles`]).
 
 use super::ray::PreparedRay;
 use super::triangle::{intersect_triangle, watertight};
@@ -95,39 +95,24 @@ pub fn intersect4_lanes<R: Real>(
     h
 }
 
-/// The `f32` test of `used` (1..=4) triangles, with the kernel of the process's tier.
+/// The `f32` test of `used` (1..=4) triangles, gathered on the spot or already in lanes (as
+/// `src` is: the same answers bit for bit), with the kernel of the process's tier.
 #[inline]
-pub fn intersect4(
+pub fn intersect4<S: Source>(
     pr: &PreparedRay<f32>,
-    tris: &Tris4<'_, f32>,
+    src: &S,
     used: usize,
     t_max: f32,
 ) -> TriangleHits<f32> {
     crate::isa::dispatch(Four {
         pr,
-        src: tris,
+        src,
         used,
         t_max,
     })
 }
 
-/// [`intersect4`] on triangles already gathered into lanes: the same answers bit for bit.
-#[inline]
-pub fn intersect4_gathered(
-    pr: &PreparedRay<f32>,
-    tris: &LeafTriangles,
-    used: usize,
-    t_max: f32,
-) -> TriangleHits<f32> {
-    crate::isa::dispatch(Four {
-        pr,
-        src: tris,
-        used,
-        t_max,
-    })
-}
-
-/// [`intersect4`] or [`intersect4_gathered`] (as `src` is) with the code of `tier`, or `None`
+/// [`intersect4`] with the code of `tier`, or `None`
 /// when this CPU does not run `tier` (for the tests that compare the tiers).
 pub fn intersect4_on<S: Source>(
     tier: Isa,
@@ -293,7 +278,7 @@ mod tests {
         let lanes = LeafTriangles::gather(tris);
         let mut kernels = vec![
             intersect4(r, tris, used, t_max),
-            intersect4_gathered(r, &lanes, used, t_max),
+            intersect4(r, &lanes, used, t_max),
         ];
         for tier in Isa::ALL {
             kernels.extend(intersect4_on(tier, r, tris, used, t_max));

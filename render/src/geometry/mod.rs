@@ -7,15 +7,15 @@
 //!   a packet's sixteen rays).
 //! - [`triangle`], [`sphere`], [`cone`]: each primitive's scalar test and error bound.
 //! - [`leaf_triangles`], [`leaf_spheres`]: one ray against a leaf's four triangles or spheres
-//!   in lanes; [`lane_hits`] their answers.
+//!   in lanes; [`distance_hits`] the answers of the kernels that find only distances.
 //! - [`ray_packet`], [`packet_prims`]: a packet's rays in lanes, and the packet against one
 //!   triangle or sphere.
 //! - [`triangulate`]: polygons into triangles.
 
 pub mod aabb;
 pub mod cone;
+pub mod distance_hits;
 pub mod hit;
-pub mod lane_hits;
 pub mod leaf_spheres;
 pub mod leaf_triangles;
 pub mod packet_prims;

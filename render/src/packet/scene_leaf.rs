@@ -103,11 +103,11 @@ impl Gathered {
     fn run(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> (u32, Lanes) {
         match self {
             Gathered::Triangles(tris) => {
-                let h = leaf_triangles::intersect4_gathered(pr, tris, used, t_max);
+                let h = leaf_triangles::intersect4(pr, tris, used, t_max);
                 (h.mask, (h.t, h.b1, h.b2))
             }
             Gathered::Spheres(spheres) => {
-                let h = leaf_spheres::intersect4_gathered(&pr.ray, spheres, used, t_max);
+                let h = leaf_spheres::intersect4(&pr.ray, spheres, used, t_max);
                 (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
             }
         }

@@ -8,7 +8,7 @@
 //! [`intersect_rays4_lanes`]) on `scalar` and elsewhere.
 
 use super::{lateral_hits, Cone, ConeLanes, ConeRays};
-use crate::geometry::lane_hits::DistanceHits;
+use crate::geometry::distance_hits::DistanceHits;
 use crate::geometry::ray::Ray;
 use crate::isa::{Isa, Kernel, Tier};
 use crate::lanes::{splat3, Lanes, Mask};
