@@ -2,7 +2,7 @@
 //! ray through each pixel centre and, for every hit, one shadow ray per light — to every light,
 //! or (culling) only to lights in front of the surface. No shading, no secondary rays. The rays
 //! go in 4 × 4 packets like a render's eye rays, or one by one. In `f32` on the `avx512` tier, a
-//! packet's rays live in lanes ([`Lanes16`]) from the camera through the traversal and the leaf
+//! packet's rays live in lanes ([`RayPacket`]) from the camera through the traversal and the leaf
 //! kernels, and each light's shadow packet is made in lanes from the hits
 //! ([`crate::packet::shadow`]); the other tiers trace prepared rays. Both give the same rays, hits and
 //! counts.
@@ -11,7 +11,7 @@ use std::any::Any;
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
-use crate::geometry::lanes16::Lanes16;
+use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
 use crate::packet::leaf::LanesLeaf;
 use crate::packet::shadow::{shadow_lanes, SurfaceLanes};
@@ -147,8 +147,8 @@ fn cast_tile_lanes(
 ) {
     let scene = &integrator.scene;
     let accel = &integrator.accel;
-    let mut eye = Lanes16::new();
-    let mut shadow = Lanes16::new();
+    let mut eye = RayPacket::new();
+    let mut shadow = RayPacket::new();
     // Rays a leaf test takes one by one are prepared into this, once per packet.
     let mut prepared = [PreparedRay::new(camera.ray(0.5, 0.5)); PACKET];
     let mut hits = [None; PACKET];

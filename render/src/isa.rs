@@ -295,6 +295,24 @@ pub fn dispatch_on<K: Kernel>(tier: Isa, k: K) -> Option<K::Output> {
     tier.supported().then(|| unsafe { run_on(tier, k) })
 }
 
+/// Runs `k` with the body of `tier` inline in the caller, not in the tier's compiled entry: for
+/// a small kernel called per node from a walk that is itself compiled for the tier (a call per
+/// node would cost more than the kernel). The body's lane operations compile to single
+/// instructions only where the caller enables the lane type's instruction set; elsewhere they
+/// become calls (correct, slower), so a body should pick lanes the caller is compiled for.
+///
+/// # Safety
+/// This CPU must run `tier`.
+#[inline(always)]
+pub unsafe fn run_inline<K: Kernel>(tier: Isa, k: K) -> K::Output {
+    match tier {
+        Isa::Avx512 => k.run::<OnAvx512>(),
+        Isa::Avx2 => k.run::<OnAvx2>(),
+        Isa::Sse2 => k.run::<OnSse2>(),
+        Isa::Scalar => k.run::<OnScalar>(),
+    }
+}
+
 /// # Safety
 /// This CPU must run `tier`.
 #[inline(always)]

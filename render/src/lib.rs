@@ -48,13 +48,13 @@
 //! - [`shade`]: Whitted shading and the recursion of reflected and refracted rays.
 //! - [`packet`]: rays in packets: eye rays and their shadow, reflection and refraction rays
 //!   ([`packet::trace`]), a packet against a leaf ([`packet::leaf`]), its shadow rays made in
-//!   lanes ([`packet::shadow`]).
+//!   lanes ([`packet::shadow`]), the scene's primitive test as the accelerators call it, four
+//!   at a time ([`packet::scene_leaf`]).
 //! - [`real`], [`vec3`]: the scalar trait (`f32` fast path, `f64` reference path) and vectors.
 //!
 //! Geometry and acceleration:
 //! - [`geometry`]: rays, boxes, the primitives' intersection tests, hit records, SIMD kernels.
 //! - [`accel`]: the BVH, the uniform grid and brute force, which all return the same hit.
-//! - [`scene_leaf`]: the scene's primitive test as the accelerators call it, four at a time.
 //! - [`isa`]: the instruction-set tier every SIMD kernel follows, chosen once per process, and
 //!   the one dispatch point that runs a kernel on it.
 //! - [`lanes`]: the lane types every SIMD kernel is written against (scalar, 4, 8, 16 lanes).
@@ -95,7 +95,6 @@ pub mod precision;
 pub mod real;
 pub mod render;
 pub mod scene;
-pub mod scene_leaf;
 pub mod sequence;
 pub mod sequence_smp;
 pub mod settings;

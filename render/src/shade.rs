@@ -5,10 +5,10 @@
 
 use crate::accel::Accel;
 use crate::geometry::{offset_ray_origin, PreparedRay, PrimHit, Ray};
+use crate::packet::scene_leaf::SceneLeaf;
 use crate::real::Real;
 use crate::scene::Scene;
 use crate::scene::{Mat, Surface};
-use crate::scene_leaf::SceneLeaf;
 use crate::stats::RayStats;
 use crate::vec3::V3;
 

@@ -6,9 +6,9 @@ use crate::spd_dir;
 use parrt_render::accel::Accel;
 use parrt_render::description::SceneDescription;
 use parrt_render::geometry::{PreparedRay, PrimHit, Ray};
+use parrt_render::packet::scene_leaf::SceneLeaf;
 use parrt_render::real::Real;
 use parrt_render::scene::Scene;
-use parrt_render::scene_leaf::SceneLeaf;
 use parrt_render::settings::AccelKind;
 use parrt_render::stats::RayStats;
 

@@ -8,7 +8,7 @@ pub mod grid;
 pub mod prim_test;
 
 use crate::accel::bvh::packet::LanesPrimTest;
-use crate::geometry::lanes16::Lanes16;
+use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::{Aabb, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::settings::AccelKind;
@@ -152,11 +152,11 @@ impl Accel {
         }
     }
 
-    /// [`Accel::intersect_packet`] for a packet in lanes ([`Lanes16`]): the BVH traces it
+    /// [`Accel::intersect_packet`] for a packet in lanes ([`RayPacket`]): the BVH traces it
     /// together from its lanes; the other accelerators prepare its rays one by one.
     pub fn intersect_lanes<T: LanesPrimTest>(
         &self,
-        rays: &Lanes16,
+        rays: &RayPacket,
         out: &mut [Option<PrimHit<f32>>],
         stats: &mut RayStats,
         mut test: T,
@@ -172,10 +172,10 @@ impl Accel {
         }
     }
 
-    /// [`Accel::occluded_packet`] for a packet in lanes ([`Lanes16`]).
+    /// [`Accel::occluded_packet`] for a packet in lanes ([`RayPacket`]).
     pub fn occluded_lanes<T: LanesPrimTest>(
         &self,
-        rays: &Lanes16,
+        rays: &RayPacket,
         out: &mut [bool],
         stats: &mut RayStats,
         mut test: T,

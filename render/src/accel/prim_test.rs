@@ -1,6 +1,6 @@
 //! The primitive test an accelerator calls: one primitive at a time ([`PrimTest::test`]), or a
 //! BVH leaf's run of primitives at once ([`PrimTest::closest`], [`PrimTest::any`]), which a
-//! scene can answer with SIMD ([`crate::scene_leaf::SceneLeaf`]). Any closure
+//! scene can answer with SIMD ([`crate::packet::scene_leaf::SceneLeaf`]). Any closure
 //! `FnMut(prim, t_max) -> Option<PrimHit>` is a test that goes one primitive at a time;
 //! [`RayPrimTest`] is the same for packets, where the ray comes with each call, and can take a
 //! leaf against several of the packet's rays at once ([`RayPrimTest::closest_many`],

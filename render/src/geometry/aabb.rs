@@ -3,6 +3,7 @@
 //! and conservative at the far end (t_far widened by 1 + 2γ₃).
 
 use super::ray::PreparedRay;
+use super::slab::slab;
 use crate::real::Real;
 use crate::vec3::V3;
 
@@ -102,37 +103,6 @@ impl Aabb {
     pub fn hit<R: Real>(&self, pr: &PreparedRay<R>, t_max: R) -> Option<R> {
         slab(&self.min, &self.max, pr, t_max)
     }
-}
-
-/// The slab test on a box given by its corners, in the ray's precision.
-#[inline(always)]
-pub fn slab<R: Real>(min: &[f32; 3], max: &[f32; 3], pr: &PreparedRay<R>, t_max: R) -> Option<R> {
-    let o = pr.ray.o;
-    let mut t0 = pr.ray.t_min;
-    let mut t1 = t_max;
-    let widen = R::ONE + R::TWO * R::gamma(3);
-    for a in 0..3 {
-        let (lo, hi) = if pr.neg[a] {
-            (max[a], min[a])
-        } else {
-            (min[a], max[a])
-        };
-        let inv = pr.inv_d.get(a);
-        let oa = o.get(a);
-        let t_near = (R::from_f32(lo) - oa) * inv;
-        let t_far = (R::from_f32(hi) - oa) * inv * widen;
-        // NaN (0·∞ for a ray lying in a slab plane) compares false and leaves the interval as is.
-        if t_near > t0 {
-            t0 = t_near;
-        }
-        if t_far < t1 {
-            t1 = t_far;
-        }
-        if t0 > t1 {
-            return None;
-        }
-    }
-    Some(t0)
 }
 
 #[cfg(test)]

@@ -1,21 +1,29 @@
 //! Geometry: rays, boxes, the primitives' intersection routines and hit records. Every
 //! intersectable answers two queries: the closest hit (`intersect`) and any hit (`occluded`).
 //! Nothing here allocates.
+//!
+//! - [`ray`], [`hit`]: rays and their prepared form; hit records and the nearest-hit rule.
+//! - [`aabb`], [`slab`]: boxes, and the slab test written once (scalar, a node's eight boxes,
+//!   a packet's sixteen rays).
+//! - [`triangle`], [`sphere`], [`cone`]: each primitive's scalar test and error bound.
+//! - [`leaf_triangles`], [`leaf_spheres`]: one ray against a leaf's four triangles or spheres
+//!   in lanes; [`distance_hits`] the answers of the kernels that find only distances.
+//! - [`ray_packet`], [`packet_prims`]: a packet's rays in lanes, and the packet against one
+//!   triangle or sphere.
+//! - [`triangulate`]: polygons into triangles.
 
 pub mod aabb;
 pub mod cone;
+pub mod distance_hits;
 pub mod hit;
-pub mod hits4;
-pub mod lanes16;
-pub mod leaf16;
+pub mod leaf_spheres;
+pub mod leaf_triangles;
+pub mod packet_prims;
 pub mod ray;
-pub mod slab16;
-pub mod slab8;
-pub mod slab_dispatch;
+pub mod ray_packet;
+pub mod slab;
 pub mod sphere;
-pub mod sphere4;
 pub mod triangle;
-pub mod triangle4;
 pub mod triangulate;
 
 pub use aabb::Aabb;

@@ -3,8 +3,8 @@
 //! their error bound is a few ulps of the position.
 //!
 //! The test is written once, `nearest_root`, over the lane types of [`crate::lanes`]: the
-//! scalar test here, and the SIMD kernels of [`super::sphere4`] (one ray against four spheres)
-//! and [`super::leaf16`] (a packet's rays against one sphere) are its instances.
+//! scalar test here, and the SIMD kernels of [`super::leaf_spheres`] (one ray against four spheres)
+//! and [`super::packet_prims`] (a packet's rays against one sphere) are its instances.
 
 use super::ray::Ray;
 use crate::lanes::{dot3 as dot, Lanes, Mask};

@@ -4,8 +4,8 @@
 //! `f64`. A conservative bound on `t`'s error rejects self-intersections (after pbrt-v4).
 //!
 //! The test is written once, `watertight`, over the lane types of [`crate::lanes`]: the scalar
-//! test here, and the SIMD kernels of [`super::triangle4`] (one ray against four triangles) and
-//! [`super::leaf16`] (a packet's rays against one triangle) are its instances.
+//! test here, and the SIMD kernels of [`super::leaf_triangles`] (one ray against four triangles) and
+//! [`super::packet_prims`] (a packet's rays against one triangle) are its instances.
 
 use super::ray::PreparedRay;
 use crate::lanes::{Lanes, Mask};

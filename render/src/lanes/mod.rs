@@ -83,6 +83,16 @@ pub trait Lanes:
     /// `f32::max`'s rule: the larger lane, or the lane that is not NaN when one is NaN (`NaN`
     /// only when both are); between `0.0` and `-0.0` either may come out.
     fn maxnum(self, o: Self) -> Self;
+    /// `if self > o { self } else { o }` lane by lane: `o` whenever either lane is NaN (SSE's
+    /// `maxps`). The slab test's rule: with the interval bound as `o`, a NaN distance (0·∞, a
+    /// ray in a slab plane) leaves the interval as it was.
+    fn max_or(self, o: Self) -> Self;
+    /// `if self < o { self } else { o }` lane by lane: `o` whenever either lane is NaN (SSE's
+    /// `minps`), the mirror image of [`Lanes::max_or`].
+    fn min_or(self, o: Self) -> Self;
+    /// Lanes `0..N` of `a` in the lanes' precision (`a` holds at least `N`; the boxes are
+    /// stored in `f32` whatever the ray's precision).
+    fn from_f32s(a: &[f32]) -> Self;
 
     /// `self < o`.
     fn lt(self, o: Self) -> Self::Mask;

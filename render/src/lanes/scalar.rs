@@ -62,6 +62,26 @@ impl<R: Real> Lanes for R {
         Real::max(self, o)
     }
     #[inline(always)]
+    fn max_or(self, o: R) -> R {
+        if self > o {
+            self
+        } else {
+            o
+        }
+    }
+    #[inline(always)]
+    fn min_or(self, o: R) -> R {
+        if self < o {
+            self
+        } else {
+            o
+        }
+    }
+    #[inline(always)]
+    fn from_f32s(a: &[f32]) -> R {
+        R::from_f32(a[0])
+    }
+    #[inline(always)]
     fn lt(self, o: R) -> bool {
         self < o
     }

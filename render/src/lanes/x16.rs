@@ -90,6 +90,18 @@ impl Lanes for X16 {
         X16::select(o_nan, self, X16(unsafe { _mm512_max_ps(self.0, o.0) }))
     }
     #[inline(always)]
+    fn max_or(self, o: X16) -> X16 {
+        X16(unsafe { _mm512_max_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn min_or(self, o: X16) -> X16 {
+        X16(unsafe { _mm512_min_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn from_f32s(a: &[f32]) -> X16 {
+        X16::load(a)
+    }
+    #[inline(always)]
     fn lt(self, o: X16) -> u16 {
         unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OS>(self.0, o.0) }
     }

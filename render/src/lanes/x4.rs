@@ -94,6 +94,18 @@ impl Lanes for X4 {
         X4::select(Mask4(unsafe { _mm_cmpunord_ps(o.0, o.0) }), self, m)
     }
     #[inline(always)]
+    fn max_or(self, o: X4) -> X4 {
+        X4(unsafe { _mm_max_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn min_or(self, o: X4) -> X4 {
+        X4(unsafe { _mm_min_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn from_f32s(a: &[f32]) -> X4 {
+        X4::load(a)
+    }
+    #[inline(always)]
     fn lt(self, o: X4) -> Mask4 {
         Mask4(unsafe { _mm_cmplt_ps(self.0, o.0) })
     }

@@ -99,6 +99,18 @@ impl Lanes for X8 {
         )
     }
     #[inline(always)]
+    fn max_or(self, o: X8) -> X8 {
+        X8(unsafe { _mm256_max_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn min_or(self, o: X8) -> X8 {
+        X8(unsafe { _mm256_min_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn from_f32s(a: &[f32]) -> X8 {
+        X8::load(a)
+    }
+    #[inline(always)]
     fn lt(self, o: X8) -> Mask8 {
         Mask8(unsafe { _mm256_cmp_ps::<_CMP_LT_OS>(self.0, o.0) })
     }

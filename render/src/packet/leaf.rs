@@ -1,7 +1,7 @@
 //! The primitive test of one packet's rays ([`crate::accel::RayPrimTest`]): [`SceneLeaf`], except
 //! that where the process's tier runs AVX ([`crate::isa`]) and the scene is in `f32`, a leaf of
 //! triangles or of spheres that several of the packet's rays enter is tested one primitive at a
-//! time against all of them at once, a ray per lane ([`crate::geometry::leaf16`]). The packet's rays are put into lanes
+//! time against all of them at once, a ray per lane ([`crate::geometry::packet_prims`]). The packet's rays are put into lanes
 //! once, when the first such leaf needs them; every ray gets exactly the one-ray test's answer.
 
 use crate::bits::SetBits;
@@ -9,12 +9,12 @@ use std::any::{Any, TypeId};
 
 use crate::accel::bvh::packet::LanesPrimTest;
 use crate::accel::RayPrimTest;
-use crate::geometry::lanes16::Lanes16;
-use crate::geometry::leaf16::{self, Rays16, LANES};
+use crate::geometry::packet_prims::{self, ShearedRays, LANES};
+use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
+use crate::packet::scene_leaf::SceneLeaf;
 use crate::real::Real;
 use crate::scene::{Prim, Scene};
-use crate::scene_leaf::SceneLeaf;
 
 /// Fewest entering rays for which a leaf goes to the ray-per-lane kernels (below, each ray
 /// takes the leaf four primitives at a time through [`SceneLeaf`]).
@@ -28,7 +28,7 @@ pub struct PacketLeaf<'a, R> {
     /// The scene when it is in `f32` and the CPU runs the ray-per-lane kernels.
     scene: Option<&'a Scene<f32>>,
     /// The packet's rays in lanes, made when a leaf first needs them.
-    lanes: Option<Rays16>,
+    lanes: Option<ShearedRays>,
 }
 
 impl<'a, R: Real> PacketLeaf<'a, R> {
@@ -39,7 +39,7 @@ impl<'a, R: Real> PacketLeaf<'a, R> {
             leaf: SceneLeaf::new(scene),
             scene: (scene as &dyn Any)
                 .downcast_ref::<Scene<f32>>()
-                .filter(|_| leaf16::available()),
+                .filter(|_| packet_prims::available()),
             lanes: None,
         }
     }
@@ -51,14 +51,14 @@ impl<'a, R: Real> PacketLeaf<'a, R> {
         let scene = self.scene?;
         let r = f32_rays(rays)?;
         if !self.lanes.as_ref().is_some_and(|l| l.made_from(r)) {
-            self.lanes = Rays16::new(r);
+            self.lanes = ShearedRays::new(r);
         }
         Some((scene, r, self.lanes.as_ref()?))
     }
 }
 
 /// The `f32` scene, a packet's rays and their lanes.
-type Lanes<'a, 'b> = (&'a Scene<f32>, &'b [PreparedRay<f32>], &'b Rays16);
+type Lanes<'a, 'b> = (&'a Scene<f32>, &'b [PreparedRay<f32>], &'b ShearedRays);
 
 /// `rays` as `f32` rays when `R` is `f32`.
 #[inline(always)]
@@ -102,14 +102,14 @@ fn kind(prims: &[Prim<f32>], leaf: &[u32]) -> Kind {
 fn run(
     scene: &Scene<f32>,
     rays: &[PreparedRay<f32>],
-    lanes: &Rays16,
+    lanes: &ShearedRays,
     p: u32,
     active: u32,
     t_max: &[f32; LANES],
-) -> leaf16::Hits16 {
+) -> packet_prims::PacketHits {
     match &scene.prims[p as usize] {
-        Prim::Triangle(v) => leaf16::triangle16(lanes, rays, v, active, t_max),
-        Prim::Sphere(s) => leaf16::sphere16(lanes, rays, s, active, t_max),
+        Prim::Triangle(v) => packet_prims::triangle16(lanes, rays, v, active, t_max),
+        Prim::Sphere(s) => packet_prims::sphere16(lanes, rays, s, active, t_max),
         Prim::Cone(_) => unreachable!("leaf kind checked"),
     }
 }
@@ -122,7 +122,7 @@ fn run(
 fn closest16<R: Real>(
     scene: &Scene<f32>,
     rays: &[PreparedRay<f32>],
-    lanes: &Rays16,
+    lanes: &ShearedRays,
     mask: u32,
     leaf: &[u32],
     best: &mut [Nearest<R>],
@@ -150,7 +150,7 @@ fn closest16<R: Real>(
 fn any16(
     scene: &Scene<f32>,
     rays: &[PreparedRay<f32>],
-    lanes: &Rays16,
+    lanes: &ShearedRays,
     mask: u32,
     leaf: &[u32],
     t_max: &[f32; LANES],
@@ -260,7 +260,7 @@ impl<'a, 'b> LanesLeaf<'a, 'b> {
         LanesLeaf {
             leaf: SceneLeaf::new(scene),
             scene,
-            simd: leaf16::available(),
+            simd: packet_prims::available(),
             prepared: buffer,
             made: 0,
         }
@@ -273,7 +273,7 @@ impl<'a, 'b> LanesLeaf<'a, 'b> {
 fn prepare<'p>(
     prepared: &'p mut [PreparedRay<f32>; LANES],
     made: &mut u32,
-    rays: &Lanes16,
+    rays: &RayPacket,
     mask: u32,
 ) -> &'p [PreparedRay<f32>] {
     for i in SetBits(mask & !*made) {
@@ -304,7 +304,7 @@ impl LanesPrimTest for LanesLeaf<'_, '_> {
     #[inline(always)]
     fn closest_lanes(
         &mut self,
-        rays: &Lanes16,
+        rays: &RayPacket,
         mask: u32,
         leaf: &[u32],
         best: &mut [Nearest<f32>],
@@ -319,7 +319,7 @@ impl LanesPrimTest for LanesLeaf<'_, '_> {
     }
 
     #[inline(always)]
-    fn any_lanes(&mut self, rays: &Lanes16, mask: u32, leaf: &[u32], first: &mut [usize]) -> u32 {
+    fn any_lanes(&mut self, rays: &RayPacket, mask: u32, leaf: &[u32], first: &mut [usize]) -> u32 {
         if self.simd && takes(mask, leaf) && kind(&self.scene.prims, leaf) != Kind::Other {
             return any16(self.scene, &[], &rays.tri, mask, leaf, &rays.t_max, first);
         }

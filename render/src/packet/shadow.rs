@@ -1,5 +1,5 @@
 //! The shadow rays of a packet's hits towards one light, made sixteen lanes at a time straight
-//! into a [`Lanes16`] packet: the hit points, their error bounds and geometric normals in lanes
+//! into a [`RayPacket`] packet: the hit points, their error bounds and geometric normals in lanes
 //! ([`SurfaceLanes`]), and per lane exactly what `cast::shadow_ray` computes for that
 //! hit — the normal turned towards the eye, the cull test, the origin offset off the surface and
 //! rounded away from it ([`crate::geometry::offset_ray_origin`]), the unit direction and the
@@ -8,7 +8,7 @@
 //! [`crate::lanes`]: the `avx512` tier ([`crate::isa::dispatch`]) runs it on the sixteen lanes
 //! in one register per component, the other tiers on each lane hit, one by one.
 
-use crate::geometry::lanes16::{Lanes16, LANES};
+use crate::geometry::ray_packet::{RayPacket, LANES};
 use crate::geometry::Ray;
 #[cfg(test)]
 use crate::isa::Isa;
@@ -60,8 +60,8 @@ impl SurfaceLanes {
 /// culled (when `cull`) where the surface faces away from it, into `out` (emptied first, then
 /// prepared).
 pub fn shadow_lanes(
-    out: &mut Lanes16,
-    eye: &Lanes16,
+    out: &mut RayPacket,
+    eye: &RayPacket,
     s: &SurfaceLanes,
     light: V3<f32>,
     cull: bool,
@@ -82,8 +82,8 @@ pub fn shadow_lanes(
 #[cfg(test)]
 fn shadow_lanes_on(
     tier: Isa,
-    out: &mut Lanes16,
-    eye: &Lanes16,
+    out: &mut RayPacket,
+    eye: &RayPacket,
     s: &SurfaceLanes,
     light: V3<f32>,
     cull: bool,
@@ -103,7 +103,7 @@ fn shadow_lanes_on(
 
 /// The rays that exist, into `out` in lane order.
 #[inline(always)]
-fn pack(out: &mut Lanes16, rays: &Rays, s: &SurfaceLanes) {
+fn pack(out: &mut RayPacket, rays: &Rays, s: &SurfaceLanes) {
     out.clear();
     for i in crate::bits::SetBits(rays.valid & s.mask) {
         out.push(&Ray {
@@ -132,7 +132,7 @@ struct Rays {
 /// The shadow rays of a packet: the kernel [`crate::isa::dispatch`] runs.
 struct Shadow<'a> {
     r: &'a mut Rays,
-    eye: &'a Lanes16,
+    eye: &'a RayPacket,
     s: &'a SurfaceLanes,
     light: V3<f32>,
     cull: bool,
@@ -304,7 +304,7 @@ mod tests {
             light in v3(),
             cull in any::<bool>(),
         ) {
-            let mut eye = Lanes16::new();
+            let mut eye = RayPacket::new();
             let mut s = SurfaceLanes::default();
             let mut want = Vec::new();
             for (i, &(p, err, ng, d, hit)) in hits.iter().enumerate() {
@@ -317,7 +317,7 @@ mod tests {
                 }
             }
             for tier in Isa::supported_tiers() {
-                let mut out = Lanes16::new();
+                let mut out = RayPacket::new();
                 prop_assert!(shadow_lanes_on(tier, &mut out, &eye, &s, light, cull));
                 prop_assert_eq!(out.len(), want.len(), "{}", tier);
                 for (k, w) in want.iter().enumerate() {

@@ -12,7 +12,7 @@ use std::any::Any;
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
-use crate::geometry::lanes16::Lanes16;
+use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::{PreparedRay, PrimHit, Ray};
 use crate::packet::leaf::{LanesLeaf, PacketLeaf};
 use crate::packet::shadow::{shadow_lanes, SurfaceLanes};
@@ -77,7 +77,7 @@ impl<R: Real> Integrator<R> {
     /// `by..by + bh` (at most [`PACKET`], row by row), into `out`'s first `bw × bh`: the colours
     /// [`Integrator::trace_eye_packet`] gives `camera.ray(x + 0.5, y + 0.5)`. In `f32` on the
     /// `avx512` tier the rays are made in lanes and the hits and their shadow rays found in
-    /// lanes ([`Lanes16`], [`crate::packet::shadow`]), as `bench cast` does; the rest (shading,
+    /// lanes ([`RayPacket`], [`crate::packet::shadow`]), as `bench cast` does; the rest (shading,
     /// secondary rays) is the same code either way. Other tiers and `f64` make the rays one by
     /// one (the lanes do not pay there, as measured in bench/results/).
     pub fn trace_eye_block(
@@ -292,7 +292,7 @@ impl<R: Real> Integrator<R> {
 }
 
 impl Integrator<f32> {
-    /// [`Integrator::trace_eye_block`] in lanes: the eye rays made straight into a [`Lanes16`],
+    /// [`Integrator::trace_eye_block`] in lanes: the eye rays made straight into a [`RayPacket`],
     /// their hits by [`Accel::intersect_lanes`], each light's shadow rays made in lanes
     /// ([`shadow_lanes`]) and answered by [`Accel::occluded_lanes`]. The same rays, hits,
     /// colours and counts as the prepared rays.
@@ -306,7 +306,7 @@ impl Integrator<f32> {
         out: &mut [V3<f32>],
         stats: &mut RayStats,
     ) {
-        let mut eye = Lanes16::new();
+        let mut eye = RayPacket::new();
         eye.eye(camera, bx, by, bw, bh);
         let n = eye.len();
         count_rays(RayKind::Eye, n, stats);
@@ -333,7 +333,7 @@ impl Integrator<f32> {
                 surfaces.set(i, &lit.s);
             }
         }
-        let mut shadow = Lanes16::new();
+        let mut shadow = RayPacket::new();
         let mut owner = [0usize; PACKET];
         let mut toward = [(0.0, 0.0); PACKET];
         let mut occ = [false; PACKET];

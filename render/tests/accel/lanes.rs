@@ -1,4 +1,4 @@
-//! Packets in lanes: a [`Lanes16`] packet — eye rays made straight into lanes,
+//! Packets in lanes: a [`RayPacket`] packet — eye rays made straight into lanes,
 //! shadow rays written into lanes — gets from [`Bvh::intersect_lanes`] and
 //! [`Bvh::occluded_lanes`] exactly what its rays get alone as [`PreparedRay`]s (the same hit
 //! bit for bit, the same occlusion), and the same box and primitive test counts as
@@ -10,7 +10,7 @@ use parrt_render::accel::bvh::packet::PACKET;
 use parrt_render::accel::{Accel, Bvh};
 use parrt_render::camera::Camera;
 use parrt_render::description::Shape;
-use parrt_render::geometry::lanes16::Lanes16;
+use parrt_render::geometry::ray_packet::RayPacket;
 use parrt_render::geometry::{offset_ray_origin, PreparedRay, Ray};
 use parrt_render::packet::leaf::{LanesLeaf, PacketLeaf};
 use parrt_render::scene::Scene;
@@ -31,7 +31,7 @@ struct Covered {
 fn check(
     scene: &Scene<f32>,
     bvh: &Bvh,
-    l: &Lanes16,
+    l: &RayPacket,
     cov: &mut Covered,
     what: &str,
 ) -> Vec<Option<parrt_render::geometry::PrimHit<f32>>> {
@@ -102,8 +102,8 @@ fn eye_and_shadow(trio: &Trio<f32>, camera: &Camera<f32>, cov: &mut Covered, nam
     };
     let scene = &trio.scene;
     let n = camera.width;
-    let mut eye = Lanes16::new();
-    let mut shadow = Lanes16::new();
+    let mut eye = RayPacket::new();
+    let mut shadow = RayPacket::new();
     for by in (0..n).step_by(4) {
         for bx in (0..n).step_by(4) {
             let (bw, bh) = (4.min(n - bx), 4.min(n - by));
@@ -218,7 +218,7 @@ proptest! {
         let bounds = scene.all_bounds();
         let accel = Accel::build(parrt_render::settings::AccelKind::Bvh, &bounds, 4.0);
         let Accel::Bvh(bvh) = &accel else { panic!("a BVH") };
-        let mut l = Lanes16::new();
+        let mut l = RayPacket::new();
         for &(jitter, target, aim, t_max) in &rays {
             // The patch of origins on one side of the scene on each axis: the packet's rays
             // share their direction signs unless aimed elsewhere.

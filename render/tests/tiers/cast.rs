@@ -1,6 +1,6 @@
 //! `parrt bench cast`'s rays (eye rays through pixel centres, one shadow ray per light per hit)
 //! on every SPD file at 48 × 48: in `f32` the packets live in lanes from the camera on
-//! ([`parrt_render::geometry::lanes16`]) on the `avx512` tier and are prepared rays on the others;
+//! ([`parrt_render::geometry::ray_packet`]) on the `avx512` tier and are prepared rays on the others;
 //! every tier counts the same rays, hits, blockers and box and primitive tests, and the packets
 //! find the hits and blockers the rays find one by one.
 

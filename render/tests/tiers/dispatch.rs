@@ -2,7 +2,7 @@
 //! run only on the AVX tiers, and a tier the CPU lacks cannot be forced.
 
 use crate::tiers::on_each_tier;
-use parrt_render::geometry::leaf16::{self, Rays16};
+use parrt_render::geometry::packet_prims::{self, ShearedRays};
 use parrt_render::geometry::{PreparedRay, Ray};
 use parrt_render::isa::{self, Isa};
 use parrt_render::vec3::V3;
@@ -15,11 +15,14 @@ fn packet_lanes_exist_only_on_the_avx_tiers() {
         t_min: 0.0,
         t_max: f32::INFINITY,
     });
-    for (tier, (available, lanes)) in
-        on_each_tier(|_| (leaf16::available(), Rays16::new(&[ray; 4]).is_some()))
-    {
-        assert_eq!(available, tier.avx(), "leaf16::available() on {tier}");
-        assert_eq!(lanes, tier.avx(), "Rays16::new on {tier}");
+    for (tier, (available, lanes)) in on_each_tier(|_| {
+        (
+            packet_prims::available(),
+            ShearedRays::new(&[ray; 4]).is_some(),
+        )
+    }) {
+        assert_eq!(available, tier.avx(), "packet_prims::available() on {tier}");
+        assert_eq!(lanes, tier.avx(), "ShearedRays::new on {tier}");
     }
 }
 

@@ -5,11 +5,11 @@
 
 use super::build::MAX_LEAF;
 use super::node::BvhNode;
-use crate::geometry::slab8::Box8;
+use crate::geometry::slab::Box8;
 use crate::geometry::Aabb;
 
 /// Children per node.
-pub const WIDTH: usize = crate::geometry::slab8::WIDTH;
+pub const WIDTH: usize = crate::geometry::slab::WIDTH;
 
 /// A packed child reference: an inner node's index (top bit clear), or a leaf (top bit set, two
 /// bits of `count − 1`, 29 bits of first position in the primitive order), or [`EMPTY`].

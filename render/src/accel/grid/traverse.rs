@@ -5,7 +5,7 @@
 
 use super::mailbox::Mailbox;
 use super::Grid;
-use crate::geometry::aabb::slab;
+use crate::geometry::slab::slab;
 use crate::geometry::{Nearest, PreparedRay, PrimHit};
 use crate::real::Real;
 use crate::stats::RayStats;

@@ -3,12 +3,12 @@
 //! per lane for a packet's rays entering a leaf with a cone. The arithmetic is the one cone
 //! test, `lateral_hits`, on four lanes, so each lane's answer is bit for bit the scalar one.
 //! [`intersect4`] and [`intersect_rays4`] run it with the code of the process's tier
-//! ([`crate::isa::dispatch`]) like [`crate::geometry::sphere4`]: four SSE2 lanes (in their VEX
+//! ([`crate::isa::dispatch`]) like [`crate::geometry::leaf_spheres`]: four SSE2 lanes (in their VEX
 //! form on `avx2` and `avx512`), the portable lane loops ([`intersect4_lanes`],
 //! [`intersect_rays4_lanes`]) on `scalar` and elsewhere.
 
-use super::{lateral_hits, Cone, ConeLanes, RayLanes};
-use crate::geometry::hits4::DistanceHits4;
+use super::{lateral_hits, Cone, ConeLanes, ConeRays};
+use crate::geometry::distance_hits::DistanceHits;
 use crate::geometry::ray::Ray;
 use crate::isa::{Isa, Kernel, Tier};
 use crate::lanes::{splat3, Lanes, Mask};
@@ -27,8 +27,8 @@ pub fn intersect4_lanes<R: Real>(
     cones: &Cones4<'_, R>,
     used: usize,
     t_max: R,
-) -> DistanceHits4<R> {
-    DistanceHits4::from_tests(cones.iter().take(used).map(|c| c.intersect(ray, t_max)))
+) -> DistanceHits<R> {
+    DistanceHits::from_tests(cones.iter().take(used).map(|c| c.intersect(ray, t_max)))
 }
 
 /// The `f32` test of `used` (1..=4) cones, with the kernel of the process's tier.
@@ -38,7 +38,7 @@ pub fn intersect4(
     cones: &Cones4<'_, f32>,
     used: usize,
     t_max: f32,
-) -> DistanceHits4<f32> {
+) -> DistanceHits<f32> {
     crate::isa::dispatch(FourCones {
         ray,
         cones,
@@ -55,7 +55,7 @@ pub fn intersect4_on(
     cones: &Cones4<'_, f32>,
     used: usize,
     t_max: f32,
-) -> Option<DistanceHits4<f32>> {
+) -> Option<DistanceHits<f32>> {
     let k = FourCones {
         ray,
         cones,
@@ -73,8 +73,8 @@ pub fn intersect_rays4_lanes<R: Real>(
     rays: &[&Ray<R>; LANES],
     used: usize,
     t_max: [R; LANES],
-) -> DistanceHits4<R> {
-    DistanceHits4::from_tests(
+) -> DistanceHits<R> {
+    DistanceHits::from_tests(
         rays.iter()
             .zip(t_max)
             .take(used)
@@ -90,7 +90,7 @@ pub fn intersect_rays4(
     rays: &[&Ray<f32>; LANES],
     used: usize,
     t_max: [f32; LANES],
-) -> DistanceHits4<f32> {
+) -> DistanceHits<f32> {
     crate::isa::dispatch(FourRays {
         cone,
         rays,
@@ -106,7 +106,7 @@ pub fn intersect_rays4_on(
     rays: &[&Ray<f32>; LANES],
     used: usize,
     t_max: [f32; LANES],
-) -> Option<DistanceHits4<f32>> {
+) -> Option<DistanceHits<f32>> {
     let k = FourRays {
         cone,
         rays,
@@ -125,12 +125,12 @@ struct FourCones<'a> {
 }
 
 impl Kernel for FourCones<'_> {
-    type Output = DistanceHits4<f32>;
+    type Output = DistanceHits<f32>;
 
     /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
     /// portable lane loop on `scalar` and on other targets.
     #[inline(always)]
-    fn run<T: Tier>(self) -> DistanceHits4<f32> {
+    fn run<T: Tier>(self) -> DistanceHits<f32> {
         #[cfg(target_arch = "x86_64")]
         if T::ISA.sse2() {
             return cones_kernel::<crate::lanes::X4>(self.ray, self.cones, self.used, self.t_max);
@@ -148,11 +148,11 @@ struct FourRays<'a> {
 }
 
 impl Kernel for FourRays<'_> {
-    type Output = DistanceHits4<f32>;
+    type Output = DistanceHits<f32>;
 
     /// As [`FourCones`].
     #[inline(always)]
-    fn run<T: Tier>(self) -> DistanceHits4<f32> {
+    fn run<T: Tier>(self) -> DistanceHits<f32> {
         #[cfg(target_arch = "x86_64")]
         if T::ISA.sse2() {
             return rays_kernel::<crate::lanes::X4>(self.cone, self.rays, self.used, self.t_max);
@@ -175,7 +175,7 @@ fn cones_kernel<L: Lanes<Elem = f32>>(
     cones: &Cones4<'_, f32>,
     used: usize,
     t_max: f32,
-) -> DistanceHits4<f32> {
+) -> DistanceHits<f32> {
     let c = ConeLanes {
         base: [
             gather(cones, |c| c.base.x),
@@ -191,7 +191,7 @@ fn cones_kernel<L: Lanes<Elem = f32>>(
         r0: gather(cones, |c| c.r0),
         slope: gather(cones, |c| c.slope),
     };
-    let r = RayLanes {
+    let r = ConeRays {
         o: splat3(ray.o.to_array()),
         d: splat3(ray.d.to_array()),
         t_min: L::splat(ray.t_min),
@@ -207,9 +207,9 @@ fn rays_kernel<L: Lanes<Elem = f32>>(
     rays: &[&Ray<f32>; LANES],
     used: usize,
     t_max: [f32; LANES],
-) -> DistanceHits4<f32> {
+) -> DistanceHits<f32> {
     let c = ConeLanes::splat(&cone.lanes());
-    let r = RayLanes {
+    let r = ConeRays {
         o: [
             gather(rays, |r| r.o.x),
             gather(rays, |r| r.o.y),
@@ -228,8 +228,8 @@ fn rays_kernel<L: Lanes<Elem = f32>>(
 
 /// The used lanes' answers.
 #[inline(always)]
-fn finish<L: Lanes<Elem = f32>>((hit, t): (L::Mask, L), used: usize) -> DistanceHits4<f32> {
-    let mut out = DistanceHits4 {
+fn finish<L: Lanes<Elem = f32>>((hit, t): (L::Mask, L), used: usize) -> DistanceHits<f32> {
+    let mut out = DistanceHits {
         mask: hit.bits() & ((1u32 << used) - 1),
         t: [0.0; LANES],
     };

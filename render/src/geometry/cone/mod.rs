@@ -95,7 +95,7 @@ impl<R: Real> Cone<R> {
     /// The full test behind [`Cone::intersect`]: the lane kernel [`lateral_hits`] with one lane.
     #[inline(always)]
     fn solve(&self, ray: &Ray<R>, t_max: R) -> Option<R> {
-        let (hit, t) = lateral_hits(&self.lanes(), &RayLanes::of(ray, t_max));
+        let (hit, t) = lateral_hits(&self.lanes(), &ConeRays::of(ray, t_max));
         hit.then_some(t)
     }
 
@@ -169,7 +169,7 @@ impl<L: Lanes> ConeLanes<L> {
 
 /// A ray's fields and `t` range in lanes: one ray per lane, or one ray in all.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct RayLanes<L> {
+pub(crate) struct ConeRays<L> {
     /// Origin, by axis.
     pub o: [L; 3],
     /// Direction, by axis.
@@ -180,11 +180,11 @@ pub(crate) struct RayLanes<L> {
     pub t_max: L,
 }
 
-impl<R: Real> RayLanes<R> {
+impl<R: Real> ConeRays<R> {
     /// `ray` within `t_max` in one lane.
     #[inline(always)]
     pub(crate) fn of(ray: &Ray<R>, t_max: R) -> Self {
-        RayLanes {
+        ConeRays {
             o: ray.o.to_array(),
             d: ray.d.to_array(),
             t_min: ray.t_min,
@@ -205,7 +205,7 @@ fn sub_scaled<L: Lanes>(u: [L; 3], v: [L; 3], s: L) -> [L; 3] {
 #[inline(always)]
 fn accept<L: Lanes>(
     c: &ConeLanes<L>,
-    r: &RayLanes<L>,
+    r: &ConeRays<L>,
     wz: L,
     dz: L,
     shift: L,
@@ -227,7 +227,7 @@ fn accept<L: Lanes>(
 /// `t` and height ranges) is a lane mask. The lanes hit, and their `t` (meaningful in the lanes
 /// hit).
 #[inline(always)]
-pub(crate) fn lateral_hits<L: Lanes>(c: &ConeLanes<L>, r: &RayLanes<L>) -> (L::Mask, L) {
+pub(crate) fn lateral_hits<L: Lanes>(c: &ConeLanes<L>, r: &ConeRays<L>) -> (L::Mask, L) {
     // No closures over lane operations here: a closure is compiled apart from the tier's entry,
     // without its instruction sets, and its lane operations would become calls.
     let zero = L::zero();

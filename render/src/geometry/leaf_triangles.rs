@@ -8,8 +8,8 @@
 //! runs it with the code of the process's tier ([`crate::isa::dispatch`]): four SSE2 lanes on
 //! `sse2`, the same in their three-operand VEX form on `avx2` and `avx512`, and the portable
 //! lane-by-lane loop ([`intersect4_lanes`]) on `scalar`, on other targets and for `f64`.
-//! [`TriLanes`] holds a leaf's triangles already gathered into lanes, so the rays of a packet
-//! that enter the leaf share one gather ([`intersect4_gathered`]).
+//! [`LeafTriangles`] holds a leaf's triangles already gathered into lanes, so the rays of a packet
+//! that enter the leaf share one gather ([`intersect4`] on [`LeafTriangles`]).
 
 use super::ray::PreparedRay;
 use super::triangle::{intersect_triangle, watertight};
@@ -24,7 +24,7 @@ pub const LANES: usize = 4;
 /// The answers of the four lanes: bit `i` of `mask` is set when lane `i` is hit; `t`, `b1` and
 /// `b2` are valid for set bits only.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hits4<R> {
+pub struct TriangleHits<R> {
     /// Lanes hit.
     pub mask: u32,
     /// Distances.
@@ -42,12 +42,12 @@ pub type Tris4<'a, R> = [&'a [V3<R>; 3]; LANES];
 /// loads each component with one aligned load instead of gathering it from four triangles).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(16))]
-pub struct TriLanes {
+pub struct LeafTriangles {
     /// Vertex components by vertex, axis and lane.
     pub v: [[[f32; LANES]; 3]; 3],
 }
 
-impl TriLanes {
+impl LeafTriangles {
     /// The lanes of `tris`.
     #[inline(always)]
     pub fn gather(tris: &Tris4<'_, f32>) -> Self {
@@ -59,7 +59,7 @@ impl TriLanes {
                 }
             }
         }
-        TriLanes { v }
+        LeafTriangles { v }
     }
 
     /// Triangle `lane` as vertices.
@@ -77,8 +77,8 @@ pub fn intersect4_lanes<R: Real>(
     tris: &Tris4<'_, R>,
     used: usize,
     t_max: R,
-) -> Hits4<R> {
-    let mut h = Hits4 {
+) -> TriangleHits<R> {
+    let mut h = TriangleHits {
         mask: 0,
         t: [R::ZERO; LANES],
         b1: [R::ZERO; LANES],
@@ -95,39 +95,24 @@ pub fn intersect4_lanes<R: Real>(
     h
 }
 
-/// The `f32` test of `used` (1..=4) triangles, with the kernel of the process's tier.
+/// The `f32` test of `used` (1..=4) triangles, gathered on the spot or already in lanes (as
+/// `src` is: the same answers bit for bit), with the kernel of the process's tier.
 #[inline]
-pub fn intersect4(
+pub fn intersect4<S: Source>(
     pr: &PreparedRay<f32>,
-    tris: &Tris4<'_, f32>,
+    src: &S,
     used: usize,
     t_max: f32,
-) -> Hits4<f32> {
+) -> TriangleHits<f32> {
     crate::isa::dispatch(Four {
         pr,
-        src: tris,
+        src,
         used,
         t_max,
     })
 }
 
-/// [`intersect4`] on triangles already gathered into lanes: the same answers bit for bit.
-#[inline]
-pub fn intersect4_gathered(
-    pr: &PreparedRay<f32>,
-    tris: &TriLanes,
-    used: usize,
-    t_max: f32,
-) -> Hits4<f32> {
-    crate::isa::dispatch(Four {
-        pr,
-        src: tris,
-        used,
-        t_max,
-    })
-}
-
-/// [`intersect4`] or [`intersect4_gathered`] (as `src` is) with the code of `tier`, or `None`
+/// [`intersect4`] with the code of `tier`, or `None`
 /// when this CPU does not run `tier` (for the tests that compare the tiers).
 pub fn intersect4_on<S: Source>(
     tier: Isa,
@@ -135,7 +120,7 @@ pub fn intersect4_on<S: Source>(
     src: &S,
     used: usize,
     t_max: f32,
-) -> Option<Hits4<f32>> {
+) -> Option<TriangleHits<f32>> {
     crate::isa::dispatch_on(
         tier,
         Four {
@@ -156,12 +141,12 @@ struct Four<'a, S> {
 }
 
 impl<S: Source> Kernel for Four<'_, S> {
-    type Output = Hits4<f32>;
+    type Output = TriangleHits<f32>;
 
     /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
     /// portable lane loop on `scalar` and on other targets.
     #[inline(always)]
-    fn run<T: Tier>(self) -> Hits4<f32> {
+    fn run<T: Tier>(self) -> TriangleHits<f32> {
         #[cfg(target_arch = "x86_64")]
         if T::ISA.sse2() {
             return permuted::<crate::lanes::X4, S>(self.pr, self.src, self.used, self.t_max);
@@ -176,7 +161,7 @@ pub trait Source {
     /// Component `K` of vertex `V` of the four triangles, minus the ray origin's component.
     fn rel<L: Lanes<Elem = f32>, const V: usize, const K: usize>(&self, o: f32) -> L;
     /// The portable kernel on the same triangles.
-    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32>;
+    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> TriangleHits<f32>;
 }
 
 impl Source for Tris4<'_, f32> {
@@ -186,20 +171,20 @@ impl Source for Tris4<'_, f32> {
         L::load(&c) - L::splat(o)
     }
 
-    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32> {
+    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> TriangleHits<f32> {
         intersect4_lanes(pr, self, used, t_max)
     }
 }
 
-impl Source for TriLanes {
+impl Source for LeafTriangles {
     #[inline(always)]
     fn rel<L: Lanes<Elem = f32>, const V: usize, const K: usize>(&self, o: f32) -> L {
-        // SAFETY: the rows of `TriLanes` are four `f32` at a multiple of 16 bytes
+        // SAFETY: the rows of `LeafTriangles` are four `f32` at a multiple of 16 bytes
         // (`align(16)`, rows of 16 bytes).
         unsafe { L::load_aligned(&self.v[V][K]) - L::splat(o) }
     }
 
-    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> Hits4<f32> {
+    fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> TriangleHits<f32> {
         let t = [0, 1, 2, 3].map(|i| self.triangle(i));
         intersect4_lanes(pr, &[&t[0], &t[1], &t[2], &t[3]], used, t_max)
     }
@@ -213,7 +198,7 @@ fn permuted<L: Lanes<Elem = f32>, S: Source>(
     tris: &S,
     used: usize,
     t_max: f32,
-) -> Hits4<f32> {
+) -> TriangleHits<f32> {
     match (pr.kx, pr.ky, pr.kz) {
         (1, 2, 0) => kernel::<L, 1, 2, 0, S>(pr, tris, used, t_max),
         (2, 1, 0) => kernel::<L, 2, 1, 0, S>(pr, tris, used, t_max),
@@ -233,7 +218,7 @@ fn kernel<L: Lanes<Elem = f32>, const KX: usize, const KY: usize, const KZ: usiz
     tris: &S,
     used: usize,
     t_max: f32,
-) -> Hits4<f32> {
+) -> TriangleHits<f32> {
     let o = pr.ray.o.to_array();
     let s = pr.shear;
     let v = [
@@ -255,7 +240,7 @@ fn kernel<L: Lanes<Elem = f32>, const KX: usize, const KY: usize, const KZ: usiz
     ];
     let s = [L::splat(s.x), L::splat(s.y), L::splat(s.z)];
     let live = (1u32 << used) - 1;
-    let mut out = Hits4 {
+    let mut out = TriangleHits {
         mask: 0,
         t: [0.0; LANES],
         b1: [0.0; LANES],
@@ -290,10 +275,10 @@ mod tests {
     /// returns the lanes hit.
     fn check(r: &PreparedRay<f32>, tris: &Tris4<'_, f32>, used: usize, t_max: f32) -> u32 {
         let want = intersect4_lanes(r, tris, used, t_max);
-        let lanes = TriLanes::gather(tris);
+        let lanes = LeafTriangles::gather(tris);
         let mut kernels = vec![
             intersect4(r, tris, used, t_max),
-            intersect4_gathered(r, &lanes, used, t_max),
+            intersect4(r, &lanes, used, t_max),
         ];
         for tier in Isa::ALL {
             kernels.extend(intersect4_on(tier, r, tris, used, t_max));

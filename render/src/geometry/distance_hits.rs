@@ -1,21 +1,21 @@
 //! What a four-lane kernel that finds only distances answers (spheres, cones): which lanes were
 //! hit and where. The triangle kernels answer surface parameters too
-//! ([`super::triangle4::Hits4`]).
+//! ([`super::leaf_triangles::TriangleHits`]).
 
 /// The answers of the four lanes: bit `i` of `mask` is set when lane `i` is hit at `t[i]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DistanceHits4<R> {
+pub struct DistanceHits<R> {
     /// Lanes hit.
     pub mask: u32,
     /// Distances (valid for set bits).
     pub t: [R; 4],
 }
 
-impl<R: Copy + Default> DistanceHits4<R> {
+impl<R: Copy + Default> DistanceHits<R> {
     /// The answers of the portable lane loops: lane `i`'s scalar test gave `tests[i]`.
     #[inline(always)]
     pub fn from_tests(tests: impl IntoIterator<Item = Option<R>>) -> Self {
-        let mut h = DistanceHits4 {
+        let mut h = DistanceHits {
             mask: 0,
             t: [R::default(); 4],
         };

@@ -3,12 +3,12 @@
 //! in the same order (no FMA, no reassociation), so each lane's answer is bit for bit the
 //! scalar one: the arithmetic is the one sphere test, `nearest_root`, on four lanes.
 //! [`intersect4`] runs it with the code of the process's tier ([`crate::isa::dispatch`]) like
-//! [`super::triangle4`]: four SSE2 lanes (in their VEX form on `avx2` and `avx512`), the
+//! [`super::leaf_triangles`]: four SSE2 lanes (in their VEX form on `avx2` and `avx512`), the
 //! portable lane loop ([`intersect4_lanes`]) on `scalar` and elsewhere.
-//! [`SphereLanes`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
-//! that enter the leaf share one gather ([`intersect4_gathered`]).
+//! [`LeafSpheres`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
+//! that enter the leaf share one gather ([`intersect4`] on [`LeafSpheres`]).
 
-use super::hits4::DistanceHits4;
+use super::distance_hits::DistanceHits;
 use super::ray::Ray;
 use super::sphere::{nearest_root, Sphere};
 use crate::isa::{Isa, Kernel, Tier};
@@ -25,14 +25,14 @@ pub type Spheres4<'a, R> = [&'a Sphere<R>; LANES];
 /// layout).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(16))]
-pub struct SphereLanes {
+pub struct LeafSpheres {
     /// Centre components by axis and lane.
     pub c: [[f32; LANES]; 3],
     /// Radii by lane.
     pub r: [f32; LANES],
 }
 
-impl SphereLanes {
+impl LeafSpheres {
     /// The lanes of `spheres`.
     #[inline(always)]
     pub fn gather(spheres: &Spheres4<'_, f32>) -> Self {
@@ -42,7 +42,7 @@ impl SphereLanes {
                 *v = spheres[lane].center.to_array()[axis];
             }
         }
-        SphereLanes {
+        LeafSpheres {
             c,
             r: spheres.map(|s| s.radius),
         }
@@ -58,7 +58,7 @@ impl SphereLanes {
     }
 
     /// The portable kernel on these lanes.
-    fn scalar_hits(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
+    fn scalar_hits(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits<f32> {
         let s = [0, 1, 2, 3].map(|i| self.sphere(i));
         intersect4_lanes(ray, &[&s[0], &s[1], &s[2], &s[3]], used, t_max)
     }
@@ -71,43 +71,28 @@ pub fn intersect4_lanes<R: Real>(
     spheres: &Spheres4<'_, R>,
     used: usize,
     t_max: R,
-) -> DistanceHits4<R> {
-    DistanceHits4::from_tests(spheres.iter().take(used).map(|s| s.intersect(ray, t_max)))
+) -> DistanceHits<R> {
+    DistanceHits::from_tests(spheres.iter().take(used).map(|s| s.intersect(ray, t_max)))
 }
 
-/// The `f32` test of `used` (1..=4) spheres, with the kernel of the process's tier.
+/// The `f32` test of `used` (1..=4) spheres, gathered on the spot or already in lanes (as
+/// `src` is: the same answers bit for bit), with the kernel of the process's tier.
 #[inline]
-pub fn intersect4(
+pub fn intersect4<S: Source>(
     ray: &Ray<f32>,
-    spheres: &Spheres4<'_, f32>,
+    src: &S,
     used: usize,
     t_max: f32,
-) -> DistanceHits4<f32> {
+) -> DistanceHits<f32> {
     crate::isa::dispatch(Four {
         ray,
-        src: spheres,
+        src,
         used,
         t_max,
     })
 }
 
-/// [`intersect4`] on spheres already gathered into lanes: the same answers bit for bit.
-#[inline]
-pub fn intersect4_gathered(
-    ray: &Ray<f32>,
-    spheres: &SphereLanes,
-    used: usize,
-    t_max: f32,
-) -> DistanceHits4<f32> {
-    crate::isa::dispatch(Four {
-        ray,
-        src: spheres,
-        used,
-        t_max,
-    })
-}
-
-/// [`intersect4`] or [`intersect4_gathered`] (as `src` is) with the code of `tier`, or `None`
+/// [`intersect4`] with the code of `tier`, or `None`
 /// when this CPU does not run `tier` (for the tests that compare the tiers).
 pub fn intersect4_on<S: Source>(
     tier: Isa,
@@ -115,7 +100,7 @@ pub fn intersect4_on<S: Source>(
     src: &S,
     used: usize,
     t_max: f32,
-) -> Option<DistanceHits4<f32>> {
+) -> Option<DistanceHits<f32>> {
     crate::isa::dispatch_on(
         tier,
         Four {
@@ -136,12 +121,12 @@ struct Four<'a, S> {
 }
 
 impl<S: Source> Kernel for Four<'_, S> {
-    type Output = DistanceHits4<f32>;
+    type Output = DistanceHits<f32>;
 
     /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
     /// portable lane loop on `scalar` and on other targets.
     #[inline(always)]
-    fn run<T: Tier>(self) -> DistanceHits4<f32> {
+    fn run<T: Tier>(self) -> DistanceHits<f32> {
         let Four {
             ray,
             src,
@@ -162,7 +147,7 @@ pub trait Source {
     /// Centre `x`, `y`, `z` and radius of the four spheres.
     fn lanes<L: Lanes<Elem = f32>>(&self) -> [L; 4];
     /// The portable kernel on the same spheres.
-    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32>;
+    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits<f32>;
 }
 
 impl Source for Spheres4<'_, f32> {
@@ -181,15 +166,15 @@ impl Source for Spheres4<'_, f32> {
         ]
     }
 
-    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
+    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits<f32> {
         intersect4_lanes(ray, self, used, t_max)
     }
 }
 
-impl Source for SphereLanes {
+impl Source for LeafSpheres {
     #[inline(always)]
     fn lanes<L: Lanes<Elem = f32>>(&self) -> [L; 4] {
-        // SAFETY: the rows of `SphereLanes` are four `f32` at a multiple of 16 bytes
+        // SAFETY: the rows of `LeafSpheres` are four `f32` at a multiple of 16 bytes
         // (`align(16)`, rows of 16 bytes).
         unsafe {
             [
@@ -201,7 +186,7 @@ impl Source for SphereLanes {
         }
     }
 
-    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits4<f32> {
+    fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits<f32> {
         self.scalar_hits(ray, used, t_max)
     }
 }
@@ -213,7 +198,7 @@ fn kernel<L: Lanes<Elem = f32>, S: Source>(
     spheres: &S,
     used: usize,
     t_max: f32,
-) -> DistanceHits4<f32> {
+) -> DistanceHits<f32> {
     let [cx, cy, cz, r] = spheres.lanes::<L>();
     let f = [
         L::splat(ray.o.x) - cx,
@@ -223,7 +208,7 @@ fn kernel<L: Lanes<Elem = f32>, S: Source>(
     let d = [L::splat(ray.d.x), L::splat(ray.d.y), L::splat(ray.d.z)];
     let a = L::splat(ray.d.length_squared());
     let live = (1u32 << used) - 1;
-    let mut out = DistanceHits4 {
+    let mut out = DistanceHits {
         mask: 0,
         t: [0.0; LANES],
     };
@@ -244,10 +229,10 @@ mod tests {
     /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit.
     fn check(ray: &Ray<f32>, s: &Spheres4<'_, f32>, used: usize, t_max: f32) -> u32 {
         let want = intersect4_lanes(ray, s, used, t_max);
-        let lanes = SphereLanes::gather(s);
+        let lanes = LeafSpheres::gather(s);
         let mut kernels = vec![
             intersect4(ray, s, used, t_max),
-            intersect4_gathered(ray, &lanes, used, t_max),
+            intersect4(ray, &lanes, used, t_max),
         ];
         for tier in Isa::ALL {
             kernels.extend(intersect4_on(tier, ray, s, used, t_max));

@@ -1,7 +1,7 @@
 //! The scene's primitive test as the accelerators call it ([`crate::accel::RayPrimTest`]): one
 //! primitive at a time through [`Scene::intersect_prim`], except that a BVH leaf of two or more
 //! triangles, of two or more spheres, or of two or more cones in `f32` goes to a four-at-a-time
-//! SIMD kernel ([`crate::geometry::triangle4`], [`crate::geometry::sphere4`],
+//! SIMD kernel ([`crate::geometry::leaf_triangles`], [`crate::geometry::leaf_spheres`],
 //! [`crate::geometry::cone::lanes`]), which gives each primitive exactly the scalar test's answer. A
 //! packet's rays entering a leaf of triangles or spheres share one gather of its primitives
 //! into the kernel's lanes ([`RayPrimTest::closest_many`]); those entering a leaf with a cone
@@ -14,8 +14,8 @@ use std::any::Any;
 
 use crate::accel::{OneRay, RayPrimTest};
 use crate::geometry::cone::lanes::{self as cone_lanes, Cones4};
-use crate::geometry::sphere4::{self, SphereLanes, Spheres4};
-use crate::geometry::triangle4::{self, TriLanes, Tris4, LANES};
+use crate::geometry::leaf_spheres::{self, LeafSpheres, Spheres4};
+use crate::geometry::leaf_triangles::{self, LeafTriangles, Tris4, LANES};
 use crate::geometry::{Nearest, PreparedRay, PrimHit, Ray};
 use crate::real::Real;
 use crate::scene::{Prim, Scene};
@@ -83,8 +83,8 @@ fn f32_ray<R: Real>(pr: &PreparedRay<R>) -> Option<&PreparedRay<f32>> {
 
 /// A leaf the kernels take, gathered into lanes once for several rays.
 enum Gathered {
-    Triangles(TriLanes),
-    Spheres(SphereLanes),
+    Triangles(LeafTriangles),
+    Spheres(LeafSpheres),
 }
 
 impl Gathered {
@@ -92,8 +92,8 @@ impl Gathered {
     #[inline(always)]
     fn new(leaf: &Simd<'_>) -> Option<Self> {
         match leaf {
-            Simd::Triangles(t) => Some(Gathered::Triangles(TriLanes::gather(t))),
-            Simd::Spheres(s) => Some(Gathered::Spheres(SphereLanes::gather(s))),
+            Simd::Triangles(t) => Some(Gathered::Triangles(LeafTriangles::gather(t))),
+            Simd::Spheres(s) => Some(Gathered::Spheres(LeafSpheres::gather(s))),
             Simd::Cones(_) => None,
         }
     }
@@ -103,11 +103,11 @@ impl Gathered {
     fn run(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> (u32, Lanes) {
         match self {
             Gathered::Triangles(tris) => {
-                let h = triangle4::intersect4_gathered(pr, tris, used, t_max);
+                let h = leaf_triangles::intersect4(pr, tris, used, t_max);
                 (h.mask, (h.t, h.b1, h.b2))
             }
             Gathered::Spheres(spheres) => {
-                let h = sphere4::intersect4_gathered(&pr.ray, spheres, used, t_max);
+                let h = leaf_spheres::intersect4(&pr.ray, spheres, used, t_max);
                 (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
             }
         }
@@ -210,11 +210,11 @@ fn ray_groups<R: Real>(
 fn run(pr: &PreparedRay<f32>, leaf: &Simd<'_>, used: usize, t_max: f32) -> (u32, Lanes) {
     match leaf {
         Simd::Triangles(tris) => {
-            let h = triangle4::intersect4(pr, tris, used, t_max);
+            let h = leaf_triangles::intersect4(pr, tris, used, t_max);
             (h.mask, (h.t, h.b1, h.b2))
         }
         Simd::Spheres(spheres) => {
-            let h = sphere4::intersect4(&pr.ray, spheres, used, t_max);
+            let h = leaf_spheres::intersect4(&pr.ray, spheres, used, t_max);
             (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
         }
         Simd::Cones(cones) => {

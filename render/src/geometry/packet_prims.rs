@@ -1,5 +1,5 @@
 //! One triangle or sphere against up to sixteen rays at once, a ray per SIMD lane: the
-//! transposed form of [`super::triangle4`] and [`super::sphere4`], for a packet's rays that
+//! transposed form of [`super::leaf_triangles`] and [`super::leaf_spheres`], for a packet's rays that
 //! enter a BVH leaf. Every lane does the scalar test's IEEE operations in the same order (no
 //! FMA, no reassociation, `f32::max`'s NaN rule, edge functions that come out exactly zero
 //! redone in `f64` lane by lane), so each lane's answer is bit for bit what
@@ -7,7 +7,7 @@
 //! ray. The rays' axis permutations may differ: each lane picks its vertex components with
 //! masks. The arithmetic is the one triangle test (`watertight`) and the one sphere test
 //! (`nearest_root`): the `avx512` tier ([`crate::isa`]) runs them on the sixteen rays in one
-//! AVX-512 register, the `avx2` tier in two halves of eight AVX lanes. [`Rays16::new`] is `None`
+//! AVX-512 register, the `avx2` tier in two halves of eight AVX lanes. [`ShearedRays::new`] is `None`
 //! unless the process's tier runs AVX; the portable kernels ([`triangle16_lanes`],
 //! [`sphere16_lanes`]) define the answers and serve the tests.
 
@@ -24,7 +24,7 @@ pub const LANES: usize = 16;
 /// A packet's rays in lanes (lane `i` is ray `i`; lanes past the packet repeat ray 0).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-pub struct Rays16 {
+pub struct ShearedRays {
     /// Origin components by axis.
     pub(crate) o: [[f32; LANES]; 3],
     /// Direction components by axis.
@@ -52,7 +52,7 @@ pub struct Rays16 {
 /// `b2` are valid for set bits (`b1`, `b2` are zero for spheres).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
-pub struct Hits16 {
+pub struct PacketHits {
     /// Rays hit.
     pub mask: u32,
     /// Distances.
@@ -63,9 +63,9 @@ pub struct Hits16 {
     pub b2: [f32; LANES],
 }
 
-impl Hits16 {
+impl PacketHits {
     fn none() -> Self {
-        Hits16 {
+        PacketHits {
             mask: 0,
             t: [0.0; LANES],
             b1: [0.0; LANES],
@@ -74,7 +74,7 @@ impl Hits16 {
     }
 }
 
-impl Rays16 {
+impl ShearedRays {
     /// The lanes of `rays` (1..=16), or `None` when there are too many or the process's tier
     /// runs no AVX.
     #[inline]
@@ -85,9 +85,9 @@ impl Rays16 {
         Some(Self::lanes(rays))
     }
 
-    /// Lanes of zeros, made from no slice (filled by [`super::lanes16::Lanes16`]).
+    /// Lanes of zeros, made from no slice (filled by [`super::ray_packet::RayPacket`]).
     pub(crate) fn empty() -> Self {
-        Rays16 {
+        ShearedRays {
             o: [[0.0; LANES]; 3],
             d: [[0.0; LANES]; 3],
             ok: [[0.0; LANES]; 3],
@@ -105,8 +105,8 @@ impl Rays16 {
 
     /// Whether lane `i` holds the same bits as lane `j` of `other` (for tests).
     #[cfg(test)]
-    pub(crate) fn same_lane(&self, i: usize, other: &Rays16, j: usize) -> bool {
-        let rows = |r: &Rays16, k: usize| {
+    pub(crate) fn same_lane(&self, i: usize, other: &ShearedRays, j: usize) -> bool {
+        let rows = |r: &ShearedRays, k: usize| {
             let mut v = Vec::new();
             for a in 0..3 {
                 v.extend([
@@ -123,7 +123,7 @@ impl Rays16 {
 
     /// The lanes of `rays` whatever the CPU (for the portable kernels).
     pub fn lanes(rays: &[PreparedRay<f32>]) -> Self {
-        let mut l = Rays16 {
+        let mut l = ShearedRays {
             src: rays.as_ptr() as usize,
             n: rays.len(),
             ..Self::empty()
@@ -166,12 +166,12 @@ pub fn available() -> bool {
 /// The triangle `tri` against the rays of `active` (bits of lanes), ray `i` within `t_max[i]`.
 #[inline]
 pub fn triangle16(
-    rays: &Rays16,
+    rays: &ShearedRays,
     src: &[PreparedRay<f32>],
     tri: &[V3<f32>; 3],
     active: u32,
     t_max: &[f32; LANES],
-) -> Hits16 {
+) -> PacketHits {
     crate::isa::dispatch(TrianglePacket {
         rays,
         src,
@@ -185,12 +185,12 @@ pub fn triangle16(
 /// tests that compare the tiers).
 pub fn triangle16_on(
     tier: Isa,
-    rays: &Rays16,
+    rays: &ShearedRays,
     src: &[PreparedRay<f32>],
     tri: &[V3<f32>; 3],
     active: u32,
     t_max: &[f32; LANES],
-) -> Option<Hits16> {
+) -> Option<PacketHits> {
     crate::isa::dispatch_on(
         tier,
         TrianglePacket {
@@ -205,7 +205,7 @@ pub fn triangle16_on(
 
 /// A packet's rays against one triangle: the kernel [`crate::isa::dispatch`] runs.
 struct TrianglePacket<'a> {
-    rays: &'a Rays16,
+    rays: &'a ShearedRays,
     src: &'a [PreparedRay<f32>],
     tri: &'a [V3<f32>; 3],
     active: u32,
@@ -213,11 +213,11 @@ struct TrianglePacket<'a> {
 }
 
 impl Kernel for TrianglePacket<'_> {
-    type Output = Hits16;
+    type Output = PacketHits;
 
     /// Sixteen lanes on `avx512`, two halves of eight on `avx2`, the portable loop otherwise.
     #[inline(always)]
-    fn run<T: Tier>(self) -> Hits16 {
+    fn run<T: Tier>(self) -> PacketHits {
         let TrianglePacket {
             rays,
             src,
@@ -243,7 +243,7 @@ impl Kernel for TrianglePacket<'_> {
 /// `p`'s components along each lane's permuted axes `kx`, `ky`, `kz` minus the ray origin's,
 /// in lanes `h..h + L::N` (no closures: they would be compiled without the tier's instructions).
 #[inline(always)]
-fn rel<L: Lanes<Elem = f32>>(r: &Rays16, h: usize, p: V3<f32>) -> [L; 3] {
+fn rel<L: Lanes<Elem = f32>>(r: &ShearedRays, h: usize, p: V3<f32>) -> [L; 3] {
     [
         pick::<L>(r, 0, h, p) - L::load(&r.ok[0][h..]),
         pick::<L>(r, 1, h, p) - L::load(&r.ok[1][h..]),
@@ -253,7 +253,7 @@ fn rel<L: Lanes<Elem = f32>>(r: &Rays16, h: usize, p: V3<f32>) -> [L; 3] {
 
 /// Component `k` (the permuted axis `kx`, `ky` or `kz`) of `p` in lanes `h..h + L::N`.
 #[inline(always)]
-fn pick<L: Lanes<Elem = f32>>(r: &Rays16, k: usize, h: usize, p: V3<f32>) -> L {
+fn pick<L: Lanes<Elem = f32>>(r: &ShearedRays, k: usize, h: usize, p: V3<f32>) -> L {
     let is0 = L::mask_from(&r.k0[k][h..], u32::from(r.k0_bits[k]) >> h);
     let is1 = L::mask_from(&r.k1[k][h..], u32::from(r.k1_bits[k]) >> h);
     let yz = L::select(is1, L::splat(p.y), L::splat(p.z));
@@ -264,12 +264,12 @@ fn pick<L: Lanes<Elem = f32>>(r: &Rays16, k: usize, h: usize, p: V3<f32>) -> L {
 /// axis permutations may differ: each lane picks its vertex components with masks.
 #[inline(always)]
 fn triangle_lanes<L: Lanes<Elem = f32>>(
-    r: &Rays16,
+    r: &ShearedRays,
     tri: &[V3<f32>; 3],
     active: u32,
     t_max: &[f32; LANES],
-) -> Hits16 {
-    let mut out = Hits16::none();
+) -> PacketHits {
+    let mut out = PacketHits::none();
     let all = u32::MAX >> (32 - L::N);
     for h in (0..LANES).step_by(L::N) {
         let live = (active >> h) & all;
@@ -296,12 +296,12 @@ fn triangle_lanes<L: Lanes<Elem = f32>>(
 /// The sphere `s` against the rays of `active`, ray `i` within `t_max[i]`.
 #[inline]
 pub fn sphere16(
-    rays: &Rays16,
+    rays: &ShearedRays,
     src: &[PreparedRay<f32>],
     s: &Sphere<f32>,
     active: u32,
     t_max: &[f32; LANES],
-) -> Hits16 {
+) -> PacketHits {
     crate::isa::dispatch(SpherePacket {
         rays,
         src,
@@ -315,12 +315,12 @@ pub fn sphere16(
 /// tests that compare the tiers).
 pub fn sphere16_on(
     tier: Isa,
-    rays: &Rays16,
+    rays: &ShearedRays,
     src: &[PreparedRay<f32>],
     s: &Sphere<f32>,
     active: u32,
     t_max: &[f32; LANES],
-) -> Option<Hits16> {
+) -> Option<PacketHits> {
     crate::isa::dispatch_on(
         tier,
         SpherePacket {
@@ -335,7 +335,7 @@ pub fn sphere16_on(
 
 /// A packet's rays against one sphere: the kernel [`crate::isa::dispatch`] runs.
 struct SpherePacket<'a> {
-    rays: &'a Rays16,
+    rays: &'a ShearedRays,
     src: &'a [PreparedRay<f32>],
     s: &'a Sphere<f32>,
     active: u32,
@@ -343,11 +343,11 @@ struct SpherePacket<'a> {
 }
 
 impl Kernel for SpherePacket<'_> {
-    type Output = Hits16;
+    type Output = PacketHits;
 
     /// Sixteen lanes on `avx512`, two halves of eight on `avx2`, the portable loop otherwise.
     #[inline(always)]
-    fn run<T: Tier>(self) -> Hits16 {
+    fn run<T: Tier>(self) -> PacketHits {
         let SpherePacket {
             rays,
             src,
@@ -373,12 +373,12 @@ impl Kernel for SpherePacket<'_> {
 /// The sphere test (`nearest_root`) with a ray per lane, `L::N` rays at a time.
 #[inline(always)]
 fn sphere_lanes<L: Lanes<Elem = f32>>(
-    r: &Rays16,
+    r: &ShearedRays,
     s: &Sphere<f32>,
     active: u32,
     t_max: &[f32; LANES],
-) -> Hits16 {
-    let mut out = Hits16::none();
+) -> PacketHits {
+    let mut out = PacketHits::none();
     let all = u32::MAX >> (32 - L::N);
     let c = s.center.to_array();
     for h in (0..LANES).step_by(L::N) {
@@ -416,8 +416,8 @@ pub fn triangle16_lanes(
     tri: &[V3<f32>; 3],
     active: u32,
     t_max: &[f32; LANES],
-) -> Hits16 {
-    let mut h = Hits16::none();
+) -> PacketHits {
+    let mut h = PacketHits::none();
     for (i, pr) in src.iter().enumerate().take(LANES) {
         if active & (1 << i) != 0 {
             if let Some(hit) = intersect_triangle(pr, tri[0], tri[1], tri[2], t_max[i]) {
@@ -437,8 +437,8 @@ pub fn sphere16_lanes(
     s: &Sphere<f32>,
     active: u32,
     t_max: &[f32; LANES],
-) -> Hits16 {
-    let mut h = Hits16::none();
+) -> PacketHits {
+    let mut h = PacketHits::none();
     for (i, pr) in src.iter().enumerate().take(LANES) {
         if active & (1 << i) != 0 {
             if let Some(t) = s.intersect(&pr.ray, t_max[i]) {
@@ -459,13 +459,13 @@ mod tests {
     /// The answers of every kernel this CPU runs, the process's tier aside: the dispatched
     /// kernel and each tier's (the AVX halves, the AVX-512 kernel).
     fn kernels(
-        lanes: &Rays16,
+        lanes: &ShearedRays,
         rays: &[PreparedRay<f32>],
         tri: &[V3<f32>; 3],
         s: &Sphere<f32>,
         active: u32,
         t_max: &[f32; LANES],
-    ) -> Vec<(&'static str, Hits16, Hits16)> {
+    ) -> Vec<(&'static str, PacketHits, PacketHits)> {
         let mut out = vec![(
             "dispatched",
             triangle16(lanes, rays, tri, active, t_max),
@@ -489,7 +489,7 @@ mod tests {
         active: u32,
         t_max: &[f32; LANES],
     ) -> u32 {
-        let lanes = Rays16::lanes(rays);
+        let lanes = ShearedRays::lanes(rays);
         let want = triangle16_lanes(rays, tri, active, t_max);
         let s = Sphere {
             center: tri[0],

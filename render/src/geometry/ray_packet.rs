@@ -3,17 +3,17 @@
 //! written lane by lane. Everything [`PreparedRay::new`] computes — reciprocals, direction
 //! signs, the watertight triangle test's axis permutation and shear — is computed here for the
 //! sixteen lanes at once, in the same IEEE operations and order (no FMA, exact divisions and
-//! square roots), into the forms the packet walk's box test ([`RayLanes`]) and the leaf kernels
-//! ([`Rays16`]) read. A [`PreparedRay`] is made only for a ray that leaves the packet
-//! ([`Lanes16::prepared`]), and it is the same bits as the lanes.
+//! square roots), into the forms the packet walk's box test ([`LeafRays`]) and the leaf kernels
+//! ([`ShearedRays`]) read. A [`PreparedRay`] is made only for a ray that leaves the packet
+//! ([`RayPacket::prepared`]), and it is the same bits as the lanes.
 //!
 //! The lane loops are portable; on the `avx2` and `avx512` tiers ([`crate::isa`]) the same
 //! loops are compiled with those instruction sets enabled, so the compiler runs them eight or
 //! sixteen lanes per instruction.
 
-use super::leaf16::Rays16;
+use super::packet_prims::ShearedRays;
 use super::ray::{PreparedRay, Ray};
-use super::slab16::RayLanes;
+use super::slab::LeafRays;
 use crate::camera::Camera;
 use crate::isa::Isa;
 use crate::vec3::V3;
@@ -21,36 +21,36 @@ use crate::vec3::V3;
 /// Rays per packet.
 pub const LANES: usize = 16;
 
-/// Sixteen rays in lanes. Lanes past [`Lanes16::len`] repeat lane 0 once prepared.
+/// Sixteen rays in lanes. Lanes past [`RayPacket::len`] repeat lane 0 once prepared.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-pub struct Lanes16 {
+pub struct RayPacket {
     /// Origins, reciprocal directions and starts, for the box test.
-    pub slab: RayLanes<f32>,
+    pub slab: LeafRays<f32>,
     /// Origins, directions, permutation and shear, for the triangle and sphere kernels.
-    pub tri: Rays16,
+    pub tri: ShearedRays,
     /// Ends of the rays' intervals.
     pub t_max: [f32; LANES],
     n: usize,
 }
 
-impl Default for Lanes16 {
+impl Default for RayPacket {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl Lanes16 {
+impl RayPacket {
     /// An empty packet.
     pub fn new() -> Self {
-        Lanes16 {
-            slab: RayLanes {
+        RayPacket {
+            slab: LeafRays {
                 o: [[0.0; LANES]; 3],
                 inv: [[0.0; LANES]; 3],
                 t_min: [0.0; LANES],
                 neg: [false; 3],
             },
-            tri: Rays16::empty(),
+            tri: ShearedRays::empty(),
             t_max: [0.0; LANES],
             n: 0,
         }
@@ -68,13 +68,13 @@ impl Lanes16 {
         self.n == 0
     }
 
-    /// Empties the packet (before [`Lanes16::push`]).
+    /// Empties the packet (before [`RayPacket::push`]).
     #[inline(always)]
     pub fn clear(&mut self) {
         self.n = 0;
     }
 
-    /// Appends `ray` as the next lane; [`Lanes16::prepare`] must follow before the packet is
+    /// Appends `ray` as the next lane; [`RayPacket::prepare`] must follow before the packet is
     /// traced.
     ///
     /// # Panics
@@ -136,7 +136,7 @@ impl Lanes16 {
         self.eye_on(crate::isa::current(), camera, &px, &py);
     }
 
-    /// [`Lanes16::eye`]'s lanes with the code of `tier`, which must be a tier this CPU runs.
+    /// [`RayPacket::eye`]'s lanes with the code of `tier`, which must be a tier this CPU runs.
     #[inline(always)]
     fn eye_on(&mut self, tier: Isa, camera: &Camera<f32>, px: &[u32; LANES], py: &[u32; LANES]) {
         #[cfg(target_arch = "x86_64")]
@@ -160,7 +160,7 @@ impl Lanes16 {
         self.prepare_on(crate::isa::current());
     }
 
-    /// [`Lanes16::prepare`] with the code of `tier`, which must be a tier this CPU runs.
+    /// [`RayPacket::prepare`] with the code of `tier`, which must be a tier this CPU runs.
     #[inline(always)]
     fn prepare_on(&mut self, tier: Isa) {
         #[cfg(target_arch = "x86_64")]
@@ -179,43 +179,43 @@ impl Lanes16 {
     }
 }
 
-/// [`Lanes16::eye`] compiled for the `avx512` tier.
+/// [`RayPacket::eye`] compiled for the `avx512` tier.
 ///
 /// # Safety
 /// The CPU must support AVX-512 F, BW, DQ and VL.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2,avx512f,avx512bw,avx512dq,avx512vl")]
-unsafe fn eye_avx512(l: &mut Lanes16, c: &Camera<f32>, px: &[u32; LANES], py: &[u32; LANES]) {
+unsafe fn eye_avx512(l: &mut RayPacket, c: &Camera<f32>, px: &[u32; LANES], py: &[u32; LANES]) {
     eye_lanes(l, c, px, py)
 }
 
-/// [`Lanes16::eye`] compiled for the `avx2` tier.
+/// [`RayPacket::eye`] compiled for the `avx2` tier.
 ///
 /// # Safety
 /// The CPU must support AVX and AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2")]
-unsafe fn eye_avx2(l: &mut Lanes16, c: &Camera<f32>, px: &[u32; LANES], py: &[u32; LANES]) {
+unsafe fn eye_avx2(l: &mut RayPacket, c: &Camera<f32>, px: &[u32; LANES], py: &[u32; LANES]) {
     eye_lanes(l, c, px, py)
 }
 
-/// [`Lanes16::prepare`] compiled for the `avx512` tier.
+/// [`RayPacket::prepare`] compiled for the `avx512` tier.
 ///
 /// # Safety
 /// The CPU must support AVX-512 F, BW, DQ and VL.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2,avx512f,avx512bw,avx512dq,avx512vl")]
-unsafe fn prepare_avx512(l: &mut Lanes16) {
+unsafe fn prepare_avx512(l: &mut RayPacket) {
     prepare_lanes(l)
 }
 
-/// [`Lanes16::prepare`] compiled for the `avx2` tier.
+/// [`RayPacket::prepare`] compiled for the `avx2` tier.
 ///
 /// # Safety
 /// The CPU must support AVX and AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2")]
-unsafe fn prepare_avx2(l: &mut Lanes16) {
+unsafe fn prepare_avx2(l: &mut RayPacket) {
     prepare_lanes(l)
 }
 
@@ -224,7 +224,7 @@ unsafe fn prepare_avx2(l: &mut Lanes16) {
 // Lane loops index several arrays by lane: the form the compiler vectorises.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
-fn eye_lanes(l: &mut Lanes16, c: &Camera<f32>, px: &[u32; LANES], py: &[u32; LANES]) {
+fn eye_lanes(l: &mut RayPacket, c: &Camera<f32>, px: &[u32; LANES], py: &[u32; LANES]) {
     let n = l.n;
     let half_w = c.width as f32 * 0.5;
     let half_h = c.height as f32 * 0.5;
@@ -269,7 +269,7 @@ fn pick(k: u32, v: [f32; 3]) -> f32 {
 // Lane loops index several arrays by lane: the form the compiler vectorises.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
-fn prepare_lanes(l: &mut Lanes16) {
+fn prepare_lanes(l: &mut RayPacket) {
     let n = l.n.max(1);
     for i in n..LANES {
         for a in 0..3 {
@@ -337,8 +337,8 @@ mod tests {
     use proptest::prelude::*;
 
     /// Asserts that lane `i` holds `pr`'s values bit for bit, in both lane forms.
-    fn assert_lane(l: &Lanes16, i: usize, pr: &PreparedRay<f32>, what: &str) {
-        let want = Rays16::lanes(std::slice::from_ref(pr));
+    fn assert_lane(l: &RayPacket, i: usize, pr: &PreparedRay<f32>, what: &str) {
+        let want = ShearedRays::lanes(std::slice::from_ref(pr));
         let bits = |x: f32| x.to_bits();
         let r = &pr.ray;
         assert_eq!(
@@ -395,7 +395,7 @@ mod tests {
             for c in &cams {
                 for (bx, by, bw, bh) in [(0, 0, 4, 4), (8, 4, 3, 2), (c.width - 1, 0, 1, 3)] {
                     let bh = bh.min(c.height);
-                    let mut l = Lanes16::new();
+                    let mut l = RayPacket::new();
                     l.eye(c, bx, by, bw, bh);
                     assert_eq!(l.len(), (bw * bh) as usize);
                     let (mut px, mut py) = ([0; LANES], [0; LANES]);
@@ -448,7 +448,7 @@ mod tests {
                 .map(|&(o, d, t_min, t_max)| Ray { o: V3::from_array(o), d: V3::from_array(d), t_min, t_max })
                 .collect();
             on_each_tier(|tier| {
-                let mut l = Lanes16::new();
+                let mut l = RayPacket::new();
                 l.push(&rays[0]);
                 l.clear();
                 for r in &rays {

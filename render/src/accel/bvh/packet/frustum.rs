@@ -1,0 +1,264 @@
+//! A packet's interval bounds ([`Frustum`]): the least and greatest origin and reciprocal
+//! direction of its rays per axis, and the node test those bounds make — conservative in
+//! floating point, so a node one ray would enter is entered.
+
+use super::{COHERENCE, PACKET};
+use crate::accel::bvh::wide::WIDTH;
+use crate::geometry::ray_packet::RayPacket;
+use crate::geometry::slab::Box8;
+use crate::geometry::PreparedRay;
+use crate::real::Real;
+
+/// Interval bounds of a packet's rays, per axis.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Frustum<R> {
+    pub(super) o_lo: [R; 3],
+    pub(super) o_hi: [R; 3],
+    pub(super) inv_lo: [R; 3],
+    pub(super) inv_hi: [R; 3],
+    pub(super) neg: [bool; 3],
+    pub(super) t_min: R,
+}
+
+impl<R: Real> Frustum<R> {
+    /// The bounds of `rays`, or `None` when they cannot be bounded this way: mixed direction
+    /// signs on an axis, a zero (infinite reciprocal) direction component, or a non-finite
+    /// origin or start.
+    pub(super) fn new(rays: &[PreparedRay<R>]) -> Option<Self> {
+        let first = rays.first()?;
+        let o = |r: &PreparedRay<R>| [r.ray.o.x, r.ray.o.y, r.ray.o.z];
+        let inv = |r: &PreparedRay<R>| [r.inv_d.x, r.inv_d.y, r.inv_d.z];
+        let mut f = Frustum {
+            o_lo: o(first),
+            o_hi: o(first),
+            inv_lo: inv(first),
+            inv_hi: inv(first),
+            neg: first.neg,
+            t_min: first.ray.t_min,
+        };
+        // One pass without early exits (a packet is rejected rarely): the bounds, whether
+        // every ray can be bounded, and the shortest ray.
+        let mut ok = true;
+        let mut shortest = R::INFINITY;
+        for r in rays {
+            ok &= (r.neg == f.neg) & r.ray.t_min.is_finite();
+            let (ro, ri) = (o(r), inv(r));
+            for a in 0..3 {
+                ok &= ro[a].is_finite() & ri[a].is_finite();
+                f.o_lo[a] = f.o_lo[a].min(ro[a]);
+                f.o_hi[a] = f.o_hi[a].max(ro[a]);
+                f.inv_lo[a] = f.inv_lo[a].min(ri[a]);
+                f.inv_hi[a] = f.inv_hi[a].max(ri[a]);
+            }
+            f.t_min = f.t_min.min(r.ray.t_min);
+            shortest = shortest.min(r.ray.t_max);
+        }
+        if !ok {
+            return None;
+        }
+        // Rays whose origins spread widely compared with their length (shadow rays from both
+        // sides of a silhouette) make loose bounds that let the packet into far more nodes
+        // than any of its rays: those go one by one.
+        let mut spread = R::ZERO;
+        for a in 0..3 {
+            spread = spread.max(f.o_hi[a] - f.o_lo[a]);
+        }
+        if spread > R::from_f64(COHERENCE) * shortest {
+            return None;
+        }
+        Some(f)
+    }
+
+    /// [`Frustum::new`] of a packet in lanes (its lanes past the packet repeat lane 0, so
+    /// the bounds over all sixteen are the bounds of its rays).
+    #[inline(always)]
+    pub(super) fn from_lanes(l: &RayPacket) -> Option<Frustum<f32>> {
+        let s = &l.slab;
+        let mut f = Frustum {
+            o_lo: [0.0; 3],
+            o_hi: [0.0; 3],
+            inv_lo: [0.0; 3],
+            inv_hi: [0.0; 3],
+            neg: s.neg,
+            t_min: s.t_min[0],
+        };
+        let mut ok = true;
+        for a in 0..3 {
+            let (o, inv) = (&s.o[a], &s.inv[a]);
+            let (mut o_lo, mut o_hi, mut i_lo, mut i_hi) = (o[0], o[0], inv[0], inv[0]);
+            for i in 0..PACKET {
+                ok &= o[i].is_finite() & inv[i].is_finite() & ((inv[i] < 0.0) == s.neg[a]);
+                o_lo = o_lo.min(o[i]);
+                o_hi = o_hi.max(o[i]);
+                i_lo = i_lo.min(inv[i]);
+                i_hi = i_hi.max(inv[i]);
+            }
+            (f.o_lo[a], f.o_hi[a], f.inv_lo[a], f.inv_hi[a]) = (o_lo, o_hi, i_lo, i_hi);
+        }
+        let mut shortest = f32::INFINITY;
+        for i in 0..PACKET {
+            ok &= s.t_min[i].is_finite();
+            f.t_min = f.t_min.min(s.t_min[i]);
+            shortest = shortest.min(l.t_max[i]);
+        }
+        if !ok {
+            return None;
+        }
+        let mut spread = 0.0f32;
+        for a in 0..3 {
+            spread = spread.max(f.o_hi[a] - f.o_lo[a]);
+        }
+        if spread > COHERENCE as f32 * shortest {
+            return None;
+        }
+        Some(f)
+    }
+
+    /// The children of a node against the packet: bit `i` is set when some ray of the packet
+    /// may enter lane `i` before `t_max`; the distances are lower bounds of every ray's entry
+    /// distance into the lane.
+    #[inline(always)]
+    pub(super) fn test8(&self, b: &Box8, t_max: R) -> (u32, [R; WIDTH]) {
+        let widen = R::ONE + R::TWO * R::gamma(3);
+        let mut t0 = [self.t_min; WIDTH];
+        let mut t1 = [t_max; WIDTH];
+        for a in 0..3 {
+            let (near, far) = if self.neg[a] {
+                (&b.hi[a], &b.lo[a])
+            } else {
+                (&b.lo[a], &b.hi[a])
+            };
+            let (il, ih) = (self.inv_lo[a], self.inv_hi[a]);
+            for i in 0..WIDTH {
+                let n = R::from_f32(near[i]);
+                let (xl, xh) = (n - self.o_hi[a], n - self.o_lo[a]);
+                let lo = (xl * il).min(xl * ih).min((xh * il).min(xh * ih));
+                let f = R::from_f32(far[i]);
+                let (yl, yh) = (f - self.o_hi[a], f - self.o_lo[a]);
+                let hi = (yl * il).max(yl * ih).max((yh * il).max(yh * ih)) * widen;
+                t0[i] = t0[i].max(lo);
+                t1[i] = t1[i].min(hi);
+            }
+        }
+        let mut mask = 0;
+        for i in 0..WIDTH {
+            if t0[i] <= t1[i] {
+                mask |= 1 << i;
+            }
+        }
+        (mask, t0)
+    }
+}
+
+/// [`Frustum::from_lanes`] for the `avx512` tier: each bound a reduction of one register
+/// (`vminps`/`vmaxps`: the bounds of finite lanes, where the order of the reduction changes
+/// at most the sign of a zero bound, which no comparison of the walk sees), each check one
+/// mask. An end that is NaN counts as +∞ for the shortest ray, as `f32::min` takes it.
+///
+/// # Safety
+/// The CPU must support AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn frustum_avx512(l: &RayPacket) -> Option<Frustum<f32>> {
+    use std::arch::x86_64::*;
+    let s = &l.slab;
+    // SAFETY: every load reads sixteen `f32` of a `[f32; 16]` (unaligned loads).
+    let load = |a: &[f32; PACKET]| unsafe { _mm512_loadu_ps(a.as_ptr()) };
+    let inf = _mm512_set1_ps(f32::INFINITY);
+    let finite = |v: __m512| _mm512_cmp_ps_mask::<_CMP_LT_OQ>(_mm512_abs_ps(v), inf);
+    let zero = _mm512_setzero_ps();
+    let mut ok = 0xffffu16;
+    let mut f = Frustum {
+        o_lo: [0.0; 3],
+        o_hi: [0.0; 3],
+        inv_lo: [0.0; 3],
+        inv_hi: [0.0; 3],
+        neg: s.neg,
+        t_min: 0.0,
+    };
+    for a in 0..3 {
+        let (o, inv) = (load(&s.o[a]), load(&s.inv[a]));
+        let neg = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(inv, zero);
+        ok &= finite(o) & finite(inv) & if s.neg[a] { neg } else { !neg };
+        f.o_lo[a] = _mm512_reduce_min_ps(o);
+        f.o_hi[a] = _mm512_reduce_max_ps(o);
+        f.inv_lo[a] = _mm512_reduce_min_ps(inv);
+        f.inv_hi[a] = _mm512_reduce_max_ps(inv);
+    }
+    let t_min = load(&s.t_min);
+    ok &= finite(t_min);
+    if ok != 0xffff {
+        return None;
+    }
+    f.t_min = _mm512_reduce_min_ps(t_min);
+    let t_max = load(&l.t_max);
+    let nan = _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(t_max, t_max);
+    let shortest = _mm512_reduce_min_ps(_mm512_mask_blend_ps(nan, t_max, inf));
+    let mut spread = 0.0f32;
+    for a in 0..3 {
+        spread = spread.max(f.o_hi[a] - f.o_lo[a]);
+    }
+    if spread > COHERENCE as f32 * shortest {
+        return None;
+    }
+    Some(f)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Ray;
+    use crate::vec3::V3;
+    use proptest::prelude::*;
+
+    fn comp() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            6 => 0.1f32..4.0,
+            1 => Just(0.0f32),
+            1 => Just(-0.0f32),
+            1 => Just(f32::INFINITY),
+            1 => Just(f32::NAN),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        /// The AVX-512 bounds of a packet in lanes are the portable ones: the same decision
+        /// (signs, finiteness, coherence) and the same bound values.
+        #[test]
+        fn avx512_bounds_are_the_portable_bounds(
+            base in proptest::array::uniform3(-5.0f32..5.0),
+            signs in proptest::array::uniform3(any::<bool>()),
+            rays in proptest::collection::vec(
+                (proptest::array::uniform3(prop_oneof![4 => 0.0f32..0.01, 1 => 0.0f32..2.0]),
+                 proptest::array::uniform3(comp()), any::<bool>(),
+                 prop_oneof![Just(f32::INFINITY), Just(f32::NAN), 0.0f32..50.0, 0.0f32..0.5],
+                 prop_oneof![4 => Just(0.0f32), 1 => 0.0f32..1.0, 1 => Just(f32::NAN)]),
+                1..=PACKET),
+        ) {
+            #[cfg(target_arch = "x86_64")]
+            if crate::isa::Isa::Avx512.supported() {
+                let mut l = RayPacket::new();
+                for &(jitter, d, flip, t_max, t_min) in &rays {
+                    let o = V3::from_array([0, 1, 2].map(|a| base[a] + jitter[a]));
+                    let mut d = [0, 1, 2].map(|a| if signs[a] { -d[a] } else { d[a] });
+                    if flip {
+                        d[0] = -d[0];
+                    }
+                    l.push(&Ray { o, d: V3::from_array(d), t_min, t_max });
+                }
+                l.prepare();
+                let want = Frustum::<f32>::from_lanes(&l);
+                // SAFETY: this CPU has AVX-512 F.
+                let got = unsafe { frustum_avx512(&l) };
+                prop_assert_eq!(want.is_some(), got.is_some(), "{:?} {:?}", want, got);
+                if let (Some(w), Some(g)) = (want, got) {
+                    // Values, not bits: the sign of a zero bound may differ (see frustum_avx512).
+                    prop_assert!(w.o_lo == g.o_lo && w.o_hi == g.o_hi, "{:?} {:?}", w, g);
+                    prop_assert!(w.inv_lo == g.inv_lo && w.inv_hi == g.inv_hi, "{:?} {:?}", w, g);
+                    prop_assert!(w.neg == g.neg && w.t_min == g.t_min, "{:?} {:?}", w, g);
+                }
+            }
+        }
+    }
+}
