@@ -202,6 +202,27 @@ pub fn render_smp_into(
         };
         finish(tile, buf, st, span);
     };
+    run_tiles(opts.executor, &list, opts.tile, threads, &render_one);
+    let trace_s = start.elapsed().as_secs_f64();
+    let (stats, tile_seconds, tile_spans) = totals.into_inner().unwrap_or_else(|e| e.into_inner());
+    SmpResult {
+        film: film.into_inner().unwrap_or_else(|e| e.into_inner()),
+        stats,
+        tile_seconds,
+        trace_s,
+        tile_spans,
+    }
+}
+
+/// Renders every tile of `list` once with `render_one` (given the thread's index, the tile and
+/// the thread's pixel buffer) on `threads` threads, handed out as `executor` says.
+fn run_tiles(
+    executor: Executor,
+    list: &[Tile],
+    tile: u32,
+    threads: usize,
+    render_one: &(dyn Fn(usize, &Tile, &mut Vec<Rgb>) + Sync),
+) {
     // N threads, each running `work` (given its index) until it returns: the calling thread
     // is thread 0 and N − 1 are spawned, so a one-thread render starts no thread and waits
     // for none to be scheduled (on a loaded machine that wake-up costs milliseconds).
@@ -213,7 +234,7 @@ pub fn render_smp_into(
             work(0, &mut Vec::new());
         });
     };
-    match opts.executor {
+    match executor {
         Executor::Queue => {
             let queue = Mutex::new(list.iter().copied().collect::<VecDeque<Tile>>());
             run_threads(&|i, buf| loop {
@@ -239,7 +260,7 @@ pub fn render_smp_into(
             });
         }
         Executor::Morton => {
-            let order = morton_order(&list, opts.tile);
+            let order = morton_order(list, tile);
             let next = AtomicUsize::new(0);
             run_threads(&|t, buf| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
@@ -250,7 +271,7 @@ pub fn render_smp_into(
             });
         }
         Executor::Guided => {
-            let order = morton_order(&list, opts.tile);
+            let order = morton_order(list, tile);
             let next = Mutex::new(0usize);
             run_threads(&|t, buf| loop {
                 let (lo, hi) = {
@@ -268,15 +289,6 @@ pub fn render_smp_into(
                 }
             });
         }
-    }
-    let trace_s = start.elapsed().as_secs_f64();
-    let (stats, tile_seconds, tile_spans) = totals.into_inner().unwrap_or_else(|e| e.into_inner());
-    SmpResult {
-        film: film.into_inner().unwrap_or_else(|e| e.into_inner()),
-        stats,
-        tile_seconds,
-        trace_s,
-        tile_spans,
     }
 }
 
