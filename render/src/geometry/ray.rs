@@ -17,6 +17,19 @@ pub struct Ray<R> {
     pub t_max: R,
 }
 
+#[cfg(test)]
+impl Ray<f64> {
+    /// A test ray from `o` along `d` (normalised here), with `t` in `[0, ∞]`.
+    pub(crate) fn unbounded(o: [f64; 3], d: [f64; 3]) -> Ray<f64> {
+        Ray {
+            o: V3::from_array(o),
+            d: V3::from_array(d).normalize(),
+            t_min: 0.0,
+            t_max: f64::INFINITY,
+        }
+    }
+}
+
 /// A ray with the per-ray constants of the box and triangle tests.
 #[derive(Clone, Copy, Debug)]
 pub struct PreparedRay<R> {

@@ -114,24 +114,21 @@ pub(crate) fn nearest_root<L: Lanes>(
 mod tests {
     use super::*;
 
-    fn ray(o: [f64; 3], d: [f64; 3]) -> Ray<f64> {
-        Ray {
-            o: V3::from_array(o),
-            d: V3::from_array(d).normalize(),
-            t_min: 0.0,
-            t_max: f64::INFINITY,
-        }
-    }
-
     #[test]
     fn hits_front_then_back() {
         let s = Sphere {
             center: V3::new(0.0, 0.0, 5.0),
             radius: 1.0,
         };
-        let t = s.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), f64::INFINITY);
+        let t = s.intersect(
+            &Ray::unbounded([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+            f64::INFINITY,
+        );
         assert_eq!(t, Some(4.0));
-        let inside = s.intersect(&ray([0.0, 0.0, 5.0], [0.0, 0.0, 1.0]), f64::INFINITY);
+        let inside = s.intersect(
+            &Ray::unbounded([0.0, 0.0, 5.0], [0.0, 0.0, 1.0]),
+            f64::INFINITY,
+        );
         assert_eq!(inside, Some(1.0));
     }
 

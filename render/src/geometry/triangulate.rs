@@ -148,6 +148,17 @@ pub fn triangulate(vs: &[V3<f64>]) -> Vec<[u32; 3]> {
 mod tests {
     use super::*;
 
+    /// `n` vertices counter-clockwise around the z axis at height `z`, at equal angles, vertex
+    /// `i` at distance `radius(i)` from the axis.
+    fn around_z(n: usize, radius: impl Fn(usize) -> f64, z: f64) -> Vec<V3<f64>> {
+        (0..n)
+            .map(|i| {
+                let a = i as f64 / n as f64 * std::f64::consts::TAU;
+                V3::new(radius(i) * a.cos(), radius(i) * a.sin(), z)
+            })
+            .collect()
+    }
+
     fn area2(vs: &[V3<f64>], t: [u32; 3]) -> f64 {
         let (a, b, c) = (vs[t[0] as usize], vs[t[1] as usize], vs[t[2] as usize]);
         (b - a).cross(c - a).z
@@ -170,13 +181,7 @@ mod tests {
     #[test]
     fn star_with_many_reflex_vertices() {
         let n = 72;
-        let vs: Vec<V3<f64>> = (0..n)
-            .map(|i| {
-                let a = i as f64 / n as f64 * std::f64::consts::TAU;
-                let r = if i % 2 == 0 { 1.0 } else { 0.8 };
-                V3::new(r * a.cos(), r * a.sin(), 3.0)
-            })
-            .collect();
+        let vs = around_z(n, |i| if i % 2 == 0 { 1.0 } else { 0.8 }, 3.0);
         let tris = triangulate(&vs);
         let total: f64 = tris.iter().map(|&t| area2(&vs, t)).sum();
         let exact: f64 = (0..n)
@@ -194,12 +199,7 @@ mod tests {
     #[test]
     fn convex_polygon_is_peeled_not_fanned() {
         let n = 144;
-        let vs: Vec<V3<f64>> = (0..n)
-            .map(|i| {
-                let a = i as f64 / n as f64 * std::f64::consts::TAU;
-                V3::new(a.cos(), a.sin(), 0.0)
-            })
-            .collect();
+        let vs = around_z(n, |_| 1.0, 0.0);
         let tris = triangulate(&vs);
         assert_eq!(tris.len(), n - 2);
         let mut uses = vec![0usize; n];

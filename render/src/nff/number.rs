@@ -47,6 +47,32 @@ pub fn parse_real(tok: &[u8]) -> Result<f64, RealError> {
     }
 }
 
+/// An optional `-` or `+` at `s[i]`: whether it is `-`, and the offset just past it.
+#[inline(always)]
+fn sign(s: &[u8], i: usize) -> (bool, usize) {
+    match s.get(i) {
+        Some(b'-') => (true, i + 1),
+        Some(b'+') => (false, i + 1),
+        _ => (false, i),
+    }
+}
+
+/// The decimal digits from `s[i]` on appended to `acc` (`acc·10 + d` per digit, wrapping: the
+/// callers refuse lengths whose value could wrap): the new value and the offset past the last
+/// digit.
+#[inline(always)]
+fn digits(s: &[u8], mut i: usize, mut acc: u64) -> (u64, usize) {
+    while let Some(&b) = s.get(i) {
+        let d = b.wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        acc = acc.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
+    }
+    (acc, i)
+}
+
 /// The exact fast path over the number that starts at `src[start]`: its value and the offset
 /// just past it. `None` when the number is unusual (more than 19 digits, counting leading zeros;
 /// a decimal exponent beyond ±22; a mantissa of 2^53 or more) or there is no number there. The
@@ -54,43 +80,18 @@ pub fn parse_real(tok: &[u8]) -> Result<f64, RealError> {
 #[inline(always)]
 pub fn fast_prefix(src: &[u8], start: usize) -> Option<(f64, usize)> {
     let s = src.get(start..)?;
-    let mut i = 0;
-    let neg = match s.first() {
-        Some(b'-') => {
-            i = 1;
-            true
-        }
-        Some(b'+') => {
-            i = 1;
-            false
-        }
-        _ => false,
-    };
+    let (neg, mut i) = sign(s, 0);
     // Up to 19 decimal digits fit in a u64; more make the token go to the general path, so the
     // wrapping arithmetic below never produces a value that is used.
-    let mut mantissa: u64 = 0;
     let int_start = i;
-    while let Some(&b) = s.get(i) {
-        let d = b.wrapping_sub(b'0');
-        if d > 9 {
-            break;
-        }
-        mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
-        i += 1;
-    }
+    let mut mantissa;
+    (mantissa, i) = digits(s, i, 0);
     let mut ndigits = i - int_start;
     let mut exp10: i64 = 0;
     if s.get(i) == Some(&b'.') {
         i += 1;
         let frac_start = i;
-        while let Some(&b) = s.get(i) {
-            let d = b.wrapping_sub(b'0');
-            if d > 9 {
-                break;
-            }
-            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
-            i += 1;
-        }
+        (mantissa, i) = digits(s, i, mantissa);
         ndigits += i - frac_start;
         exp10 = -((i - frac_start) as i64);
     }
@@ -98,31 +99,14 @@ pub fn fast_prefix(src: &[u8], start: usize) -> Option<(f64, usize)> {
         return None;
     }
     if let Some(b'e' | b'E') = s.get(i) {
-        i += 1;
-        let eneg = match s.get(i) {
-            Some(b'-') => {
-                i += 1;
-                true
-            }
-            Some(b'+') => {
-                i += 1;
-                false
-            }
-            _ => false,
-        };
-        let exp_start = i;
-        let mut e: i64 = 0;
-        while let Some(&b) = s.get(i) {
-            let d = b.wrapping_sub(b'0');
-            if d > 9 {
-                break;
-            }
-            e = e.wrapping_mul(10).wrapping_add(i64::from(d));
-            i += 1;
-        }
+        let (eneg, exp_start) = sign(s, i + 1);
+        let e;
+        (e, i) = digits(s, exp_start, 0);
         if i == exp_start || i - exp_start > 6 {
             return None;
         }
+        // At most 6 digits, so the value fits an `i64` exactly.
+        let e = e as i64;
         exp10 += if eneg { -e } else { e };
     }
     if mantissa >= MAX_EXACT {

@@ -71,18 +71,19 @@ impl<R: Real> Stack<R> {
     }
 }
 
-/// The hit children of a node in ascending entry distance (insertion sort; ties keep lane
-/// order).
+/// The hit lanes of a node in ascending entry distance `t` (insertion sort; ties keep lane
+/// order), each with its `payload` (a child reference, or the lane itself): the single-ray walk
+/// and the packet walk order children with it.
 #[inline(always)]
-fn sorted_hits<R: Real>(
+pub(super) fn sorted_hits<R: Real, P: Copy + Default>(
     mask: u32,
     t: &[R; WIDTH],
-    child: &[ChildRef; WIDTH],
-) -> ([(R, ChildRef); WIDTH], usize) {
-    let mut hits = [(R::ZERO, 0); WIDTH];
+    payload: &[P; WIDTH],
+) -> ([(R, P); WIDTH], usize) {
+    let mut hits = [(R::ZERO, P::default()); WIDTH];
     let mut k = 0;
     for i in SetBits(mask) {
-        let e = (t[i], child[i]);
+        let e = (t[i], payload[i]);
         let mut j = k;
         while j > 0 && e.0 < hits[j - 1].0 {
             hits[j] = hits[j - 1];

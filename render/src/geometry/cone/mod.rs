@@ -284,29 +284,29 @@ pub(crate) fn lateral_hits<L: Lanes>(c: &ConeLanes<L>, r: &ConeRays<L>) -> (L::M
 mod tests {
     use super::*;
 
-    fn ray(o: [f64; 3], d: [f64; 3]) -> Ray<f64> {
-        Ray {
-            o: V3::from_array(o),
-            d: V3::from_array(d).normalize(),
-            t_min: 0.0,
-            t_max: f64::INFINITY,
-        }
-    }
-
     #[test]
     fn cylinder_hits_and_misses_beyond_ends() {
         let c = Cone::new(V3::new(0.0, 0.0, 0.0), 1.0, V3::new(0.0, 0.0, 2.0), 1.0).unwrap();
         assert_eq!(
-            c.intersect(&ray([-5.0, 0.0, 1.0], [1.0, 0.0, 0.0]), f64::INFINITY),
+            c.intersect(
+                &Ray::unbounded([-5.0, 0.0, 1.0], [1.0, 0.0, 0.0]),
+                f64::INFINITY
+            ),
             Some(4.0)
         );
         assert_eq!(
-            c.intersect(&ray([-5.0, 0.0, 2.5], [1.0, 0.0, 0.0]), f64::INFINITY),
+            c.intersect(
+                &Ray::unbounded([-5.0, 0.0, 2.5], [1.0, 0.0, 0.0]),
+                f64::INFINITY
+            ),
             None
         );
         // Open: a ray down the axis passes through.
         assert_eq!(
-            c.intersect(&ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0]), f64::INFINITY),
+            c.intersect(
+                &Ray::unbounded([0.0, 0.0, -5.0], [0.0, 0.0, 1.0]),
+                f64::INFINITY
+            ),
             None
         );
     }
@@ -315,10 +315,13 @@ mod tests {
     fn true_cone_with_zero_apex() {
         let c = Cone::new(V3::new(0.0, 0.0, 0.0), 1.0, V3::new(0.0, 0.0, 1.0), 0.0).unwrap();
         let t = c
-            .intersect(&ray([-5.0, 0.0, 0.5], [1.0, 0.0, 0.0]), f64::INFINITY)
+            .intersect(
+                &Ray::unbounded([-5.0, 0.0, 0.5], [1.0, 0.0, 0.0]),
+                f64::INFINITY,
+            )
             .unwrap();
         assert!((t - 4.5).abs() < 1e-12);
-        let (p, _, n) = c.surface(&ray([-5.0, 0.0, 0.5], [1.0, 0.0, 0.0]), t);
+        let (p, _, n) = c.surface(&Ray::unbounded([-5.0, 0.0, 0.5], [1.0, 0.0, 0.0]), t);
         assert!((p.x + 0.5).abs() < 1e-12);
         assert!(n.x < 0.0 && n.z > 0.0);
     }
