@@ -2,6 +2,7 @@
 //! far, tiny, huge), the precisions it runs in, a two-thread render, and an integrator and camera
 //! built directly to see radiance and hits before the film cleans them.
 
+use crate::support::render::render_with;
 use parrt_render::accel::Accel;
 use parrt_render::camera::Camera;
 use parrt_render::description::SceneDescription;
@@ -12,7 +13,7 @@ use parrt_render::render::Renderer;
 use parrt_render::scene::Scene;
 use parrt_render::settings::{AccelKind, Precision, RenderSettings};
 use parrt_render::shade::{Integrator, RayKind, ShadeOptions};
-use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::smp::Executor;
 use parrt_render::stats::RayStats;
 use parrt_render::vec3::{Vec3d, V3};
 
@@ -20,15 +21,7 @@ pub use crate::support::film::compare;
 
 pub fn render(desc: &SceneDescription, s: &RenderSettings) -> (Film, RayStats) {
     let r = Renderer::new(desc, s).expect("scene builds");
-    let res = render_smp(
-        &r,
-        &SmpOptions {
-            threads: 2,
-            tile: 16,
-            executor: Executor::Queue,
-        },
-        &|_, _| {},
-    );
+    let res = render_with(&r, 2, 16, Executor::Queue);
     (res.film, res.stats)
 }
 
