@@ -443,6 +443,11 @@ impl Film {
 mod tests {
     use super::*;
 
+    /// Tile `id`: `w`×`h` pixels from column `x`, row `y`.
+    fn tile(id: u32, x: u32, y: u32, w: u32, h: u32) -> Tile {
+        Tile { id, x, y, w, h }
+    }
+
     #[test]
     fn to_u8_clamps_and_rounds() {
         assert_eq!(to_u8(-1.0), 0);
@@ -478,21 +483,9 @@ mod tests {
     #[test]
     fn write_tile_rejects_misfit() {
         let mut f = Film::new(4, 4);
-        let t = Tile {
-            id: 0,
-            x: 2,
-            y: 2,
-            w: 3,
-            h: 1,
-        };
+        let t = tile(0, 2, 2, 3, 1);
         assert!(f.write_tile(&t, &[[0.0; 3]; 3]).is_err());
-        let t = Tile {
-            id: 0,
-            x: 2,
-            y: 2,
-            w: 2,
-            h: 2,
-        };
+        let t = tile(0, 2, 2, 2, 2);
         assert!(f.write_tile(&t, &[[1.0; 3]; 4]).is_ok());
         assert_eq!(f.get(3, 3), [1.0; 3]);
         assert_eq!(f.get(1, 1), [0.0; 3]);
@@ -561,13 +554,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("x.ppm");
         let mut f = Film::new_rgb8(2, 1);
-        let t = Tile {
-            id: 0,
-            x: 0,
-            y: 0,
-            w: 2,
-            h: 1,
-        };
+        let t = tile(0, 0, 0, 2, 1);
         f.write_tile_rgb8(&t, &[255, 0, 0, 1, 2, 3]).unwrap();
         f.save(&out).unwrap();
         let bytes = std::fs::read(&out).unwrap();
@@ -594,22 +581,7 @@ mod tests {
     #[test]
     fn an_8_bit_film_writes_the_linear_films_png() {
         let (w, h) = (5u32, 4u32);
-        let tiles = [
-            Tile {
-                id: 0,
-                x: 0,
-                y: 0,
-                w: 3,
-                h: 4,
-            },
-            Tile {
-                id: 1,
-                x: 3,
-                y: 0,
-                w: 2,
-                h: 4,
-            },
-        ];
+        let tiles = [tile(0, 0, 0, 3, 4), tile(1, 3, 0, 2, 4)];
         let value = |x: u32, y: u32| [x as f32 / 4.0, y as f32 / 3.0 - 0.1, 1.5 - x as f32];
         let mut linear = Film::new(w, h);
         let mut from_bytes = Film::new_rgb8(w, h);
@@ -636,13 +608,7 @@ mod tests {
         let mut back = Film::new(w, h);
         back.write_tile_rgb8(&tiles[1], &from_bytes.to_rgb8()[..0])
             .unwrap_err();
-        let all = Tile {
-            id: 0,
-            x: 0,
-            y: 0,
-            w,
-            h,
-        };
+        let all = tile(0, 0, 0, w, h);
         back.write_tile_rgb8(&all, &from_bytes.to_rgb8()).unwrap();
         assert_eq!(back.get(x, y), from_bytes.get(x, y));
         let d = tempfile::tempdir().unwrap();
@@ -660,13 +626,7 @@ mod tests {
             );
         }
         // A misfit is refused as it is for floats.
-        let t = Tile {
-            id: 2,
-            x: 4,
-            y: 0,
-            w: 2,
-            h: 1,
-        };
+        let t = tile(2, 4, 0, 2, 1);
         assert!(from_bytes.write_tile_rgb8(&t, &[0; 6]).is_err());
         assert!(from_bytes.write_tile_rgb8(&tiles[1], &[0; 7]).is_err());
     }

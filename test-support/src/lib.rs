@@ -1,13 +1,14 @@
 //! Test support for parrt's test binaries (a dev-dependency only; never part of a build of
 //! `parrt` or `parrt-worker`): where the SPD scenes are and their files, the tables of their
-//! README, the three-accelerator oracle, scenes built in code (the shared fixtures), and
-//! bit-for-bit film comparison.
+//! README, the three-accelerator oracle, scenes built in code (the shared fixtures), rendering a
+//! built scene, and bit-for-bit film comparison.
 //!
 //! The SPD files live in the repository at `data/spd` (Haines' Standard Procedural Databases,
 //! public domain); `PARRT_SPD_DIR` points the tests at another copy.
 
 pub mod film;
 pub mod readme;
+pub mod render;
 pub mod scene;
 pub mod spd;
 

@@ -1,5 +1,6 @@
 //! Scenes built in code: vectors, triangles, views, materials and primitives in one line each,
-//! a scene of bare shapes for the tests that only look at hits, and the one-sphere test scene.
+//! a scene of bare shapes for the tests that only look at hits, the one-sphere test scene, and
+//! the doubled integer grid whose hits all fall on edges, vertices and ties.
 
 use parrt_render::description::{Light, Material, Primitive, SceneDescription, Shape, View};
 use parrt_render::vec3::{Vec3d, V3};
@@ -87,4 +88,30 @@ pub fn one_sphere(size: u32) -> SceneDescription {
             0,
         )],
     }
+}
+
+/// A flat `n`×`n` mesh on integer vertices in the plane z = 0: two triangles per unit square,
+/// every one twice (once as is, once wound the other way, so every hit is a tie the primitive
+/// index decides), seen from 10 above its centre through a 64×64 view of 60°.
+pub fn doubled_grid(n: u32) -> SceneDescription {
+    let p = |x: f64, y: f64| v(x, y, 0.0);
+    let mut shapes = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (f64::from(i), f64::from(j));
+            let a = vec![p(x, y), p(x + 1.0, y), p(x + 1.0, y + 1.0)];
+            let b = vec![p(x, y), p(x + 1.0, y + 1.0), p(x, y + 1.0)];
+            for t in [a, b] {
+                let mut r = t.clone();
+                r.reverse();
+                shapes.push(Shape::Polygon(t.into()));
+                shapes.push(Shape::Polygon(r.into()));
+            }
+        }
+    }
+    let c = f64::from(n) / 2.0;
+    scene_of(
+        shapes,
+        view(v(c, c, 10.0), v(c, c, 0.0), v(0.0, 1.0, 0.0), 60.0, 64),
+    )
 }

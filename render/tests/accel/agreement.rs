@@ -22,13 +22,19 @@ use rand::{Rng, SeedableRng};
 
 type Rv = V3<f64>;
 
+/// A uniform point in the cube [-1, 1)³.
+fn in_cube(rng: &mut StdRng) -> Rv {
+    v(
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+    )
+}
+
+/// A uniform direction (a point of the unit ball, away from its centre, scaled to length 1).
 fn unit_dir(rng: &mut StdRng) -> Rv {
     loop {
-        let d = v(
-            rng.gen_range(-1.0..1.0),
-            rng.gen_range(-1.0..1.0),
-            rng.gen_range(-1.0..1.0),
-        );
+        let d = in_cube(rng);
         let l = d.length();
         if l > 1e-3 && l <= 1.0 {
             return d / l;
@@ -373,11 +379,7 @@ fn overlapping_spheres(seed: u64) -> SceneDescription {
     let mut rng = StdRng::seed_from_u64(seed);
     let mut prims = Vec::new();
     for _ in 0..150 {
-        let c = v(
-            rng.gen_range(-1.0..1.0),
-            rng.gen_range(-1.0..1.0),
-            rng.gen_range(-1.0..1.0),
-        );
+        let c = in_cube(&mut rng);
         let r = if rng.gen_bool(0.1) {
             rng.gen_range(0.3..0.8)
         } else {
@@ -406,11 +408,7 @@ fn cones(seed: u64) -> SceneDescription {
     let mut rng = StdRng::seed_from_u64(seed);
     let mut prims = Vec::new();
     for i in 0..120 {
-        let base = v(
-            rng.gen_range(-1.0..1.0),
-            rng.gen_range(-1.0..1.0),
-            rng.gen_range(-1.0..1.0),
-        );
+        let base = in_cube(&mut rng);
         let apex = base + unit_dir(&mut rng) * rng.gen_range(0.05..0.6);
         let r0 = rng.gen_range(0.01..0.2);
         let r1 = match i % 3 {

@@ -8,7 +8,8 @@
 //! index), and on bundles of cones with rays along their axes, along generator lines, grazing
 //! and just missing. In `f64` leaves go one at a time, and the test holds there too.
 
-use crate::support::scene::scene_of;
+use crate::packet_leaf::triangle_targets;
+use crate::support::scene::{doubled_grid, scene_of};
 use crate::support::spd::{key, load, SMALL_SCENES};
 use parrt_render::accel::bvh::packet::PACKET;
 use parrt_render::accel::Accel;
@@ -40,18 +41,7 @@ fn rays_at_triangles<R: Real>(scene: &Scene<R>, eye: V3<R>, step: usize) -> Vec<
     let mut out = Vec::new();
     for p in scene.prims.iter().step_by(step) {
         let Prim::Triangle(v) = p else { continue };
-        let half = R::HALF;
-        let third = R::ONE / R::from_u32(3);
-        let targets = [
-            v[0],
-            v[1],
-            v[2],
-            (v[0] + v[1]) * half,
-            (v[1] + v[2]) * half,
-            (v[2] + v[0]) * half,
-            (v[0] + v[1] + v[2]) * third,
-        ];
-        for t in targets {
+        for t in triangle_targets(v) {
             let d = t - eye;
             let len = d.length();
             if len.partial_cmp(&R::ZERO) != Some(std::cmp::Ordering::Greater) {
@@ -213,34 +203,8 @@ fn spd_scenes_simd_leaves_agree_with_scalar() {
 /// (in `f32` and in the `f64` redo) and the sign rule and the tie rule decide.
 #[test]
 fn exact_edges_vertices_and_ties_agree() {
-    let v = |x: f64, y: f64| V3::new(x, y, 0.0);
-    let mut shapes = Vec::new();
     let n = 8;
-    for i in 0..n {
-        for j in 0..n {
-            let (x, y) = (i as f64, j as f64);
-            let a = vec![v(x, y), v(x + 1.0, y), v(x + 1.0, y + 1.0)];
-            let b = vec![v(x, y), v(x + 1.0, y + 1.0), v(x, y + 1.0)];
-            for t in [a, b] {
-                let mut r = t.clone();
-                r.reverse();
-                shapes.push(Shape::Polygon(t.into()));
-                shapes.push(Shape::Polygon(r.into()));
-            }
-        }
-    }
-    let desc = scene_of(
-        shapes,
-        View {
-            from: V3::new(4.0, 4.0, 10.0),
-            at: V3::new(4.0, 4.0, 0.0),
-            up: V3::new(0.0, 1.0, 0.0),
-            angle: 60.0,
-            hither: 0.001,
-            width: 64,
-            height: 64,
-        },
-    );
+    let desc = doubled_grid(n);
     let scene = Scene::<f32>::build(&desc).expect("scene");
     let mut rays = Vec::new();
     // Straight down and slanted onto every half-integer point: vertices, edges, diagonals,

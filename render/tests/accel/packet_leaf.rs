@@ -8,10 +8,9 @@
 //! exactly through edges and vertices, ties the primitive index decides), mixed leaves, rays
 //! that miss, ranges ending before or exactly at a hit, and full, partial and single-ray masks.
 
-use crate::support::scene::scene_of;
+use crate::support::scene::doubled_grid;
 use crate::support::spd::{key, load};
 use parrt_render::accel::RayPrimTest;
-use parrt_render::description::{Shape, View};
 use parrt_render::geometry::{Nearest, PreparedRay, Ray};
 use parrt_render::packet::leaf::PacketLeaf;
 use parrt_render::packet::scene_leaf::SceneLeaf;
@@ -37,23 +36,26 @@ struct Covered {
     partial_masks: u64,
 }
 
+/// Points to aim at on the triangle `v`: its vertices, edge midpoints and centroid.
+pub fn triangle_targets<R: Real>(v: &[V3<R>; 3]) -> [V3<R>; 7] {
+    let half = R::HALF;
+    let third = R::ONE / R::from_u32(3);
+    [
+        v[0],
+        v[1],
+        v[2],
+        (v[0] + v[1]) * half,
+        (v[1] + v[2]) * half,
+        (v[2] + v[0]) * half,
+        (v[0] + v[1] + v[2]) * third,
+    ]
+}
+
 /// Points to aim at on primitive `p`: a triangle's vertices, edge midpoints and centroid; a
 /// sphere's centre and points on its silhouette seen from `eye`.
 fn targets<R: Real>(p: &Prim<R>, eye: V3<R>) -> Vec<V3<R>> {
     match p {
-        Prim::Triangle(v) => {
-            let half = R::HALF;
-            let third = R::ONE / R::from_u32(3);
-            vec![
-                v[0],
-                v[1],
-                v[2],
-                (v[0] + v[1]) * half,
-                (v[1] + v[2]) * half,
-                (v[2] + v[0]) * half,
-                (v[0] + v[1] + v[2]) * third,
-            ]
-        }
+        Prim::Triangle(v) => triangle_targets(v).to_vec(),
         Prim::Sphere(s) => {
             let view = (s.center - eye).normalize();
             let side = view.cross(V3::new(R::ZERO, R::ONE, R::ZERO));
@@ -284,33 +286,7 @@ fn packet_leaves_agree_with_one_ray_at_a_time_on_spd_scenes() {
 /// decides them again in `f64`.
 #[test]
 fn packet_leaves_agree_on_exact_edges_vertices_and_ties() {
-    let v = |x: f64, y: f64| V3::new(x, y, 0.0);
-    let mut shapes = Vec::new();
-    for i in 0..4 {
-        for j in 0..4 {
-            let (x, y) = (f64::from(i), f64::from(j));
-            let a = vec![v(x, y), v(x + 1.0, y), v(x + 1.0, y + 1.0)];
-            let b = vec![v(x, y), v(x + 1.0, y + 1.0), v(x, y + 1.0)];
-            for t in [a, b] {
-                let mut r = t.clone();
-                r.reverse();
-                shapes.push(Shape::Polygon(t.into()));
-                shapes.push(Shape::Polygon(r.into()));
-            }
-        }
-    }
-    let desc = scene_of(
-        shapes,
-        View {
-            from: V3::new(2.0, 2.0, 10.0),
-            at: V3::new(2.0, 2.0, 0.0),
-            up: V3::new(0.0, 1.0, 0.0),
-            angle: 60.0,
-            hither: 0.001,
-            width: 64,
-            height: 64,
-        },
-    );
+    let desc = doubled_grid(4);
     let scene = Scene::<f32>::build(&desc).expect("scene");
     let mut rng = StdRng::seed_from_u64(18);
     let mut c = Covered::default();

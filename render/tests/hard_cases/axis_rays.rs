@@ -1,8 +1,8 @@
 //! Axis-parallel rays: along ±x, ±y, ±z, in the planes of the accelerators' boxes and through
 //! polygon edges, every accelerator finds the known hit.
 
-use crate::setup::{f32_resolves, Direct, Placement, PLACEMENTS};
-use crate::support::scene::{mat, prim, v, view};
+use crate::setup::{f32_resolves, unlit_scene, Direct, Placement, PLACEMENTS};
+use crate::support::scene::{prim, v};
 use parrt_render::description::{SceneDescription, Shape};
 use parrt_render::real::Real;
 use parrt_render::settings::AccelKind;
@@ -24,18 +24,9 @@ fn axis_parallel_rays() {
             .into(),
         )
     };
-    let desc = SceneDescription {
-        background: v(0.0, 0.0, 0.0),
-        view: view(
-            v(0.0, 0.0, 10.0),
-            v(0.0, 0.0, 0.0),
-            v(0.0, 1.0, 0.0),
-            45.0,
-            8,
-        ),
-        lights: vec![],
-        materials: vec![mat([1.0, 1.0, 1.0], 1.0, 0.0, 0.0, 1.0)],
-        primitives: vec![
+    let desc = unlit_scene(
+        v(0.0, 0.0, 10.0),
+        vec![
             prim(square(0.0), 0),  // triangles 0, 1
             prim(square(-4.0), 0), // triangles 2, 3
             prim(
@@ -55,7 +46,7 @@ fn axis_parallel_rays() {
                 0,
             ), // 5
         ],
-    };
+    );
     // (origin, direction, expected distance)
     let cases: &[(Vec3d, Vec3d, Option<f64>)] = &[
         (v(0.3, 0.2, 5.0), v(0.0, 0.0, -1.0), Some(5.0)),

@@ -1,9 +1,9 @@
 //! Degenerate input: zero-area polygons, degenerate cones and zero spheres are refused by the
 //! parser and by `Scene::build` with a clear message; odd but valid shapes are accepted.
 
-use crate::setup::{settings, Direct};
-use crate::support::scene::{mat, prim, tri, v, view};
-use parrt_render::description::{SceneDescription, Shape};
+use crate::setup::{settings, unlit_scene, Direct};
+use crate::support::scene::{prim, tri, v};
+use parrt_render::description::Shape;
 use parrt_render::render::Renderer;
 use parrt_render::scene::{Scene, SceneError};
 use parrt_render::settings::{AccelKind, Precision};
@@ -32,24 +32,17 @@ fn degenerate_input_is_rejected_with_a_clear_message() {
         assert!(err.contains(":5"), "{what}: error names the line: {err}");
     }
 
-    let desc = |shape: Shape| SceneDescription {
-        background: v(0.0, 0.0, 0.0),
-        view: view(
+    let desc = |shape: Shape| {
+        unlit_scene(
             v(0.0, 0.0, 5.0),
-            v(0.0, 0.0, 0.0),
-            v(0.0, 1.0, 0.0),
-            45.0,
-            8,
-        ),
-        lights: vec![],
-        materials: vec![mat([1.0, 1.0, 1.0], 1.0, 0.0, 0.0, 1.0)],
-        primitives: vec![
-            prim(
-                tri(v(-1.0, -1.0, 0.0), v(1.0, -1.0, 0.0), v(0.0, 1.0, 0.0)),
-                0,
-            ),
-            prim(shape, 0),
-        ],
+            vec![
+                prim(
+                    tri(v(-1.0, -1.0, 0.0), v(1.0, -1.0, 0.0), v(0.0, 1.0, 0.0)),
+                    0,
+                ),
+                prim(shape, 0),
+            ],
+        )
     };
     let bad_shapes = [
         (

@@ -2,7 +2,9 @@
 //! through, and a concave 144-vertex gear polygon is hit in its teeth and hub, missed in its
 //! notches — at every placement and precision.
 
-use crate::setup::{f32_resolves, precisions, render, settings, Direct, Placement, PLACEMENTS};
+use crate::setup::{
+    f32_resolves, perpendiculars, precisions, render, settings, Direct, Placement, PLACEMENTS,
+};
 use crate::support::scene::{mat, prim, tri, v, view};
 use parrt_render::description::{Light, SceneDescription, Shape};
 use parrt_render::real::Real;
@@ -109,13 +111,7 @@ fn many_triangles_meeting_at_a_vertex() {
     ];
     for (hub, normal, from) in cases {
         let n = normal.normalize();
-        let helper = if n.x.abs() < 0.5 {
-            v(1.0, 0.0, 0.0)
-        } else {
-            v(0.0, 1.0, 0.0)
-        };
-        let e1 = n.cross(helper).normalize();
-        let e2 = n.cross(e1);
+        let (e1, e2) = perpendiculars(n);
         let k = 64;
         let rim = |i: usize| {
             let a = i as f64 / k as f64 * std::f64::consts::TAU;

@@ -1,10 +1,9 @@
 //! Self-intersection: no shadow acne on a huge ground lit at grazing angles, and rays spawned
 //! from spheres, cones and triangles never hit their own surface again (pbrt's Reintersect).
 
-use crate::setup::{precisions, render, settings, PLACEMENTS};
+use crate::setup::{cone_in, perpendiculars, precisions, render, settings, PLACEMENTS};
 use crate::support::scene::{mat, prim, v, view};
 use parrt_render::description::{Light, SceneDescription, Shape};
-use parrt_render::geometry::cone::Cone;
 use parrt_render::geometry::sphere::Sphere;
 use parrt_render::geometry::triangle::{intersect_triangle, triangle_point};
 use parrt_render::geometry::{offset_ray_origin, PreparedRay, Ray};
@@ -161,24 +160,13 @@ fn cones_reintersect<R: Real>() {
         } else {
             rng.gen_range(0.0..3.0) * scale
         };
-        let Some(c) = Cone::new(
-            V3::from_f64(base),
-            R::from_f64(r0),
-            V3::from_f64(apex),
-            R::from_f64(r1),
-        ) else {
+        let Some(c) = cone_in::<R>(base, r0, apex, r1) else {
             continue;
         };
         // Aim at a point on the surface, from outside the cone's box.
         let z = rng.gen_range(0.02..0.98);
         let axis = (apex - base).normalize();
-        let helper = if axis.x.abs() < 0.5 {
-            v(1.0, 0.0, 0.0)
-        } else {
-            v(0.0, 1.0, 0.0)
-        };
-        let e1 = axis.cross(helper).normalize();
-        let e2 = axis.cross(e1);
+        let (e1, e2) = perpendiculars(axis);
         let a = rng.gen_range(0.0..std::f64::consts::TAU);
         let radial = e1 * a.cos() + e2 * a.sin();
         let h = (apex - base).length();

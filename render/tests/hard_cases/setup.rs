@@ -2,34 +2,63 @@
 //! far, tiny, huge), the precisions it runs in, a two-thread render, and an integrator and camera
 //! built directly to see radiance and hits before the film cleans them.
 
+use crate::support::render::render_with;
 use parrt_render::accel::Accel;
 use parrt_render::camera::Camera;
-use parrt_render::description::SceneDescription;
+use parrt_render::description::{Primitive, SceneDescription};
 use parrt_render::film::Film;
+use parrt_render::geometry::cone::Cone;
 use parrt_render::geometry::Ray;
 use parrt_render::real::Real;
 use parrt_render::render::Renderer;
 use parrt_render::scene::Scene;
 use parrt_render::settings::{AccelKind, Precision, RenderSettings};
 use parrt_render::shade::{Integrator, RayKind, ShadeOptions};
-use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::smp::Executor;
 use parrt_render::stats::RayStats;
 use parrt_render::vec3::{Vec3d, V3};
 
 pub use crate::support::film::compare;
+use crate::support::scene::{mat, v, view};
 
 pub fn render(desc: &SceneDescription, s: &RenderSettings) -> (Film, RayStats) {
     let r = Renderer::new(desc, s).expect("scene builds");
-    let res = render_smp(
-        &r,
-        &SmpOptions {
-            threads: 2,
-            tile: 16,
-            executor: Executor::Queue,
-        },
-        &|_, _| {},
-    );
+    let res = render_with(&r, 2, 16, Executor::Queue);
     (res.film, res.stats)
+}
+
+/// `primitives` on a black background with no lights, material 0 white and diffuse, seen from
+/// `from` towards the origin (y up) through an 8×8 view of 45°.
+pub fn unlit_scene(from: Vec3d, primitives: Vec<Primitive>) -> SceneDescription {
+    SceneDescription {
+        background: v(0.0, 0.0, 0.0),
+        view: view(from, v(0.0, 0.0, 0.0), v(0.0, 1.0, 0.0), 45.0, 8),
+        lights: vec![],
+        materials: vec![mat([1.0, 1.0, 1.0], 1.0, 0.0, 0.0, 1.0)],
+        primitives,
+    }
+}
+
+/// Two unit vectors that make a right-handed orthonormal basis with the unit vector `n`.
+pub fn perpendiculars(n: Vec3d) -> (Vec3d, Vec3d) {
+    let helper = if n.x.abs() < 0.5 {
+        v(1.0, 0.0, 0.0)
+    } else {
+        v(0.0, 1.0, 0.0)
+    };
+    let e1 = n.cross(helper).normalize();
+    (e1, n.cross(e1))
+}
+
+/// The cone from `base` (radius `r0`) to `apex` (radius `r1`), given in `f64`, built in `R`;
+/// `None` when it is degenerate.
+pub fn cone_in<R: Real>(base: Vec3d, r0: f64, apex: Vec3d, r1: f64) -> Option<Cone<R>> {
+    Cone::new(
+        V3::from_f64(base),
+        R::from_f64(r0),
+        V3::from_f64(apex),
+        R::from_f64(r1),
+    )
 }
 
 /// Where a hard case is placed: x ↦ s·x + t.

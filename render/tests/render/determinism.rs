@@ -1,10 +1,11 @@
 //! The image does not depend on thread count, tile size or executor: every combination gives the
 //! same bits as one thread with one big tile (docs/design.md, *Determinism*).
 
+use crate::support::render::render_with;
 use parrt_render::description::SceneDescription;
 use parrt_render::render::Renderer;
 use parrt_render::settings::RenderSettings;
-use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::smp::Executor;
 use std::path::PathBuf;
 
 fn spd(name: &str) -> SceneDescription {
@@ -15,15 +16,7 @@ fn spd(name: &str) -> SceneDescription {
 }
 
 fn bits(r: &Renderer, threads: usize, tile: u32, executor: Executor) -> Vec<u32> {
-    let res = render_smp(
-        r,
-        &SmpOptions {
-            threads,
-            tile,
-            executor,
-        },
-        &|_, _| {},
-    );
+    let res = render_with(r, threads, tile, executor);
     res.film
         .pixels
         .iter()
@@ -86,15 +79,7 @@ fn spd_mode_counts_each_corner_ray_once_whatever_the_tiling() {
     let mut seen = None;
     for tile in [7, 13, 64] {
         for threads in [1, 2] {
-            let res = render_smp(
-                &r,
-                &SmpOptions {
-                    threads,
-                    tile,
-                    executor: Executor::Queue,
-                },
-                &|_, _| {},
-            );
+            let res = render_with(&r, threads, tile, Executor::Queue);
             assert_eq!(res.stats.eye_rays, 51 * 31, "tile {tile}");
             match &seen {
                 None => seen = Some(res.stats),

@@ -4,27 +4,19 @@
 //! it — in f32 alone; and auto picks f32 on SPD's seven default scenes, whose frame stays the
 //! world's (origin 0: their images keep their bits).
 
+use crate::support::render::render_with;
 use parrt_render::description::SceneDescription;
 use parrt_render::film::Film;
 use parrt_render::render::Renderer;
 use parrt_render::settings::{Precision, RenderSettings};
-use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::smp::Executor;
 use parrt_render::vec3::V3;
 
 fn render(desc: &SceneDescription, size: u32, precision: Precision) -> Film {
     let mut s = RenderSettings::new(size, size);
     s.precision = precision;
     let r = Renderer::new(desc, &s).expect("scene builds");
-    render_smp(
-        &r,
-        &SmpOptions {
-            threads: 2,
-            tile: 16,
-            executor: Executor::Queue,
-        },
-        &|_, _| {},
-    )
-    .film
+    render_with(&r, 2, 16, Executor::Queue).film
 }
 
 /// Share of pixels with a channel off by more than 1/255 (clamped linear film).

@@ -3,10 +3,11 @@
 //! accelerator, the thread count or the tile size. Runs at reduced size (64×64 pixels = 65×65
 //! corner rays) so it is fast.
 
+use crate::support::render::render_with;
 use parrt_render::description::SceneDescription;
 use parrt_render::render::Renderer;
 use parrt_render::settings::{AccelKind, RenderSettings};
-use parrt_render::smp::{render_smp, Executor, SmpOptions, SmpResult};
+use parrt_render::smp::{Executor, SmpResult};
 use parrt_render::stats::RayStats;
 
 fn load(name: &str) -> SceneDescription {
@@ -30,15 +31,7 @@ fn render(desc: &SceneDescription, s: &RenderSettings, threads: usize, tile: u32
     } else {
         Executor::Queue
     };
-    render_smp(
-        &r,
-        &SmpOptions {
-            threads,
-            tile,
-            executor,
-        },
-        &|_, _| {},
-    )
+    render_with(&r, threads, tile, executor)
 }
 
 /// The procedure's counts, without the accelerator-specific box and primitive tests.

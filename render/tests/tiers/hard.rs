@@ -2,11 +2,12 @@
 //! spheres) as written, moved by 1e7, scaled by 1e-6 and by 1e6, in f32 (where auto keeps it),
 //! f64 and auto.
 
+use crate::support::render::render_with;
 use crate::support::scene::v;
 use crate::tiers::{assert_same_on_every_tier, bytes, on_each_tier};
 use parrt_render::render::Renderer;
 use parrt_render::settings::{Precision, RenderSettings};
-use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::smp::Executor;
 
 const SIZE: u32 = 40;
 
@@ -34,15 +35,7 @@ fn hard_placements_and_precisions_render_the_same_bits_on_every_tier() {
                 s.precision = precision;
                 let r = Renderer::new(&desc, &s).unwrap_or_else(|e| panic!("{what}: {e}"));
                 let runs = on_each_tier(|_| {
-                    let res = render_smp(
-                        &r,
-                        &SmpOptions {
-                            threads: 2,
-                            tile: 8,
-                            executor: Executor::Queue,
-                        },
-                        &|_, _| {},
-                    );
+                    let res = render_with(&r, 2, 8, Executor::Queue);
                     let b = bytes(&res.film);
                     (res.film, res.stats, b)
                 });

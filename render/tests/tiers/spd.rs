@@ -1,10 +1,11 @@
 //! Every SPD file (all 27 of `data/spd`) under Haines' procedure at 64 × 64 (65 × 65 corner
 //! rays, depth 5, no cut-off): the same image and counts on every tier.
 
+use crate::support::render::render_with;
 use crate::tiers::{assert_same_on_every_tier, bytes, on_each_tier};
 use parrt_render::render::Renderer;
 use parrt_render::settings::RenderSettings;
-use parrt_render::smp::{render_smp, Executor, SmpOptions};
+use parrt_render::smp::Executor;
 
 const SIZE: u32 = 64;
 
@@ -17,15 +18,7 @@ fn every_spd_file_renders_the_same_bits_on_every_tier() {
         s.two_sided = name.starts_with("teapot");
         let r = Renderer::new(&desc, &s).unwrap_or_else(|e| panic!("{name}: {e}"));
         let runs = on_each_tier(|_| {
-            let res = render_smp(
-                &r,
-                &SmpOptions {
-                    threads: 2,
-                    tile: 16,
-                    executor: Executor::Rayon,
-                },
-                &|_, _| {},
-            );
+            let res = render_with(&r, 2, 16, Executor::Rayon);
             let b = bytes(&res.film);
             (res.film, res.stats, b)
         });
