@@ -71,19 +71,18 @@ impl<R: Real> Stack<R> {
     }
 }
 
-/// The hit lanes of a node in ascending entry distance `t` (insertion sort; ties keep lane
-/// order), each with its `payload` (a child reference, or the lane itself): the single-ray walk
-/// and the packet walk order children with it.
+/// The hit children of a node in ascending entry distance (insertion sort; ties keep lane
+/// order).
 #[inline(always)]
-pub(super) fn sorted_hits<R: Real, P: Copy + Default>(
+fn sorted_hits<R: Real>(
     mask: u32,
     t: &[R; WIDTH],
-    payload: &[P; WIDTH],
-) -> ([(R, P); WIDTH], usize) {
-    let mut hits = [(R::ZERO, P::default()); WIDTH];
+    child: &[ChildRef; WIDTH],
+) -> ([(R, ChildRef); WIDTH], usize) {
+    let mut hits = [(R::ZERO, 0); WIDTH];
     let mut k = 0;
     for i in SetBits(mask) {
-        let e = (t[i], payload[i]);
+        let e = (t[i], child[i]);
         let mut j = k;
         while j > 0 && e.0 < hits[j - 1].0 {
             hits[j] = hits[j - 1];

@@ -15,7 +15,7 @@
 //! ([`crate::geometry::PrimHit::beats`]) picks among all primitives it hits — the same
 //! primitive, distance and parameters as alone.
 
-use super::traverse::{sorted_hits, Stack};
+use super::traverse::Stack;
 use super::wide::{is_leaf, leaf_range, ChildRef, WIDTH};
 use super::Bvh;
 use crate::accel::prim_test::{OneRay, RayPrimTest};
@@ -46,16 +46,24 @@ use query::{AnyHit, Closest, PacketQuery, RayList};
 pub use rays::LanesPrimTest;
 use rays::{PacketRays, Slice};
 
-/// Each lane's own index: the payload that makes [`sorted_hits`] return the hit lanes.
-const LANE_INDEX: [usize; WIDTH] = {
-    let mut lanes = [0; WIDTH];
-    let mut i = 0;
-    while i < WIDTH {
-        lanes[i] = i;
-        i += 1;
+/// The hit children of a node in ascending bound (insertion sort; ties keep lane order), with
+/// their lanes.
+#[inline(always)]
+fn sorted_lanes<R: Real>(mask: u32, t: &[R; WIDTH]) -> ([(R, usize); WIDTH], usize) {
+    let mut hits = [(R::ZERO, 0); WIDTH];
+    let mut k = 0;
+    for i in SetBits(mask) {
+        let e = (t[i], i);
+        let mut j = k;
+        while j > 0 && e.0 < hits[j - 1].0 {
+            hits[j] = hits[j - 1];
+            j -= 1;
+        }
+        hits[j] = e;
+        k += 1;
     }
-    lanes
-};
+    (hits, k)
+}
 
 /// The hit children of a node in lane order, with their lanes.
 #[inline(always)]
@@ -273,7 +281,7 @@ impl Bvh {
             let (mask, t) = frustum.test8(&node.bounds, q.reach());
             let mask = mask & node.lanes();
             let (hits, k) = if Q::NEAREST_FIRST {
-                sorted_hits(mask, &t, &LANE_INDEX)
+                sorted_lanes(mask, &t)
             } else {
                 lane_order(mask, &t)
             };
