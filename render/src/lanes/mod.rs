@@ -20,6 +20,9 @@ use crate::real::Real;
 use std::fmt::Debug;
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
 
+#[cfg(target_arch = "x86_64")]
+#[macro_use]
+mod register;
 mod scalar;
 #[cfg(target_arch = "x86_64")]
 mod x16;
@@ -42,6 +45,24 @@ pub trait Mask: Copy + Debug + BitAnd<Output = Self> + BitOr<Output = Self> {
     /// Bit `i` set when lane `i` is set (`movemask`).
     fn bits(self) -> u32;
 }
+
+/// A mask held as plain bits: `bool` for one lane, `u16` for sixteen (an AVX-512 mask
+/// register, bit `i` lane `i`).
+macro_rules! plain_mask {
+    ($($t:ty),*) => {$(
+        impl Mask for $t {
+            #[inline(always)]
+            fn andnot(self, other: $t) -> $t {
+                !self & other
+            }
+            #[inline(always)]
+            fn bits(self) -> u32 {
+                u32::from(self)
+            }
+        }
+    )*};
+}
+plain_mask!(bool, u16);
 
 /// `N` lanes of [`Lanes::Elem`], with the operations the kernels use. `+`, `-`, `*` and `/` are
 /// the IEEE operations lane by lane.

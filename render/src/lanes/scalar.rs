@@ -1,24 +1,25 @@
 //! One lane: [`Lanes`] for every [`Real`] (`f32`, `f64`) itself, so a kernel written for lanes is also
 //! the scalar test (a comparison answers a `bool`).
 
-use super::{Lanes, Mask};
+use super::Lanes;
 use crate::real::Real;
 
-impl Mask for bool {
-    #[inline(always)]
-    fn andnot(self, other: bool) -> bool {
-        !self & other
-    }
-    #[inline(always)]
-    fn bits(self) -> u32 {
-        u32::from(self)
-    }
+/// The lane operations that are the scalar's own method of the same name.
+macro_rules! by_real {
+    ($($f:ident),*) => {$(
+        #[inline(always)]
+        fn $f(self) -> R {
+            Real::$f(self)
+        }
+    )*};
 }
 
 impl<R: Real> Lanes for R {
     type Elem = R;
     type Mask = bool;
     const N: usize = 1;
+
+    by_real!(sqrt, abs, next_up, next_down);
 
     #[inline(always)]
     fn splat(x: R) -> R {
@@ -42,14 +43,6 @@ impl<R: Real> Lanes for R {
         lanes[0] != R::ZERO
     }
     #[inline(always)]
-    fn sqrt(self) -> R {
-        Real::sqrt(self)
-    }
-    #[inline(always)]
-    fn abs(self) -> R {
-        Real::abs(self)
-    }
-    #[inline(always)]
     fn copysign(self, sign: R) -> R {
         Real::copysign(self, sign)
     }
@@ -63,19 +56,11 @@ impl<R: Real> Lanes for R {
     }
     #[inline(always)]
     fn max_or(self, o: R) -> R {
-        if self > o {
-            self
-        } else {
-            o
-        }
+        Lanes::select(self > o, self, o)
     }
     #[inline(always)]
     fn min_or(self, o: R) -> R {
-        if self < o {
-            self
-        } else {
-            o
-        }
+        Lanes::select(self < o, self, o)
     }
     #[inline(always)]
     fn from_f32s(a: &[f32]) -> R {
@@ -100,14 +85,6 @@ impl<R: Real> Lanes for R {
     #[inline(always)]
     fn eq(self, o: R) -> bool {
         self == o
-    }
-    #[inline(always)]
-    fn next_up(self) -> R {
-        Real::next_up(self)
-    }
-    #[inline(always)]
-    fn next_down(self) -> R {
-        Real::next_down(self)
     }
     #[inline(always)]
     fn select(m: bool, a: R, b: R) -> R {
