@@ -8,8 +8,9 @@
 //! masks. The arithmetic is the one triangle test (`watertight`) and the one sphere test
 //! (`nearest_root`): the `avx512` tier ([`crate::isa`]) runs them on the sixteen rays in one
 //! AVX-512 register, the `avx2` tier in two halves of eight AVX lanes. [`ShearedRays::new`] is `None`
-//! unless the process's tier runs AVX; the portable kernels ([`triangle16_lanes`],
-//! [`sphere16_lanes`]) define the answers and serve the tests.
+//! unless the process's tier runs AVX; the portable kernel ([`portable16`], the scalar test ray
+//! by ray) defines the answers and serves the tests. [`packet16`] takes either primitive
+//! ([`PacketShape`]).
 
 use super::ray::PreparedRay;
 use super::sphere::{nearest_root, Sphere};
@@ -163,65 +164,168 @@ pub fn available() -> bool {
     cfg!(target_arch = "x86_64") && crate::isa::current().avx()
 }
 
-/// The triangle `tri` against the rays of `active` (bits of lanes), ray `i` within `t_max[i]`.
-#[inline]
-pub fn triangle16(
-    rays: &ShearedRays,
-    src: &[PreparedRay<f32>],
-    tri: &[V3<f32>; 3],
+/// A primitive the packet kernels test up to sixteen rays against at once: a triangle (its
+/// three vertices) or a sphere.
+pub trait PacketShape {
+    /// The lane kernel on one group of `L::N` lanes: their hits into `out`, at the group's
+    /// lanes.
+    fn group<L: Lanes<Elem = f32>>(&self, g: LaneGroup, out: &mut PacketHits);
+    /// The scalar test of one ray within `t_max`: its hit's `(t, b1, b2)` (the barycentrics
+    /// zero for a sphere).
+    fn scalar(&self, pr: &PreparedRay<f32>, t_max: f32) -> Option<(f32, f32, f32)>;
+}
+
+/// Lanes `h..h + L::N` of a packet: the rays one call of a lane kernel tests at once.
+#[derive(Clone, Copy)]
+pub struct LaneGroup<'a> {
+    r: &'a ShearedRays,
+    /// The group's first lane.
+    h: usize,
+    /// The group's rays to test (bit `i` is lane `h + i`).
+    live: u32,
+    /// Every lane's bound (the group reads its own).
+    t_max: &'a [f32; LANES],
+}
+
+/// `shape` against the rays of `active`, `L::N` lanes at a time (groups with no ray to test
+/// are skipped).
+#[inline(always)]
+fn in_groups<L: Lanes<Elem = f32>, P: PacketShape>(
+    shape: &P,
+    r: &ShearedRays,
     active: u32,
     t_max: &[f32; LANES],
 ) -> PacketHits {
-    crate::isa::dispatch(TrianglePacket {
+    let mut out = PacketHits::none();
+    let all = u32::MAX >> (32 - L::N);
+    for h in (0..LANES).step_by(L::N) {
+        let live = (active >> h) & all;
+        if live != 0 {
+            shape.group::<L>(LaneGroup { r, h, live, t_max }, &mut out);
+        }
+    }
+    out
+}
+
+impl PacketShape for [V3<f32>; 3] {
+    /// The watertight test (`watertight`) with a ray per lane. The rays' axis permutations may
+    /// differ: each lane picks its vertex components with masks.
+    #[inline(always)]
+    fn group<L: Lanes<Elem = f32>>(&self, g: LaneGroup, out: &mut PacketHits) {
+        let LaneGroup { r, h, live, t_max } = g;
+        let v = [rel(r, h, self[0]), rel(r, h, self[1]), rel(r, h, self[2])];
+        let s = [
+            L::load(&r.s[0][h..]),
+            L::load(&r.s[1][h..]),
+            L::load(&r.s[2][h..]),
+        ];
+        let (t_min, t_max) = (L::load(&r.t_min[h..]), L::load(&t_max[h..]));
+        if let Some(hit) = watertight(v, s, t_min, t_max, live) {
+            out.mask |= hit.mask << h;
+            hit.t.store(&mut out.t[h..]);
+            hit.b1.store(&mut out.b1[h..]);
+            hit.b2.store(&mut out.b2[h..]);
+        }
+    }
+    #[inline(always)]
+    fn scalar(&self, pr: &PreparedRay<f32>, t_max: f32) -> Option<(f32, f32, f32)> {
+        intersect_triangle(pr, self[0], self[1], self[2], t_max).map(|h| (h.t, h.b1, h.b2))
+    }
+}
+
+impl PacketShape for Sphere<f32> {
+    /// The sphere test (`nearest_root`) with a ray per lane.
+    #[inline(always)]
+    fn group<L: Lanes<Elem = f32>>(&self, g: LaneGroup, out: &mut PacketHits) {
+        let LaneGroup { r, h, live, t_max } = g;
+        let c = self.center.to_array();
+        let f = [
+            L::load(&r.o[0][h..]) - L::splat(c[0]),
+            L::load(&r.o[1][h..]) - L::splat(c[1]),
+            L::load(&r.o[2][h..]) - L::splat(c[2]),
+        ];
+        let d = [
+            L::load(&r.d[0][h..]),
+            L::load(&r.d[1][h..]),
+            L::load(&r.d[2][h..]),
+        ];
+        let r2 = L::splat(self.radius * self.radius);
+        let (a, t_min, t_max) = (
+            L::load(&r.a[h..]),
+            L::load(&r.t_min[h..]),
+            L::load(&t_max[h..]),
+        );
+        if let Some(hit) = nearest_root(f, d, a, r2, t_min, t_max, live) {
+            out.mask |= hit.mask << h;
+            hit.t.store(&mut out.t[h..]);
+        }
+    }
+    #[inline(always)]
+    fn scalar(&self, pr: &PreparedRay<f32>, t_max: f32) -> Option<(f32, f32, f32)> {
+        self.intersect(&pr.ray, t_max).map(|t| (t, 0.0, 0.0))
+    }
+}
+
+/// The primitive `shape` against the rays of `active` (bits of lanes), ray `i` within
+/// `t_max[i]`; `rays` are the lanes of `src`.
+#[inline]
+pub fn packet16<P: PacketShape>(
+    rays: &ShearedRays,
+    src: &[PreparedRay<f32>],
+    shape: &P,
+    active: u32,
+    t_max: &[f32; LANES],
+) -> PacketHits {
+    crate::isa::dispatch(ShapePacket {
         rays,
         src,
-        tri,
+        shape,
         active,
         t_max,
     })
 }
 
-/// [`triangle16`] with the code of `tier`, or `None` when this CPU does not run `tier` (for the
+/// [`packet16`] with the code of `tier`, or `None` when this CPU does not run `tier` (for the
 /// tests that compare the tiers).
-pub fn triangle16_on(
+pub fn packet16_on<P: PacketShape>(
     tier: Isa,
     rays: &ShearedRays,
     src: &[PreparedRay<f32>],
-    tri: &[V3<f32>; 3],
+    shape: &P,
     active: u32,
     t_max: &[f32; LANES],
 ) -> Option<PacketHits> {
     crate::isa::dispatch_on(
         tier,
-        TrianglePacket {
+        ShapePacket {
             rays,
             src,
-            tri,
+            shape,
             active,
             t_max,
         },
     )
 }
 
-/// A packet's rays against one triangle: the kernel [`crate::isa::dispatch`] runs.
-struct TrianglePacket<'a> {
+/// A packet's rays against one primitive: the kernel [`crate::isa::dispatch`] runs.
+struct ShapePacket<'a, P> {
     rays: &'a ShearedRays,
     src: &'a [PreparedRay<f32>],
-    tri: &'a [V3<f32>; 3],
+    shape: &'a P,
     active: u32,
     t_max: &'a [f32; LANES],
 }
 
-impl Kernel for TrianglePacket<'_> {
+impl<P: PacketShape> Kernel for ShapePacket<'_, P> {
     type Output = PacketHits;
 
     /// Sixteen lanes on `avx512`, two halves of eight on `avx2`, the portable loop otherwise.
     #[inline(always)]
     fn run<T: Tier>(self) -> PacketHits {
-        let TrianglePacket {
+        let ShapePacket {
             rays,
             src,
-            tri,
+            shape,
             active,
             t_max,
         } = self;
@@ -229,14 +333,14 @@ impl Kernel for TrianglePacket<'_> {
         {
             use crate::lanes::{X16, X8};
             if T::ISA.avx512() {
-                return triangle_lanes::<X16>(rays, tri, active, t_max);
+                return in_groups::<X16, P>(shape, rays, active, t_max);
             }
             if T::ISA.avx() {
-                return triangle_lanes::<X8>(rays, tri, active, t_max);
+                return in_groups::<X8, P>(shape, rays, active, t_max);
             }
         }
         let _ = rays;
-        triangle16_lanes(src, tri, active, t_max)
+        portable16(src, shape, active, t_max)
     }
 }
 
@@ -260,190 +364,21 @@ fn pick<L: Lanes<Elem = f32>>(r: &ShearedRays, k: usize, h: usize, p: V3<f32>) -
     L::select(is0, L::splat(p.x), yz)
 }
 
-/// The watertight test (`watertight`) with a ray per lane, `L::N` rays at a time. The rays'
-/// axis permutations may differ: each lane picks its vertex components with masks.
-#[inline(always)]
-fn triangle_lanes<L: Lanes<Elem = f32>>(
-    r: &ShearedRays,
-    tri: &[V3<f32>; 3],
-    active: u32,
-    t_max: &[f32; LANES],
-) -> PacketHits {
-    let mut out = PacketHits::none();
-    let all = u32::MAX >> (32 - L::N);
-    for h in (0..LANES).step_by(L::N) {
-        let live = (active >> h) & all;
-        if live == 0 {
-            continue;
-        }
-        let v = [rel(r, h, tri[0]), rel(r, h, tri[1]), rel(r, h, tri[2])];
-        let s = [
-            L::load(&r.s[0][h..]),
-            L::load(&r.s[1][h..]),
-            L::load(&r.s[2][h..]),
-        ];
-        let (t_min, t_max) = (L::load(&r.t_min[h..]), L::load(&t_max[h..]));
-        if let Some(hit) = watertight(v, s, t_min, t_max, live) {
-            out.mask |= hit.mask << h;
-            hit.t.store(&mut out.t[h..]);
-            hit.b1.store(&mut out.b1[h..]);
-            hit.b2.store(&mut out.b2[h..]);
-        }
-    }
-    out
-}
-
-/// The sphere `s` against the rays of `active`, ray `i` within `t_max[i]`.
-#[inline]
-pub fn sphere16(
-    rays: &ShearedRays,
+/// The portable kernel: the scalar test ray by ray.
+pub fn portable16<P: PacketShape>(
     src: &[PreparedRay<f32>],
-    s: &Sphere<f32>,
-    active: u32,
-    t_max: &[f32; LANES],
-) -> PacketHits {
-    crate::isa::dispatch(SpherePacket {
-        rays,
-        src,
-        s,
-        active,
-        t_max,
-    })
-}
-
-/// [`sphere16`] with the code of `tier`, or `None` when this CPU does not run `tier` (for the
-/// tests that compare the tiers).
-pub fn sphere16_on(
-    tier: Isa,
-    rays: &ShearedRays,
-    src: &[PreparedRay<f32>],
-    s: &Sphere<f32>,
-    active: u32,
-    t_max: &[f32; LANES],
-) -> Option<PacketHits> {
-    crate::isa::dispatch_on(
-        tier,
-        SpherePacket {
-            rays,
-            src,
-            s,
-            active,
-            t_max,
-        },
-    )
-}
-
-/// A packet's rays against one sphere: the kernel [`crate::isa::dispatch`] runs.
-struct SpherePacket<'a> {
-    rays: &'a ShearedRays,
-    src: &'a [PreparedRay<f32>],
-    s: &'a Sphere<f32>,
-    active: u32,
-    t_max: &'a [f32; LANES],
-}
-
-impl Kernel for SpherePacket<'_> {
-    type Output = PacketHits;
-
-    /// Sixteen lanes on `avx512`, two halves of eight on `avx2`, the portable loop otherwise.
-    #[inline(always)]
-    fn run<T: Tier>(self) -> PacketHits {
-        let SpherePacket {
-            rays,
-            src,
-            s,
-            active,
-            t_max,
-        } = self;
-        #[cfg(target_arch = "x86_64")]
-        {
-            use crate::lanes::{X16, X8};
-            if T::ISA.avx512() {
-                return sphere_lanes::<X16>(rays, s, active, t_max);
-            }
-            if T::ISA.avx() {
-                return sphere_lanes::<X8>(rays, s, active, t_max);
-            }
-        }
-        let _ = rays;
-        sphere16_lanes(src, s, active, t_max)
-    }
-}
-
-/// The sphere test (`nearest_root`) with a ray per lane, `L::N` rays at a time.
-#[inline(always)]
-fn sphere_lanes<L: Lanes<Elem = f32>>(
-    r: &ShearedRays,
-    s: &Sphere<f32>,
-    active: u32,
-    t_max: &[f32; LANES],
-) -> PacketHits {
-    let mut out = PacketHits::none();
-    let all = u32::MAX >> (32 - L::N);
-    let c = s.center.to_array();
-    for h in (0..LANES).step_by(L::N) {
-        let live = (active >> h) & all;
-        if live == 0 {
-            continue;
-        }
-        let f = [
-            L::load(&r.o[0][h..]) - L::splat(c[0]),
-            L::load(&r.o[1][h..]) - L::splat(c[1]),
-            L::load(&r.o[2][h..]) - L::splat(c[2]),
-        ];
-        let d = [
-            L::load(&r.d[0][h..]),
-            L::load(&r.d[1][h..]),
-            L::load(&r.d[2][h..]),
-        ];
-        let r2 = L::splat(s.radius * s.radius);
-        let (a, t_min, t_max) = (
-            L::load(&r.a[h..]),
-            L::load(&r.t_min[h..]),
-            L::load(&t_max[h..]),
-        );
-        if let Some(hit) = nearest_root(f, d, a, r2, t_min, t_max, live) {
-            out.mask |= hit.mask << h;
-            hit.t.store(&mut out.t[h..]);
-        }
-    }
-    out
-}
-
-/// The portable triangle kernel: the scalar test ray by ray.
-pub fn triangle16_lanes(
-    src: &[PreparedRay<f32>],
-    tri: &[V3<f32>; 3],
+    shape: &P,
     active: u32,
     t_max: &[f32; LANES],
 ) -> PacketHits {
     let mut h = PacketHits::none();
     for (i, pr) in src.iter().enumerate().take(LANES) {
         if active & (1 << i) != 0 {
-            if let Some(hit) = intersect_triangle(pr, tri[0], tri[1], tri[2], t_max[i]) {
-                h.mask |= 1 << i;
-                h.t[i] = hit.t;
-                h.b1[i] = hit.b1;
-                h.b2[i] = hit.b2;
-            }
-        }
-    }
-    h
-}
-
-/// The portable sphere kernel: the scalar test ray by ray.
-pub fn sphere16_lanes(
-    src: &[PreparedRay<f32>],
-    s: &Sphere<f32>,
-    active: u32,
-    t_max: &[f32; LANES],
-) -> PacketHits {
-    let mut h = PacketHits::none();
-    for (i, pr) in src.iter().enumerate().take(LANES) {
-        if active & (1 << i) != 0 {
-            if let Some(t) = s.intersect(&pr.ray, t_max[i]) {
+            if let Some((t, b1, b2)) = shape.scalar(pr, t_max[i]) {
                 h.mask |= 1 << i;
                 h.t[i] = t;
+                h.b1[i] = b1;
+                h.b2[i] = b2;
             }
         }
     }
@@ -468,12 +403,12 @@ mod tests {
     ) -> Vec<(&'static str, PacketHits, PacketHits)> {
         let mut out = vec![(
             "dispatched",
-            triangle16(lanes, rays, tri, active, t_max),
-            sphere16(lanes, rays, s, active, t_max),
+            packet16(lanes, rays, tri, active, t_max),
+            packet16(lanes, rays, s, active, t_max),
         )];
         for tier in Isa::ALL {
-            let tri = triangle16_on(tier, lanes, rays, tri, active, t_max);
-            let sphere = sphere16_on(tier, lanes, rays, s, active, t_max);
+            let tri = packet16_on(tier, lanes, rays, tri, active, t_max);
+            let sphere = packet16_on(tier, lanes, rays, s, active, t_max);
             if let (Some(tri), Some(sphere)) = (tri, sphere) {
                 out.push((tier.name(), tri, sphere));
             }
@@ -490,12 +425,12 @@ mod tests {
         t_max: &[f32; LANES],
     ) -> u32 {
         let lanes = ShearedRays::lanes(rays);
-        let want = triangle16_lanes(rays, tri, active, t_max);
+        let want = portable16(rays, tri, active, t_max);
         let s = Sphere {
             center: tri[0],
             radius: (tri[1] - tri[0]).length().max(1e-3),
         };
-        let want_s = sphere16_lanes(rays, &s, active, t_max);
+        let want_s = portable16(rays, &s, active, t_max);
         for (kernel, got, got_s) in kernels(&lanes, rays, tri, &s, active, t_max) {
             for (got, want) in [(got, want), (got_s, want_s)] {
                 assert_eq!(

@@ -108,8 +108,8 @@ fn run(
     t_max: &[f32; LANES],
 ) -> packet_prims::PacketHits {
     match &scene.prims[p as usize] {
-        Prim::Triangle(v) => packet_prims::triangle16(lanes, rays, v, active, t_max),
-        Prim::Sphere(s) => packet_prims::sphere16(lanes, rays, s, active, t_max),
+        Prim::Triangle(v) => packet_prims::packet16(lanes, rays, v, active, t_max),
+        Prim::Sphere(s) => packet_prims::packet16(lanes, rays, s, active, t_max),
         Prim::Cone(_) => unreachable!("leaf kind checked"),
     }
 }
