@@ -223,6 +223,7 @@ fn kernel<L: Lanes<Elem = f32>, S: Source>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::test_coords::point;
     use crate::vec3::V3;
     use proptest::prelude::*;
 
@@ -249,25 +250,16 @@ mod tests {
         want.mask
     }
 
-    fn coord() -> impl Strategy<Value = f32> {
-        prop_oneof![
-            4 => -4.0f32..4.0,
-            1 => Just(0.0f32),
-            1 => Just(1.0f32),
-            1 => -3.0e4f32..3.0e4,
-        ]
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(4000))]
         /// Random spheres (some around the origin, so rays start inside; some touching the
         /// ray), axis-parallel and tangent rays: the kernels agree lane for lane.
         #[test]
         fn kernels_agree_on_random_spheres(
-            centers in proptest::array::uniform4(proptest::array::uniform3(coord())),
+            centers in proptest::array::uniform4(point()),
             radii in proptest::array::uniform4(prop_oneof![0.01f32..3.0, Just(1.0f32)]),
-            o in proptest::array::uniform3(coord()),
-            d in proptest::array::uniform3(coord()),
+            o in point(),
+            d in point(),
             tangent in 0usize..5,
             used in 1usize..=4,
             t_max in prop_oneof![Just(f32::INFINITY), 0.0f32..50.0],

@@ -260,6 +260,7 @@ fn kernel<L: Lanes<Elem = f32>, const KX: usize, const KY: usize, const KZ: usiz
 mod tests {
     use super::*;
     use crate::geometry::ray::Ray;
+    use crate::geometry::test_coords::point;
     use proptest::prelude::*;
 
     fn pr(o: [f32; 3], d: [f32; 3]) -> PreparedRay<f32> {
@@ -355,31 +356,16 @@ mod tests {
         );
     }
 
-    fn coord() -> impl Strategy<Value = f32> {
-        prop_oneof![
-            4 => -4.0f32..4.0,
-            1 => Just(0.0f32),
-            1 => Just(1.0f32),
-            1 => Just(-1.0f32),
-            1 => -1.0e-3f32..1.0e-3,
-            1 => -3.0e4f32..3.0e4,
-        ]
-    }
-
-    fn v3() -> impl Strategy<Value = [f32; 3]> {
-        proptest::array::uniform3(coord())
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(4000))]
         /// Random triangles sharing vertices (so rays through a shared corner or edge come up),
         /// axis-parallel rays and rays aimed at a vertex: the kernels agree lane for lane.
         #[test]
         fn kernels_agree_on_random_triangles(
-            verts in proptest::array::uniform6(v3()),
+            verts in proptest::array::uniform6(point()),
             pick in proptest::array::uniform12(0usize..6),
-            o in v3(),
-            d in v3(),
+            o in point(),
+            d in point(),
             aim in 0usize..7,
             used in 1usize..=4,
             t_max in prop_oneof![Just(f32::INFINITY), 0.0f32..50.0],

@@ -23,6 +23,8 @@ pub mod ray;
 pub mod ray_packet;
 pub mod slab;
 pub mod sphere;
+#[cfg(test)]
+mod test_coords;
 pub mod triangle;
 pub mod triangulate;
 

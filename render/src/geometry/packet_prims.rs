@@ -389,6 +389,7 @@ pub fn portable16<P: PacketShape>(
 mod tests {
     use super::*;
     use crate::geometry::ray::Ray;
+    use crate::geometry::test_coords::point;
     use proptest::prelude::*;
 
     /// The answers of every kernel this CPU runs, the process's tier aside: the dispatched
@@ -500,29 +501,15 @@ mod tests {
         assert!(hits > 100, "{hits}");
     }
 
-    fn coord() -> impl Strategy<Value = f32> {
-        prop_oneof![
-            4 => -4.0f32..4.0,
-            1 => Just(0.0f32),
-            1 => Just(1.0f32),
-            1 => -1.0e-3f32..1.0e-3,
-            1 => -3.0e4f32..3.0e4,
-        ]
-    }
-
-    fn v3() -> impl Strategy<Value = [f32; 3]> {
-        proptest::array::uniform3(coord())
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2000))]
         /// Random triangles and spheres against sixteen random rays (each with its own origin,
         /// direction, axis permutation and bound; some aimed at a vertex).
         #[test]
         fn kernels_agree_on_random_rays(
-            verts in proptest::array::uniform3(v3()),
-            origins in proptest::collection::vec(v3(), LANES),
-            dirs in proptest::collection::vec(v3(), LANES),
+            verts in proptest::array::uniform3(point()),
+            origins in proptest::collection::vec(point(), LANES),
+            dirs in proptest::collection::vec(point(), LANES),
             aims in proptest::collection::vec(0usize..5, LANES),
             bounds in proptest::collection::vec(prop_oneof![Just(f32::INFINITY), 0.0f32..50.0], LANES),
             n in 1usize..=LANES,

@@ -240,6 +240,7 @@ fn finish<L: Lanes<Elem = f32>>((hit, t): (L::Mask, L), used: usize) -> Distance
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::test_coords::point;
     use crate::vec3::V3;
     use proptest::prelude::*;
 
@@ -295,15 +296,6 @@ mod tests {
         }
     }
 
-    fn coord() -> impl Strategy<Value = f32> {
-        prop_oneof![
-            4 => -4.0f32..4.0,
-            1 => Just(0.0f32),
-            1 => Just(1.0f32),
-            1 => -3.0e4f32..3.0e4,
-        ]
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(4000))]
         /// Random cones, cylinders and true cones (some around the ray's origin, some far),
@@ -312,11 +304,11 @@ mod tests {
         #[test]
         fn kernels_agree_on_random_cones(
             ends in proptest::array::uniform4(proptest::array::uniform2(
-                proptest::array::uniform3(coord()))),
+                point())),
             radii in proptest::array::uniform4(proptest::array::uniform2(
                 prop_oneof![0.01f32..3.0, Just(1.0f32), Just(0.0f32)])),
-            o in proptest::array::uniform3(coord()),
-            d in proptest::array::uniform3(coord()),
+            o in point(),
+            d in point(),
             aim in 0usize..13,
             used in 1usize..=4,
             t_max in prop_oneof![Just(f32::INFINITY), 0.0f32..50.0],
@@ -341,10 +333,10 @@ mod tests {
         /// `t_max`: the one-cone kernels agree lane for lane.
         #[test]
         fn ray_kernels_agree_on_random_rays(
-            ends in proptest::array::uniform2(proptest::array::uniform3(coord())),
+            ends in proptest::array::uniform2(point()),
             radii in proptest::array::uniform2(prop_oneof![0.01f32..3.0, Just(1.0f32), Just(0.0f32)]),
-            o in proptest::array::uniform4(proptest::array::uniform3(coord())),
-            d in proptest::array::uniform4(proptest::array::uniform3(coord())),
+            o in proptest::array::uniform4(point()),
+            d in proptest::array::uniform4(point()),
             aim in proptest::array::uniform4(0usize..5),
             used in 1usize..=4,
             t_max in proptest::array::uniform4(prop_oneof![Just(f32::INFINITY), 0.0f32..50.0]),

@@ -2,6 +2,7 @@
 //! distance, axis-parallel rays and rays in a box face included.
 
 use super::*;
+use crate::geometry::test_coords::point;
 use crate::geometry::Ray;
 use crate::vec3::V3;
 use proptest::prelude::*;
@@ -15,25 +16,16 @@ fn slab_ray<R: Real>(pr: &PreparedRay<R>) -> NodeRay<R> {
     }
 }
 
-fn coord() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        4 => -10.0f32..10.0,
-        1 => Just(0.0f32),
-        1 => Just(1.0f32),
-        1 => Just(-1.0f32),
-    ]
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(2000))]
     /// Every tier's node kernel and the scalar slab test agree on every lane — mask bit and
     /// entry distance — axis-parallel rays and rays in a box face included.
     #[test]
     fn every_node_kernel_agrees_with_the_scalar_test(
-        o in proptest::array::uniform3(coord()),
-        d in proptest::array::uniform3(coord()),
+        o in point(),
+        d in point(),
         corners in proptest::collection::vec(
-            (proptest::array::uniform3(coord()), proptest::array::uniform3(0.0f32..5.0)),
+            (point(), proptest::array::uniform3(0.0f32..5.0)),
             0..=WIDTH),
         t_max in prop_oneof![Just(f32::INFINITY), 0.0f32..30.0],
     ) {
@@ -70,11 +62,11 @@ proptest! {
     #[test]
     fn every_packet_kernel_agrees_with_the_scalar_test(
         rays in proptest::collection::vec(
-            (proptest::array::uniform3(coord()), proptest::array::uniform3(coord()),
+            (point(), point(),
              prop_oneof![Just(f32::INFINITY), 0.0f32..30.0]),
             1..=LANES),
         dir_signs in proptest::array::uniform3(any::<bool>()),
-        lo in proptest::array::uniform3(coord()),
+        lo in point(),
         ext in proptest::array::uniform3(0.0f32..5.0),
     ) {
         // One set of direction signs for the packet: flip components to match.
