@@ -108,16 +108,6 @@ impl Aabb {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::ray::Ray;
-
-    fn pr(o: [f32; 3], d: [f32; 3]) -> PreparedRay<f32> {
-        PreparedRay::new(Ray {
-            o: V3::from_array(o),
-            d: V3::from_array(d),
-            t_min: 0.0,
-            t_max: f32::INFINITY,
-        })
-    }
 
     #[test]
     fn axis_parallel_rays() {
@@ -126,17 +116,29 @@ mod tests {
             max: [1.0; 3],
         };
         assert!(b
-            .hit(&pr([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .hit(
+                &PreparedRay::unbounded([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]),
+                f32::INFINITY
+            )
             .is_some());
         assert!(b
-            .hit(&pr([1.5, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .hit(
+                &PreparedRay::unbounded([1.5, 0.5, -1.0], [0.0, 0.0, 1.0]),
+                f32::INFINITY
+            )
             .is_none());
         // Lying exactly in the box's face plane: counted as a hit (conservative).
         assert!(b
-            .hit(&pr([0.0, 0.5, -1.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .hit(
+                &PreparedRay::unbounded([0.0, 0.5, -1.0], [0.0, 0.0, 1.0]),
+                f32::INFINITY
+            )
             .is_some());
         assert!(b
-            .hit(&pr([0.5, 0.5, 2.0], [0.0, 0.0, 1.0]), f32::INFINITY)
+            .hit(
+                &PreparedRay::unbounded([0.5, 0.5, 2.0], [0.0, 0.0, 1.0]),
+                f32::INFINITY
+            )
             .is_none());
     }
 
@@ -150,12 +152,16 @@ mod tests {
         };
         for d in [[-0.0, -0.0, -1.0], [0.0, -0.0, -1.0], [-0.0, 0.0, -1.0]] {
             assert!(
-                b.hit(&pr([0.3, 0.2, 5.0], d), f32::INFINITY).is_some(),
+                b.hit(&PreparedRay::unbounded([0.3, 0.2, 5.0], d), f32::INFINITY)
+                    .is_some(),
                 "{d:?}"
             );
         }
         assert!(b
-            .hit(&pr([0.3, 0.2, -5.0], [-0.0, -0.0, 1.0]), f32::INFINITY)
+            .hit(
+                &PreparedRay::unbounded([0.3, 0.2, -5.0], [-0.0, -0.0, 1.0]),
+                f32::INFINITY
+            )
             .is_some());
     }
 

@@ -11,6 +11,17 @@ pub struct DistanceHits<R> {
     pub t: [R; 4],
 }
 
+#[cfg(test)]
+impl DistanceHits<f32> {
+    /// The lanes hit, each with the bits of its distance: what two kernels must agree on.
+    pub(crate) fn hit_bits(&self) -> Vec<(usize, u32)> {
+        (0..4)
+            .filter(|i| self.mask & (1 << i) != 0)
+            .map(|i| (i, self.t[i].to_bits()))
+            .collect()
+    }
+}
+
 impl<R: Copy + Default> DistanceHits<R> {
     /// The answers of the portable lane loops: lane `i`'s scalar test gave `tests[i]`.
     #[inline(always)]

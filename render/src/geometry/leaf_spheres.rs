@@ -9,9 +9,9 @@
 //! that enter the leaf share one gather ([`intersect4`] on [`LeafSpheres`]).
 
 use super::distance_hits::DistanceHits;
+use super::four_lanes::{four, FourLanes, FourOnRay};
 use super::ray::Ray;
 use super::sphere::{nearest_root, Sphere};
-use crate::isa::{Isa, Kernel, Tier};
 use crate::lanes::Lanes;
 use crate::real::Real;
 
@@ -84,60 +84,39 @@ pub fn intersect4<S: Source>(
     used: usize,
     t_max: f32,
 ) -> DistanceHits<f32> {
-    crate::isa::dispatch(Four {
-        ray,
-        src,
-        used,
-        t_max,
-    })
+    four(FourOnRay::new(ray, src, used, t_max))
 }
 
-/// [`intersect4`] with the code of `tier`, or `None`
-/// when this CPU does not run `tier` (for the tests that compare the tiers).
-pub fn intersect4_on<S: Source>(
-    tier: Isa,
-    ray: &Ray<f32>,
-    src: &S,
-    used: usize,
-    t_max: f32,
-) -> Option<DistanceHits<f32>> {
-    crate::isa::dispatch_on(
-        tier,
-        Four {
-            ray,
-            src,
-            used,
-            t_max,
-        },
-    )
-}
-
-/// One ray against the four spheres of `src`: the kernel [`crate::isa::dispatch`] runs.
-struct Four<'a, S> {
-    ray: &'a Ray<f32>,
-    src: &'a S,
-    used: usize,
-    t_max: f32,
-}
-
-impl<S: Source> Kernel for Four<'_, S> {
+impl<S: Source> FourLanes for FourOnRay<'_, Ray<f32>, S> {
     type Output = DistanceHits<f32>;
 
-    /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
-    /// portable lane loop on `scalar` and on other targets.
+    /// The sphere test (`nearest_root`) with a sphere per lane.
     #[inline(always)]
-    fn run<T: Tier>(self) -> DistanceHits<f32> {
-        let Four {
-            ray,
-            src,
-            used,
-            t_max,
-        } = self;
-        #[cfg(target_arch = "x86_64")]
-        if T::ISA.sse2() {
-            return kernel::<crate::lanes::X4, S>(ray, src, used, t_max);
+    fn lanes<L: Lanes<Elem = f32>>(self) -> DistanceHits<f32> {
+        let (ray, used) = (self.ray, self.used);
+        let [cx, cy, cz, r] = self.src.lanes::<L>();
+        let f = [
+            L::splat(ray.o.x) - cx,
+            L::splat(ray.o.y) - cy,
+            L::splat(ray.o.z) - cz,
+        ];
+        let d = [L::splat(ray.d.x), L::splat(ray.d.y), L::splat(ray.d.z)];
+        let a = L::splat(ray.d.length_squared());
+        let live = (1u32 << used) - 1;
+        let mut out = DistanceHits {
+            mask: 0,
+            t: [0.0; LANES],
+        };
+        let (t_min, t_max) = (L::splat(ray.t_min), L::splat(self.t_max));
+        if let Some(h) = nearest_root(f, d, a, r * r, t_min, t_max, live) {
+            out.mask = h.mask;
+            h.t.store(&mut out.t);
         }
-        src.portable(ray, used, t_max)
+        out
+    }
+
+    fn portable(self) -> DistanceHits<f32> {
+        self.src.portable(self.ray, self.used, self.t_max)
     }
 }
 
@@ -191,38 +170,10 @@ impl Source for LeafSpheres {
     }
 }
 
-/// The sphere test (`nearest_root`) with a sphere per lane.
-#[inline(always)]
-fn kernel<L: Lanes<Elem = f32>, S: Source>(
-    ray: &Ray<f32>,
-    spheres: &S,
-    used: usize,
-    t_max: f32,
-) -> DistanceHits<f32> {
-    let [cx, cy, cz, r] = spheres.lanes::<L>();
-    let f = [
-        L::splat(ray.o.x) - cx,
-        L::splat(ray.o.y) - cy,
-        L::splat(ray.o.z) - cz,
-    ];
-    let d = [L::splat(ray.d.x), L::splat(ray.d.y), L::splat(ray.d.z)];
-    let a = L::splat(ray.d.length_squared());
-    let live = (1u32 << used) - 1;
-    let mut out = DistanceHits {
-        mask: 0,
-        t: [0.0; LANES],
-    };
-    let (t_min, t_max) = (L::splat(ray.t_min), L::splat(t_max));
-    if let Some(h) = nearest_root(f, d, a, r * r, t_min, t_max, live) {
-        out.mask = h.mask;
-        h.t.store(&mut out.t);
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::four_lanes::every_tier;
     use crate::geometry::test_coords::point;
     use crate::vec3::V3;
     use proptest::prelude::*;
@@ -231,21 +182,14 @@ mod tests {
     fn check(ray: &Ray<f32>, s: &Spheres4<'_, f32>, used: usize, t_max: f32) -> u32 {
         let want = intersect4_lanes(ray, s, used, t_max);
         let lanes = LeafSpheres::gather(s);
-        let mut kernels = vec![
-            intersect4(ray, s, used, t_max),
-            intersect4(ray, &lanes, used, t_max),
-        ];
-        for tier in Isa::ALL {
-            kernels.extend(intersect4_on(tier, ray, s, used, t_max));
-            kernels.extend(intersect4_on(tier, ray, &lanes, used, t_max));
-        }
+        let mut kernels = every_tier(FourOnRay::new(ray, s, used, t_max));
+        kernels.extend(every_tier(FourOnRay::new(ray, &lanes, used, t_max)));
         for got in kernels {
-            assert_eq!(got.mask, want.mask, "{ray:?} used {used} t_max {t_max}");
-            for i in 0..LANES {
-                if want.mask & (1 << i) != 0 {
-                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "lane {i}");
-                }
-            }
+            assert_eq!(
+                got.hit_bits(),
+                want.hit_bits(),
+                "{ray:?} used {used} t_max {t_max}"
+            );
         }
         want.mask
     }

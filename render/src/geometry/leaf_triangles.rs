@@ -11,9 +11,9 @@
 //! [`LeafTriangles`] holds a leaf's triangles already gathered into lanes, so the rays of a packet
 //! that enter the leaf share one gather ([`intersect4`] on [`LeafTriangles`]).
 
+use super::four_lanes::{four, FourLanes, FourOnRay};
 use super::ray::PreparedRay;
 use super::triangle::{intersect_triangle, watertight};
-use crate::isa::{Isa, Kernel, Tier};
 use crate::lanes::Lanes;
 use crate::real::Real;
 use crate::vec3::V3;
@@ -33,6 +33,18 @@ pub struct TriangleHits<R> {
     pub b1: [R; LANES],
     /// Barycentrics of vertex 2.
     pub b2: [R; LANES],
+}
+
+#[cfg(test)]
+impl TriangleHits<f32> {
+    /// The lanes hit, each with the bits of its distance and barycentrics: what two kernels
+    /// must agree on.
+    pub(crate) fn hit_bits(&self) -> Vec<(usize, [u32; 3])> {
+        (0..LANES)
+            .filter(|i| self.mask & (1 << i) != 0)
+            .map(|i| (i, [self.t[i], self.b1[i], self.b2[i]].map(f32::to_bits)))
+            .collect()
+    }
 }
 
 /// The triangles of the lanes (unused lanes repeat a used one; `used` says how many count).
@@ -104,54 +116,31 @@ pub fn intersect4<S: Source>(
     used: usize,
     t_max: f32,
 ) -> TriangleHits<f32> {
-    crate::isa::dispatch(Four {
-        pr,
-        src,
-        used,
-        t_max,
-    })
+    four(FourOnRay::new(pr, src, used, t_max))
 }
 
-/// [`intersect4`] with the code of `tier`, or `None`
-/// when this CPU does not run `tier` (for the tests that compare the tiers).
-pub fn intersect4_on<S: Source>(
-    tier: Isa,
-    pr: &PreparedRay<f32>,
-    src: &S,
-    used: usize,
-    t_max: f32,
-) -> Option<TriangleHits<f32>> {
-    crate::isa::dispatch_on(
-        tier,
-        Four {
-            pr,
-            src,
-            used,
-            t_max,
-        },
-    )
-}
-
-/// One ray against the four triangles of `src`: the kernel [`crate::isa::dispatch`] runs.
-struct Four<'a, S> {
-    pr: &'a PreparedRay<f32>,
-    src: &'a S,
-    used: usize,
-    t_max: f32,
-}
-
-impl<S: Source> Kernel for Four<'_, S> {
+impl<S: Source> FourLanes for FourOnRay<'_, PreparedRay<f32>, S> {
     type Output = TriangleHits<f32>;
 
-    /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
-    /// portable lane loop on `scalar` and on other targets.
+    /// Matches the ray's axis permutation once, like the scalar test, so the gathers use
+    /// constant component indices.
     #[inline(always)]
-    fn run<T: Tier>(self) -> TriangleHits<f32> {
-        #[cfg(target_arch = "x86_64")]
-        if T::ISA.sse2() {
-            return permuted::<crate::lanes::X4, S>(self.pr, self.src, self.used, self.t_max);
+    fn lanes<L: Lanes<Elem = f32>>(self) -> TriangleHits<f32> {
+        let (pr, tris, used, t_max) = (self.ray, self.src, self.used, self.t_max);
+        match (pr.kx, pr.ky, pr.kz) {
+            (1, 2, 0) => kernel::<L, 1, 2, 0, S>(pr, tris, used, t_max),
+            (2, 1, 0) => kernel::<L, 2, 1, 0, S>(pr, tris, used, t_max),
+            (2, 0, 1) => kernel::<L, 2, 0, 1, S>(pr, tris, used, t_max),
+            (0, 2, 1) => kernel::<L, 0, 2, 1, S>(pr, tris, used, t_max),
+            (0, 1, 2) => kernel::<L, 0, 1, 2, S>(pr, tris, used, t_max),
+            (1, 0, 2) => kernel::<L, 1, 0, 2, S>(pr, tris, used, t_max),
+            // `PreparedRay::new` only makes the six permutations above.
+            _ => tris.lanes(pr, used, t_max),
         }
-        self.src.lanes(self.pr, self.used, self.t_max)
+    }
+
+    fn portable(self) -> TriangleHits<f32> {
+        self.src.lanes(self.ray, self.used, self.t_max)
     }
 }
 
@@ -187,27 +176,6 @@ impl Source for LeafTriangles {
     fn lanes(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> TriangleHits<f32> {
         let t = [0, 1, 2, 3].map(|i| self.triangle(i));
         intersect4_lanes(pr, &[&t[0], &t[1], &t[2], &t[3]], used, t_max)
-    }
-}
-
-/// Matches the ray's axis permutation once, like the scalar test, so the gathers use constant
-/// component indices.
-#[inline(always)]
-fn permuted<L: Lanes<Elem = f32>, S: Source>(
-    pr: &PreparedRay<f32>,
-    tris: &S,
-    used: usize,
-    t_max: f32,
-) -> TriangleHits<f32> {
-    match (pr.kx, pr.ky, pr.kz) {
-        (1, 2, 0) => kernel::<L, 1, 2, 0, S>(pr, tris, used, t_max),
-        (2, 1, 0) => kernel::<L, 2, 1, 0, S>(pr, tris, used, t_max),
-        (2, 0, 1) => kernel::<L, 2, 0, 1, S>(pr, tris, used, t_max),
-        (0, 2, 1) => kernel::<L, 0, 2, 1, S>(pr, tris, used, t_max),
-        (0, 1, 2) => kernel::<L, 0, 1, 2, S>(pr, tris, used, t_max),
-        (1, 0, 2) => kernel::<L, 1, 0, 2, S>(pr, tris, used, t_max),
-        // `PreparedRay::new` only makes the six permutations above.
-        _ => tris.lanes(pr, used, t_max),
     }
 }
 
@@ -259,41 +227,24 @@ fn kernel<L: Lanes<Elem = f32>, const KX: usize, const KY: usize, const KZ: usiz
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::four_lanes::every_tier;
     use crate::geometry::ray::Ray;
     use crate::geometry::test_coords::point;
     use proptest::prelude::*;
-
-    fn pr(o: [f32; 3], d: [f32; 3]) -> PreparedRay<f32> {
-        PreparedRay::new(Ray {
-            o: V3::from_array(o),
-            d: V3::from_array(d).normalize(),
-            t_min: 0.0,
-            t_max: f32::INFINITY,
-        })
-    }
 
     /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit;
     /// returns the lanes hit.
     fn check(r: &PreparedRay<f32>, tris: &Tris4<'_, f32>, used: usize, t_max: f32) -> u32 {
         let want = intersect4_lanes(r, tris, used, t_max);
         let lanes = LeafTriangles::gather(tris);
-        let mut kernels = vec![
-            intersect4(r, tris, used, t_max),
-            intersect4(r, &lanes, used, t_max),
-        ];
-        for tier in Isa::ALL {
-            kernels.extend(intersect4_on(tier, r, tris, used, t_max));
-            kernels.extend(intersect4_on(tier, r, &lanes, used, t_max));
-        }
+        let mut kernels = every_tier(FourOnRay::new(r, tris, used, t_max));
+        kernels.extend(every_tier(FourOnRay::new(r, &lanes, used, t_max)));
         for got in kernels {
-            assert_eq!(got.mask, want.mask, "{r:?} used {used} t_max {t_max}");
-            for i in 0..LANES {
-                if want.mask & (1 << i) != 0 {
-                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits());
-                    assert_eq!(got.b1[i].to_bits(), want.b1[i].to_bits());
-                    assert_eq!(got.b2[i].to_bits(), want.b2[i].to_bits());
-                }
-            }
+            assert_eq!(
+                got.hit_bits(),
+                want.hit_bits(),
+                "{r:?} used {used} t_max {t_max}"
+            );
         }
         want.mask
     }
@@ -338,7 +289,7 @@ mod tests {
         let (mut hits, mut edge_hits) = (0, 0);
         for o in origins {
             for d in dirs {
-                let r = pr(o, d);
+                let r = PreparedRay::unbounded(o, d);
                 for used in 1..=LANES {
                     for t_max in [f32::INFINITY, 2.0, 1.0, 0.5] {
                         let m = check(&r, &tris, used, t_max);

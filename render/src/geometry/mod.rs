@@ -15,6 +15,7 @@
 pub mod aabb;
 pub mod cone;
 pub mod distance_hits;
+pub mod four_lanes;
 pub mod hit;
 pub mod leaf_spheres;
 pub mod leaf_triangles;

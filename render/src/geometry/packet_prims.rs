@@ -64,6 +64,18 @@ pub struct PacketHits {
     pub b2: [f32; LANES],
 }
 
+#[cfg(test)]
+impl PacketHits {
+    /// The lanes hit, each with the bits of its distance and barycentrics: what two kernels
+    /// must agree on.
+    pub(crate) fn hit_bits(&self) -> Vec<(usize, [u32; 3])> {
+        (0..LANES)
+            .filter(|i| self.mask & (1 << i) != 0)
+            .map(|i| (i, [self.t[i], self.b1[i], self.b2[i]].map(f32::to_bits)))
+            .collect()
+    }
+}
+
 impl PacketHits {
     fn none() -> Self {
         PacketHits {
@@ -434,17 +446,8 @@ mod tests {
         let want_s = portable16(rays, &s, active, t_max);
         for (kernel, got, got_s) in kernels(&lanes, rays, tri, &s, active, t_max) {
             for (got, want) in [(got, want), (got_s, want_s)] {
-                assert_eq!(
-                    got.mask, want.mask,
-                    "{kernel}: {rays:?} {tri:?} {active:#x}"
-                );
-                for i in 0..LANES {
-                    if want.mask & (1 << i) != 0 {
-                        assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "{kernel}");
-                        assert_eq!(got.b1[i].to_bits(), want.b1[i].to_bits(), "{kernel}");
-                        assert_eq!(got.b2[i].to_bits(), want.b2[i].to_bits(), "{kernel}");
-                    }
-                }
+                let case = format!("{kernel}: {rays:?} {tri:?} {active:#x}");
+                assert_eq!(got.hit_bits(), want.hit_bits(), "{case}");
             }
         }
         want.mask | want_s.mask

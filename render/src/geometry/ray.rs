@@ -18,15 +18,23 @@ pub struct Ray<R> {
 }
 
 #[cfg(test)]
-impl Ray<f64> {
+impl<R: Real> Ray<R> {
     /// A test ray from `o` along `d` (normalised here), with `t` in `[0, ∞]`.
-    pub(crate) fn unbounded(o: [f64; 3], d: [f64; 3]) -> Ray<f64> {
+    pub(crate) fn unbounded(o: [R; 3], d: [R; 3]) -> Ray<R> {
         Ray {
             o: V3::from_array(o),
             d: V3::from_array(d).normalize(),
-            t_min: 0.0,
-            t_max: f64::INFINITY,
+            t_min: R::ZERO,
+            t_max: R::INFINITY,
         }
+    }
+}
+
+#[cfg(test)]
+impl<R: Real> PreparedRay<R> {
+    /// [`Ray::unbounded`], prepared.
+    pub(crate) fn unbounded(o: [R; 3], d: [R; 3]) -> PreparedRay<R> {
+        PreparedRay::new(Ray::unbounded(o, d))
     }
 }
 

@@ -238,15 +238,6 @@ mod tests {
     use super::*;
     use crate::geometry::ray::Ray;
 
-    fn pr(o: [f32; 3], d: [f32; 3]) -> PreparedRay<f32> {
-        PreparedRay::new(Ray {
-            o: V3::from_array(o),
-            d: V3::from_array(d).normalize(),
-            t_min: 0.0,
-            t_max: f32::INFINITY,
-        })
-    }
-
     #[test]
     fn hits_inside_misses_outside() {
         let (a, b, c) = (
@@ -255,7 +246,7 @@ mod tests {
             V3::new(0.0, 1.0, 0.0),
         );
         let h = intersect_triangle(
-            &pr([0.2, 0.2, 1.0], [0.0, 0.0, -1.0]),
+            &PreparedRay::unbounded([0.2, 0.2, 1.0], [0.0, 0.0, -1.0]),
             a,
             b,
             c,
@@ -265,7 +256,7 @@ mod tests {
         assert!((h.t - 1.0).abs() < 1e-6);
         assert!((h.b1 - 0.2).abs() < 1e-6 && (h.b2 - 0.2).abs() < 1e-6);
         assert!(intersect_triangle(
-            &pr([0.8, 0.8, 1.0], [0.0, 0.0, -1.0]),
+            &PreparedRay::unbounded([0.8, 0.8, 1.0], [0.0, 0.0, -1.0]),
             a,
             b,
             c,
@@ -274,7 +265,7 @@ mod tests {
         .is_none());
         // Both sides.
         assert!(intersect_triangle(
-            &pr([0.2, 0.2, -1.0], [0.0, 0.0, 1.0]),
+            &PreparedRay::unbounded([0.2, 0.2, -1.0], [0.0, 0.0, 1.0]),
             a,
             b,
             c,
@@ -283,7 +274,7 @@ mod tests {
         .is_some());
         // Behind the origin.
         assert!(intersect_triangle(
-            &pr([0.2, 0.2, -1.0], [0.0, 0.0, -1.0]),
+            &PreparedRay::unbounded([0.2, 0.2, -1.0], [0.0, 0.0, -1.0]),
             a,
             b,
             c,
@@ -327,7 +318,7 @@ mod tests {
         ];
         for i in 1..100 {
             let s = i as f32 / 100.0;
-            let r = pr([s, s, 1.0], [0.0, 0.0, -1.0]);
+            let r = PreparedRay::unbounded([s, s, 1.0], [0.0, 0.0, -1.0]);
             let h1 = intersect_triangle(&r, p[0], p[1], p[2], f32::INFINITY).is_some();
             let h2 = intersect_triangle(&r, p[0], p[2], p[3], f32::INFINITY).is_some();
             assert!(h1 || h2, "ray at {s} leaked");

@@ -9,8 +9,8 @@
 
 use super::{lateral_hits, Cone, ConeLanes, ConeRays};
 use crate::geometry::distance_hits::DistanceHits;
+use crate::geometry::four_lanes::{four, FourLanes};
 use crate::geometry::ray::Ray;
-use crate::isa::{Isa, Kernel, Tier};
 use crate::lanes::{splat3, Lanes, Mask};
 use crate::real::Real;
 
@@ -39,30 +39,12 @@ pub fn intersect4(
     used: usize,
     t_max: f32,
 ) -> DistanceHits<f32> {
-    crate::isa::dispatch(FourCones {
+    four(FourCones {
         ray,
         cones,
         used,
         t_max,
     })
-}
-
-/// [`intersect4`] with the code of `tier`, or `None` when this CPU does not run `tier` (for the
-/// tests that compare the tiers).
-pub fn intersect4_on(
-    tier: Isa,
-    ray: &Ray<f32>,
-    cones: &Cones4<'_, f32>,
-    used: usize,
-    t_max: f32,
-) -> Option<DistanceHits<f32>> {
-    let k = FourCones {
-        ray,
-        cones,
-        used,
-        t_max,
-    };
-    crate::isa::dispatch_on(tier, k)
 }
 
 /// The portable kernel of one cone against up to four rays (lane `i`: `rays[i]` within
@@ -91,7 +73,7 @@ pub fn intersect_rays4(
     used: usize,
     t_max: [f32; LANES],
 ) -> DistanceHits<f32> {
-    crate::isa::dispatch(FourRays {
+    four(FourRays {
         cone,
         rays,
         used,
@@ -99,24 +81,8 @@ pub fn intersect_rays4(
     })
 }
 
-/// [`intersect_rays4`] with the code of `tier`, or `None` when this CPU does not run `tier`.
-pub fn intersect_rays4_on(
-    tier: Isa,
-    cone: &Cone<f32>,
-    rays: &[&Ray<f32>; LANES],
-    used: usize,
-    t_max: [f32; LANES],
-) -> Option<DistanceHits<f32>> {
-    let k = FourRays {
-        cone,
-        rays,
-        used,
-        t_max,
-    };
-    crate::isa::dispatch_on(tier, k)
-}
-
 /// One ray against four cones: the kernel [`crate::isa::dispatch`] runs.
+#[derive(Clone, Copy)]
 struct FourCones<'a> {
     ray: &'a Ray<f32>,
     cones: &'a Cones4<'a, f32>,
@@ -124,22 +90,44 @@ struct FourCones<'a> {
     t_max: f32,
 }
 
-impl Kernel for FourCones<'_> {
+impl FourLanes for FourCones<'_> {
     type Output = DistanceHits<f32>;
 
-    /// The four-lane kernel on every x86-64 tier (in its VEX form where AVX is enabled), the
-    /// portable lane loop on `scalar` and on other targets.
+    /// [`lateral_hits`] with a cone per lane.
     #[inline(always)]
-    fn run<T: Tier>(self) -> DistanceHits<f32> {
-        #[cfg(target_arch = "x86_64")]
-        if T::ISA.sse2() {
-            return cones_kernel::<crate::lanes::X4>(self.ray, self.cones, self.used, self.t_max);
-        }
+    fn lanes<L: Lanes<Elem = f32>>(self) -> DistanceHits<f32> {
+        let (ray, cones) = (self.ray, self.cones);
+        let c = ConeLanes {
+            base: [
+                gather(cones, |c| c.base.x),
+                gather(cones, |c| c.base.y),
+                gather(cones, |c| c.base.z),
+            ],
+            axis: [
+                gather(cones, |c| c.axis.x),
+                gather(cones, |c| c.axis.y),
+                gather(cones, |c| c.axis.z),
+            ],
+            height: gather(cones, |c| c.height),
+            r0: gather(cones, |c| c.r0),
+            slope: gather(cones, |c| c.slope),
+        };
+        let r = ConeRays {
+            o: splat3(ray.o.to_array()),
+            d: splat3(ray.d.to_array()),
+            t_min: L::splat(ray.t_min),
+            t_max: L::splat(self.t_max),
+        };
+        finish(lateral_hits(&c, &r), self.used)
+    }
+
+    fn portable(self) -> DistanceHits<f32> {
         intersect4_lanes(self.ray, self.cones, self.used, self.t_max)
     }
 }
 
 /// One cone against four rays: the kernel [`crate::isa::dispatch`] runs.
+#[derive(Clone, Copy)]
 struct FourRays<'a> {
     cone: &'a Cone<f32>,
     rays: &'a [&'a Ray<f32>; LANES],
@@ -147,16 +135,32 @@ struct FourRays<'a> {
     t_max: [f32; LANES],
 }
 
-impl Kernel for FourRays<'_> {
+impl FourLanes for FourRays<'_> {
     type Output = DistanceHits<f32>;
 
-    /// As [`FourCones`].
+    /// [`lateral_hits`] with a ray per lane.
     #[inline(always)]
-    fn run<T: Tier>(self) -> DistanceHits<f32> {
-        #[cfg(target_arch = "x86_64")]
-        if T::ISA.sse2() {
-            return rays_kernel::<crate::lanes::X4>(self.cone, self.rays, self.used, self.t_max);
-        }
+    fn lanes<L: Lanes<Elem = f32>>(self) -> DistanceHits<f32> {
+        let rays = self.rays;
+        let c = ConeLanes::splat(&self.cone.lanes());
+        let r = ConeRays {
+            o: [
+                gather(rays, |r| r.o.x),
+                gather(rays, |r| r.o.y),
+                gather(rays, |r| r.o.z),
+            ],
+            d: [
+                gather(rays, |r| r.d.x),
+                gather(rays, |r| r.d.y),
+                gather(rays, |r| r.d.z),
+            ],
+            t_min: gather(rays, |r| r.t_min),
+            t_max: L::load(&self.t_max),
+        };
+        finish(lateral_hits(&c, &r), self.used)
+    }
+
+    fn portable(self) -> DistanceHits<f32> {
         intersect_rays4_lanes(self.cone, self.rays, self.used, self.t_max)
     }
 }
@@ -166,64 +170,6 @@ impl Kernel for FourRays<'_> {
 #[inline(always)]
 fn gather<T, L: Lanes<Elem = f32>>(items: &[&T; LANES], f: fn(&T) -> f32) -> L {
     L::load(&[f(items[0]), f(items[1]), f(items[2]), f(items[3])])
-}
-
-/// Four cones against one ray ([`lateral_hits`] with a cone per lane).
-#[inline(always)]
-fn cones_kernel<L: Lanes<Elem = f32>>(
-    ray: &Ray<f32>,
-    cones: &Cones4<'_, f32>,
-    used: usize,
-    t_max: f32,
-) -> DistanceHits<f32> {
-    let c = ConeLanes {
-        base: [
-            gather(cones, |c| c.base.x),
-            gather(cones, |c| c.base.y),
-            gather(cones, |c| c.base.z),
-        ],
-        axis: [
-            gather(cones, |c| c.axis.x),
-            gather(cones, |c| c.axis.y),
-            gather(cones, |c| c.axis.z),
-        ],
-        height: gather(cones, |c| c.height),
-        r0: gather(cones, |c| c.r0),
-        slope: gather(cones, |c| c.slope),
-    };
-    let r = ConeRays {
-        o: splat3(ray.o.to_array()),
-        d: splat3(ray.d.to_array()),
-        t_min: L::splat(ray.t_min),
-        t_max: L::splat(t_max),
-    };
-    finish(lateral_hits(&c, &r), used)
-}
-
-/// One cone against four rays ([`lateral_hits`] with a ray per lane).
-#[inline(always)]
-fn rays_kernel<L: Lanes<Elem = f32>>(
-    cone: &Cone<f32>,
-    rays: &[&Ray<f32>; LANES],
-    used: usize,
-    t_max: [f32; LANES],
-) -> DistanceHits<f32> {
-    let c = ConeLanes::splat(&cone.lanes());
-    let r = ConeRays {
-        o: [
-            gather(rays, |r| r.o.x),
-            gather(rays, |r| r.o.y),
-            gather(rays, |r| r.o.z),
-        ],
-        d: [
-            gather(rays, |r| r.d.x),
-            gather(rays, |r| r.d.y),
-            gather(rays, |r| r.d.z),
-        ],
-        t_min: gather(rays, |r| r.t_min),
-        t_max: L::load(&t_max),
-    };
-    finish(lateral_hits(&c, &r), used)
 }
 
 /// The used lanes' answers.
@@ -240,6 +186,7 @@ fn finish<L: Lanes<Elem = f32>>((hit, t): (L::Mask, L), used: usize) -> Distance
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::four_lanes::every_tier;
     use crate::geometry::test_coords::point;
     use crate::vec3::V3;
     use proptest::prelude::*;
@@ -247,17 +194,18 @@ mod tests {
     /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit.
     fn check(ray: &Ray<f32>, c: &Cones4<'_, f32>, used: usize, t_max: f32) -> u32 {
         let want = intersect4_lanes(ray, c, used, t_max);
-        let mut kernels = vec![intersect4(ray, c, used, t_max)];
-        for tier in Isa::ALL {
-            kernels.extend(intersect4_on(tier, ray, c, used, t_max));
-        }
+        let kernels = every_tier(FourCones {
+            ray,
+            cones: c,
+            used,
+            t_max,
+        });
         for got in kernels {
-            assert_eq!(got.mask, want.mask, "{ray:?} used {used} t_max {t_max}");
-            for i in 0..LANES {
-                if want.mask & (1 << i) != 0 {
-                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "lane {i}");
-                }
-            }
+            assert_eq!(
+                got.hit_bits(),
+                want.hit_bits(),
+                "{ray:?} used {used} t_max {t_max}"
+            );
         }
         want.mask
     }
@@ -265,20 +213,15 @@ mod tests {
     /// [`check`] for the one-cone, four-ray kernels.
     fn check_rays(c: &Cone<f32>, rays: &[&Ray<f32>; LANES], used: usize, t_max: [f32; 4]) -> u32 {
         let want = intersect_rays4_lanes(c, rays, used, t_max);
-        let mut kernels = vec![intersect_rays4(c, rays, used, t_max)];
-        for tier in Isa::ALL {
-            kernels.extend(intersect_rays4_on(tier, c, rays, used, t_max));
-        }
+        let kernels = every_tier(FourRays {
+            cone: c,
+            rays,
+            used,
+            t_max,
+        });
         for got in kernels {
-            assert_eq!(
-                got.mask, want.mask,
-                "{c:?} {rays:?} used {used} t_max {t_max:?}"
-            );
-            for i in 0..LANES {
-                if want.mask & (1 << i) != 0 {
-                    assert_eq!(got.t[i].to_bits(), want.t[i].to_bits(), "lane {i}");
-                }
-            }
+            let case = format!("{c:?} {rays:?} used {used} t_max {t_max:?}");
+            assert_eq!(got.hit_bits(), want.hit_bits(), "{case}");
         }
         want.mask
     }

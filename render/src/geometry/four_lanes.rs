@@ -1,0 +1,81 @@
+//! The one dispatch of the four-lane leaf kernels (four primitives against one ray, or one
+//! cone against four rays): a test says its lane kernel and its portable loop
+//! ([`FourLanes`]); [`four`] runs it with the code of the process's tier, [`four_on`] with a
+//! tier given (for the tests that compare the tiers). Four SSE2 lanes serve every x86-64 tier
+//! (in their VEX form where AVX is enabled); the portable loop serves `scalar` and other
+//! targets.
+
+use crate::isa::{Isa, Kernel, Tier};
+use crate::lanes::Lanes;
+
+/// A four-lane test with its arguments.
+pub trait FourLanes {
+    /// Its answers.
+    type Output;
+    /// The lane kernel.
+    fn lanes<L: Lanes<Elem = f32>>(self) -> Self::Output;
+    /// The portable loop: the scalar test lane by lane.
+    fn portable(self) -> Self::Output;
+}
+
+/// A four-lane test as the kernel [`crate::isa::dispatch`] runs.
+struct OnFour<F>(F);
+
+impl<F: FourLanes> Kernel for OnFour<F> {
+    type Output = F::Output;
+
+    #[inline(always)]
+    fn run<T: Tier>(self) -> F::Output {
+        #[cfg(target_arch = "x86_64")]
+        if T::ISA.sse2() {
+            return self.0.lanes::<crate::lanes::X4>();
+        }
+        self.0.portable()
+    }
+}
+
+/// `test` with the kernel of the process's tier.
+#[inline(always)]
+pub fn four<F: FourLanes>(test: F) -> F::Output {
+    crate::isa::dispatch(OnFour(test))
+}
+
+/// `test` with the code of `tier`, or `None` when this CPU does not run `tier`.
+pub fn four_on<F: FourLanes>(tier: Isa, test: F) -> Option<F::Output> {
+    crate::isa::dispatch_on(tier, OnFour(test))
+}
+
+/// One ray (`Q`: a ray, or a ray prepared for the triangle test) against the four primitives
+/// of `src`, lanes `0..used` counting, each within `t_max`: the arguments of a leaf kernel.
+#[derive(Clone, Copy)]
+pub(crate) struct FourOnRay<'a, Q, S> {
+    /// The ray.
+    pub ray: &'a Q,
+    /// The four primitives, gathered on the spot or already in lanes.
+    pub src: &'a S,
+    /// The lanes that count (1..=4).
+    pub used: usize,
+    /// The ray's bound, inclusive.
+    pub t_max: f32,
+}
+
+impl<'a, Q, S> FourOnRay<'a, Q, S> {
+    /// The arguments in the order the kernels take them.
+    #[inline(always)]
+    pub(crate) fn new(ray: &'a Q, src: &'a S, used: usize, t_max: f32) -> Self {
+        FourOnRay {
+            ray,
+            src,
+            used,
+            t_max,
+        }
+    }
+}
+
+/// The answers of `test` with the process's tier and with every tier's code this CPU runs
+/// (for the tests that compare the tiers).
+#[cfg(test)]
+pub(crate) fn every_tier<F: FourLanes + Copy>(test: F) -> Vec<F::Output> {
+    let tiers = Isa::ALL.into_iter().filter_map(|tier| four_on(tier, test));
+    std::iter::once(four(test)).chain(tiers).collect()
+}
