@@ -109,37 +109,24 @@ impl Aabb {
 mod tests {
     use super::*;
 
+    /// Whether `b` is hit by the ray from `o` along `d`.
+    fn hits(b: &Aabb, o: [f32; 3], d: [f32; 3]) -> bool {
+        b.hit(&PreparedRay::unbounded(o, d), f32::INFINITY)
+            .is_some()
+    }
+
     #[test]
     fn axis_parallel_rays() {
         let b = Aabb {
             min: [0.0; 3],
             max: [1.0; 3],
         };
-        assert!(b
-            .hit(
-                &PreparedRay::unbounded([0.5, 0.5, -1.0], [0.0, 0.0, 1.0]),
-                f32::INFINITY
-            )
-            .is_some());
-        assert!(b
-            .hit(
-                &PreparedRay::unbounded([1.5, 0.5, -1.0], [0.0, 0.0, 1.0]),
-                f32::INFINITY
-            )
-            .is_none());
+        let up = [0.0, 0.0, 1.0];
+        assert!(hits(&b, [0.5, 0.5, -1.0], up));
+        assert!(!hits(&b, [1.5, 0.5, -1.0], up));
         // Lying exactly in the box's face plane: counted as a hit (conservative).
-        assert!(b
-            .hit(
-                &PreparedRay::unbounded([0.0, 0.5, -1.0], [0.0, 0.0, 1.0]),
-                f32::INFINITY
-            )
-            .is_some());
-        assert!(b
-            .hit(
-                &PreparedRay::unbounded([0.5, 0.5, 2.0], [0.0, 0.0, 1.0]),
-                f32::INFINITY
-            )
-            .is_none());
+        assert!(hits(&b, [0.0, 0.5, -1.0], up));
+        assert!(!hits(&b, [0.5, 0.5, 2.0], up));
     }
 
     #[test]
@@ -151,18 +138,9 @@ mod tests {
             max: [1.0, 1.0, 0.0],
         };
         for d in [[-0.0, -0.0, -1.0], [0.0, -0.0, -1.0], [-0.0, 0.0, -1.0]] {
-            assert!(
-                b.hit(&PreparedRay::unbounded([0.3, 0.2, 5.0], d), f32::INFINITY)
-                    .is_some(),
-                "{d:?}"
-            );
+            assert!(hits(&b, [0.3, 0.2, 5.0], d), "{d:?}");
         }
-        assert!(b
-            .hit(
-                &PreparedRay::unbounded([0.3, 0.2, -5.0], [-0.0, -0.0, 1.0]),
-                f32::INFINITY
-            )
-            .is_some());
+        assert!(hits(&b, [0.3, 0.2, -5.0], [-0.0, -0.0, 1.0]));
     }
 
     #[test]
