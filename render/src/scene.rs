@@ -171,25 +171,13 @@ impl<R: Real> Scene<R> {
     /// [`Scene::build_owned`] relative to `origin`, as [`Scene::build_in`] is to [`Scene::build`].
     pub fn build_owned_in(desc: SceneDescription, origin: V3<f64>) -> Result<Self, SceneError> {
         let mut scene = Self::without_primitives(&desc, origin)?;
-        let mut prims = desc.primitives;
+        let prims = desc.primitives;
         // Reserved, not touched: pages of the scene's arrays cost memory only once written.
         scene.prims.reserve(prims.len());
         scene.info.reserve(prims.len());
         // Memory is handed back every 1/32 of the primitives: the peak is then the
         // description plus a 32nd of the scene.
-        let step = (prims.len() / 32).max(4096);
-        let mut next = prims.len().saturating_sub(step);
-        while let Some(p) = prims.pop() {
-            scene.add_primitive(prims.len(), &p.shape, p.material)?;
-            drop(p);
-            if prims.len() == next {
-                prims.shrink_to_fit();
-                crate::heap::give_back_free_pages();
-                next = next.saturating_sub(step);
-            }
-        }
-        drop(prims);
-        crate::heap::give_back_free_pages();
+        crate::heap::drain_back(prims, |i, p| scene.add_primitive(i, &p.shape, p.material))?;
         scene.reverse_primitive_blocks();
         scene.check_count()?;
         Ok(scene)

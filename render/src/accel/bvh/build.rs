@@ -15,6 +15,7 @@
 use super::binary::BinaryBvh;
 use super::node::BvhNode;
 use crate::geometry::Aabb;
+use std::convert::Infallible;
 
 /// Bins per axis.
 const BINS: usize = 16;
@@ -183,23 +184,15 @@ pub fn build_binary(bounds: &[Aabb]) -> BinaryBvh {
 /// Like [`build_binary`], but frees the bounds while the build's own copy of them is made, and
 /// the items of each large subtree once it is built, so the bounds, the build records and the
 /// tree's nodes never all exist in full: the same tree, a lower peak.
-pub fn build_binary_owned(mut bounds: Vec<Aabb>) -> BinaryBvh {
+pub fn build_binary_owned(bounds: Vec<Aabb>) -> BinaryBvh {
     // The records are made from the last box back, the boxes' array shrunk every 1/32, then put
     // in order.
     let n = bounds.len();
     let mut items: Vec<Item> = Vec::with_capacity(n);
-    let step = (n / 32).max(4096);
-    let mut next = n.saturating_sub(step);
-    while let Some(b) = bounds.pop() {
+    let Ok(()) = crate::heap::drain_back(bounds, |_, b| {
         items.push(Item::from_aabb(&b));
-        if bounds.len() == next {
-            bounds.shrink_to_fit();
-            crate::heap::give_back_free_pages();
-            next = next.saturating_sub(step);
-        }
-    }
-    drop(bounds);
-    crate::heap::give_back_free_pages();
+        Ok::<(), Infallible>(())
+    });
     items.reverse();
     let (world, cworld) = extent(&items);
     let mut order: Vec<u32> = (0..n as u32).collect();
@@ -540,16 +533,23 @@ fn sah_split_binned(
         }
     }
     let (axis, boundary) = decide(best, n, bounds)?;
-    let mut lb = Item::EMPTY;
-    let mut rb = Item::EMPTY;
-    for (i, b) in bins.boxes[axis].iter().enumerate() {
-        if i < boundary {
+    let sides = bins.boxes[axis].iter().enumerate();
+    let (lb, rb) = side_boxes(sides.map(|(i, b)| (i < boundary, b)));
+    Ok(partition(items, index, &binning, axis, boundary, lb, rb))
+}
+
+/// The boxes of a split's two sides: each `(left, box)` grows the left side's box or the
+/// right's.
+fn side_boxes<'a>(members: impl Iterator<Item = (bool, &'a Item)>) -> (Item, Item) {
+    let (mut lb, mut rb) = (Item::EMPTY, Item::EMPTY);
+    for (left, b) in members {
+        if left {
             lb.grow(b);
         } else {
             rb.grow(b);
         }
     }
-    Ok(partition(items, index, &binning, axis, boundary, lb, rb))
+    (lb, rb)
 }
 
 /// The binned SAH's choice for a few items, found without bin arrays: per axis the items are
@@ -632,14 +632,8 @@ fn sah_split_small(
         }
     }
     let (axis, boundary) = decide(best, n, bounds)?;
-    let (mut lb, mut rb) = (Item::EMPTY, Item::EMPTY);
-    for (it, b) in items.iter().zip(bins.iter()) {
-        if (b[axis] as usize) < boundary {
-            lb.grow(it);
-        } else {
-            rb.grow(it);
-        }
-    }
+    let sides = items.iter().zip(bins.iter());
+    let (lb, rb) = side_boxes(sides.map(|(it, b)| ((b[axis] as usize) < boundary, it)));
     Ok(partition(items, index, &binning, axis, boundary, lb, rb))
 }
 

@@ -13,6 +13,7 @@ use crate::geometry::four_lanes::{four, FourLanes};
 use crate::geometry::ray::Ray;
 use crate::lanes::{splat3, Lanes, Mask};
 use crate::real::Real;
+use crate::vec3::V3;
 
 /// Cones per call.
 pub const LANES: usize = 4;
@@ -98,16 +99,8 @@ impl FourLanes for FourCones<'_> {
     fn lanes<L: Lanes<Elem = f32>>(self) -> DistanceHits<f32> {
         let (ray, cones) = (self.ray, self.cones);
         let c = ConeLanes {
-            base: [
-                gather(cones, |c| c.base.x),
-                gather(cones, |c| c.base.y),
-                gather(cones, |c| c.base.z),
-            ],
-            axis: [
-                gather(cones, |c| c.axis.x),
-                gather(cones, |c| c.axis.y),
-                gather(cones, |c| c.axis.z),
-            ],
+            base: gather3(cones, |c| c.base),
+            axis: gather3(cones, |c| c.axis),
             height: gather(cones, |c| c.height),
             r0: gather(cones, |c| c.r0),
             slope: gather(cones, |c| c.slope),
@@ -144,16 +137,8 @@ impl FourLanes for FourRays<'_> {
         let rays = self.rays;
         let c = ConeLanes::splat(&self.cone.lanes());
         let r = ConeRays {
-            o: [
-                gather(rays, |r| r.o.x),
-                gather(rays, |r| r.o.y),
-                gather(rays, |r| r.o.z),
-            ],
-            d: [
-                gather(rays, |r| r.d.x),
-                gather(rays, |r| r.d.y),
-                gather(rays, |r| r.d.z),
-            ],
+            o: gather3(rays, |r| r.o),
+            d: gather3(rays, |r| r.d),
             t_min: gather(rays, |r| r.t_min),
             t_max: L::load(&self.t_max),
         };
@@ -170,6 +155,17 @@ impl FourLanes for FourRays<'_> {
 #[inline(always)]
 fn gather<T, L: Lanes<Elem = f32>>(items: &[&T; LANES], f: fn(&T) -> f32) -> L {
     L::load(&[f(items[0]), f(items[1]), f(items[2]), f(items[3])])
+}
+
+/// Vector `f` of the four lanes' values, as lanes by axis ([`gather`] three times over).
+#[inline(always)]
+fn gather3<T, L: Lanes<Elem = f32>>(items: &[&T; LANES], f: fn(&T) -> V3<f32>) -> [L; 3] {
+    let p = [f(items[0]), f(items[1]), f(items[2]), f(items[3])];
+    [
+        L::load(&[p[0].x, p[1].x, p[2].x, p[3].x]),
+        L::load(&[p[0].y, p[1].y, p[2].y, p[3].y]),
+        L::load(&[p[0].z, p[1].z, p[2].z, p[3].z]),
+    ]
 }
 
 /// The used lanes' answers.
