@@ -1,6 +1,11 @@
 //! What a four-lane kernel that finds only distances answers (spheres, cones): which lanes were
-//! hit and where. The triangle kernels answer surface parameters too
-//! ([`super::leaf_triangles::TriangleHits`]).
+//! hit and where, and the portable loop that defines those answers ([`distances4`]). The
+//! triangle kernels answer surface parameters too ([`super::leaf_triangles::TriangleHits`]).
+
+use super::cone::Cone;
+use super::ray::Ray;
+use super::sphere::Sphere;
+use crate::real::Real;
 
 /// The answers of the four lanes: bit `i` of `mask` is set when lane `i` is hit at `t[i]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,4 +43,36 @@ impl<R: Copy + Default> DistanceHits<R> {
         }
         h
     }
+}
+
+/// A primitive whose scalar test answers a distance only: a sphere or a cone.
+pub trait DistanceTest<R> {
+    /// The nearest hit of `ray` within `t_max`.
+    fn distance(&self, ray: &Ray<R>, t_max: R) -> Option<R>;
+}
+
+impl<R: Real> DistanceTest<R> for Sphere<R> {
+    #[inline(always)]
+    fn distance(&self, ray: &Ray<R>, t_max: R) -> Option<R> {
+        self.intersect(ray, t_max)
+    }
+}
+
+impl<R: Real> DistanceTest<R> for Cone<R> {
+    #[inline(always)]
+    fn distance(&self, ray: &Ray<R>, t_max: R) -> Option<R> {
+        self.intersect(ray, t_max)
+    }
+}
+
+/// The portable four-lane kernel: the scalar test of `ray` against `prims[i]` lane by lane
+/// (lanes `0..used`), in any precision.
+#[inline(always)]
+pub fn distances4<R: Real, P: DistanceTest<R>>(
+    ray: &Ray<R>,
+    prims: &[&P; 4],
+    used: usize,
+    t_max: R,
+) -> DistanceHits<R> {
+    DistanceHits::from_tests(prims.iter().take(used).map(|p| p.distance(ray, t_max)))
 }

@@ -4,16 +4,15 @@
 //! scalar one: the arithmetic is the one sphere test, `nearest_root`, on four lanes.
 //! [`intersect4`] runs it with the code of the process's tier ([`crate::isa::dispatch`]) like
 //! [`super::leaf_triangles`]: four SSE2 lanes (in their VEX form on `avx2` and `avx512`), the
-//! portable lane loop ([`intersect4_lanes`]) on `scalar` and elsewhere.
+//! portable lane loop ([`distances4`]) on `scalar` and elsewhere.
 //! [`LeafSpheres`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
 //! that enter the leaf share one gather ([`intersect4`] on [`LeafSpheres`]).
 
-use super::distance_hits::DistanceHits;
+use super::distance_hits::{distances4, DistanceHits};
 use super::four_lanes::{four, FourLanes, FourOnRay};
 use super::ray::Ray;
 use super::sphere::{nearest_root, Sphere};
 use crate::lanes::Lanes;
-use crate::real::Real;
 
 /// Spheres per call.
 pub const LANES: usize = 4;
@@ -60,19 +59,8 @@ impl LeafSpheres {
     /// The portable kernel on these lanes.
     fn scalar_hits(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits<f32> {
         let s = [0, 1, 2, 3].map(|i| self.sphere(i));
-        intersect4_lanes(ray, &[&s[0], &s[1], &s[2], &s[3]], used, t_max)
+        distances4(ray, &[&s[0], &s[1], &s[2], &s[3]], used, t_max)
     }
-}
-
-/// The portable kernel: the scalar test lane by lane, in any precision.
-#[inline(always)]
-pub fn intersect4_lanes<R: Real>(
-    ray: &Ray<R>,
-    spheres: &Spheres4<'_, R>,
-    used: usize,
-    t_max: R,
-) -> DistanceHits<R> {
-    DistanceHits::from_tests(spheres.iter().take(used).map(|s| s.intersect(ray, t_max)))
 }
 
 /// The `f32` test of `used` (1..=4) spheres, gathered on the spot or already in lanes (as
@@ -146,7 +134,7 @@ impl Source for Spheres4<'_, f32> {
     }
 
     fn portable(&self, ray: &Ray<f32>, used: usize, t_max: f32) -> DistanceHits<f32> {
-        intersect4_lanes(ray, self, used, t_max)
+        distances4(ray, self, used, t_max)
     }
 }
 
@@ -180,7 +168,7 @@ mod tests {
 
     /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit.
     fn check(ray: &Ray<f32>, s: &Spheres4<'_, f32>, used: usize, t_max: f32) -> u32 {
-        let want = intersect4_lanes(ray, s, used, t_max);
+        let want = distances4(ray, s, used, t_max);
         let lanes = LeafSpheres::gather(s);
         let mut kernels = every_tier(FourOnRay::new(ray, s, used, t_max));
         kernels.extend(every_tier(FourOnRay::new(ray, &lanes, used, t_max)));

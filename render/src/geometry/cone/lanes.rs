@@ -3,12 +3,13 @@
 //! per lane for a packet's rays entering a leaf with a cone. The arithmetic is the one cone
 //! test, `lateral_hits`, on four lanes, so each lane's answer is bit for bit the scalar one.
 //! [`intersect4`] and [`intersect_rays4`] run it with the code of the process's tier
-//! ([`crate::isa::dispatch`]) like [`crate::geometry::leaf_spheres`]: four SSE2 lanes (in their VEX
-//! form on `avx2` and `avx512`), the portable lane loops ([`intersect4_lanes`],
-//! [`intersect_rays4_lanes`]) on `scalar` and elsewhere.
+//! ([`crate::isa::dispatch`]) like [`crate::geometry::leaf_spheres`]: four SSE2 lanes (in
+//! their VEX form on `avx2` and `avx512`), the portable lane loops
+//! ([`crate::geometry::distance_hits::distances4`], [`intersect_rays4_lanes`]) on `scalar`
+//! and elsewhere.
 
 use super::{lateral_hits, Cone, ConeLanes, ConeRays};
-use crate::geometry::distance_hits::DistanceHits;
+use crate::geometry::distance_hits::{distances4, DistanceHits};
 use crate::geometry::four_lanes::{four, FourLanes};
 use crate::geometry::ray::Ray;
 use crate::lanes::{splat3, Lanes, Mask};
@@ -20,17 +21,6 @@ pub const LANES: usize = 4;
 
 /// The cones of the lanes (unused lanes repeat a used one; `used` says how many count).
 pub type Cones4<'a, R> = [&'a Cone<R>; LANES];
-
-/// The portable kernel: the scalar test lane by lane, in any precision.
-#[inline(always)]
-pub fn intersect4_lanes<R: Real>(
-    ray: &Ray<R>,
-    cones: &Cones4<'_, R>,
-    used: usize,
-    t_max: R,
-) -> DistanceHits<R> {
-    DistanceHits::from_tests(cones.iter().take(used).map(|c| c.intersect(ray, t_max)))
-}
 
 /// The `f32` test of `used` (1..=4) cones, with the kernel of the process's tier.
 #[inline]
@@ -115,7 +105,7 @@ impl FourLanes for FourCones<'_> {
     }
 
     fn portable(self) -> DistanceHits<f32> {
-        intersect4_lanes(self.ray, self.cones, self.used, self.t_max)
+        distances4(self.ray, self.cones, self.used, self.t_max)
     }
 }
 
@@ -189,7 +179,7 @@ mod tests {
 
     /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit.
     fn check(ray: &Ray<f32>, c: &Cones4<'_, f32>, used: usize, t_max: f32) -> u32 {
-        let want = intersect4_lanes(ray, c, used, t_max);
+        let want = distances4(ray, c, used, t_max);
         let kernels = every_tier(FourCones {
             ray,
             cones: c,
