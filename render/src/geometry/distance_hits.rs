@@ -17,12 +17,11 @@ pub struct DistanceHits<R> {
 }
 
 #[cfg(test)]
-impl DistanceHits<f32> {
-    /// The lanes hit, each with the bits of its distance: what two kernels must agree on.
-    pub(crate) fn hit_bits(&self) -> Vec<(usize, u32)> {
+impl crate::geometry::four_lanes::HitBits for DistanceHits<f32> {
+    fn hit_bits(&self) -> Vec<(usize, Vec<u32>)> {
         (0..4)
             .filter(|i| self.mask & (1 << i) != 0)
-            .map(|i| (i, self.t[i].to_bits()))
+            .map(|i| (i, vec![self.t[i].to_bits()]))
             .collect()
     }
 }

@@ -79,3 +79,20 @@ pub(crate) fn every_tier<F: FourLanes + Copy>(test: F) -> Vec<F::Output> {
     let tiers = Isa::ALL.into_iter().filter_map(|tier| four_on(tier, test));
     std::iter::once(four(test)).chain(tiers).collect()
 }
+
+/// What two kernels' answers must agree on (test builds): the lanes hit, each with the bits of
+/// what was answered there.
+#[cfg(test)]
+pub(crate) trait HitBits {
+    /// The lanes hit with their answers' bits.
+    fn hit_bits(&self) -> Vec<(usize, Vec<u32>)>;
+}
+
+/// Asserts that every answer of `got` agrees with `want` bit for bit (`case` names the inputs
+/// in the message).
+#[cfg(test)]
+pub(crate) fn assert_agree<H: HitBits>(want: &H, got: &[H], case: &str) {
+    for g in got {
+        assert_eq!(g.hit_bits(), want.hit_bits(), "{case}");
+    }
+}

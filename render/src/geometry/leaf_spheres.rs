@@ -161,7 +161,7 @@ impl Source for LeafSpheres {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::four_lanes::every_tier;
+    use crate::geometry::four_lanes::{assert_agree, every_tier};
     use crate::geometry::test_coords::point;
     use crate::vec3::V3;
     use proptest::prelude::*;
@@ -172,13 +172,11 @@ mod tests {
         let lanes = LeafSpheres::gather(s);
         let mut kernels = every_tier(FourOnRay::new(ray, s, used, t_max));
         kernels.extend(every_tier(FourOnRay::new(ray, &lanes, used, t_max)));
-        for got in kernels {
-            assert_eq!(
-                got.hit_bits(),
-                want.hit_bits(),
-                "{ray:?} used {used} t_max {t_max}"
-            );
-        }
+        assert_agree(
+            &want,
+            &kernels,
+            &format!("{ray:?} used {used} t_max {t_max}"),
+        );
         want.mask
     }
 

@@ -36,13 +36,18 @@ pub struct TriangleHits<R> {
 }
 
 #[cfg(test)]
-impl TriangleHits<f32> {
-    /// The lanes hit, each with the bits of its distance and barycentrics: what two kernels
-    /// must agree on.
-    pub(crate) fn hit_bits(&self) -> Vec<(usize, [u32; 3])> {
+impl crate::geometry::four_lanes::HitBits for TriangleHits<f32> {
+    fn hit_bits(&self) -> Vec<(usize, Vec<u32>)> {
         (0..LANES)
             .filter(|i| self.mask & (1 << i) != 0)
-            .map(|i| (i, [self.t[i], self.b1[i], self.b2[i]].map(f32::to_bits)))
+            .map(|i| {
+                (
+                    i,
+                    [self.t[i], self.b1[i], self.b2[i]]
+                        .map(f32::to_bits)
+                        .to_vec(),
+                )
+            })
             .collect()
     }
 }
@@ -227,7 +232,7 @@ fn kernel<L: Lanes<Elem = f32>, const KX: usize, const KY: usize, const KZ: usiz
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::four_lanes::every_tier;
+    use crate::geometry::four_lanes::{assert_agree, every_tier};
     use crate::geometry::ray::Ray;
     use crate::geometry::test_coords::point;
     use proptest::prelude::*;
@@ -239,13 +244,7 @@ mod tests {
         let lanes = LeafTriangles::gather(tris);
         let mut kernels = every_tier(FourOnRay::new(r, tris, used, t_max));
         kernels.extend(every_tier(FourOnRay::new(r, &lanes, used, t_max)));
-        for got in kernels {
-            assert_eq!(
-                got.hit_bits(),
-                want.hit_bits(),
-                "{r:?} used {used} t_max {t_max}"
-            );
-        }
+        assert_agree(&want, &kernels, &format!("{r:?} used {used} t_max {t_max}"));
         want.mask
     }
 

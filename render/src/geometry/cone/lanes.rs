@@ -172,7 +172,7 @@ fn finish<L: Lanes<Elem = f32>>((hit, t): (L::Mask, L), used: usize) -> Distance
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::four_lanes::every_tier;
+    use crate::geometry::four_lanes::{assert_agree, every_tier};
     use crate::geometry::test_coords::point;
     use crate::vec3::V3;
     use proptest::prelude::*;
@@ -186,13 +186,11 @@ mod tests {
             used,
             t_max,
         });
-        for got in kernels {
-            assert_eq!(
-                got.hit_bits(),
-                want.hit_bits(),
-                "{ray:?} used {used} t_max {t_max}"
-            );
-        }
+        assert_agree(
+            &want,
+            &kernels,
+            &format!("{ray:?} used {used} t_max {t_max}"),
+        );
         want.mask
     }
 
@@ -205,10 +203,8 @@ mod tests {
             used,
             t_max,
         });
-        for got in kernels {
-            let case = format!("{c:?} {rays:?} used {used} t_max {t_max:?}");
-            assert_eq!(got.hit_bits(), want.hit_bits(), "{case}");
-        }
+        let case = format!("{c:?} {rays:?} used {used} t_max {t_max:?}");
+        assert_agree(&want, &kernels, &case);
         want.mask
     }
 
