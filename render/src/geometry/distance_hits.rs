@@ -19,10 +19,7 @@ pub struct DistanceHits<R> {
 #[cfg(test)]
 impl crate::geometry::four_lanes::HitBits for DistanceHits<f32> {
     fn hit_bits(&self) -> Vec<(usize, Vec<u32>)> {
-        (0..4)
-            .filter(|i| self.mask & (1 << i) != 0)
-            .map(|i| (i, vec![self.t[i].to_bits()]))
-            .collect()
+        crate::geometry::four_lanes::lanes_bits(self.mask, &[&self.t])
     }
 }
 

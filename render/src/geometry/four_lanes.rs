@@ -45,10 +45,28 @@ pub fn four_on<F: FourLanes>(tier: Isa, test: F) -> Option<F::Output> {
     crate::isa::dispatch_on(tier, OnFour(test))
 }
 
+/// One ray against four primitives of one kind (`used` of them counting, each within
+/// `t_max`) with the kernel of the process's tier: four triangles against a prepared ray
+/// ([`super::leaf_triangles`]), four spheres ([`super::leaf_spheres`]) or four cones
+/// ([`super::cone::lanes`]) against a ray, gathered on the spot (`[&P; 4]`) or already in
+/// lanes (the same answers bit for bit).
+#[inline]
+pub fn intersect4<'a, Q, S>(
+    ray: &'a Q,
+    src: &'a S,
+    used: usize,
+    t_max: f32,
+) -> <FourOnRay<'a, Q, S> as FourLanes>::Output
+where
+    FourOnRay<'a, Q, S>: FourLanes,
+{
+    four(FourOnRay::new(ray, src, used, t_max))
+}
+
 /// One ray (`Q`: a ray, or a ray prepared for the triangle test) against the four primitives
 /// of `src`, lanes `0..used` counting, each within `t_max`: the arguments of a leaf kernel.
 #[derive(Clone, Copy)]
-pub(crate) struct FourOnRay<'a, Q, S> {
+pub struct FourOnRay<'a, Q, S> {
     /// The ray.
     pub ray: &'a Q,
     /// The four primitives, gathered on the spot or already in lanes.
@@ -62,7 +80,7 @@ pub(crate) struct FourOnRay<'a, Q, S> {
 impl<'a, Q, S> FourOnRay<'a, Q, S> {
     /// The arguments in the order the kernels take them.
     #[inline(always)]
-    pub(crate) fn new(ray: &'a Q, src: &'a S, used: usize, t_max: f32) -> Self {
+    pub fn new(ray: &'a Q, src: &'a S, used: usize, t_max: f32) -> Self {
         FourOnRay {
             ray,
             src,
@@ -86,6 +104,17 @@ pub(crate) fn every_tier<F: FourLanes + Copy>(test: F) -> Vec<F::Output> {
 pub(crate) trait HitBits {
     /// The lanes hit with their answers' bits.
     fn hit_bits(&self) -> Vec<(usize, Vec<u32>)>;
+}
+
+/// The lanes set in `mask`, each with the bits of every one of `values` there (for
+/// [`HitBits`]).
+#[cfg(test)]
+pub(crate) fn lanes_bits(mask: u32, values: &[&[f32]]) -> Vec<(usize, Vec<u32>)> {
+    let bits = |i: usize| values.iter().map(|v| v[i].to_bits()).collect();
+    (0..32)
+        .filter(|i| mask & (1 << i) != 0)
+        .map(|i| (i, bits(i)))
+        .collect()
 }
 
 /// Asserts that every answer of `got` agrees with `want` bit for bit (`case` names the inputs

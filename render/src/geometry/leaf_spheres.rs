@@ -2,14 +2,14 @@
 //! for BVH leaves of spheres (shells, balls). Every lane does the scalar test's IEEE operations
 //! in the same order (no FMA, no reassociation), so each lane's answer is bit for bit the
 //! scalar one: the arithmetic is the one sphere test, `nearest_root`, on four lanes.
-//! [`intersect4`] runs it with the code of the process's tier ([`crate::isa::dispatch`]) like
+//! [`super::four_lanes::intersect4`] runs it with the code of the process's tier ([`crate::isa::dispatch`]) like
 //! [`super::leaf_triangles`]: four SSE2 lanes (in their VEX form on `avx2` and `avx512`), the
 //! portable lane loop ([`distances4`]) on `scalar` and elsewhere.
 //! [`LeafSpheres`] holds a leaf's spheres already gathered into lanes, so the rays of a packet
-//! that enter the leaf share one gather ([`intersect4`] on [`LeafSpheres`]).
+//! that enter the leaf share one gather ([`super::four_lanes::intersect4`] on [`LeafSpheres`]).
 
 use super::distance_hits::{distances4, DistanceHits};
-use super::four_lanes::{four, FourLanes, FourOnRay};
+use super::four_lanes::{FourLanes, FourOnRay};
 use super::ray::Ray;
 use super::sphere::{nearest_root, Sphere};
 use crate::lanes::Lanes;
@@ -61,18 +61,6 @@ impl LeafSpheres {
         let s = [0, 1, 2, 3].map(|i| self.sphere(i));
         distances4(ray, &[&s[0], &s[1], &s[2], &s[3]], used, t_max)
     }
-}
-
-/// The `f32` test of `used` (1..=4) spheres, gathered on the spot or already in lanes (as
-/// `src` is: the same answers bit for bit), with the kernel of the process's tier.
-#[inline]
-pub fn intersect4<S: Source>(
-    ray: &Ray<f32>,
-    src: &S,
-    used: usize,
-    t_max: f32,
-) -> DistanceHits<f32> {
-    four(FourOnRay::new(ray, src, used, t_max))
 }
 
 impl<S: Source> FourLanes for FourOnRay<'_, Ray<f32>, S> {

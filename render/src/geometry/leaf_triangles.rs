@@ -4,14 +4,14 @@
 //! edge functions that come out exactly zero redone in `f64` lane by lane), so each lane's
 //! answer — hit or not, `t`, `b1`, `b2` — is bit for bit the scalar [`intersect_triangle`]'s.
 //!
-//! The arithmetic is the one watertight test, `watertight`, on four lanes. [`intersect4`]
+//! The arithmetic is the one watertight test, `watertight`, on four lanes. [`super::four_lanes::intersect4`]
 //! runs it with the code of the process's tier ([`crate::isa::dispatch`]): four SSE2 lanes on
 //! `sse2`, the same in their three-operand VEX form on `avx2` and `avx512`, and the portable
 //! lane-by-lane loop ([`intersect4_lanes`]) on `scalar`, on other targets and for `f64`.
 //! [`LeafTriangles`] holds a leaf's triangles already gathered into lanes, so the rays of a packet
-//! that enter the leaf share one gather ([`intersect4`] on [`LeafTriangles`]).
+//! that enter the leaf share one gather ([`super::four_lanes::intersect4`] on [`LeafTriangles`]).
 
-use super::four_lanes::{four, FourLanes, FourOnRay};
+use super::four_lanes::{FourLanes, FourOnRay};
 use super::ray::PreparedRay;
 use super::triangle::{intersect_triangle, watertight};
 use crate::lanes::Lanes;
@@ -38,17 +38,7 @@ pub struct TriangleHits<R> {
 #[cfg(test)]
 impl crate::geometry::four_lanes::HitBits for TriangleHits<f32> {
     fn hit_bits(&self) -> Vec<(usize, Vec<u32>)> {
-        (0..LANES)
-            .filter(|i| self.mask & (1 << i) != 0)
-            .map(|i| {
-                (
-                    i,
-                    [self.t[i], self.b1[i], self.b2[i]]
-                        .map(f32::to_bits)
-                        .to_vec(),
-                )
-            })
-            .collect()
+        crate::geometry::four_lanes::lanes_bits(self.mask, &[&self.t, &self.b1, &self.b2])
     }
 }
 
@@ -110,18 +100,6 @@ pub fn intersect4_lanes<R: Real>(
         }
     }
     h
-}
-
-/// The `f32` test of `used` (1..=4) triangles, gathered on the spot or already in lanes (as
-/// `src` is: the same answers bit for bit), with the kernel of the process's tier.
-#[inline]
-pub fn intersect4<S: Source>(
-    pr: &PreparedRay<f32>,
-    src: &S,
-    used: usize,
-    t_max: f32,
-) -> TriangleHits<f32> {
-    four(FourOnRay::new(pr, src, used, t_max))
 }
 
 impl<S: Source> FourLanes for FourOnRay<'_, PreparedRay<f32>, S> {

@@ -67,17 +67,7 @@ pub struct PacketHits {
 #[cfg(test)]
 impl crate::geometry::four_lanes::HitBits for PacketHits {
     fn hit_bits(&self) -> Vec<(usize, Vec<u32>)> {
-        (0..LANES)
-            .filter(|i| self.mask & (1 << i) != 0)
-            .map(|i| {
-                (
-                    i,
-                    [self.t[i], self.b1[i], self.b2[i]]
-                        .map(f32::to_bits)
-                        .to_vec(),
-                )
-            })
-            .collect()
+        crate::geometry::four_lanes::lanes_bits(self.mask, &[&self.t, &self.b1, &self.b2])
     }
 }
 

@@ -14,8 +14,9 @@ use std::any::Any;
 
 use crate::accel::{OneRay, RayPrimTest};
 use crate::geometry::cone::lanes::{self as cone_lanes, Cones4};
-use crate::geometry::leaf_spheres::{self, LeafSpheres, Spheres4};
-use crate::geometry::leaf_triangles::{self, LeafTriangles, Tris4, LANES};
+use crate::geometry::four_lanes;
+use crate::geometry::leaf_spheres::{LeafSpheres, Spheres4};
+use crate::geometry::leaf_triangles::{LeafTriangles, Tris4, LANES};
 use crate::geometry::{Nearest, PreparedRay, PrimHit, Ray};
 use crate::real::Real;
 use crate::scene::{Prim, Scene};
@@ -103,11 +104,11 @@ impl Gathered {
     fn run(&self, pr: &PreparedRay<f32>, used: usize, t_max: f32) -> (u32, Lanes) {
         match self {
             Gathered::Triangles(tris) => {
-                let h = leaf_triangles::intersect4(pr, tris, used, t_max);
+                let h = four_lanes::intersect4(pr, tris, used, t_max);
                 (h.mask, (h.t, h.b1, h.b2))
             }
             Gathered::Spheres(spheres) => {
-                let h = leaf_spheres::intersect4(&pr.ray, spheres, used, t_max);
+                let h = four_lanes::intersect4(&pr.ray, spheres, used, t_max);
                 (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
             }
         }
@@ -210,15 +211,15 @@ fn ray_groups<R: Real>(
 fn run(pr: &PreparedRay<f32>, leaf: &Simd<'_>, used: usize, t_max: f32) -> (u32, Lanes) {
     match leaf {
         Simd::Triangles(tris) => {
-            let h = leaf_triangles::intersect4(pr, tris, used, t_max);
+            let h = four_lanes::intersect4(pr, tris, used, t_max);
             (h.mask, (h.t, h.b1, h.b2))
         }
         Simd::Spheres(spheres) => {
-            let h = leaf_spheres::intersect4(&pr.ray, spheres, used, t_max);
+            let h = four_lanes::intersect4(&pr.ray, spheres, used, t_max);
             (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
         }
         Simd::Cones(cones) => {
-            let h = cone_lanes::intersect4(&pr.ray, cones, used, t_max);
+            let h = four_lanes::intersect4(&pr.ray, cones, used, t_max);
             (h.mask, (h.t, [0.0; LANES], [0.0; LANES]))
         }
     }

@@ -2,7 +2,7 @@
 //! one cone per SIMD lane for BVH leaves of cones and cylinders (rings, tree, jacks), or one ray
 //! per lane for a packet's rays entering a leaf with a cone. The arithmetic is the one cone
 //! test, `lateral_hits`, on four lanes, so each lane's answer is bit for bit the scalar one.
-//! [`intersect4`] and [`intersect_rays4`] run it with the code of the process's tier
+//! [`crate::geometry::four_lanes::intersect4`] and [`intersect_rays4`] run it with the code of the process's tier
 //! ([`crate::isa::dispatch`]) like [`crate::geometry::leaf_spheres`]: four SSE2 lanes (in
 //! their VEX form on `avx2` and `avx512`), the portable lane loops
 //! ([`crate::geometry::distance_hits::distances4`], [`intersect_rays4_lanes`]) on `scalar`
@@ -10,7 +10,7 @@
 
 use super::{lateral_hits, Cone, ConeLanes, ConeRays};
 use crate::geometry::distance_hits::{distances4, DistanceHits};
-use crate::geometry::four_lanes::{four, FourLanes};
+use crate::geometry::four_lanes::{four, FourLanes, FourOnRay};
 use crate::geometry::ray::Ray;
 use crate::lanes::{splat3, Lanes, Mask};
 use crate::real::Real;
@@ -21,22 +21,6 @@ pub const LANES: usize = 4;
 
 /// The cones of the lanes (unused lanes repeat a used one; `used` says how many count).
 pub type Cones4<'a, R> = [&'a Cone<R>; LANES];
-
-/// The `f32` test of `used` (1..=4) cones, with the kernel of the process's tier.
-#[inline]
-pub fn intersect4(
-    ray: &Ray<f32>,
-    cones: &Cones4<'_, f32>,
-    used: usize,
-    t_max: f32,
-) -> DistanceHits<f32> {
-    four(FourCones {
-        ray,
-        cones,
-        used,
-        t_max,
-    })
-}
 
 /// The portable kernel of one cone against up to four rays (lane `i`: `rays[i]` within
 /// `t_max[i]`), the scalar test lane by lane.
@@ -72,22 +56,13 @@ pub fn intersect_rays4(
     })
 }
 
-/// One ray against four cones: the kernel [`crate::isa::dispatch`] runs.
-#[derive(Clone, Copy)]
-struct FourCones<'a> {
-    ray: &'a Ray<f32>,
-    cones: &'a Cones4<'a, f32>,
-    used: usize,
-    t_max: f32,
-}
-
-impl FourLanes for FourCones<'_> {
+impl FourLanes for FourOnRay<'_, Ray<f32>, Cones4<'_, f32>> {
     type Output = DistanceHits<f32>;
 
-    /// [`lateral_hits`] with a cone per lane.
+    /// The lateral surface test (`lateral_hits`) with a cone per lane.
     #[inline(always)]
     fn lanes<L: Lanes<Elem = f32>>(self) -> DistanceHits<f32> {
-        let (ray, cones) = (self.ray, self.cones);
+        let (ray, cones) = (self.ray, self.src);
         let c = ConeLanes {
             base: gather3(cones, |c| c.base),
             axis: gather3(cones, |c| c.axis),
@@ -105,7 +80,7 @@ impl FourLanes for FourCones<'_> {
     }
 
     fn portable(self) -> DistanceHits<f32> {
-        distances4(self.ray, self.cones, self.used, self.t_max)
+        distances4(self.ray, self.src, self.used, self.t_max)
     }
 }
 
@@ -121,7 +96,7 @@ struct FourRays<'a> {
 impl FourLanes for FourRays<'_> {
     type Output = DistanceHits<f32>;
 
-    /// [`lateral_hits`] with a ray per lane.
+    /// The lateral surface test (`lateral_hits`) with a ray per lane.
     #[inline(always)]
     fn lanes<L: Lanes<Elem = f32>>(self) -> DistanceHits<f32> {
         let rays = self.rays;
@@ -180,12 +155,7 @@ mod tests {
     /// Asserts that every kernel this CPU runs gives the portable kernel's answer bit for bit.
     fn check(ray: &Ray<f32>, c: &Cones4<'_, f32>, used: usize, t_max: f32) -> u32 {
         let want = distances4(ray, c, used, t_max);
-        let kernels = every_tier(FourCones {
-            ray,
-            cones: c,
-            used,
-            t_max,
-        });
+        let kernels = every_tier(FourOnRay::new(ray, c, used, t_max));
         assert_agree(
             &want,
             &kernels,
