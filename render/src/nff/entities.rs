@@ -7,7 +7,7 @@ use super::error::NffError;
 use super::lexer::Token;
 use super::number;
 use super::parser::{show, Field, Parser};
-use crate::description::{Light, Material, PatchVertex, Shape, View};
+use crate::description::{ConeShape, Light, Material, PatchVertex, Shape, View};
 use crate::vec3::Vec3d;
 
 /// Minimum bytes one vertex of `p` takes: three numbers, each at least one byte after at least one
@@ -169,12 +169,12 @@ impl Parser<'_> {
         ])?;
         let (apex_radius, art) = self.real_tok(Field::Named("the cone apex radius"))?;
         match checks::cone(base, base_radius, apex, apex_radius) {
-            Ok(()) => Ok(Shape::Cone {
+            Ok(()) => Ok(Shape::Cone(ConeShape {
                 base,
                 base_radius,
                 apex,
                 apex_radius,
-            }),
+            })),
             Err(ConeProblem::NoAxis) => Err(self.syntax(
                 kw,
                 "degenerate cone: the base and apex centres are the same point (no axis)".into(),

@@ -241,20 +241,15 @@ pub fn to_pov(desc: &SceneDescription) -> String {
                 num(&mut out, *radius);
                 let _ = writeln!(out, "  texture {{ txt{tex:03} }} }}\n");
             }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
+            Shape::Cone(c) => {
                 out.push_str("cone {\n    ");
-                vector(&mut out, *base);
+                vector(&mut out, c.base);
                 out.push_str(", ");
-                num(&mut out, *base_radius);
+                num(&mut out, c.base_radius);
                 out.push_str(",\n    ");
-                vector(&mut out, *apex);
+                vector(&mut out, c.apex);
                 out.push_str(", ");
-                num(&mut out, *apex_radius);
+                num(&mut out, c.apex_radius);
                 let _ = writeln!(out, " open\n    texture {{ txt{tex:03} }}\n}}\n");
             }
             Shape::Polygon(vs) => match triangulate(vs) {

@@ -1,7 +1,7 @@
 //! What the NFF reader accepts and how it reads it: number forms, layouts, whitespace and
 //! comments, defaults, and the error values (kind, position) of the library API.
 
-use parrt_render::description::{Material, Shape};
+use parrt_render::description::{ConeShape, Material, Shape};
 use parrt_render::nff::{self, Limits, NffErrorKind};
 use parrt_render::vec3::Vec3d;
 
@@ -57,12 +57,12 @@ fn cone_on_one_line_or_three_is_the_same() {
     assert_eq!(one, three);
     assert_eq!(
         one.primitives[0].shape,
-        Shape::Cone {
+        Shape::Cone(ConeShape {
             base: Vec3d::new(0.0, 0.0, 0.0),
             base_radius: 1.0,
             apex: Vec3d::new(0.0, 0.0, 2.0),
             apex_radius: 0.5
-        }
+        })
     );
 }
 

@@ -3,7 +3,7 @@
 //! [`parrt_render::nff::checks`], and use materials in non-decreasing order as the writer requires.
 
 use parrt_render::description::{
-    Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View,
+    ConeShape, Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View,
 };
 use parrt_render::nff::{self, checks, Limits};
 use parrt_render::vec3::Vec3d;
@@ -89,11 +89,13 @@ fn shape() -> impl Strategy<Value = Shape> {
         .prop_filter("a cone the reader accepts", |(b, br, a, ar)| {
             checks::cone(*b, *br, *a, *ar).is_ok()
         })
-        .prop_map(|(base, base_radius, apex, apex_radius)| Shape::Cone {
-            base,
-            base_radius,
-            apex,
-            apex_radius,
+        .prop_map(|(base, base_radius, apex, apex_radius)| {
+            Shape::Cone(ConeShape {
+                base,
+                base_radius,
+                apex,
+                apex_radius,
+            })
         });
     let polygon = prop::collection::vec(point(), 3..9)
         .prop_filter("non-zero Newell normal", |vs| {
