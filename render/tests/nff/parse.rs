@@ -142,6 +142,60 @@ fn library_errors_carry_kind_and_position() {
     assert!(e.file.contains("x.nff"));
 }
 
+/// Every number of every entity is named in the message when it is not a number: the point
+/// coordinates, the material's fields and the vertex coordinates each by their own words.
+#[test]
+fn a_bad_number_is_named_by_what_it_stands_for() {
+    let f = "f 1 1 1 1 0 0 0 0\n";
+    // Enough bytes after a short vertex list that its count is believed.
+    let pad = format!("\n#{}\n", " ".repeat(60));
+    let cases: [(String, &str); 14] = [
+        ("v from 0 x".into(), "the view's from y"),
+        ("v from 0 0 5 at x".into(), "the view's at x"),
+        ("v from 0 0 5 at 0 0 0 up 0 x".into(), "the view's up y"),
+        (format!("{V}l 1 x"), "the light's y"),
+        (
+            format!("{V}l 1 2 3 0.5 x"),
+            "the light's green (a light has 3 or 6 numbers)",
+        ),
+        (
+            format!("{V}f 1 1 1 x"),
+            "the material's Kd (f has 8 numbers: r g b Kd Ks Shine T ior)",
+        ),
+        (
+            format!("{V}f 1 1 1 1 0 0 x"),
+            "the material's T (f has 8 numbers: r g b Kd Ks Shine T ior)",
+        ),
+        (
+            format!("{V}f 1 1 1 1 0 0 0 x"),
+            "the material's ior (f has 8 numbers: r g b Kd Ks Shine T ior)",
+        ),
+        (format!("{V}{f}s 0 x"), "the sphere centre's y"),
+        (format!("{V}{f}c 0 0 0 1 0 x"), "the cone apex's y"),
+        (format!("{V}{f}c 0 0 x"), "the cone base's z"),
+        (
+            format!("{V}{f}p 3 0 0 0 1 0 0 1 x{pad}"),
+            "the y of polygon vertex 3 (its count says 3 vertices)",
+        ),
+        (
+            format!("{V}{f}pp 3 0 0 0 0 0 1 1 0 0 0 0 x{pad}"),
+            "the normal z of patch vertex 2 (its count says 3 vertices)",
+        ),
+        (
+            format!("{V}{f}pp 3 0 0 0 0 0 1 1 0 x{pad}"),
+            "the z of patch vertex 2 (its count says 3 vertices)",
+        ),
+    ];
+    for (src, what) in cases {
+        let e = err(&src);
+        assert_eq!(
+            e.message,
+            format!("expected a number for {what}, found 'x'"),
+            "{src}"
+        );
+    }
+}
+
 #[test]
 fn long_and_odd_tokens_are_shown_shortly_and_safely() {
     let long = "z".repeat(500);
