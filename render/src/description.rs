@@ -267,3 +267,35 @@ impl SceneDescription {
         b
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: f64, y: f64, z: f64) -> Vec3d {
+        Vec3d::new(x, y, z)
+    }
+
+    /// A cylinder along z, inside-only: its line's numbers in file order, its box (the two end
+    /// circles, radii taken by magnitude), and the same cylinder doubled and moved.
+    #[test]
+    fn a_cone_reads_back_as_its_line_and_bounds_its_two_circles() {
+        let c = ConeShape {
+            base: v(1.0, 2.0, 3.0),
+            base_radius: -0.5,
+            apex: v(1.0, 2.0, 7.0),
+            apex_radius: -0.5,
+        };
+        assert_eq!(c.numbers(), [1.0, 2.0, 3.0, -0.5, 1.0, 2.0, 7.0, -0.5]);
+        assert!(c.is_cylinder());
+        let b = Shape::Cone(c).bounds();
+        assert_eq!((b.min, b.max), (v(0.5, 1.5, 3.0), v(1.5, 2.5, 7.0)));
+        let moved = c.transformed(2.0, v(0.0, 0.0, -1.0));
+        assert_eq!(moved.numbers(), [2.0, 4.0, 5.0, -1.0, 2.0, 4.0, 13.0, -1.0]);
+        let cone = ConeShape {
+            apex_radius: 0.0,
+            ..moved
+        };
+        assert!(!cone.is_cylinder());
+    }
+}
