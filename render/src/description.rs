@@ -85,20 +85,63 @@ pub enum Shape {
         radius: f64,
     },
     /// `c`: open truncated cone or cylinder between two circles, no caps.
-    Cone {
-        /// Centre of the base circle.
-        base: Vec3d,
-        /// Base radius.
-        base_radius: f64,
-        /// Centre of the apex circle.
-        apex: Vec3d,
-        /// Apex radius.
-        apex_radius: f64,
-    },
+    Cone(ConeShape),
     /// `p`: a planar polygon, counter-clockwise seen from the front, possibly concave.
     Polygon(Vertices),
     /// `pp`: a polygon with a normal at each vertex.
     Patch(Vec<PatchVertex>),
+}
+
+/// An NFF cone (`c` base.x base.y base.z base_radius apex.x apex.y apex.z apex_radius): the
+/// open lateral surface between two circles perpendicular to the axis from `base` to `apex`,
+/// without caps. Equal radii make a cylinder; one zero radius a cone with a tip. Both radii
+/// negative: only the inside is visible.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ConeShape {
+    /// Centre of the base circle (the line's first three numbers).
+    pub base: Vec3d,
+    /// Radius of the base circle (the fourth number); negative for an inside-only cone.
+    pub base_radius: f64,
+    /// Centre of the apex circle (the fifth to seventh numbers).
+    pub apex: Vec3d,
+    /// Radius of the apex circle (the eighth number); may be zero (a pointed cone).
+    pub apex_radius: f64,
+}
+
+impl ConeShape {
+    /// The eight numbers of its NFF line, in file order.
+    pub fn numbers(&self) -> [f64; 8] {
+        let [bx, by, bz] = self.base.to_array();
+        let [ax, ay, az] = self.apex.to_array();
+        [bx, by, bz, self.base_radius, ax, ay, az, self.apex_radius]
+    }
+
+    /// True when both radii are equal: a cylinder, which the SPD counts apart from cones.
+    pub fn is_cylinder(&self) -> bool {
+        self.base_radius == self.apex_radius
+    }
+
+    /// Its bounding box: the boxes of its two end circles, whose planes are perpendicular to the
+    /// axis.
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::empty();
+        let ext = disc_extent((self.apex - self.base).normalize());
+        for (c, r) in [(self.base, self.base_radius), (self.apex, self.apex_radius)] {
+            b.add_point(c - ext * r.abs());
+            b.add_point(c + ext * r.abs());
+        }
+        b
+    }
+
+    /// The same cone under `x ↦ scale·x + shift`: both centres move, both radii scale.
+    pub fn transformed(&self, scale: f64, shift: Vec3d) -> ConeShape {
+        ConeShape {
+            base: self.base * scale + shift,
+            base_radius: self.base_radius * scale,
+            apex: self.apex * scale + shift,
+            apex_radius: self.apex_radius * scale,
+        }
+    }
 }
 
 /// A primitive and the index of its material in [`SceneDescription::materials`].
@@ -179,18 +222,7 @@ impl Shape {
                 b.add_point(*center - r);
                 b.add_point(*center + r);
             }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
-                let ext = disc_extent((*apex - *base).normalize());
-                for (c, r) in [(*base, base_radius.abs()), (*apex, apex_radius.abs())] {
-                    b.add_point(c - ext * r);
-                    b.add_point(c + ext * r);
-                }
-            }
+            Shape::Cone(c) => b.union(&c.bounds()),
             Shape::Polygon(vs) => vs.iter().for_each(|v| b.add_point(*v)),
             Shape::Patch(vs) => vs.iter().for_each(|v| b.add_point(v.position)),
         }
@@ -218,17 +250,7 @@ impl SceneDescription {
                     *center = p(*center);
                     *radius *= scale;
                 }
-                Shape::Cone {
-                    base,
-                    base_radius,
-                    apex,
-                    apex_radius,
-                } => {
-                    *base = p(*base);
-                    *apex = p(*apex);
-                    *base_radius *= scale;
-                    *apex_radius *= scale;
-                }
+                Shape::Cone(c) => *c = c.transformed(scale, shift),
                 Shape::Polygon(vs) => vs.iter_mut().for_each(|x| *x = p(*x)),
                 Shape::Patch(vs) => vs.iter_mut().for_each(|x| x.position = p(x.position)),
             }
@@ -243,5 +265,37 @@ impl SceneDescription {
             b.union(&p.shape.bounds());
         }
         b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: f64, y: f64, z: f64) -> Vec3d {
+        Vec3d::new(x, y, z)
+    }
+
+    /// A cylinder along z, inside-only: its line's numbers in file order, its box (the two end
+    /// circles, radii taken by magnitude), and the same cylinder doubled and moved.
+    #[test]
+    fn a_cone_reads_back_as_its_line_and_bounds_its_two_circles() {
+        let c = ConeShape {
+            base: v(1.0, 2.0, 3.0),
+            base_radius: -0.5,
+            apex: v(1.0, 2.0, 7.0),
+            apex_radius: -0.5,
+        };
+        assert_eq!(c.numbers(), [1.0, 2.0, 3.0, -0.5, 1.0, 2.0, 7.0, -0.5]);
+        assert!(c.is_cylinder());
+        let b = Shape::Cone(c).bounds();
+        assert_eq!((b.min, b.max), (v(0.5, 1.5, 3.0), v(1.5, 2.5, 7.0)));
+        let moved = c.transformed(2.0, v(0.0, 0.0, -1.0));
+        assert_eq!(moved.numbers(), [2.0, 4.0, 5.0, -1.0, 2.0, 4.0, 13.0, -1.0]);
+        let cone = ConeShape {
+            apex_radius: 0.0,
+            ..moved
+        };
+        assert!(!cone.is_cylinder());
     }
 }

@@ -310,15 +310,10 @@ pub fn estimate(desc: &SceneDescription) -> Estimate {
             Shape::Sphere { radius, .. } => {
                 shade.offer(radius * radius, d, "sphere", "radius", i);
             }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
-                shade.offer(base_radius * base_radius, d, "cone", "radius", i);
-                shade.offer(apex_radius * apex_radius, d, "cone", "radius", i);
-                let len = (*apex - *base).length_squared();
+            Shape::Cone(c) => {
+                shade.offer(c.base_radius * c.base_radius, d, "cone", "radius", i);
+                shade.offer(c.apex_radius * c.apex_radius, d, "cone", "radius", i);
+                let len = (c.apex - c.base).length_squared();
                 shade.offer(len, d, "cone", "length", i);
             }
             Shape::Polygon(vs) => {

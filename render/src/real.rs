@@ -84,6 +84,19 @@ pub trait Real:
     }
 }
 
+/// Implements each listed [`Real`] method as the inherent method of the same name of `$t`
+/// (whose other operands, if any, are `Self` too).
+macro_rules! forward_to_inherent {
+    ($t:ty: $(fn $name:ident(self $(, $arg:ident)*) -> $ret:ty;)*) => {
+        $(
+            #[inline(always)]
+            fn $name(self $(, $arg: Self)*) -> $ret {
+                <$t>::$name(self $(, $arg)*)
+            }
+        )*
+    };
+}
+
 macro_rules! impl_real {
     ($t:ty, $name:literal) => {
         impl Real for $t {
@@ -117,45 +130,17 @@ macro_rules! impl_real {
             fn from_u32(v: u32) -> Self {
                 v as $t
             }
-            #[inline(always)]
-            fn sqrt(self) -> Self {
-                <$t>::sqrt(self)
-            }
-            #[inline(always)]
-            fn abs(self) -> Self {
-                <$t>::abs(self)
-            }
-            #[inline(always)]
-            fn min(self, o: Self) -> Self {
-                <$t>::min(self, o)
-            }
-            #[inline(always)]
-            fn max(self, o: Self) -> Self {
-                <$t>::max(self, o)
-            }
-            #[inline(always)]
-            fn powf(self, e: Self) -> Self {
-                <$t>::powf(self, e)
-            }
-            #[inline(always)]
-            fn is_finite(self) -> bool {
-                <$t>::is_finite(self)
-            }
-            #[inline(always)]
-            fn next_up(self) -> Self {
-                <$t>::next_up(self)
-            }
-            #[inline(always)]
-            fn next_down(self) -> Self {
-                <$t>::next_down(self)
-            }
-            #[inline(always)]
-            fn copysign(self, sign: Self) -> Self {
-                <$t>::copysign(self, sign)
-            }
-            #[inline(always)]
-            fn tan(self) -> Self {
-                <$t>::tan(self)
+            forward_to_inherent! { $t:
+                fn sqrt(self) -> Self;
+                fn abs(self) -> Self;
+                fn min(self, o) -> Self;
+                fn max(self, o) -> Self;
+                fn powf(self, e) -> Self;
+                fn is_finite(self) -> bool;
+                fn next_up(self) -> Self;
+                fn next_down(self) -> Self;
+                fn copysign(self, sign) -> Self;
+                fn tan(self) -> Self;
             }
         }
     };

@@ -314,13 +314,9 @@ impl<R: Real> Scene<R> {
                 };
                 self.push(Prim::Sphere(s), material, u32::MAX, *radius < 0.0, index);
             }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
-                let (r0, r1) = (*base_radius, *apex_radius);
+            Shape::Cone(cone) => {
+                let (base, apex) = (cone.base, cone.apex);
+                let (r0, r1) = (cone.base_radius, cone.apex_radius);
                 if !base.is_finite() || !apex.is_finite() || !r0.is_finite() || !r1.is_finite() {
                     return Err(degenerate("cone", "non-finite value"));
                 }
@@ -329,9 +325,9 @@ impl<R: Real> Scene<R> {
                 }
                 let inward = r0 < 0.0 || r1 < 0.0;
                 let c = Cone::new(
-                    V3::from_f64(*base - self.origin),
+                    V3::from_f64(base - self.origin),
                     R::from_f64(r0.abs()),
-                    V3::from_f64(*apex - self.origin),
+                    V3::from_f64(apex - self.origin),
                     R::from_f64(r1.abs()),
                 )
                 .ok_or_else(|| degenerate("cone", "base equals apex or both radii are zero"))?;

@@ -167,32 +167,27 @@ impl<R: Real> Index<usize> for V3<R> {
     }
 }
 
-impl<R: Real> Add for V3<R> {
-    type Output = Self;
-    #[inline(always)]
-    fn add(self, o: Self) -> Self {
-        V3::new(self.x + o.x, self.y + o.y, self.z + o.z)
-    }
+/// `V3 op V3` component by component, and `op=` as `a = a op b`.
+macro_rules! componentwise {
+    ($Op:ident::$op:ident, $OpAssign:ident::$op_assign:ident, $sym:tt) => {
+        impl<R: Real> $Op for V3<R> {
+            type Output = Self;
+            #[inline(always)]
+            fn $op(self, o: Self) -> Self {
+                V3::new(self.x $sym o.x, self.y $sym o.y, self.z $sym o.z)
+            }
+        }
+        impl<R: Real> $OpAssign for V3<R> {
+            #[inline(always)]
+            fn $op_assign(&mut self, o: Self) {
+                *self = *self $sym o;
+            }
+        }
+    };
 }
-impl<R: Real> AddAssign for V3<R> {
-    #[inline(always)]
-    fn add_assign(&mut self, o: Self) {
-        *self = *self + o;
-    }
-}
-impl<R: Real> Sub for V3<R> {
-    type Output = Self;
-    #[inline(always)]
-    fn sub(self, o: Self) -> Self {
-        V3::new(self.x - o.x, self.y - o.y, self.z - o.z)
-    }
-}
-impl<R: Real> SubAssign for V3<R> {
-    #[inline(always)]
-    fn sub_assign(&mut self, o: Self) {
-        *self = *self - o;
-    }
-}
+componentwise!(Add::add, AddAssign::add_assign, +);
+componentwise!(Sub::sub, SubAssign::sub_assign, -);
+
 impl<R: Real> Neg for V3<R> {
     type Output = Self;
     #[inline(always)]

@@ -4,7 +4,7 @@
 
 use crate::GenError;
 use parrt_render::description::{
-    Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View,
+    ConeShape, Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View,
 };
 use parrt_render::vec3::Vec3d;
 
@@ -135,12 +135,12 @@ impl SceneBuilder {
 
     /// Writes a cone or cylinder (no caps).
     pub fn cone(&mut self, base: Vec3d, base_radius: f64, apex: Vec3d, apex_radius: f64) {
-        self.push(Shape::Cone {
+        self.push(Shape::Cone(ConeShape {
             base,
             base_radius,
             apex,
             apex_radius,
-        });
+        }));
     }
 
     /// Writes a polygon (counter-clockwise seen from the front).

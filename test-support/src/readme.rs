@@ -27,17 +27,8 @@ impl Counts {
         for p in &desc.primitives {
             match &p.shape {
                 Shape::Sphere { .. } => c.spheres += 1,
-                Shape::Cone {
-                    base_radius,
-                    apex_radius,
-                    ..
-                } => {
-                    if base_radius == apex_radius {
-                        c.cylinders += 1
-                    } else {
-                        c.cones += 1
-                    }
-                }
+                Shape::Cone(cone) if cone.is_cylinder() => c.cylinders += 1,
+                Shape::Cone(_) => c.cones += 1,
                 Shape::Polygon(v) => *c.polygons.entry(v.len()).or_default() += 1,
                 Shape::Patch(v) => *c.patches.entry(v.len()).or_default() += 1,
             }

@@ -7,8 +7,7 @@ use super::error::NffError;
 use super::lexer::Token;
 use super::number;
 use super::parser::{show, Field, Parser};
-use crate::description::{Light, Material, PatchVertex, Shape, View};
-use crate::vec3::Vec3d;
+use crate::description::{ConeShape, Light, Material, PatchVertex, Shape, View};
 
 /// Minimum bytes one vertex of `p` takes: three numbers, each at least one byte after at least one
 /// separator. `pp` vertices take twice this.
@@ -17,15 +16,11 @@ const MIN_VERTEX_BYTES: u64 = 6;
 impl Parser<'_> {
     pub(super) fn view(&mut self) -> Result<View, NffError> {
         self.view_word("from")?;
-        let from = self.vec3(&[
-            "the view's from x",
-            "the view's from y",
-            "the view's from z",
-        ])?;
+        let from = self.point("the view's from")?;
         let at_tok = self.view_word("at")?;
-        let at = self.vec3(&["the view's at x", "the view's at y", "the view's at z"])?;
+        let at = self.point("the view's at")?;
         let up_tok = self.view_word("up")?;
-        let up = self.vec3(&["the view's up x", "the view's up y", "the view's up z"])?;
+        let up = self.point("the view's up")?;
         match checks::camera(from, at, up) {
             Ok(()) => {}
             Err(CameraProblem::NoViewDirection) => {
@@ -99,7 +94,7 @@ impl Parser<'_> {
     }
 
     pub(super) fn light(&mut self) -> Result<Light, NffError> {
-        let position = self.vec3(&["the light's x", "the light's y", "the light's z"])?;
+        let position = self.point("the light's")?;
         let has_color = match self.lx.peek() {
             Some(t) => number::looks_numeric(self.lx.text(&t)),
             None => false,
@@ -122,32 +117,26 @@ impl Parser<'_> {
             "the material's green",
             "the material's blue",
         ])?;
+        let names = [
+            "the material's Kd (f has 8 numbers: r g b Kd Ks Shine T ior)",
+            "the material's Ks (f has 8 numbers: r g b Kd Ks Shine T ior)",
+            "the material's Shine (f has 8 numbers: r g b Kd Ks Shine T ior)",
+            "the material's T (f has 8 numbers: r g b Kd Ks Shine T ior)",
+            "the material's ior (f has 8 numbers: r g b Kd Ks Shine T ior)",
+        ];
+        let [kd, ks, shine, t, ior] = self.reals(names.map(Field::Named))?;
         Ok(Material {
             color,
-            kd: self.real(Field::Named(
-                "the material's Kd (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-            ks: self.real(Field::Named(
-                "the material's Ks (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-            shine: self.real(Field::Named(
-                "the material's Shine (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-            t: self.real(Field::Named(
-                "the material's T (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
-            ior: self.real(Field::Named(
-                "the material's ior (f has 8 numbers: r g b Kd Ks Shine T ior)",
-            ))?,
+            kd,
+            ks,
+            shine,
+            t,
+            ior,
         })
     }
 
     pub(super) fn sphere(&mut self) -> Result<Shape, NffError> {
-        let center = self.vec3(&[
-            "the sphere centre's x",
-            "the sphere centre's y",
-            "the sphere centre's z",
-        ])?;
+        let center = self.point("the sphere centre's")?;
         let (radius, rt) = self.real_tok(Field::Named("the sphere radius"))?;
         if radius == 0.0 {
             return Err(self.syntax(&rt, "the sphere radius must not be zero".into()));
@@ -156,25 +145,17 @@ impl Parser<'_> {
     }
 
     pub(super) fn cone(&mut self, kw: &Token) -> Result<Shape, NffError> {
-        let base = self.vec3(&[
-            "the cone base's x",
-            "the cone base's y",
-            "the cone base's z",
-        ])?;
+        let base = self.point("the cone base's")?;
         let (base_radius, brt) = self.real_tok(Field::Named("the cone base radius"))?;
-        let apex = self.vec3(&[
-            "the cone apex's x",
-            "the cone apex's y",
-            "the cone apex's z",
-        ])?;
+        let apex = self.point("the cone apex's")?;
         let (apex_radius, art) = self.real_tok(Field::Named("the cone apex radius"))?;
         match checks::cone(base, base_radius, apex, apex_radius) {
-            Ok(()) => Ok(Shape::Cone {
+            Ok(()) => Ok(Shape::Cone(ConeShape {
                 base,
                 base_radius,
                 apex,
                 apex_radius,
-            }),
+            })),
             Err(ConeProblem::NoAxis) => Err(self.syntax(
                 kw,
                 "degenerate cone: the base and apex centres are the same point (no axis)".into(),
@@ -238,17 +219,7 @@ impl Parser<'_> {
         let n = self.vertex_count("polygon", MIN_VERTEX_BYTES)?;
         let mut vs = Vec::with_capacity(n);
         for i in 1..=n as u64 {
-            let f = |what| Field::Vertex {
-                entity: "polygon",
-                what,
-                index: i,
-                count: n as u64,
-            };
-            vs.push(Vec3d::new(
-                self.real(f("x"))?,
-                self.real(f("y"))?,
-                self.real(f("z"))?,
-            ));
+            vs.push(self.vertex_vec3("polygon", ["x", "y", "z"], i, n as u64)?);
         }
         let flat = self.plane(kw, "polygon", checks::polygon(vs.iter().copied()))?;
         Ok((!flat).then(|| Shape::Polygon(vs.into())))
@@ -259,18 +230,9 @@ impl Parser<'_> {
         let n = self.vertex_count("patch", 2 * MIN_VERTEX_BYTES)?;
         let mut vs = Vec::with_capacity(n);
         for i in 1..=n as u64 {
-            let f = |what| Field::Vertex {
-                entity: "patch",
-                what,
-                index: i,
-                count: n as u64,
-            };
-            let position = Vec3d::new(self.real(f("x"))?, self.real(f("y"))?, self.real(f("z"))?);
-            let normal = Vec3d::new(
-                self.real(f("normal x"))?,
-                self.real(f("normal y"))?,
-                self.real(f("normal z"))?,
-            );
+            let position = self.vertex_vec3("patch", ["x", "y", "z"], i, n as u64)?;
+            let normal = ["normal x", "normal y", "normal z"];
+            let normal = self.vertex_vec3("patch", normal, i, n as u64)?;
             vs.push(PatchVertex { position, normal });
         }
         let flat = self.plane(kw, "patch", checks::polygon(vs.iter().map(|v| v.position)))?;

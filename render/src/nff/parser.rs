@@ -131,6 +131,13 @@ const VIEW_ORDER: &str = "v from x y z at x y z up x y z angle a hither h resolu
 pub(super) enum Field {
     /// A named field: "the sphere radius".
     Named(&'static str),
+    /// A coordinate of a named point: "the sphere centre's" and "x".
+    Coordinate {
+        /// Whose coordinate: "the sphere centre's", "the view's from".
+        of: &'static str,
+        /// "x", "y" or "z".
+        axis: &'static str,
+    },
     /// A coordinate of a polygon or patch vertex.
     Vertex {
         /// "polygon" or "patch".
@@ -148,6 +155,7 @@ impl Field {
     fn describe(self) -> String {
         match self {
             Field::Named(s) => s.to_string(),
+            Field::Coordinate { of, axis } => format!("{of} {axis}"),
             Field::Vertex {
                 entity,
                 what,
@@ -265,13 +273,50 @@ impl<'a> Parser<'a> {
         self.real_tok(field).map(|(v, _)| v)
     }
 
+    /// Reads `N` numbers in order; a missing or bad one is reported as its entry of `fields`.
+    #[inline]
+    pub(super) fn reals<const N: usize>(
+        &mut self,
+        fields: [Field; N],
+    ) -> Result<[f64; N], NffError> {
+        let mut values = [0.0; N];
+        for (v, field) in values.iter_mut().zip(fields) {
+            *v = self.real(field)?;
+        }
+        Ok(values)
+    }
+
     #[inline]
     pub(super) fn vec3(&mut self, names: &[&'static str; 3]) -> Result<Vec3d, NffError> {
-        Ok(Vec3d::new(
-            self.real(Field::Named(names[0]))?,
-            self.real(Field::Named(names[1]))?,
-            self.real(Field::Named(names[2]))?,
-        ))
+        let [x, y, z] = self.reals(names.map(Field::Named))?;
+        Ok(Vec3d::new(x, y, z))
+    }
+
+    /// Reads a point's x, y and z; `of` names the point in messages ("the light's").
+    #[inline]
+    pub(super) fn point(&mut self, of: &'static str) -> Result<Vec3d, NffError> {
+        let [x, y, z] = self.reals(["x", "y", "z"].map(|axis| Field::Coordinate { of, axis }))?;
+        Ok(Vec3d::new(x, y, z))
+    }
+
+    /// Reads the three numbers `what` (such as "x", "y", "z") of vertex `index` (1-based) of an
+    /// `entity` ("polygon" or "patch") declared with `count` vertices.
+    #[inline]
+    pub(super) fn vertex_vec3(
+        &mut self,
+        entity: &'static str,
+        what: [&'static str; 3],
+        index: u64,
+        count: u64,
+    ) -> Result<Vec3d, NffError> {
+        let field = |what| Field::Vertex {
+            entity,
+            what,
+            index,
+            count,
+        };
+        let [x, y, z] = self.reals(what.map(field))?;
+        Ok(Vec3d::new(x, y, z))
     }
 
     /// Reads a whole number (a count or a resolution) and its token.

@@ -23,15 +23,23 @@ use std::fmt::Write;
 /// The `Shine` value SPD writes for a material with no highlight.
 const NO_HIGHLIGHT: f64 = 100000.0;
 
+/// Writes the three numbers of `v`, each after its text in `before`.
+fn interleaved(out: &mut String, before: [&str; 3], v: Vec3d) {
+    for (text, x) in before.into_iter().zip(v.to_array()) {
+        out.push_str(text);
+        num(out, x);
+    }
+}
+
 /// Writes `<x, y, z>`.
 fn vector(out: &mut String, v: Vec3d) {
-    out.push('<');
-    num(out, v.x);
-    out.push_str(", ");
-    num(out, v.y);
-    out.push_str(", ");
-    num(out, v.z);
+    interleaved(out, ["<", ", ", ", "], v);
     out.push('>');
+}
+
+/// Writes `color red r green g blue b`.
+fn color(out: &mut String, c: Vec3d) {
+    interleaved(out, ["color red ", " green ", " blue "], c);
 }
 
 /// The unit vector along `v`, or `v` itself when it has no length.
@@ -74,12 +82,8 @@ fn camera(out: &mut String, desc: &SceneDescription) {
 /// Writes the texture `txtNNN` of material `m` (`index` counts from 1, as Haines names them).
 fn texture(out: &mut String, index: usize, m: &Material) {
     let _ = writeln!(out, "#declare txt{index:03} = texture {{");
-    out.push_str("    pigment {\n        color red ");
-    num(out, m.color.x);
-    out.push_str(" green ");
-    num(out, m.color.y);
-    out.push_str(" blue ");
-    num(out, m.color.z);
+    out.push_str("    pigment {\n        ");
+    color(out, m.color);
     if m.t > 0.0 {
         out.push_str(" filter ");
         num(out, m.t);
@@ -193,13 +197,8 @@ pub fn triangulate(vs: &[Vec3d]) -> Option<Vec<[usize; 3]>> {
 pub fn to_pov(desc: &SceneDescription) -> String {
     let mut out = String::with_capacity(256 + desc.primitives.len() * 160);
     out.push_str("// POV-Ray 3 scene file (written by parrt from an NFF scene)\n");
-    let b = desc.background;
-    out.push_str("background { color red ");
-    num(&mut out, b.x);
-    out.push_str(" green ");
-    num(&mut out, b.y);
-    out.push_str(" blue ");
-    num(&mut out, b.z);
+    out.push_str("background { ");
+    color(&mut out, desc.background);
     out.push_str(" }\n\n");
     camera(&mut out, desc);
     let nl = desc.lights.len().max(1) as f64;
@@ -208,12 +207,8 @@ pub fn to_pov(desc: &SceneDescription) -> String {
         let c = l.color.unwrap_or(Vec3d::new(1.0, 1.0, 1.0)) * scale;
         out.push_str("light_source {\n    ");
         vector(&mut out, l.position);
-        out.push_str(" color red ");
-        num(&mut out, c.x);
-        out.push_str(" green ");
-        num(&mut out, c.y);
-        out.push_str(" blue ");
-        num(&mut out, c.z);
+        out.push(' ');
+        color(&mut out, c);
         out.push_str("\n} // light\n\n");
     }
     for (i, m) in desc.materials.iter().enumerate() {
@@ -241,20 +236,15 @@ pub fn to_pov(desc: &SceneDescription) -> String {
                 num(&mut out, *radius);
                 let _ = writeln!(out, "  texture {{ txt{tex:03} }} }}\n");
             }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
+            Shape::Cone(c) => {
                 out.push_str("cone {\n    ");
-                vector(&mut out, *base);
+                vector(&mut out, c.base);
                 out.push_str(", ");
-                num(&mut out, *base_radius);
+                num(&mut out, c.base_radius);
                 out.push_str(",\n    ");
-                vector(&mut out, *apex);
+                vector(&mut out, c.apex);
                 out.push_str(", ");
-                num(&mut out, *apex_radius);
+                num(&mut out, c.apex_radius);
                 let _ = writeln!(out, " open\n    texture {{ txt{tex:03} }}\n}}\n");
             }
             Shape::Polygon(vs) => match triangulate(vs) {
@@ -299,8 +289,11 @@ pub fn to_pov(desc: &SceneDescription) -> String {
 mod tests {
     use super::*;
 
-    fn v(x: f64, y: f64, z: f64) -> Vec3d {
-        Vec3d::new(x, y, z)
+    /// An outline in the plane z = 0, from its (x, y) corners in order.
+    fn outline(xy: &[(i8, i8)]) -> Vec<Vec3d> {
+        xy.iter()
+            .map(|&(x, y)| Vec3d::new(x.into(), y.into(), 0.0))
+            .collect()
     }
 
     /// Twice the area of the triangles, summed, in the plane z = 0.
@@ -315,12 +308,7 @@ mod tests {
 
     #[test]
     fn a_convex_square_becomes_two_triangles_of_its_area() {
-        let sq = [
-            v(0.0, 0.0, 0.0),
-            v(2.0, 0.0, 0.0),
-            v(2.0, 2.0, 0.0),
-            v(0.0, 2.0, 0.0),
-        ];
+        let sq = outline(&[(0, 0), (2, 0), (2, 2), (0, 2)]);
         let t = triangulate(&sq).unwrap();
         assert_eq!(t.len(), 2);
         assert_eq!(area2(&sq, &t), 8.0);
@@ -329,14 +317,7 @@ mod tests {
     #[test]
     fn a_concave_outline_is_cut_inside_itself() {
         // An L: six vertices, area 3, reflex corner at (1, 1).
-        let l = [
-            v(0.0, 0.0, 0.0),
-            v(2.0, 0.0, 0.0),
-            v(2.0, 1.0, 0.0),
-            v(1.0, 1.0, 0.0),
-            v(1.0, 2.0, 0.0),
-            v(0.0, 2.0, 0.0),
-        ];
+        let l = outline(&[(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]);
         let t = triangulate(&l).unwrap();
         assert_eq!(t.len(), 4);
         assert_eq!(area2(&l, &t), 6.0);
@@ -438,12 +419,7 @@ mod tests {
 
     #[test]
     fn a_flat_outline_has_no_triangulation() {
-        let line = [
-            v(0.0, 0.0, 0.0),
-            v(1.0, 0.0, 0.0),
-            v(2.0, 0.0, 0.0),
-            v(3.0, 0.0, 0.0),
-        ];
+        let line = outline(&[(0, 0), (1, 0), (2, 0), (3, 0)]);
         assert_eq!(triangulate(&line), None);
     }
 }

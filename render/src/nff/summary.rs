@@ -50,17 +50,8 @@ impl Summary {
         for p in &d.primitives {
             match &p.shape {
                 Shape::Sphere { .. } => s.spheres += 1,
-                Shape::Cone {
-                    base_radius,
-                    apex_radius,
-                    ..
-                } => {
-                    if base_radius == apex_radius {
-                        s.cylinders += 1;
-                    } else {
-                        s.cones += 1;
-                    }
-                }
+                Shape::Cone(c) if c.is_cylinder() => s.cylinders += 1,
+                Shape::Cone(_) => s.cones += 1,
                 Shape::Polygon(vs) => {
                     s.polygons += 1;
                     *s.polygons_by_vertices.entry(vs.len()).or_default() += 1;

@@ -82,26 +82,9 @@ pub fn to_nff(desc: &SceneDescription) -> String {
                 out.push('s');
                 nums(&mut out, &[center.x, center.y, center.z, *radius]);
             }
-            Shape::Cone {
-                base,
-                base_radius,
-                apex,
-                apex_radius,
-            } => {
+            Shape::Cone(c) => {
                 out.push('c');
-                nums(
-                    &mut out,
-                    &[
-                        base.x,
-                        base.y,
-                        base.z,
-                        *base_radius,
-                        apex.x,
-                        apex.y,
-                        apex.z,
-                        *apex_radius,
-                    ],
-                );
+                nums(&mut out, &c.numbers());
             }
             Shape::Polygon(vs) => {
                 let _ = write!(out, "p {}", vs.len());

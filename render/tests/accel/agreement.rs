@@ -9,7 +9,7 @@ use crate::support::scene::{scene_of, v};
 use crate::support::spd::{load, Trio, TrioStats, SMALL_SCENES};
 use parrt_render::accel::Accel;
 use parrt_render::camera::Camera;
-use parrt_render::description::{SceneDescription, Shape, View};
+use parrt_render::description::{ConeShape, SceneDescription, Shape, View};
 use parrt_render::geometry::{Aabb, PreparedRay, PrimHit, Ray};
 use parrt_render::real::Real;
 use parrt_render::render::Renderer;
@@ -416,12 +416,12 @@ fn cones(seed: u64) -> SceneDescription {
             1 => 0.0,
             _ => rng.gen_range(0.01..0.2),
         };
-        prims.push(Shape::Cone {
+        prims.push(Shape::Cone(ConeShape {
             base,
             base_radius: r0,
             apex,
             apex_radius: r1,
-        });
+        }));
         if i % 10 == 0 {
             prims.push(Shape::Sphere {
                 center: apex,

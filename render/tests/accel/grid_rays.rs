@@ -7,7 +7,7 @@
 use crate::support::scene::{scene_of, tri, v};
 use crate::support::spd::Trio;
 use parrt_render::accel::{Accel, Grid};
-use parrt_render::description::{SceneDescription, Shape, View};
+use parrt_render::description::{ConeShape, SceneDescription, Shape, View};
 use parrt_render::geometry::{PreparedRay, Ray};
 use parrt_render::real::Real;
 use parrt_render::stats::RayStats;
@@ -72,12 +72,12 @@ fn corner_scene(o: Rv) -> SceneDescription {
             radius: 0.125,
         });
     }
-    p.push(Shape::Cone {
+    p.push(Shape::Cone(ConeShape {
         base: at(0.0, 0.0, -0.8),
         base_radius: 0.05,
         apex: at(0.0, 0.0, 0.8),
         apex_radius: 0.05,
-    });
+    }));
     // A duplicate of the first triangle: ties everywhere on it.
     p.push(tri(at(0.0, 0.0, 0.0), at(h, 0.0, 0.0), at(0.0, h, 0.0)));
     describe(p)
@@ -347,12 +347,12 @@ fn one_primitive() {
             radius: 0.7,
         },
         tri(v(-1.0, -1.0, 0.0), v(1.0, -1.0, 0.2), v(0.0, 1.0, -0.1)),
-        Shape::Cone {
+        Shape::Cone(ConeShape {
             base: v(0.0, 0.0, -1.0),
             base_radius: 0.5,
             apex: v(0.0, 0.0, 1.0),
             apex_radius: 0.0,
-        },
+        }),
     ]
     .into_iter()
     .enumerate()
@@ -442,17 +442,7 @@ fn scene_far_from_origin_and_tiny_scene() {
                     center: tr(*center),
                     radius: radius * scale,
                 },
-                Shape::Cone {
-                    base,
-                    base_radius,
-                    apex,
-                    apex_radius,
-                } => Shape::Cone {
-                    base: tr(*base),
-                    base_radius: base_radius * scale,
-                    apex: tr(*apex),
-                    apex_radius: apex_radius * scale,
-                },
+                Shape::Cone(c) => Shape::Cone(c.transformed(scale, V3::splat(shift))),
                 Shape::Polygon(vs) => Shape::Polygon(vs.iter().map(|&p| tr(p)).collect()),
                 Shape::Patch(_) => unreachable!("the corner scene has no patches"),
             };

@@ -14,7 +14,7 @@ use crate::support::spd::{key, load, SMALL_SCENES};
 use parrt_render::accel::bvh::packet::PACKET;
 use parrt_render::accel::Accel;
 use parrt_render::camera::Camera;
-use parrt_render::description::{SceneDescription, Shape, View};
+use parrt_render::description::{ConeShape, SceneDescription, Shape, View};
 use parrt_render::geometry::{PreparedRay, Ray};
 use parrt_render::packet::scene_leaf::SceneLeaf;
 use parrt_render::real::Real;
@@ -324,11 +324,13 @@ fn rays_at_cones(scene: &Scene<f32>) -> Vec<Ray<f32>> {
 #[test]
 fn cone_leaves_agree_with_scalar() {
     let mut shapes = Vec::new();
-    let cone = |b: V3<f64>, r0: f64, a: V3<f64>, r1: f64| Shape::Cone {
-        base: b,
-        base_radius: r0,
-        apex: a,
-        apex_radius: r1,
+    let cone = |b: V3<f64>, r0: f64, a: V3<f64>, r1: f64| {
+        Shape::Cone(ConeShape {
+            base: b,
+            base_radius: r0,
+            apex: a,
+            apex_radius: r1,
+        })
     };
     let axes = [
         V3::new(1.0, 0.0, 0.0),

@@ -3,7 +3,7 @@
 
 use crate::setup::{f32_resolves, unlit_scene, Direct, Placement, PLACEMENTS};
 use crate::support::scene::{prim, v};
-use parrt_render::description::{SceneDescription, Shape};
+use parrt_render::description::{ConeShape, SceneDescription, Shape};
 use parrt_render::real::Real;
 use parrt_render::settings::AccelKind;
 use parrt_render::vec3::Vec3d;
@@ -37,12 +37,12 @@ fn axis_parallel_rays() {
                 0,
             ), // 4
             prim(
-                Shape::Cone {
+                Shape::Cone(ConeShape {
                     base: v(0.0, 5.0, -1.0),
                     base_radius: 1.0,
                     apex: v(0.0, 5.0, 1.0),
                     apex_radius: 1.0,
-                },
+                }),
                 0,
             ), // 5
         ],

@@ -3,7 +3,7 @@
 
 use crate::setup::{settings, unlit_scene, Direct};
 use crate::support::scene::{prim, tri, v};
-use parrt_render::description::Shape;
+use parrt_render::description::{ConeShape, Shape};
 use parrt_render::render::Renderer;
 use parrt_render::scene::{Scene, SceneError};
 use parrt_render::settings::{AccelKind, Precision};
@@ -54,21 +54,21 @@ fn degenerate_input_is_rejected_with_a_clear_message() {
             "fewer than 3",
         ),
         (
-            Shape::Cone {
+            Shape::Cone(ConeShape {
                 base: v(0.0, 0.0, 0.0),
                 base_radius: 1.0,
                 apex: v(0.0, 0.0, 0.0),
                 apex_radius: 1.0,
-            },
+            }),
             "base equals apex",
         ),
         (
-            Shape::Cone {
+            Shape::Cone(ConeShape {
                 base: v(0.0, 0.0, 0.0),
                 base_radius: 0.0,
                 apex: v(0.0, 0.0, 1.0),
                 apex_radius: 0.0,
-            },
+            }),
             "both radii are zero",
         ),
         (

@@ -117,52 +117,79 @@ fn ray<R: Real>(o: V3<R>, d: Vec3d) -> Ray<R> {
 
 const TRIALS: usize = 20_000;
 
+/// Spawns four rays from a hit at `p` (error bound `err`, geometric normal `n`), towards
+/// directions drawn by `towards`, each origin offset as the renderer offsets it, and asserts that
+/// `rehit` (the primitive's own test, giving the distance of a hit) finds none of them hitting
+/// again; `what` names the primitive. Returns how many rays it tested.
+fn spawned_never_rehit<R: Real>(
+    rng: &mut StdRng,
+    (p, err, n): (V3<R>, V3<R>, V3<R>),
+    towards: impl Fn(&mut StdRng) -> Vec3d,
+    rehit: impl Fn(&Ray<R>) -> Option<R>,
+    what: impl Fn() -> String,
+) -> usize {
+    const SPAWNED: usize = 4;
+    for _ in 0..SPAWNED {
+        let d = towards(rng);
+        let spawned = ray(offset_ray_origin(p, err, n, V3::from_f64(d)), d);
+        let again = rehit(&spawned);
+        assert!(
+            again.is_none(),
+            "{}: {} re-hit at t = {again:?} from {p:?} towards {d:?}",
+            R::NAME,
+            what()
+        );
+    }
+    SPAWNED
+}
+
+/// Runs the trials of one kind of primitive: `trial` draws a primitive and a primary ray aimed
+/// at it and, when the ray hits, returns how many spawned rays it checked
+/// ([`spawned_never_rehit`]). Most primary rays must hit.
+fn reintersect<R: Real>(seed: u64, mut trial: impl FnMut(&mut StdRng) -> Option<usize>) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let tested: usize = (0..TRIALS).filter_map(|_| trial(&mut rng)).sum();
+    assert!(
+        tested > TRIALS,
+        "{}: most primary rays must hit ({tested})",
+        R::NAME
+    );
+}
+
 fn spheres_reintersect<R: Real>() {
-    let mut rng = StdRng::seed_from_u64(1);
-    let mut tested = 0;
-    for _ in 0..TRIALS {
+    reintersect::<R>(1, |rng| {
         let scale = 10f64.powf(rng.gen_range(-3.0..3.0));
         let s = Sphere {
-            center: V3::from_f64(rand_v(&mut rng, 100.0 * scale)),
+            center: V3::from_f64(rand_v(rng, 100.0 * scale)),
             radius: R::from_f64(rng.gen_range(0.01..10.0) * scale),
         };
-        let target = s.center.to_f64() + rand_dir(&mut rng) * (s.radius.to_f64() * 0.999);
-        let o = target + rand_dir(&mut rng) * (rng.gen_range(2.0..50.0) * s.radius.to_f64());
+        let target = s.center.to_f64() + rand_dir(rng) * (s.radius.to_f64() * 0.999);
+        let o = target + rand_dir(rng) * (rng.gen_range(2.0..50.0) * s.radius.to_f64());
         let r0 = ray::<R>(V3::from_f64(o), target - o);
-        let Some(t) = s.intersect(&r0, R::INFINITY) else {
-            continue;
-        };
-        let (p, err, n) = s.surface(&r0, t);
-        for _ in 0..4 {
-            let d = rand_out(&mut rng, n.to_f64());
-            let spawned = ray(offset_ray_origin(p, err, n, V3::from_f64(d)), d);
-            tested += 1;
-            assert!(
-                s.intersect(&spawned, R::INFINITY).is_none(),
-                "{}: sphere {s:?} re-hit from {p:?} towards {d:?}",
-                R::NAME
-            );
-        }
-    }
-    assert!(tested > TRIALS, "most primary rays must hit");
+        let t = s.intersect(&r0, R::INFINITY)?;
+        let hit = s.surface(&r0, t);
+        Some(spawned_never_rehit(
+            rng,
+            hit,
+            |rng| rand_out(rng, hit.2.to_f64()),
+            |r| s.intersect(r, R::INFINITY),
+            || format!("sphere {s:?}"),
+        ))
+    });
 }
 
 fn cones_reintersect<R: Real>() {
-    let mut rng = StdRng::seed_from_u64(2);
-    let mut tested = 0;
-    for _ in 0..TRIALS {
+    reintersect::<R>(2, |rng| {
         let scale = 10f64.powf(rng.gen_range(-2.0..2.0));
-        let base = rand_v(&mut rng, 50.0 * scale);
-        let apex = base + rand_dir(&mut rng) * (rng.gen_range(0.1..10.0) * scale);
+        let base = rand_v(rng, 50.0 * scale);
+        let apex = base + rand_dir(rng) * (rng.gen_range(0.1..10.0) * scale);
         let r0 = rng.gen_range(0.0..3.0) * scale;
         let r1 = if rng.gen_bool(0.3) {
             r0
         } else {
             rng.gen_range(0.0..3.0) * scale
         };
-        let Some(c) = cone_in::<R>(base, r0, apex, r1) else {
-            continue;
-        };
+        let c = cone_in::<R>(base, r0, apex, r1)?;
         // Aim at a point on the surface, from outside the cone's box.
         let z = rng.gen_range(0.02..0.98);
         let axis = (apex - base).normalize();
@@ -171,39 +198,30 @@ fn cones_reintersect<R: Real>() {
         let radial = e1 * a.cos() + e2 * a.sin();
         let h = (apex - base).length();
         let target = base + axis * (z * h) + radial * ((r0 + (r1 - r0) * z) * 0.999);
-        let o = target + rand_out(&mut rng, radial) * (rng.gen_range(2.0..20.0) * (h + r0 + r1));
+        let o = target + rand_out(rng, radial) * (rng.gen_range(2.0..20.0) * (h + r0 + r1));
         let r = ray::<R>(V3::from_f64(o), target - o);
-        let Some(t) = c.intersect(&r, R::INFINITY) else {
-            continue;
-        };
-        let (p, err, n) = c.surface(&r, t);
-        for _ in 0..4 {
-            let d = rand_out(&mut rng, n.to_f64());
-            let spawned = ray(offset_ray_origin(p, err, n, V3::from_f64(d)), d);
-            tested += 1;
-            let again = c.intersect(&spawned, R::INFINITY);
-            assert!(
-                again.is_none(),
-                "{}: cone {c:?} re-hit at t = {again:?} from {p:?} towards {d:?}",
-                R::NAME
-            );
-        }
-    }
-    assert!(tested > TRIALS, "most primary rays must hit ({tested})");
+        let t = c.intersect(&r, R::INFINITY)?;
+        let hit = c.surface(&r, t);
+        Some(spawned_never_rehit(
+            rng,
+            hit,
+            |rng| rand_out(rng, hit.2.to_f64()),
+            |r| c.intersect(r, R::INFINITY),
+            || format!("cone {c:?}"),
+        ))
+    });
 }
 
 fn triangles_reintersect<R: Real>() {
-    let mut rng = StdRng::seed_from_u64(3);
-    let mut tested = 0;
-    for _ in 0..TRIALS {
+    reintersect::<R>(3, |rng| {
         let scale = 10f64.powf(rng.gen_range(-3.0..3.0));
-        let centre = rand_v(&mut rng, 100.0 * scale);
-        let p = [0, 1, 2].map(|_| centre + rand_v(&mut rng, 10.0 * scale));
+        let centre = rand_v(rng, 100.0 * scale);
+        let p = [0, 1, 2].map(|_| centre + rand_v(rng, 10.0 * scale));
         let pr = p.map(V3::<R>::from_f64);
         let ng = (pr[1] - pr[0]).cross(pr[2] - pr[0]);
         let area2 = ng.length_squared();
         if !area2.is_finite() || area2 <= R::ZERO {
-            continue;
+            return None;
         }
         let ng = ng.normalize();
         let (mut b1, mut b2) = (rng.gen_range(0.0..1.0), rng.gen_range(0.0..1.0));
@@ -211,27 +229,22 @@ fn triangles_reintersect<R: Real>() {
             (b1, b2) = (1.0 - b1, 1.0 - b2);
         }
         let target = p[0] * (1.0 - b1 - b2) + p[1] * b1 + p[2] * b2;
-        let o = target + rand_dir(&mut rng) * (rng.gen_range(1.0..100.0) * scale);
+        let o = target + rand_dir(rng) * (rng.gen_range(1.0..100.0) * scale);
         let r = PreparedRay::new(ray::<R>(V3::from_f64(o), target - o));
-        let Some(h) = intersect_triangle(&r, pr[0], pr[1], pr[2], R::INFINITY) else {
-            continue;
-        };
+        let h = intersect_triangle(&r, pr[0], pr[1], pr[2], R::INFINITY)?;
         let (hp, err) = triangle_point(pr, h.b1, h.b2);
-        for _ in 0..4 {
+        Some(spawned_never_rehit(
+            rng,
+            (hp, err, ng),
             // Any direction: leaving to either side.
-            let d = rand_dir(&mut rng);
-            let spawned = PreparedRay::new(ray(offset_ray_origin(hp, err, ng, V3::from_f64(d)), d));
-            tested += 1;
-            let again = intersect_triangle(&spawned, pr[0], pr[1], pr[2], R::INFINITY);
-            assert!(
-                again.is_none(),
-                "{}: triangle {p:?} re-hit at {:?} from {hp:?} towards {d:?}",
-                R::NAME,
-                again.map(|h| h.t)
-            );
-        }
-    }
-    assert!(tested > TRIALS, "most primary rays must hit ({tested})");
+            rand_dir,
+            |r| {
+                intersect_triangle(&PreparedRay::new(*r), pr[0], pr[1], pr[2], R::INFINITY)
+                    .map(|h| h.t)
+            },
+            || format!("triangle {p:?}"),
+        ))
+    });
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! What the NFF reader accepts and how it reads it: number forms, layouts, whitespace and
 //! comments, defaults, and the error values (kind, position) of the library API.
 
-use parrt_render::description::{Material, Shape};
+use parrt_render::description::{ConeShape, Material, Shape};
 use parrt_render::nff::{self, Limits, NffErrorKind};
 use parrt_render::vec3::Vec3d;
 
@@ -57,12 +57,12 @@ fn cone_on_one_line_or_three_is_the_same() {
     assert_eq!(one, three);
     assert_eq!(
         one.primitives[0].shape,
-        Shape::Cone {
+        Shape::Cone(ConeShape {
             base: Vec3d::new(0.0, 0.0, 0.0),
             base_radius: 1.0,
             apex: Vec3d::new(0.0, 0.0, 2.0),
             apex_radius: 0.5
-        }
+        })
     );
 }
 
@@ -140,6 +140,60 @@ fn library_errors_carry_kind_and_position() {
     .unwrap_err();
     assert_eq!((e.kind, e.line, e.column), (NffErrorKind::Io, 0, 0));
     assert!(e.file.contains("x.nff"));
+}
+
+/// Every number of every entity is named in the message when it is not a number: the point
+/// coordinates, the material's fields and the vertex coordinates each by their own words.
+#[test]
+fn a_bad_number_is_named_by_what_it_stands_for() {
+    let f = "f 1 1 1 1 0 0 0 0\n";
+    // Enough bytes after a short vertex list that its count is believed.
+    let pad = format!("\n#{}\n", " ".repeat(60));
+    let cases: [(String, &str); 14] = [
+        ("v from 0 x".into(), "the view's from y"),
+        ("v from 0 0 5 at x".into(), "the view's at x"),
+        ("v from 0 0 5 at 0 0 0 up 0 x".into(), "the view's up y"),
+        (format!("{V}l 1 x"), "the light's y"),
+        (
+            format!("{V}l 1 2 3 0.5 x"),
+            "the light's green (a light has 3 or 6 numbers)",
+        ),
+        (
+            format!("{V}f 1 1 1 x"),
+            "the material's Kd (f has 8 numbers: r g b Kd Ks Shine T ior)",
+        ),
+        (
+            format!("{V}f 1 1 1 1 0 0 x"),
+            "the material's T (f has 8 numbers: r g b Kd Ks Shine T ior)",
+        ),
+        (
+            format!("{V}f 1 1 1 1 0 0 0 x"),
+            "the material's ior (f has 8 numbers: r g b Kd Ks Shine T ior)",
+        ),
+        (format!("{V}{f}s 0 x"), "the sphere centre's y"),
+        (format!("{V}{f}c 0 0 0 1 0 x"), "the cone apex's y"),
+        (format!("{V}{f}c 0 0 x"), "the cone base's z"),
+        (
+            format!("{V}{f}p 3 0 0 0 1 0 0 1 x{pad}"),
+            "the y of polygon vertex 3 (its count says 3 vertices)",
+        ),
+        (
+            format!("{V}{f}pp 3 0 0 0 0 0 1 1 0 0 0 0 x{pad}"),
+            "the normal z of patch vertex 2 (its count says 3 vertices)",
+        ),
+        (
+            format!("{V}{f}pp 3 0 0 0 0 0 1 1 0 x{pad}"),
+            "the z of patch vertex 2 (its count says 3 vertices)",
+        ),
+    ];
+    for (src, what) in cases {
+        let e = err(&src);
+        assert_eq!(
+            e.message,
+            format!("expected a number for {what}, found 'x'"),
+            "{src}"
+        );
+    }
 }
 
 #[test]

@@ -3,18 +3,22 @@
 //! [`parrt_render::nff::checks`], and use materials in non-decreasing order as the writer requires.
 
 use parrt_render::description::{
-    Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View,
+    ConeShape, Light, Material, PatchVertex, Primitive, SceneDescription, Shape, View,
 };
 use parrt_render::nff::{self, checks, Limits};
 use parrt_render::vec3::Vec3d;
 use proptest::prelude::*;
 
+/// Zero of either sign, as often each.
+fn zero() -> impl Strategy<Value = f64> {
+    prop_oneof![Just(0.0), Just(-0.0)]
+}
+
 /// Any finite double, with the awkward ones (zeros, tiny, huge, subnormal) well represented.
 fn real() -> impl Strategy<Value = f64> {
     prop_oneof![
         4 => -1e4f64..1e4,
-        1 => Just(0.0),
-        1 => Just(-0.0),
+        2 => zero(),
         1 => -1e-12f64..1e-12,
         1 => (-1_000_000i32..1_000_000).prop_map(f64::from),
         1 => any::<f64>().prop_filter("finite", |v| v.is_finite()),
@@ -26,8 +30,7 @@ fn real() -> impl Strategy<Value = f64> {
 fn coord() -> impl Strategy<Value = f64> {
     prop_oneof![
         4 => -1e3f64..1e3,
-        1 => Just(0.0),
-        1 => Just(-0.0),
+        2 => zero(),
         1 => (-100i32..100).prop_map(f64::from),
         1 => -1e-9f64..1e-9,
     ]
@@ -89,11 +92,13 @@ fn shape() -> impl Strategy<Value = Shape> {
         .prop_filter("a cone the reader accepts", |(b, br, a, ar)| {
             checks::cone(*b, *br, *a, *ar).is_ok()
         })
-        .prop_map(|(base, base_radius, apex, apex_radius)| Shape::Cone {
-            base,
-            base_radius,
-            apex,
-            apex_radius,
+        .prop_map(|(base, base_radius, apex, apex_radius)| {
+            Shape::Cone(ConeShape {
+                base,
+                base_radius,
+                apex,
+                apex_radius,
+            })
         });
     let polygon = prop::collection::vec(point(), 3..9)
         .prop_filter("non-zero Newell normal", |vs| {

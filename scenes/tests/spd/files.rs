@@ -46,21 +46,7 @@ fn bounds_agree_with_spd_within_one_percent() {
 fn coords(s: &Shape) -> Vec<f64> {
     match s {
         Shape::Sphere { center, radius } => vec![center.x, center.y, center.z, *radius],
-        Shape::Cone {
-            base,
-            base_radius,
-            apex,
-            apex_radius,
-        } => vec![
-            base.x,
-            base.y,
-            base.z,
-            *base_radius,
-            apex.x,
-            apex.y,
-            apex.z,
-            *apex_radius,
-        ],
+        Shape::Cone(c) => c.numbers().to_vec(),
         Shape::Polygon(v) => v.iter().flat_map(|p| p.to_array()).collect(),
         Shape::Patch(v) => v
             .iter()
@@ -72,7 +58,7 @@ fn coords(s: &Shape) -> Vec<f64> {
 fn kind(s: &Shape) -> (u8, usize) {
     match s {
         Shape::Sphere { .. } => (0, 0),
-        Shape::Cone { .. } => (1, 0),
+        Shape::Cone(_) => (1, 0),
         Shape::Polygon(v) => (2, v.len()),
         Shape::Patch(v) => (3, v.len()),
     }
