@@ -7,9 +7,11 @@
 //!   a packet's sixteen rays).
 //! - [`triangle`], [`sphere`], [`cone`]: each primitive's scalar test and error bound.
 //! - [`leaf_triangles`], [`leaf_spheres`]: one ray against a leaf's four triangles or spheres
-//!   in lanes; [`distance_hits`] the answers of the kernels that find only distances.
+//!   in lanes ([`cone::lanes`] the cones'); [`four_lanes`] the one entry and dispatch of those
+//!   four-lane kernels; [`distance_hits`] the answers of the kernels that find only distances
+//!   and their portable loop.
 //! - [`ray_packet`], [`packet_prims`]: a packet's rays in lanes, and the packet against one
-//!   triangle or sphere.
+//!   triangle or sphere (one kernel per primitive, [`packet_prims::PacketShape`]).
 //! - [`triangulate`]: polygons into triangles.
 
 pub mod aabb;

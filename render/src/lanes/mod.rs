@@ -2,7 +2,9 @@
 //! (or one `f32` or `f64`) lanes, with the IEEE operations the kernels need and nothing else.
 //! There is one file per width with the same operations: every [`Real`] (one lane,
 //! `scalar.rs`), [`X4`] (four lanes in an SSE2 register), [`X8`] (eight in an AVX register) and
-//! [`X16`] (sixteen in an AVX-512 register). The intrinsics live in those files and nowhere else.
+//! [`X16`] (sixteen in an AVX-512 register). The intrinsics live in those files and nowhere else:
+//! each register width's file is a table of its instructions, from which `register.rs`'s macros
+//! write the operations that are one instruction each, plus what differs between widths.
 //!
 //! Every operation gives each lane the bits the scalar operation gives it: the arithmetic is
 //! IEEE-rounded add, subtract, multiply, divide and square root, with no fused multiply-add
