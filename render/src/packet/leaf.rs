@@ -44,11 +44,16 @@ impl<'a, R: Real> PacketLeaf<'a, R> {
         }
     }
 
-    /// The scene, the rays and their lanes when the ray-per-lane kernels take `rays` (the lanes
-    /// are made once per packet: again only when `rays` is another slice).
+    /// The scene, the rays and their lanes when the ray-per-lane kernels take `rays` into
+    /// `leaf`, a leaf of triangles or of spheres (the kind is checked first, so a leaf of cones
+    /// or of mixed kinds costs no lanes; the lanes are made once per packet: again only when
+    /// `rays` is another slice).
     #[inline(always)]
-    fn lanes<'b>(&'b mut self, rays: &'b [PreparedRay<R>]) -> Option<Lanes<'a, 'b>> {
+    fn lanes<'b>(&'b mut self, rays: &'b [PreparedRay<R>], leaf: &[u32]) -> Option<Lanes<'a, 'b>> {
         let scene = self.scene?;
+        if kind(&scene.prims, leaf) == Kind::Other {
+            return None;
+        }
         let r = f32_rays(rays)?;
         if !self.lanes.as_ref().is_some_and(|l| l.made_from(r)) {
             self.lanes = ShearedRays::new(r);
@@ -205,10 +210,8 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
         best: &mut [Nearest<R>],
     ) {
         if takes(mask, leaf) {
-            if let Some((scene, r32, lanes)) = self.lanes(rays) {
-                if kind(&scene.prims, leaf) != Kind::Other {
-                    return closest16(scene, r32, lanes, mask, leaf, best);
-                }
+            if let Some((scene, r32, lanes)) = self.lanes(rays, leaf) {
+                return closest16(scene, r32, lanes, mask, leaf, best);
             }
         }
         self.leaf.closest_many(rays, mask, leaf, best)
@@ -223,14 +226,12 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
         first: &mut [usize],
     ) -> u32 {
         if takes(mask, leaf) {
-            if let Some((scene, r32, lanes)) = self.lanes(rays) {
-                if kind(&scene.prims, leaf) != Kind::Other {
-                    let mut t_max = [0.0f32; LANES];
-                    for (t, r) in t_max.iter_mut().zip(r32) {
-                        *t = r.ray.t_max;
-                    }
-                    return any16(scene, r32, lanes, mask, leaf, &t_max, first);
+            if let Some((scene, r32, lanes)) = self.lanes(rays, leaf) {
+                let mut t_max = [0.0f32; LANES];
+                for (t, r) in t_max.iter_mut().zip(r32) {
+                    *t = r.ray.t_max;
                 }
+                return any16(scene, r32, lanes, mask, leaf, &t_max, first);
             }
         }
         self.leaf.any_many(rays, mask, leaf, first)
