@@ -16,7 +16,7 @@ use crate::net::{Dial, TcpDial};
 use crate::options::WorkerOptions;
 use crate::tiles::JobHandle;
 use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
-use parrt_protocol::limits::{self, MASTER_FRAME_AFTER_JOB};
+use parrt_protocol::limits;
 use parrt_protocol::message::NONCE_LEN;
 use parrt_protocol::{
     Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
@@ -329,8 +329,8 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                 };
                 match msg {
                     Message::Job(spec) => {
-                        // Only the job is large; everything after it is small.
-                        conn.set_max_receive(MASTER_FRAME_AFTER_JOB.min(opts.max_frame));
+                        // A sequence sends a further Job for each frame, so the limit stays the
+                        // job's; a new job replaces the current one (its tiles are dropped).
                         finish(&job);
                         summary.jobs += 1;
                         job = Some(start_build(*spec, exec));

@@ -156,6 +156,34 @@ impl<L: Listener> Master<L> {
         settings: &RenderSettings,
         cancel: CancellationToken,
     ) -> Result<DistResult, DistError> {
+        self.render_frames(desc, settings, None, cancel).await
+    }
+
+    /// Renders a sequence on whatever workers connect, frame after frame on the same workers:
+    /// `desc` and `settings` are frame 0's, `frames` gives the later ones and takes every
+    /// finished frame but the last, which is the result's film (its statistics, tiles and
+    /// tile count are summed over the whole sequence). Each frame's Job goes to every worker
+    /// when the frame before is complete; its tiles go out costliest first by the frame
+    /// before's measured tile times ([`Scheduler::next_frame`]). A checkpoint holds one frame
+    /// only: it is refused with a sequence of more than one.
+    pub async fn render_sequence(
+        self,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+        frames: &mut dyn FrameSource,
+        cancel: CancellationToken,
+    ) -> Result<DistResult, DistError> {
+        self.render_frames(desc, settings, Some(frames), cancel)
+            .await
+    }
+
+    async fn render_frames(
+        self,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+        mut frames: Option<&mut dyn FrameSource>,
+        cancel: CancellationToken,
+    ) -> Result<DistResult, DistError> {
         let Master {
             listener,
             token,
@@ -215,18 +243,52 @@ impl<L: Listener> Master<L> {
             net.max_connections,
         ));
 
-        let driven = drive(
-            &mut sched,
-            &mut events,
-            &mut sink,
-            &cancel,
-            &clock,
-            &observers,
-            n_tiles,
-        )
-        .await;
-        let (outcome, cpu_at_start, events_peak) =
-            (driven.outcome, driven.cpu_at_start, driven.events_peak);
+        let count = frames.as_ref().map_or(1, |f| f.count());
+        let mut seq = SequenceSums {
+            tiles: n_tiles,
+            ..SequenceSums::default()
+        };
+        if count > 1 {
+            sched.start_frames(job_message(job_id, desc, settings, &config));
+        }
+        let mut frame = 0;
+        let (outcome, cpu_at_start, events_peak) = loop {
+            let frame_tiles = sched.progress().1;
+            let driven = drive(
+                &mut sched,
+                &mut events,
+                &mut sink,
+                &cancel,
+                &clock,
+                &observers,
+                frame_tiles,
+            )
+            .await;
+            if frame == 0 {
+                seq.cpu_at_start = driven.cpu_at_start;
+            }
+            seq.events_peak = seq.events_peak.max(driven.events_peak);
+            if driven.outcome.is_err() || frame + 1 >= count {
+                break (driven.outcome, seq.cpu_at_start, seq.events_peak);
+            }
+            let Some(src) = frames.as_deref_mut() else {
+                break (driven.outcome, seq.cpu_at_start, seq.events_peak);
+            };
+            frame += 1;
+            let opened = open_frame(src, frame, &mut rng, &config)
+                .map(|(job_id, desc_k, settings_k, list)| {
+                    seq.tiles += list.len();
+                    let msg = job_message(job_id, &desc_k, &settings_k, &config);
+                    sched.next_frame(job_id, &settings_k, desc_k.lights.len(), list, msg)
+                })
+                .and_then(|done| {
+                    seq.stats += done.stats;
+                    src.finished(frame - 1, done)
+                });
+            if let Err(e) = opened {
+                break (Err(e), seq.cpu_at_start, seq.events_peak);
+            }
+        };
         let started = sched.started();
         let trace_s = started.map_or(0.0, |s| s.elapsed().as_secs_f64());
         let master_cpu_s = if started.is_some() {
@@ -255,10 +317,12 @@ impl<L: Listener> Master<L> {
         // Late events (Gone of the last workers) are of no interest now.
         drop(events);
         outcome?;
+        let mut finished = finished;
+        finished.stats += seq.stats;
         Ok(dist_result(
             finished,
             Counts {
-                tiles: n_tiles,
+                tiles: seq.tiles,
                 restored_tiles,
                 checkpoint_bad_records,
                 events_peak,
@@ -268,6 +332,57 @@ impl<L: Listener> Master<L> {
             &conn_ctx,
         ))
     }
+}
+
+/// The later frames of a sequence ([`Master::render_sequence`]): what each is, and where each
+/// finished frame goes.
+pub trait FrameSource {
+    /// Frames in the sequence, the first included.
+    fn count(&self) -> usize;
+    /// Frame `k`'s scene and settings (`k` ≥ 1), asked for when frame `k - 1` is complete.
+    fn frame(&mut self, k: usize) -> Result<(SceneDescription, RenderSettings), DistError>;
+    /// Frame `k` is complete (every frame but the last, which is the render's result).
+    fn finished(
+        &mut self,
+        k: usize,
+        frame: crate::scheduler::FrameFinished,
+    ) -> Result<(), DistError>;
+}
+
+/// What a sequence sums over its frames beside the last one's film.
+#[derive(Default)]
+struct SequenceSums {
+    /// Tiles in every frame opened.
+    tiles: usize,
+    /// Ray statistics of the frames before the last.
+    stats: parrt_render::stats::RayStats,
+    /// The master's CPU seconds when the first tile went out.
+    cpu_at_start: f64,
+    /// The most events that waited at once, over the frames.
+    events_peak: usize,
+}
+
+/// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, its Job refused if it
+/// would not fit a frame.
+fn open_frame(
+    src: &mut dyn FrameSource,
+    k: usize,
+    rng: &mut rand::rngs::StdRng,
+    config: &MasterConfig,
+) -> Result<
+    (
+        u64,
+        SceneDescription,
+        RenderSettings,
+        Vec<parrt_render::tile::Tile>,
+    ),
+    DistError,
+> {
+    let (desc, settings) = src.frame(k)?;
+    let job_id = rng.gen::<u64>();
+    encode_job(job_id, &desc, &settings, config)?;
+    let list = tiles(settings.width, settings.height, config.schedule.tile);
+    Ok((job_id, desc, settings, list))
 }
 
 /// What driving a job to its end gave: how it ended, the master's CPU seconds when the first
@@ -441,6 +556,22 @@ fn new_scheduler(
     sched
 }
 
+/// The Job message of `desc` and `settings` as job `job_id`.
+fn job_message(
+    job_id: u64,
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    config: &MasterConfig,
+) -> Message {
+    Message::Job(Box::new(JobSpec {
+        job_id,
+        scene: desc.clone(),
+        settings: settings.clone(),
+        tile_size: config.schedule.tile,
+        pixel_format: config.schedule.pixel_format,
+    }))
+}
+
 /// The job message, encoded once for every worker, refused if it would not fit a frame.
 fn encode_job(
     job_id: u64,
@@ -448,14 +579,8 @@ fn encode_job(
     settings: &RenderSettings,
     config: &MasterConfig,
 ) -> Result<Encoded, DistError> {
-    let (sched_opts, net) = (&config.schedule, &config.net);
-    let job = Message::Job(Box::new(JobSpec {
-        job_id,
-        scene: desc.clone(),
-        settings: settings.clone(),
-        tile_size: sched_opts.tile,
-        pixel_format: sched_opts.pixel_format,
-    }));
+    let net = &config.net;
+    let job = job_message(job_id, desc, settings, config);
     // Encoded once, for every worker (and to size the time allowed for sending it).
     let job = Encoded::new(&job).map_err(DistError::EncodeJob)?;
     let job_bytes = job.len();

@@ -2,9 +2,11 @@
 //! scene and an orbit of the camera (`--orbit DEGREES --frames N`), rendered on this machine's
 //! threads with a window of frames in flight ([`parrt_render::sequence_smp`]), each frame
 //! written to the file the `-o` pattern names for it as soon as it is finished (docs/sequences.md).
-//! Sequences render on one machine so far: `--workers` is refused, and so are the flags that
-//! describe one frame's render (`--timeline`, `--tile-costs`, the live view). Every frame is
-//! checked (its scene read, its settings and size) before the first is rendered.
+//! With `--workers N` the frames render one after another through N local worker processes
+//! that stay connected for the whole sequence ([`parrt_runtime::run_sequence`]). The flags
+//! that describe one frame's render (`--timeline`, `--tile-costs`, the live view) and
+//! `--checkpoint` are refused. Every frame is checked (its scene read, its settings and size)
+//! before the first is rendered.
 
 use super::render::RenderArgs;
 use super::report::RenderReport;
@@ -68,16 +70,14 @@ struct Loaded {
 fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
     let seq = &args.sequence;
     let conflict = |m: &str| Err(ArgError::Conflict(m.to_string()).into());
-    if args.workers.is_some() {
-        return conflict(
-            "--workers: sequences render on one machine so far; drop --workers to render the \
-             frames on this machine's threads",
-        );
+    if args.workers == Some(0) {
+        return Err(ArgError::Value("--workers must be at least 1".into()).into());
     }
     for (flag, given) in [
         ("--timeline", args.job.timeline.is_some()),
         ("--tile-costs", args.tile_costs.is_some()),
         ("--http", args.job.live.http.is_some()),
+        ("--checkpoint", args.job.checkpoint.is_some()),
     ] {
         if given {
             return conflict(&format!(
@@ -306,6 +306,65 @@ fn print_report(
     Ok(())
 }
 
+/// Renders the sequence through `n` local worker processes, frame after frame on the same
+/// workers, each frame written as soon as it is complete. Returns what the sequence did and
+/// the threads of each worker.
+fn render_through_workers(
+    args: &RenderArgs,
+    loaded: &Loaded,
+    settings: &[(RenderSettings, Choice)],
+    outputs: &[PathBuf],
+    n: usize,
+    progress: &std::sync::Arc<SequenceProgress>,
+) -> anyhow::Result<(SequenceResult, usize)> {
+    use parrt_runtime::observer::{Observer, Observers};
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let threads = args.threads.unwrap_or((cores / n).max(1));
+    let observers = if progress.drawn() {
+        Observers(vec![progress.clone() as std::sync::Arc<dyn Observer>])
+    } else {
+        Observers::default()
+    };
+    let mut config = super::distributed::master_config(super::distributed::MasterSetup {
+        observers,
+        job: &args.job,
+        keyed: false,
+        tile: args.tile,
+        min_workers: n,
+        output: &outputs[0],
+    });
+    config.spawn.count = n;
+    config.spawn.threads = threads;
+    let frame_settings: Vec<RenderSettings> = settings.iter().map(|(s, _)| s.clone()).collect();
+    let write = |k: usize, film: &parrt_render::film::Film| -> anyhow::Result<()> {
+        film.save(&outputs[k])
+            .with_context(|| format!("cannot write frame {k}"))?;
+        progress.frame();
+        Ok(())
+    };
+    let mut frames = super::distributed::SequenceFrames {
+        sequence: &loaded.sequence,
+        settings: &frame_settings,
+        write: &write,
+    };
+    let first = loaded.sequence.frames()[0].description().into_owned();
+    let job =
+        parrt_runtime::Job::<parrt_runtime::DistError>::ready(first, frame_settings[0].clone());
+    let done = parrt_runtime::run_sequence(&config, job, &mut frames, &mut |_| Ok(None), None)
+        .map_err(|e| crate::exit::dist_error(e).context("distributed render failed"))?;
+    let last = loaded.sequence.len() - 1;
+    write(last, &done.result.film)?;
+    let result = SequenceResult {
+        frames: loaded.sequence.len(),
+        tiles: done.result.tiles,
+        stats: done.result.stats,
+        wall_s: done.result.trace_s,
+        most_alive: 1,
+        stopped: false,
+    };
+    Ok((result, threads))
+}
+
 /// Runs `parrt render` of a sequence.
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     refuse_unsupported(args)?;
@@ -337,7 +396,21 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|(s, _)| parrt_render::tile::tiles(s.width, s.height, args.tile).len())
         .sum();
-    let progress = SequenceProgress::new(total_tiles, n);
+    let progress = std::sync::Arc::new(SequenceProgress::new(total_tiles, n));
+    if let Some(workers) = args.workers {
+        let (result, threads) =
+            render_through_workers(args, &loaded, &settings, &outputs, workers, &progress)?;
+        progress.finish();
+        let opts = SequenceOptions {
+            threads: workers * threads,
+            window: 1,
+            ..opts
+        };
+        print_report(
+            args, &loaded, &settings, &outputs, &opts, result, parse_s, 0.0,
+        )?;
+        return Ok(ExitCode::SUCCESS);
+    }
     let build_s = Mutex::new(0.0f64);
     let build = |k: usize| -> anyhow::Result<Renderer> {
         let t = Instant::now();
