@@ -156,7 +156,8 @@ impl<L: Listener> Master<L> {
         settings: &RenderSettings,
         cancel: CancellationToken,
     ) -> Result<DistResult, DistError> {
-        self.render_frames(desc, settings, None, cancel).await
+        self.render_frames::<NoFrames>(desc, settings, None, cancel)
+            .await
     }
 
     /// Renders a sequence on whatever workers connect, frame after frame on the same workers:
@@ -177,11 +178,13 @@ impl<L: Listener> Master<L> {
             .await
     }
 
-    async fn render_frames(
+    /// The one render loop: one frame, or a sequence whose later frames `frames` gives (generic
+    /// so that a render of one frame stays a `Send` future).
+    async fn render_frames<F: FrameSource + ?Sized>(
         self,
         desc: &SceneDescription,
         settings: &RenderSettings,
-        mut frames: Option<&mut dyn FrameSource>,
+        mut frames: Option<&mut F>,
         cancel: CancellationToken,
     ) -> Result<DistResult, DistError> {
         let Master {
@@ -349,6 +352,21 @@ pub trait FrameSource {
     ) -> Result<(), DistError>;
 }
 
+/// No later frames: the type of a render of one frame.
+enum NoFrames {}
+
+impl FrameSource for NoFrames {
+    fn count(&self) -> usize {
+        match *self {}
+    }
+    fn frame(&mut self, _: usize) -> Result<(SceneDescription, RenderSettings), DistError> {
+        match *self {}
+    }
+    fn finished(&mut self, _: usize, _: crate::scheduler::FrameFinished) -> Result<(), DistError> {
+        match *self {}
+    }
+}
+
 /// What a sequence sums over its frames beside the last one's film.
 #[derive(Default)]
 struct SequenceSums {
@@ -364,8 +382,8 @@ struct SequenceSums {
 
 /// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, its Job refused if it
 /// would not fit a frame.
-fn open_frame(
-    src: &mut dyn FrameSource,
+fn open_frame<F: FrameSource + ?Sized>(
+    src: &mut F,
     k: usize,
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
