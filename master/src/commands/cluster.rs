@@ -310,6 +310,7 @@ fn run_master_sequence(
         ("--checkpoint", args.job.checkpoint.is_some()),
         ("--timeline", args.job.timeline.is_some()),
         ("--http", args.job.live.http.is_some()),
+        ("--costly-first", args.order.costly_first.is_some()),
     ] {
         if given {
             return Err(crate::cli_args::ArgError::Conflict(format!(
