@@ -287,7 +287,7 @@ fn frame_settings(
 /// output checked against the inputs and the other outputs.
 fn frame_outputs(args: &SequenceInput<'_>, loaded: &Loaded) -> anyhow::Result<Vec<PathBuf>> {
     let n = loaded.sequence.len();
-    let pattern = FramePattern::parse(&args.output, n)?;
+    let pattern = FramePattern::parse(args.output, n)?;
     let outputs: Vec<PathBuf> = (0..n).map(|k| pattern.path(k)).collect();
     if !pattern.dir().as_os_str().is_empty() && !pattern.dir().exists() {
         std::fs::create_dir_all(pattern.dir()).map_err(|e| {
