@@ -328,6 +328,10 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                     Ok(Some(m)) => m,
                 };
                 match msg {
+                    // The job already held, sent again (a master sends the current frame to a
+                    // worker whose Ready named an earlier one, which may cross the frame's own
+                    // Job): nothing changes, its tiles keep rendering.
+                    Message::Job(spec) if job.as_ref().is_some_and(|j| j.spec_id == spec.job_id) => {}
                     Message::Job(spec) => {
                         // A sequence sends a further Job for each frame, so the limit stays the
                         // job's; a new job replaces the current one (its tiles are dropped).
