@@ -17,6 +17,7 @@
 //! - [`scheduler`]: the job's state and rules (windows, deadlines, first result wins,
 //!   backups); no I/O, tested alone on a paused clock.
 //! - [`lifecycle`]: the job's phases: when to stop waiting for workers, which failure to say.
+//! - [`frames`]: the frames of a sequence, one after another on the same workers.
 //! - [`checkpoint`]: the file format of accepted tiles and its lifecycle; [`sink`]: where
 //!   accepted tiles go while the loop runs (a background writer, never the loop's thread).
 //! - [`observer`]: watchers told what happens to workers and tiles (progress, timeline, live view).
@@ -52,6 +53,7 @@ pub mod connection;
 pub mod cpu_time;
 pub mod error;
 pub mod file_guard;
+pub mod frames;
 pub mod launcher;
 pub mod lifecycle;
 pub mod mutation;

@@ -12,6 +12,8 @@ use super::admission::Admission;
 use super::checkpoint::Opened;
 use super::clock::SharedClock;
 use super::connection::{self, ConnContext};
+pub use super::frames::FrameSource;
+use super::frames::{drive_frames, NoFrames, SequenceSums};
 use super::net::{Listener, TcpListener};
 use super::options::MasterConfig;
 use super::scheduler::{AcceptedTile, Event, SchedOptions, Scheduler, Step, Verdict, WorkerId};
@@ -184,7 +186,7 @@ impl<L: Listener> Master<L> {
         self,
         desc: &SceneDescription,
         settings: &RenderSettings,
-        mut frames: Option<&mut F>,
+        frames: Option<&mut F>,
         cancel: CancellationToken,
     ) -> Result<DistResult, DistError> {
         let Master {
@@ -220,19 +222,7 @@ impl<L: Listener> Master<L> {
             None => (None, false, 0, 0),
         };
         let job = encode_job(job_id, desc, settings, &config)?;
-        let job_bytes = job.len();
-        let ctx = Arc::new(ConnContext {
-            job,
-            token,
-            max_frame: net.max_frame,
-            max_receive: worker_frame_limit(sched_opts.tile).min(net.max_frame),
-            job_write_timeout: net.heartbeat_timeout + frame_allowance(job_bytes),
-            handshake_timeout: net.handshake_timeout,
-            heartbeat: net.heartbeat,
-            heartbeat_timeout: net.heartbeat_timeout,
-            seed: config.seed.map(|_| rng.gen()),
-            outbox_peak: Default::default(),
-        });
+        let ctx = conn_context(job, token, &config, &mut rng);
         let conn_ctx = ctx.clone();
         let (events_tx, mut events) = mpsc::unbounded_channel::<Event>();
         let stop = CancellationToken::new();
@@ -246,52 +236,21 @@ impl<L: Listener> Master<L> {
             net.max_connections,
         ));
 
-        let count = frames.as_ref().map_or(1, |f| f.count());
         let mut seq = SequenceSums {
             tiles: n_tiles,
             ..SequenceSums::default()
         };
-        if count > 1 {
-            sched.start_frames(job_message(job_id, desc, settings, &config));
-        }
-        let mut frame = 0;
-        let (outcome, cpu_at_start, events_peak) = loop {
-            let frame_tiles = sched.progress().1;
-            let driven = drive(
-                &mut sched,
-                &mut events,
-                &mut sink,
-                &cancel,
-                &clock,
-                &observers,
-                frame_tiles,
-            )
-            .await;
-            if frame == 0 {
-                seq.cpu_at_start = driven.cpu_at_start;
-            }
-            seq.events_peak = seq.events_peak.max(driven.events_peak);
-            if driven.outcome.is_err() || frame + 1 >= count {
-                break (driven.outcome, seq.cpu_at_start, seq.events_peak);
-            }
-            let Some(src) = frames.as_deref_mut() else {
-                break (driven.outcome, seq.cpu_at_start, seq.events_peak);
-            };
-            frame += 1;
-            let opened = open_frame(src, frame, &mut rng, &config)
-                .map(|(job_id, desc_k, settings_k, list)| {
-                    seq.tiles += list.len();
-                    let msg = job_message(job_id, &desc_k, &settings_k, &config);
-                    sched.next_frame(job_id, &settings_k, desc_k.lights.len(), list, msg)
-                })
-                .and_then(|done| {
-                    seq.stats += done.stats;
-                    src.finished(frame - 1, done)
-                });
-            if let Err(e) = opened {
-                break (Err(e), seq.cpu_at_start, seq.events_peak);
-            }
+        let mut loop_of = Loop {
+            sched: &mut sched,
+            events: &mut events,
+            sink: &mut sink,
+            cancel: &cancel,
+            clock: &clock,
+            observers: &observers,
         };
+        let first = (job_id, desc, settings);
+        let outcome = drive_frames(&mut loop_of, first, frames, &mut rng, &config, &mut seq).await;
+        let (cpu_at_start, events_peak) = (seq.cpu_at_start, seq.events_peak);
         let started = sched.started();
         let trace_s = started.map_or(0.0, |s| s.elapsed().as_secs_f64());
         let master_cpu_s = if started.is_some() {
@@ -337,92 +296,61 @@ impl<L: Listener> Master<L> {
     }
 }
 
-/// The later frames of a sequence ([`Master::render_sequence`]): what each is, and where each
-/// finished frame goes.
-pub trait FrameSource {
-    /// Frames in the sequence, the first included.
-    fn count(&self) -> usize;
-    /// Frame `k`'s scene and settings (`k` ≥ 1), asked for when frame `k - 1` is complete.
-    fn frame(&mut self, k: usize) -> Result<(SceneDescription, RenderSettings), DistError>;
-    /// Frame `k` is complete (every frame but the last, which is the render's result).
-    fn finished(
-        &mut self,
-        k: usize,
-        frame: crate::scheduler::FrameFinished,
-    ) -> Result<(), DistError>;
-}
-
-/// No later frames: the type of a render of one frame.
-enum NoFrames {}
-
-impl FrameSource for NoFrames {
-    fn count(&self) -> usize {
-        match *self {}
-    }
-    fn frame(&mut self, _: usize) -> Result<(SceneDescription, RenderSettings), DistError> {
-        match *self {}
-    }
-    fn finished(&mut self, _: usize, _: crate::scheduler::FrameFinished) -> Result<(), DistError> {
-        match *self {}
-    }
-}
-
-/// What a sequence sums over its frames beside the last one's film.
-#[derive(Default)]
-struct SequenceSums {
-    /// Tiles in every frame opened.
-    tiles: usize,
-    /// Ray statistics of the frames before the last.
-    stats: parrt_render::stats::RayStats,
-    /// The master's CPU seconds when the first tile went out.
-    cpu_at_start: f64,
-    /// The most events that waited at once, over the frames.
-    events_peak: usize,
-}
-
-/// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, its Job refused if it
-/// would not fit a frame.
-fn open_frame<F: FrameSource + ?Sized>(
-    src: &mut F,
-    k: usize,
-    rng: &mut rand::rngs::StdRng,
+/// What every connection task shares: the job's bytes, the token, the limits and timeouts.
+fn conn_context(
+    job: Encoded,
+    token: Token,
     config: &MasterConfig,
-) -> Result<
-    (
-        u64,
-        SceneDescription,
-        RenderSettings,
-        Vec<parrt_render::tile::Tile>,
-    ),
-    DistError,
-> {
-    let (desc, settings) = src.frame(k)?;
-    let job_id = rng.gen::<u64>();
-    encode_job(job_id, &desc, &settings, config)?;
-    let list = tiles(settings.width, settings.height, config.schedule.tile);
-    Ok((job_id, desc, settings, list))
+    rng: &mut rand::rngs::StdRng,
+) -> Arc<ConnContext> {
+    let (sched_opts, net) = (&config.schedule, &config.net);
+    let job_bytes = job.len();
+    Arc::new(ConnContext {
+        job,
+        token,
+        max_frame: net.max_frame,
+        max_receive: worker_frame_limit(sched_opts.tile).min(net.max_frame),
+        job_write_timeout: net.heartbeat_timeout + frame_allowance(job_bytes),
+        handshake_timeout: net.handshake_timeout,
+        heartbeat: net.heartbeat,
+        heartbeat_timeout: net.heartbeat_timeout,
+        seed: config.seed.map(|_| rng.gen()),
+        outbox_peak: Default::default(),
+    })
+}
+
+/// What the master's loop works on: the scheduler, the connections' events, the checkpoint's
+/// sink, Ctrl-C, the CPU clock and the observers.
+pub(crate) struct Loop<'a> {
+    pub(crate) sched: &'a mut Scheduler,
+    pub(crate) events: &'a mut mpsc::UnboundedReceiver<Event>,
+    pub(crate) sink: &'a mut Option<Box<dyn TileSink>>,
+    pub(crate) cancel: &'a CancellationToken,
+    pub(crate) clock: &'a SharedClock,
+    pub(crate) observers: &'a crate::observer::Observers,
 }
 
 /// What driving a job to its end gave: how it ended, the master's CPU seconds when the first
 /// tile went out, and the most events that waited at once.
-struct Driven {
-    outcome: Result<(), DistError>,
-    cpu_at_start: f64,
-    events_peak: usize,
+pub(crate) struct Driven {
+    pub(crate) outcome: Result<(), DistError>,
+    pub(crate) cpu_at_start: f64,
+    pub(crate) events_peak: usize,
 }
 
 /// The master's loop: steps the scheduler, reports progress, and waits for Ctrl-C, the
 /// deadline tick or the connections' events, in that order, until the job is done, fails or is
 /// cancelled; each round's accepted tiles go to the checkpoint's sink.
-async fn drive(
-    sched: &mut Scheduler,
-    events: &mut mpsc::UnboundedReceiver<Event>,
-    sink: &mut Option<Box<dyn TileSink>>,
-    cancel: &CancellationToken,
-    clock: &SharedClock,
-    observers: &crate::observer::Observers,
-    n_tiles: usize,
-) -> Driven {
+pub(crate) async fn drive(l: &mut Loop<'_>, n_tiles: usize) -> Driven {
+    let Loop {
+        sched,
+        events,
+        sink,
+        cancel,
+        clock,
+        observers,
+    } = l;
+    let (cancel, clock, observers) = (*cancel, *clock, *observers);
     let mut tick = interval(TICK);
     tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
     let mut cpu_at_start = 0.0;
@@ -575,7 +503,7 @@ fn new_scheduler(
 }
 
 /// The Job message of `desc` and `settings` as job `job_id`.
-fn job_message(
+pub(crate) fn job_message(
     job_id: u64,
     desc: &SceneDescription,
     settings: &RenderSettings,
@@ -591,7 +519,7 @@ fn job_message(
 }
 
 /// The job message, encoded once for every worker, refused if it would not fit a frame.
-fn encode_job(
+pub(crate) fn encode_job(
     job_id: u64,
     desc: &SceneDescription,
     settings: &RenderSettings,
