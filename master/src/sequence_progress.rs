@@ -49,8 +49,31 @@ impl SequenceProgress {
         }
     }
 
+    /// Whether the bar is drawn (a terminal): only then is it worth watching a distributed
+    /// render's tiles.
+    pub fn drawn(&self) -> bool {
+        !self.bar.is_hidden()
+    }
+
     /// Removes the bar from the terminal.
     pub fn finish(&self) {
         self.bar.finish_and_clear();
+    }
+}
+
+/// A distributed sequence's tiles count on the bar as the master accepts them.
+impl parrt_runtime::observer::Observer for SequenceProgress {
+    fn result(
+        &self,
+        _id: parrt_runtime::scheduler::WorkerId,
+        _tile: &parrt_render::tile::Tile,
+        _pixels: &[parrt_render::film::Rgb],
+        _stats: &parrt_render::stats::RayStats,
+        _seconds: f64,
+        accepted: bool,
+    ) {
+        if accepted {
+            self.tile();
+        }
     }
 }

@@ -15,8 +15,9 @@
 //! [postcard](https://docs.rs/postcard). A frame longer than the connection's limit is an error
 //! before any of it is buffered. The limit follows the conversation: tiny until a peer has
 //! authenticated ([`limits::HANDSHAKE_MAX_FRAME`]); then on the master what the job's largest
-//! tile needs ([`limits::worker_frame_limit`]); on the worker large only until the Job has
-//! arrived ([`limits::MASTER_FRAME_AFTER_JOB`]). A frame may arrive slowly, but not forever:
+//! tile needs ([`limits::worker_frame_limit`]); on the worker its frame limit, since a
+//! sequence sends a Job for each frame (every other master message is far smaller,
+//! [`limits::MASTER_FRAME_AFTER_JOB`]). A frame may arrive slowly, but not forever:
 //! bytes arriving count as life, and a frame of `n` bytes must be whole within the peer timeout
 //! plus `n / 64 KiB/s` ([`limits::MIN_FRAME_RATE`]).
 //!
@@ -76,5 +77,6 @@ pub use pixels::{PixelError, PixelFormat, TilePixels};
 /// The protocol version spoken by this build; bumped on any incompatible change (2: mutual
 /// authentication, a nonce in Hello and the master's proof in Challenge; pixels as the output
 /// needs them; batches of tiles; 3: every connection inside a Noise channel keyed by the token,
-/// and the worker's instruction-set tier in Hello).
-pub const PROTOCOL_VERSION: u32 = 3;
+/// and the worker's instruction-set tier in Hello; 4: a sequence sends a further Job on the same
+/// connection for each frame, which a worker builds in place of the one before).
+pub const PROTOCOL_VERSION: u32 = 4;

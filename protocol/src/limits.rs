@@ -10,11 +10,13 @@ use std::time::Duration;
 pub const HANDSHAKE_MAX_FRAME: usize = 64 * 1024;
 
 /// The default largest frame accepted from an authenticated peer: 256 MiB (a large scene). Only
-/// the Job needs this much; see [`worker_frame_limit`] and [`MASTER_FRAME_AFTER_JOB`].
+/// a Job needs this much (a sequence sends one a frame); see [`worker_frame_limit`] and
+/// [`MASTER_FRAME_AFTER_JOB`].
 pub const DEFAULT_MAX_FRAME: usize = 256 * 1024 * 1024;
 
-/// The largest frame a worker accepts from its master once the Job has arrived: Assign,
-/// Heartbeat, Cancel, Shutdown and Error are all small.
+/// The largest frame a master sends besides a Job: Assign, Heartbeat, Cancel, Shutdown and
+/// Error are all small. (A worker still accepts its whole frame limit after the first Job: a
+/// sequence sends the next frame's Job on the same connection.)
 pub const MASTER_FRAME_AFTER_JOB: usize = 64 * 1024;
 
 /// The most tiles in one AssignBatch: with ~25 bytes a tile, a batch stays far inside

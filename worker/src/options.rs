@@ -32,8 +32,8 @@ pub struct WorkerOptions {
     pub heartbeat: Duration,
     /// Give up when the master sends nothing (not even a heartbeat) for this long.
     pub master_timeout: Duration,
-    /// Largest frame accepted from the master until the Job has arrived (then
-    /// [`parrt_protocol::limits::MASTER_FRAME_AFTER_JOB`]), and largest frame sent.
+    /// Largest frame accepted from the master (a Job; a sequence sends one a frame), and
+    /// largest frame sent.
     pub max_frame: usize,
     /// Most bytes of pixels one assignment's results may hold at once (a batch's results are
     /// sent together); tiles past it are refused with an Error to the master, not rendered.

@@ -16,7 +16,7 @@ use crate::net::{Dial, TcpDial};
 use crate::options::WorkerOptions;
 use crate::tiles::JobHandle;
 use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
-use parrt_protocol::limits::{self, MASTER_FRAME_AFTER_JOB};
+use parrt_protocol::limits;
 use parrt_protocol::message::NONCE_LEN;
 use parrt_protocol::{
     Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
@@ -328,9 +328,13 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                     Ok(Some(m)) => m,
                 };
                 match msg {
+                    // The job already held, sent again (a master sends the current frame to a
+                    // worker whose Ready named an earlier one, which may cross the frame's own
+                    // Job): nothing changes, its tiles keep rendering.
+                    Message::Job(spec) if job.as_ref().is_some_and(|j| j.spec_id == spec.job_id) => {}
                     Message::Job(spec) => {
-                        // Only the job is large; everything after it is small.
-                        conn.set_max_receive(MASTER_FRAME_AFTER_JOB.min(opts.max_frame));
+                        // A sequence sends a further Job for each frame, so the limit stays the
+                        // job's; a new job replaces the current one (its tiles are dropped).
                         finish(&job);
                         summary.jobs += 1;
                         job = Some(start_build(*spec, exec));

@@ -318,7 +318,9 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
                     ctx.outbox_peak
                         .fetch_max(inbox.len() + 1, std::sync::atomic::Ordering::Relaxed);
                     let last = matches!(msg, Message::Shutdown);
-                    if let Err(e) = write_within(conn, &msg, limit).await {
+                    // A sequence's next frame is a Job: as much time as the first one had.
+                    let within = if matches!(msg, Message::Job(_)) { ctx.job_write_timeout } else { limit };
+                    if let Err(e) = write_within(conn, &msg, within).await {
                         return e;
                     }
                     if last {

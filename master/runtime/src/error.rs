@@ -91,6 +91,15 @@ pub enum DistError {
         /// The frame limit.
         max_frame: usize,
     },
+    /// A finished frame of a sequence could not be kept (its file not written), or the next
+    /// frame not prepared.
+    #[error("frame {frame}: {reason}")]
+    Frame {
+        /// The frame's number (from 0).
+        frame: usize,
+        /// What went wrong, with its causes.
+        reason: String,
+    },
 }
 
 impl DistError {

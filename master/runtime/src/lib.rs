@@ -17,6 +17,7 @@
 //! - [`scheduler`]: the job's state and rules (windows, deadlines, first result wins,
 //!   backups); no I/O, tested alone on a paused clock.
 //! - [`lifecycle`]: the job's phases: when to stop waiting for workers, which failure to say.
+//! - [`frames`]: the frames of a sequence, one after another on the same workers.
 //! - [`checkpoint`]: the file format of accepted tiles and its lifecycle; [`sink`]: where
 //!   accepted tiles go while the loop runs (a background writer, never the loop's thread).
 //! - [`observer`]: watchers told what happens to workers and tiles (progress, timeline, live view).
@@ -52,6 +53,7 @@ pub mod connection;
 pub mod cpu_time;
 pub mod error;
 pub mod file_guard;
+pub mod frames;
 pub mod launcher;
 pub mod lifecycle;
 pub mod mutation;
@@ -68,8 +70,9 @@ pub mod window;
 
 pub use error::DistError;
 pub use options::{CheckpointAt, MasterConfig, Net, Schedule, Spawn, WorkerCommand};
+pub use scheduler::FrameFinished;
 pub use scheduler::{FaultCounts, WorkerReport};
-pub use server::{Master, Writer};
+pub use server::{FrameSource, Master, Writer};
 pub use spawn::{spawn_workers, LocalWorkers};
 
 pub use crate::window::Window;
@@ -254,6 +257,37 @@ pub fn run<E: From<DistError>>(
     on_listen: &mut dyn FnMut(SocketAddr) -> Result<Option<SocketAddr>, DistError>,
     cancel: Option<CancellationToken>,
 ) -> Result<Rendered, E> {
+    run_frames(config, job, None, on_listen, cancel)
+}
+
+/// [`run`] of a sequence: `job` is frame 0, `frames` gives the later frames and takes each
+/// finished one but the last, which is the result's film ([`Master::render_sequence`]). The
+/// workers stay connected from the first frame to the last. A checkpoint is refused with a
+/// sequence of more than one frame (it holds one image).
+pub fn run_sequence<E: From<DistError>>(
+    config: &MasterConfig,
+    job: Job<'_, E>,
+    frames: &mut dyn FrameSource,
+    on_listen: &mut dyn FnMut(SocketAddr) -> Result<Option<SocketAddr>, DistError>,
+    cancel: Option<CancellationToken>,
+) -> Result<Rendered, E> {
+    run_frames(config, job, Some(frames), on_listen, cancel)
+}
+
+fn run_frames<E: From<DistError>>(
+    config: &MasterConfig,
+    job: Job<'_, E>,
+    frames: Option<&mut dyn FrameSource>,
+    on_listen: &mut dyn FnMut(SocketAddr) -> Result<Option<SocketAddr>, DistError>,
+    cancel: Option<CancellationToken>,
+) -> Result<Rendered, E> {
+    if config.checkpoint.is_some() && frames.as_ref().is_some_and(|f| f.count() > 1) {
+        return Err(DistError::Frame {
+            frame: 0,
+            reason: "a checkpoint holds one frame; a sequence cannot be checkpointed yet".into(),
+        }
+        .into());
+    }
     if config.spawn.count > options::MAX_SPAWNED_WORKERS {
         return Err(DistError::TooManyWorkers {
             asked: config.spawn.count,
@@ -320,7 +354,10 @@ pub fn run<E: From<DistError>>(
             Some(j) => j,
             None => prepare_once()?,
         };
-        let result = master.render(&desc, &settings, cancel).await;
+        let result = match frames {
+            Some(f) => master.render_sequence(&desc, &settings, f, cancel).await,
+            None => master.render(&desc, &settings, cancel).await,
+        };
         signal.abort();
         if result.is_err() {
             if let Some(check) = check {

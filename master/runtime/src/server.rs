@@ -12,6 +12,8 @@ use super::admission::Admission;
 use super::checkpoint::Opened;
 use super::clock::SharedClock;
 use super::connection::{self, ConnContext};
+pub use super::frames::FrameSource;
+use super::frames::{drive_frames, NoFrames, SequenceSums};
 use super::net::{Listener, TcpListener};
 use super::options::MasterConfig;
 use super::scheduler::{AcceptedTile, Event, SchedOptions, Scheduler, Step, Verdict, WorkerId};
@@ -156,6 +158,37 @@ impl<L: Listener> Master<L> {
         settings: &RenderSettings,
         cancel: CancellationToken,
     ) -> Result<DistResult, DistError> {
+        self.render_frames::<NoFrames>(desc, settings, None, cancel)
+            .await
+    }
+
+    /// Renders a sequence on whatever workers connect, frame after frame on the same workers:
+    /// `desc` and `settings` are frame 0's, `frames` gives the later ones and takes every
+    /// finished frame but the last, which is the result's film (its statistics, tiles and
+    /// tile count are summed over the whole sequence). Each frame's Job goes to every worker
+    /// when the frame before is complete; its tiles go out costliest first by the frame
+    /// before's measured tile times ([`Scheduler::next_frame`]). A checkpoint holds one frame
+    /// only: it is refused with a sequence of more than one.
+    pub async fn render_sequence(
+        self,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+        frames: &mut dyn FrameSource,
+        cancel: CancellationToken,
+    ) -> Result<DistResult, DistError> {
+        self.render_frames(desc, settings, Some(frames), cancel)
+            .await
+    }
+
+    /// The one render loop: one frame, or a sequence whose later frames `frames` gives (generic
+    /// so that a render of one frame stays a `Send` future).
+    async fn render_frames<F: FrameSource + ?Sized>(
+        self,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+        frames: Option<&mut F>,
+        cancel: CancellationToken,
+    ) -> Result<DistResult, DistError> {
         let Master {
             listener,
             token,
@@ -189,19 +222,7 @@ impl<L: Listener> Master<L> {
             None => (None, false, 0, 0),
         };
         let job = encode_job(job_id, desc, settings, &config)?;
-        let job_bytes = job.len();
-        let ctx = Arc::new(ConnContext {
-            job,
-            token,
-            max_frame: net.max_frame,
-            max_receive: worker_frame_limit(sched_opts.tile).min(net.max_frame),
-            job_write_timeout: net.heartbeat_timeout + frame_allowance(job_bytes),
-            handshake_timeout: net.handshake_timeout,
-            heartbeat: net.heartbeat,
-            heartbeat_timeout: net.heartbeat_timeout,
-            seed: config.seed.map(|_| rng.gen()),
-            outbox_peak: Default::default(),
-        });
+        let ctx = conn_context(job, token, &config, &mut rng);
         let conn_ctx = ctx.clone();
         let (events_tx, mut events) = mpsc::unbounded_channel::<Event>();
         let stop = CancellationToken::new();
@@ -215,18 +236,21 @@ impl<L: Listener> Master<L> {
             net.max_connections,
         ));
 
-        let driven = drive(
-            &mut sched,
-            &mut events,
-            &mut sink,
-            &cancel,
-            &clock,
-            &observers,
-            n_tiles,
-        )
-        .await;
-        let (outcome, cpu_at_start, events_peak) =
-            (driven.outcome, driven.cpu_at_start, driven.events_peak);
+        let mut seq = SequenceSums {
+            tiles: n_tiles,
+            ..SequenceSums::default()
+        };
+        let mut loop_of = Loop {
+            sched: &mut sched,
+            events: &mut events,
+            sink: &mut sink,
+            cancel: &cancel,
+            clock: &clock,
+            observers: &observers,
+        };
+        let first = (job_id, desc, settings);
+        let outcome = drive_frames(&mut loop_of, first, frames, &mut rng, &config, &mut seq).await;
+        let (cpu_at_start, events_peak) = (seq.cpu_at_start, seq.events_peak);
         let started = sched.started();
         let trace_s = started.map_or(0.0, |s| s.elapsed().as_secs_f64());
         let master_cpu_s = if started.is_some() {
@@ -255,10 +279,12 @@ impl<L: Listener> Master<L> {
         // Late events (Gone of the last workers) are of no interest now.
         drop(events);
         outcome?;
+        let mut finished = finished;
+        finished.stats += seq.stats;
         Ok(dist_result(
             finished,
             Counts {
-                tiles: n_tiles,
+                tiles: seq.tiles,
                 restored_tiles,
                 checkpoint_bad_records,
                 events_peak,
@@ -270,26 +296,61 @@ impl<L: Listener> Master<L> {
     }
 }
 
+/// What every connection task shares: the job's bytes, the token, the limits and timeouts.
+fn conn_context(
+    job: Encoded,
+    token: Token,
+    config: &MasterConfig,
+    rng: &mut rand::rngs::StdRng,
+) -> Arc<ConnContext> {
+    let (sched_opts, net) = (&config.schedule, &config.net);
+    let job_bytes = job.len();
+    Arc::new(ConnContext {
+        job,
+        token,
+        max_frame: net.max_frame,
+        max_receive: worker_frame_limit(sched_opts.tile).min(net.max_frame),
+        job_write_timeout: net.heartbeat_timeout + frame_allowance(job_bytes),
+        handshake_timeout: net.handshake_timeout,
+        heartbeat: net.heartbeat,
+        heartbeat_timeout: net.heartbeat_timeout,
+        seed: config.seed.map(|_| rng.gen()),
+        outbox_peak: Default::default(),
+    })
+}
+
+/// What the master's loop works on: the scheduler, the connections' events, the checkpoint's
+/// sink, Ctrl-C, the CPU clock and the observers.
+pub(crate) struct Loop<'a> {
+    pub(crate) sched: &'a mut Scheduler,
+    pub(crate) events: &'a mut mpsc::UnboundedReceiver<Event>,
+    pub(crate) sink: &'a mut Option<Box<dyn TileSink>>,
+    pub(crate) cancel: &'a CancellationToken,
+    pub(crate) clock: &'a SharedClock,
+    pub(crate) observers: &'a crate::observer::Observers,
+}
+
 /// What driving a job to its end gave: how it ended, the master's CPU seconds when the first
 /// tile went out, and the most events that waited at once.
-struct Driven {
-    outcome: Result<(), DistError>,
-    cpu_at_start: f64,
-    events_peak: usize,
+pub(crate) struct Driven {
+    pub(crate) outcome: Result<(), DistError>,
+    pub(crate) cpu_at_start: f64,
+    pub(crate) events_peak: usize,
 }
 
 /// The master's loop: steps the scheduler, reports progress, and waits for Ctrl-C, the
 /// deadline tick or the connections' events, in that order, until the job is done, fails or is
 /// cancelled; each round's accepted tiles go to the checkpoint's sink.
-async fn drive(
-    sched: &mut Scheduler,
-    events: &mut mpsc::UnboundedReceiver<Event>,
-    sink: &mut Option<Box<dyn TileSink>>,
-    cancel: &CancellationToken,
-    clock: &SharedClock,
-    observers: &crate::observer::Observers,
-    n_tiles: usize,
-) -> Driven {
+pub(crate) async fn drive(l: &mut Loop<'_>, n_tiles: usize) -> Driven {
+    let Loop {
+        sched,
+        events,
+        sink,
+        cancel,
+        clock,
+        observers,
+    } = l;
+    let (cancel, clock, observers) = (*cancel, *clock, *observers);
     let mut tick = interval(TICK);
     tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
     let mut cpu_at_start = 0.0;
@@ -441,21 +502,31 @@ fn new_scheduler(
     sched
 }
 
+/// The Job message of `desc` and `settings` as job `job_id`.
+pub(crate) fn job_message(
+    job_id: u64,
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    config: &MasterConfig,
+) -> Message {
+    Message::Job(Box::new(JobSpec {
+        job_id,
+        scene: desc.clone(),
+        settings: settings.clone(),
+        tile_size: config.schedule.tile,
+        pixel_format: config.schedule.pixel_format,
+    }))
+}
+
 /// The job message, encoded once for every worker, refused if it would not fit a frame.
-fn encode_job(
+pub(crate) fn encode_job(
     job_id: u64,
     desc: &SceneDescription,
     settings: &RenderSettings,
     config: &MasterConfig,
 ) -> Result<Encoded, DistError> {
-    let (sched_opts, net) = (&config.schedule, &config.net);
-    let job = Message::Job(Box::new(JobSpec {
-        job_id,
-        scene: desc.clone(),
-        settings: settings.clone(),
-        tile_size: sched_opts.tile,
-        pixel_format: sched_opts.pixel_format,
-    }));
+    let net = &config.net;
+    let job = job_message(job_id, desc, settings, config);
     // Encoded once, for every worker (and to size the time allowed for sending it).
     let job = Encoded::new(&job).map_err(DistError::EncodeJob)?;
     let job_bytes = job.len();

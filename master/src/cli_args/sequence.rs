@@ -33,6 +33,37 @@ pub struct SequenceArgs {
     pub window: Option<usize>,
 }
 
+/// The sequence flags of `parrt master`, whose `--window` is already a worker's window of
+/// tiles in flight: the frames, without a window of frames (through workers the frames render
+/// one after another).
+#[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Sequences (several scene files, --frames-from or --orbit)")]
+pub struct FrameArgs {
+    /// Render the scenes listed in LIST as a sequence, frame k from line k (as `parrt render
+    /// --frames-from`); -o is then a pattern with one %d or %0Nd frame number field.
+    #[arg(long, value_name = "LIST")]
+    pub frames_from: Option<PathBuf>,
+    /// Turn the eye about the look-at point by DEGREES over the --frames N frames (as `parrt
+    /// render --orbit`).
+    #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
+    pub orbit: Option<f64>,
+    /// With --orbit: the number of frames.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<usize>,
+}
+
+impl FrameArgs {
+    /// The same flags as [`SequenceArgs`] (no window of frames).
+    pub fn sequence(&self) -> SequenceArgs {
+        SequenceArgs {
+            frames_from: self.frames_from.clone(),
+            orbit: self.orbit,
+            frames: self.frames,
+            window: None,
+        }
+    }
+}
+
 /// Frames alive at once when `--window` is not given: one frame's tail filled by the next.
 pub const DEFAULT_WINDOW: usize = 2;
 

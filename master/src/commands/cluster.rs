@@ -29,8 +29,9 @@ use std::time::Duration;
 #[derive(Debug, Args)]
 pub struct ClusterArgs {
     /// The NFF scene to render, or parrt's JSON form if it ends in .json (read by rank 0 only;
-    /// workers receive it over TCP).
-    pub file: Option<PathBuf>,
+    /// workers receive it over TCP). Several files render a sequence, one frame each.
+    #[arg(value_name = "SCENE.nff")]
+    pub files: Vec<PathBuf>,
     /// A generated scene, NAME or NAME:SIZE.
     #[arg(long, value_name = "NAME[:SIZE]")]
     pub scene: Option<String>,
@@ -70,6 +71,9 @@ pub struct ClusterArgs {
     /// Checkpoint (kept on rank 0), timeline and live view.
     #[command(flatten)]
     pub job: JobFlags,
+    /// A sequence: `--frames-from`, `--orbit`/`--frames` (then `-o` is a pattern).
+    #[command(flatten)]
+    pub sequence: crate::cli_args::sequence::SequenceArgs,
     /// The order tiles are handed out in.
     #[command(flatten)]
     pub order: crate::cli_args::tile_order::OrderArgs,
@@ -155,7 +159,7 @@ fn check_master_flags(
     check_image_output(&args.output)?;
     args.job.check_outputs(&[
         ("-o", Some(&args.output)),
-        ("the scene", args.file.as_deref()),
+        ("the scene", args.files.first().map(PathBuf::as_path)),
         ("--costly-first", args.order.costly_first.as_deref()),
     ])?;
     check_listen(&args.listen)?;
@@ -177,8 +181,11 @@ fn run_master(
     job: &str,
     timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
+    if args.files.len() > 1 || args.sequence.asked() {
+        return run_master_sequence(args, rank, job, timeout);
+    }
     let wait_workers = check_master_flags(args, job, timeout)?;
-    let spec = SceneSpec::from_args(args.file.clone(), args.scene.as_deref(), None)?;
+    let spec = SceneSpec::from_args(args.files.first().cloned(), args.scene.as_deref(), None)?;
     let (desc, _) = spec.load(&args.limits.limits())?;
     let label = spec.label();
     let settings = args.render.settings(&desc)?;
@@ -223,31 +230,17 @@ fn run_master(
         &config,
         ready,
         &mut |bound| {
-            let r = Rendezvous {
-                version: rendezvous::VERSION,
-                job: job.to_string(),
-                size: rank.size,
-                address: advertised(args, bound),
-                token: token_text.clone(),
-                pid: std::process::id(),
-                host: rendezvous::host_name(),
-                created: rendezvous::now_unix(),
-            };
-            let p = rendezvous::publish(&args.rendezvous, &r, timeout)?;
-            crate::errln!(
-            "parrt cluster: rank 0 of {} ({}, job {job}) is the master on {bound}, published as {} in {}; {label} at {}x{}",
-            rank.size,
-            rank.launcher,
-            r.address,
-            p.path().display(),
-            w,
-            h
-        );
-            crate::errln!(
-                "parrt cluster: {}",
-                super::master::waiting_line(rank.size - 1, wait_workers)
-            );
-            published = Some(p);
+            let line = format!("{label} at {w}x{h}");
+            published = Some(publish(
+                args,
+                rank,
+                job,
+                &token_text,
+                bound,
+                timeout,
+                wait_workers,
+                &line,
+            )?);
             Ok(None)
         },
         None,
@@ -264,6 +257,134 @@ fn run_master(
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     print_summary(&result, &args.output);
     watch.end(result.trace_s)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Publishes rank 0's address and the job's token in the rendezvous file, and says so.
+#[allow(clippy::too_many_arguments)]
+fn publish(
+    args: &ClusterArgs,
+    rank: &Rank,
+    job: &str,
+    token_text: &str,
+    bound: SocketAddr,
+    timeout: Duration,
+    wait_workers: Duration,
+    what: &str,
+) -> Result<rendezvous::Published, parrt_runtime::DistError> {
+    let r = Rendezvous {
+        version: rendezvous::VERSION,
+        job: job.to_string(),
+        size: rank.size,
+        address: advertised(args, bound),
+        token: token_text.to_string(),
+        pid: std::process::id(),
+        host: rendezvous::host_name(),
+        created: rendezvous::now_unix(),
+    };
+    let p = rendezvous::publish(&args.rendezvous, &r, timeout)?;
+    crate::errln!(
+        "parrt cluster: rank 0 of {} ({}, job {job}) is the master on {bound}, published as {} in {}; {what}",
+        rank.size,
+        rank.launcher,
+        r.address,
+        p.path().display(),
+    );
+    crate::errln!(
+        "parrt cluster: {}",
+        super::master::waiting_line(rank.size - 1, wait_workers)
+    );
+    Ok(p)
+}
+
+/// Rank 0 of a sequence: every frame through the other ranks, one after another on the same
+/// workers, each written by rank 0 as soon as it is complete.
+fn run_master_sequence(
+    args: &ClusterArgs,
+    rank: &Rank,
+    job: &str,
+    timeout: Duration,
+) -> anyhow::Result<ExitCode> {
+    use super::render_sequence::{prepare, through_runtime, PreparedRef, SequenceInput};
+    for (flag, given) in [
+        ("--checkpoint", args.job.checkpoint.is_some()),
+        ("--timeline", args.job.timeline.is_some()),
+        ("--http", args.job.live.http.is_some()),
+        ("--costly-first", args.order.costly_first.is_some()),
+    ] {
+        if given {
+            return Err(crate::cli_args::ArgError::Conflict(format!(
+                "{flag} is not available for sequences yet; render the frame alone for it"
+            ))
+            .into());
+        }
+    }
+    let wait_workers = check_master_flags(args, job, timeout)?;
+    let p = prepare(&SequenceInput {
+        files: &args.files,
+        scene: &args.scene,
+        sequence: &args.sequence,
+        render: &args.render,
+        limits: &args.limits,
+        tile: args.tile,
+        output: &args.output,
+        stats_json: &None,
+    })?;
+    let (token_text, token) = fresh_token()?;
+    let mut config = master_config(MasterSetup {
+        observers: Default::default(),
+        job: &args.job,
+        keyed: false,
+        tile: args.tile,
+        min_workers: rank.size - 1,
+        output: &p.outputs[0],
+    });
+    config.schedule.wait_workers = wait_workers;
+    config.schedule.await_all_workers = true;
+    config.net.listen = args.listen.clone();
+    config.net.token = Some(token);
+    let n = p.outputs.len();
+    let what = format!(
+        "{} frames ({} … {})",
+        n,
+        p.outputs[0].display(),
+        p.outputs[n - 1].display()
+    );
+    let mut published = None;
+    let result = through_runtime(
+        &config,
+        &PreparedRef {
+            loaded: &p.loaded,
+            settings: &p.settings,
+            outputs: &p.outputs,
+        },
+        None,
+        &mut |bound| {
+            published = Some(publish(
+                args,
+                rank,
+                job,
+                &token_text,
+                bound,
+                timeout,
+                wait_workers,
+                &what,
+            )?);
+            Ok(None)
+        },
+    );
+    drop(published);
+    let r = result?;
+    crate::errln!(
+        "parrt cluster: wrote {n} frames ({} … {}; {} tiles in {:.3} s; {} rays; {} bytes out, {} in)",
+        p.outputs[0].display(),
+        p.outputs[n - 1].display(),
+        r.tiles,
+        r.trace_s,
+        r.stats.total_rays(),
+        r.bytes_sent,
+        r.bytes_received,
+    );
     Ok(ExitCode::SUCCESS)
 }
 

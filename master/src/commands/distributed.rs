@@ -42,3 +42,51 @@ pub fn master_config(s: MasterSetup<'_>) -> MasterConfig {
     config.schedule.pixel_format = parrt_runtime::pixel_format_for(s.output);
     config
 }
+
+/// A sequence's frames for the distributed runtime ([`parrt_runtime::FrameSource`]): frame
+/// k's scene (the sequence's, turned for an orbit) and settings, and each finished frame given
+/// to `write` as soon as it is complete.
+pub struct SequenceFrames<'a> {
+    /// The frames.
+    pub sequence: &'a parrt_render::sequence::Sequence,
+    /// Each frame's settings, as rendering it alone would make them.
+    pub settings: &'a [parrt_render::settings::RenderSettings],
+    /// Writes frame k's film (to the file the `-o` pattern names for it).
+    pub write: &'a dyn Fn(usize, &parrt_render::film::Film) -> anyhow::Result<()>,
+}
+
+impl parrt_runtime::FrameSource for SequenceFrames<'_> {
+    fn count(&self) -> usize {
+        self.sequence.len()
+    }
+
+    fn frame(
+        &mut self,
+        k: usize,
+    ) -> Result<
+        (
+            parrt_render::description::SceneDescription,
+            parrt_render::settings::RenderSettings,
+        ),
+        parrt_runtime::DistError,
+    > {
+        let missing = || parrt_runtime::DistError::Frame {
+            frame: k,
+            reason: format!("the sequence has {} frames", self.sequence.len()),
+        };
+        let frame = self.sequence.frames().get(k).ok_or_else(missing)?;
+        let settings = self.settings.get(k).ok_or_else(missing)?;
+        Ok((frame.description().into_owned(), settings.clone()))
+    }
+
+    fn finished(
+        &mut self,
+        k: usize,
+        frame: parrt_runtime::FrameFinished,
+    ) -> Result<(), parrt_runtime::DistError> {
+        (self.write)(k, &frame.film).map_err(|e| parrt_runtime::DistError::Frame {
+            frame: k,
+            reason: format!("{e:#}"),
+        })
+    }
+}

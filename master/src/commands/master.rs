@@ -27,13 +27,15 @@ pub struct MasterArgs {
     /// The NFF scene to render, or parrt's JSON form if it ends in .json (or --scene
     /// NAME[:SIZE], or --scene-json FILE).
     // `NAME[:SIZE]` is usage notation in clap's help text (printed verbatim), not a link.
+    /// Several files render a sequence, one frame each.
     #[allow(rustdoc::broken_intra_doc_links)]
-    pub file: Option<PathBuf>,
+    #[arg(value_name = "SCENE.nff")]
+    pub files: Vec<PathBuf>,
     /// A generated scene, NAME or NAME:SIZE.
     #[arg(long, value_name = "NAME[:SIZE]", conflicts_with = "scene_json")]
     pub scene: Option<String>,
     /// A scene description in parrt's JSON form (serde of `SceneDescription`).
-    #[arg(long, value_name = "FILE", conflicts_with = "file")]
+    #[arg(long, value_name = "FILE", conflicts_with = "files")]
     pub scene_json: Option<PathBuf>,
     /// Output image: .png, .ppm (8-bit binary P6) or .exr (linear float).
     #[arg(short, long, value_name = "OUT", default_value = "parrt.png")]
@@ -81,6 +83,9 @@ pub struct MasterArgs {
     /// The order tiles are handed out in.
     #[command(flatten)]
     pub order: crate::cli_args::tile_order::OrderArgs,
+    /// A sequence: `--frames-from`, `--orbit`/`--frames` (then `-o` is a pattern).
+    #[command(flatten)]
+    pub frames: crate::cli_args::sequence::FrameArgs,
     /// Render settings (the same flags as `parrt render`, so the same bits).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -109,7 +114,7 @@ fn max_batch_help() -> String {
 /// The scene: a file, `--scene` or `--scene-json`, and its label for messages.
 fn load_scene(args: &MasterArgs) -> anyhow::Result<(SceneDescription, String)> {
     let spec = SceneSpec::from_args(
-        args.file.clone(),
+        args.files.first().cloned(),
         args.scene.as_deref(),
         args.scene_json.clone(),
     )?;
@@ -162,13 +167,16 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
     }
     args.job.check_outputs(&[
         ("-o", Some(&args.output)),
-        ("the scene", args.file.as_deref()),
+        ("the scene", args.files.first().map(PathBuf::as_path)),
         ("--scene-json", args.scene_json.as_deref()),
         ("--report-json", args.report_json.as_deref()),
         ("--costly-first", args.order.costly_first.as_deref()),
         ("--token-file", args.token.token_file.as_deref()),
     ])?;
     check_listen(&args.listen)?;
+    if args.files.len() > 1 || args.frames.sequence().asked() {
+        return run_sequence(&args, token, wait_workers, tile_deadline, heartbeat_timeout);
+    }
     let (desc, label) = load_scene(&args)?;
     let settings = args.render.settings(&desc)?;
     args.limits
@@ -236,5 +244,89 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
     watch.end(result.trace_s)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `parrt master` of a sequence: every frame through the workers that connect, one after
+/// another on the same workers, each written as soon as it is complete.
+fn run_sequence(
+    args: &MasterArgs,
+    token: parrt_protocol::Token,
+    wait_workers: Duration,
+    tile_deadline: Duration,
+    heartbeat_timeout: Duration,
+) -> anyhow::Result<ExitCode> {
+    use super::render_sequence::{prepare, through_runtime, PreparedRef, SequenceInput};
+    for (flag, given) in [
+        ("--checkpoint", args.job.checkpoint.is_some()),
+        ("--timeline", args.job.timeline.is_some()),
+        ("--http", args.job.live.http.is_some()),
+        ("--scene-json", args.scene_json.is_some()),
+        ("--report-json", args.report_json.is_some()),
+    ] {
+        if given {
+            return Err(crate::cli_args::ArgError::Conflict(format!(
+                "{flag} is not available for sequences yet; render the frame alone for it"
+            ))
+            .into());
+        }
+    }
+    let sequence = args.frames.sequence();
+    let p = prepare(&SequenceInput {
+        files: &args.files,
+        scene: &args.scene,
+        sequence: &sequence,
+        render: &args.render,
+        limits: &args.limits,
+        tile: args.tile,
+        output: &args.output,
+        stats_json: &None,
+    })?;
+    let mut config = master_config(MasterSetup {
+        observers: Default::default(),
+        job: &args.job,
+        keyed: true,
+        tile: args.tile,
+        min_workers: args.min_workers.max(1),
+        output: &p.outputs[0],
+    });
+    let s = &mut config.schedule;
+    s.wait_workers = wait_workers;
+    s.tile_deadline = tile_deadline;
+    s.window = args.window;
+    s.max_batch = args.max_batch.max(1);
+    s.backups = !args.no_backups;
+    config.net.listen = args.listen.clone();
+    config.net.token = Some(token);
+    config.net.heartbeat_timeout = heartbeat_timeout;
+    let n = p.outputs.len();
+    let waiting = waiting_line(config.schedule.min_workers, wait_workers);
+    let r = through_runtime(
+        &config,
+        &PreparedRef {
+            loaded: &p.loaded,
+            settings: &p.settings,
+            outputs: &p.outputs,
+        },
+        None,
+        &mut |addr| {
+            crate::errln!(
+                "parrt master: listening on {addr}; {n} frames, tiles of {} px",
+                args.tile
+            );
+            crate::errln!("parrt master: {waiting}");
+            Ok(None)
+        },
+    )?;
+    crate::errln!(
+        "parrt master: wrote {n} frames ({} … {}; {} tiles in {:.3} s; {} rays; {} bytes out, {} in)",
+        p.outputs[0].display(),
+        p.outputs[n - 1].display(),
+        r.tiles,
+        r.trace_s,
+        r.stats.total_rays(),
+        r.bytes_sent,
+        r.bytes_received,
+    );
     Ok(ExitCode::SUCCESS)
 }

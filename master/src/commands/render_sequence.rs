@@ -2,9 +2,11 @@
 //! scene and an orbit of the camera (`--orbit DEGREES --frames N`), rendered on this machine's
 //! threads with a window of frames in flight ([`parrt_render::sequence_smp`]), each frame
 //! written to the file the `-o` pattern names for it as soon as it is finished (docs/sequences.md).
-//! Sequences render on one machine so far: `--workers` is refused, and so are the flags that
-//! describe one frame's render (`--timeline`, `--tile-costs`, the live view). Every frame is
-//! checked (its scene read, its settings and size) before the first is rendered.
+//! With `--workers N` the frames render one after another through N local worker processes
+//! that stay connected for the whole sequence ([`parrt_runtime::run_sequence`]). The flags
+//! that describe one frame's render (`--timeline`, `--tile-costs`, the live view) and
+//! `--checkpoint` are refused. Every frame is checked (its scene read, its settings and size)
+//! before the first is rendered.
 
 use super::render::RenderArgs;
 use super::report::RenderReport;
@@ -57,34 +59,85 @@ fn stop_on_ctrl_c() {
 
 /// What a sequence is made of, loaded: the frames, the input files (for the alias checks) and
 /// a label per frame for messages.
-struct Loaded {
+pub struct Loaded {
     sequence: Sequence,
     inputs: Vec<(&'static str, PathBuf)>,
     labels: Vec<String>,
     scene: String,
 }
 
-/// Refuses what a sequence cannot do yet, or flags that contradict one another.
-fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
-    let seq = &args.sequence;
-    let conflict = |m: &str| Err(ArgError::Conflict(m.to_string()).into());
-    if args.workers.is_some() {
-        return conflict(
-            "--workers: sequences render on one machine so far; drop --workers to render the \
-             frames on this machine's threads",
-        );
-    }
-    for (flag, given) in [
-        ("--timeline", args.job.timeline.is_some()),
-        ("--tile-costs", args.tile_costs.is_some()),
-        ("--http", args.job.live.http.is_some()),
-    ] {
-        if given {
-            return conflict(&format!(
-                "{flag} is not available for sequences yet; render the frame alone for it"
-            ));
+/// What a sequence is made of, as any of the commands that render one was told: the scene
+/// files or generated scene, the sequence flags, the render settings and the outputs.
+pub struct SequenceInput<'a> {
+    /// Scene files (one frame each, or the one an orbit turns about).
+    pub files: &'a [PathBuf],
+    /// A generated scene (`--scene`).
+    pub scene: &'a Option<String>,
+    /// `--frames-from`, `--orbit`, `--frames`, `--window`.
+    pub sequence: &'a crate::cli_args::sequence::SequenceArgs,
+    /// The render settings' flags.
+    pub render: &'a crate::cli_args::RenderFlags,
+    /// Parser and image limits.
+    pub limits: &'a crate::cli_args::LimitArgs,
+    /// Tile edge in pixels.
+    pub tile: u32,
+    /// The `-o` pattern.
+    pub output: &'a PathBuf,
+    /// `--stats-json`, checked against the outputs.
+    pub stats_json: &'a Option<PathBuf>,
+}
+
+impl<'a> SequenceInput<'a> {
+    /// The sequence `parrt render` was asked for.
+    fn of_render(args: &'a RenderArgs) -> Self {
+        SequenceInput {
+            files: &args.files,
+            scene: &args.scene,
+            sequence: &args.sequence,
+            render: &args.render,
+            limits: &args.limits,
+            tile: args.tile,
+            output: &args.output,
+            stats_json: &args.stats_json,
         }
     }
+}
+
+/// A sequence read and checked: its frames, each frame's settings and output, and the seconds
+/// reading took.
+pub struct Prepared {
+    /// The frames, their inputs and labels.
+    pub loaded: Loaded,
+    /// Each frame's settings, as rendering it alone would make them.
+    pub settings: Vec<(RenderSettings, Choice)>,
+    /// Each frame's output file.
+    pub outputs: Vec<PathBuf>,
+    /// Seconds spent reading the scenes.
+    pub parse_s: f64,
+}
+
+/// Checks the sequence flags, reads every frame's scene and checks every frame's settings
+/// and output, before any work.
+pub fn prepare(input: &SequenceInput<'_>) -> anyhow::Result<Prepared> {
+    check_sequence_flags(input)?;
+    let limits = input.limits.limits();
+    let t0 = Instant::now();
+    let loaded = load(input, &limits)?;
+    let parse_s = t0.elapsed().as_secs_f64();
+    let settings = frame_settings(input, &loaded)?;
+    let outputs = frame_outputs(input, &loaded)?;
+    Ok(Prepared {
+        loaded,
+        settings,
+        outputs,
+        parse_s,
+    })
+}
+
+/// Refuses sequence flags that contradict one another.
+fn check_sequence_flags(args: &SequenceInput<'_>) -> anyhow::Result<()> {
+    let seq = args.sequence;
+    let conflict = |m: &str| Err(ArgError::Conflict(m.to_string()).into());
     if seq.frames.is_some() && seq.orbit.is_none() {
         return conflict(
             "--frames N counts the frames of --orbit; give --orbit DEGREES too (several files \
@@ -111,17 +164,38 @@ fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
     if args.tile == 0 {
         return Err(ArgError::Value("--tile must be at least 1".into()).into());
     }
-    if args.threads == Some(0) {
-        return Err(ArgError::Value("--threads must be at least 1".into()).into());
-    }
     if seq.window() == 0 {
         return Err(ArgError::Value("--window must be at least 1".into()).into());
     }
     Ok(())
 }
 
+/// Refuses what a sequence cannot do yet with `parrt render`.
+fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
+    let conflict = |m: &str| Err(ArgError::Conflict(m.to_string()).into());
+    if args.workers == Some(0) {
+        return Err(ArgError::Value("--workers must be at least 1".into()).into());
+    }
+    for (flag, given) in [
+        ("--timeline", args.job.timeline.is_some()),
+        ("--tile-costs", args.tile_costs.is_some()),
+        ("--http", args.job.live.http.is_some()),
+        ("--checkpoint", args.job.checkpoint.is_some()),
+    ] {
+        if given {
+            return conflict(&format!(
+                "{flag} is not available for sequences yet; render the frame alone for it"
+            ));
+        }
+    }
+    if args.threads == Some(0) {
+        return Err(ArgError::Value("--threads must be at least 1".into()).into());
+    }
+    Ok(())
+}
+
 /// Reads the scenes (or generates the one an orbit turns about) into a sequence.
-fn load(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Loaded> {
+fn load(args: &SequenceInput<'_>, limits: &Limits) -> anyhow::Result<Loaded> {
     let seq = &args.sequence;
     if let (Some(degrees), Some(n)) = (seq.orbit, seq.frames) {
         let spec = SceneSpec::from_args(args.files.first().cloned(), args.scene.as_deref(), None)?;
@@ -183,7 +257,7 @@ fn load(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Loaded> {
 /// Every frame's settings, as rendering it alone would make them, each checked (image limits,
 /// the job's own checks once per distinct scene) before any work.
 fn frame_settings(
-    args: &RenderArgs,
+    args: &SequenceInput<'_>,
     loaded: &Loaded,
 ) -> anyhow::Result<Vec<(RenderSettings, Choice)>> {
     let n = loaded.sequence.len();
@@ -211,9 +285,9 @@ fn frame_settings(
 
 /// The frames' output paths from the `-o` pattern, their folder made if missing, and every
 /// output checked against the inputs and the other outputs.
-fn frame_outputs(args: &RenderArgs, loaded: &Loaded) -> anyhow::Result<Vec<PathBuf>> {
+fn frame_outputs(args: &SequenceInput<'_>, loaded: &Loaded) -> anyhow::Result<Vec<PathBuf>> {
     let n = loaded.sequence.len();
-    let pattern = FramePattern::parse(&args.output, n)?;
+    let pattern = FramePattern::parse(args.output, n)?;
     let outputs: Vec<PathBuf> = (0..n).map(|k| pattern.path(k)).collect();
     if !pattern.dir().as_os_str().is_empty() && !pattern.dir().exists() {
         std::fs::create_dir_all(pattern.dir()).map_err(|e| {
@@ -306,16 +380,108 @@ fn print_report(
     Ok(())
 }
 
+/// Renders the sequence through `n` local worker processes, frame after frame on the same
+/// workers, each frame written as soon as it is complete. Returns what the sequence did and
+/// the threads of each worker.
+fn render_through_workers(
+    args: &RenderArgs,
+    loaded: &Loaded,
+    settings: &[(RenderSettings, Choice)],
+    outputs: &[PathBuf],
+    n: usize,
+    progress: &std::sync::Arc<SequenceProgress>,
+) -> anyhow::Result<(SequenceResult, usize)> {
+    use parrt_runtime::observer::{Observer, Observers};
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let threads = args.threads.unwrap_or((cores / n).max(1));
+    let observers = if progress.drawn() {
+        Observers(vec![progress.clone() as std::sync::Arc<dyn Observer>])
+    } else {
+        Observers::default()
+    };
+    let mut config = super::distributed::master_config(super::distributed::MasterSetup {
+        observers,
+        job: &args.job,
+        keyed: false,
+        tile: args.tile,
+        min_workers: n,
+        output: &outputs[0],
+    });
+    config.spawn.count = n;
+    config.spawn.threads = threads;
+    let prepared = PreparedRef {
+        loaded,
+        settings,
+        outputs,
+    };
+    let done = through_runtime(&config, &prepared, Some(progress), &mut |_| Ok(None))?;
+    let result = SequenceResult {
+        frames: loaded.sequence.len(),
+        tiles: done.tiles,
+        stats: done.stats,
+        wall_s: done.trace_s,
+        most_alive: 1,
+        stopped: false,
+    };
+    Ok((result, threads))
+}
+
+/// A prepared sequence, borrowed.
+pub struct PreparedRef<'a> {
+    /// The frames.
+    pub loaded: &'a Loaded,
+    /// Each frame's settings.
+    pub settings: &'a [(RenderSettings, Choice)],
+    /// Each frame's output file.
+    pub outputs: &'a [PathBuf],
+}
+
+/// Renders a prepared sequence through the distributed runtime as `config` says (local
+/// workers, a listen address, a token), every frame on the same workers, each written to its
+/// output as soon as it is complete (the last when the render returns). `on_listen` is
+/// [`parrt_runtime::run`]'s.
+pub fn through_runtime(
+    config: &parrt_runtime::MasterConfig,
+    p: &PreparedRef<'_>,
+    progress: Option<&SequenceProgress>,
+    on_listen: &mut dyn FnMut(
+        std::net::SocketAddr,
+    )
+        -> Result<Option<std::net::SocketAddr>, parrt_runtime::DistError>,
+) -> anyhow::Result<parrt_runtime::DistResult> {
+    let frame_settings: Vec<RenderSettings> = p.settings.iter().map(|(s, _)| s.clone()).collect();
+    let write = |k: usize, film: &parrt_render::film::Film| -> anyhow::Result<()> {
+        film.save(&p.outputs[k])
+            .with_context(|| format!("cannot write frame {k}"))?;
+        if let Some(bar) = progress {
+            bar.frame();
+        }
+        Ok(())
+    };
+    let mut frames = super::distributed::SequenceFrames {
+        sequence: &p.loaded.sequence,
+        settings: &frame_settings,
+        write: &write,
+    };
+    let first = p.loaded.sequence.frames()[0].description().into_owned();
+    let job =
+        parrt_runtime::Job::<parrt_runtime::DistError>::ready(first, frame_settings[0].clone());
+    let done = parrt_runtime::run_sequence(config, job, &mut frames, on_listen, None)
+        .map_err(|e| crate::exit::dist_error(e).context("distributed render failed"))?;
+    write(p.loaded.sequence.len() - 1, &done.result.film)?;
+    Ok(done.result)
+}
+
 /// Runs `parrt render` of a sequence.
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     refuse_unsupported(args)?;
-    let limits = args.limits.limits();
-    let t0 = Instant::now();
-    let loaded = load(args, &limits)?;
-    let parse_s = t0.elapsed().as_secs_f64();
+    let Prepared {
+        loaded,
+        settings,
+        outputs,
+        parse_s,
+    } = prepare(&SequenceInput::of_render(args))?;
     let n = loaded.sequence.len();
-    let settings = frame_settings(args, &loaded)?;
-    let outputs = frame_outputs(args, &loaded)?;
 
     let threads = args
         .threads
@@ -337,7 +503,21 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|(s, _)| parrt_render::tile::tiles(s.width, s.height, args.tile).len())
         .sum();
-    let progress = SequenceProgress::new(total_tiles, n);
+    let progress = std::sync::Arc::new(SequenceProgress::new(total_tiles, n));
+    if let Some(workers) = args.workers {
+        let (result, threads) =
+            render_through_workers(args, &loaded, &settings, &outputs, workers, &progress)?;
+        progress.finish();
+        let opts = SequenceOptions {
+            threads: workers * threads,
+            window: 1,
+            ..opts
+        };
+        print_report(
+            args, &loaded, &settings, &outputs, &opts, result, parse_s, 0.0,
+        )?;
+        return Ok(ExitCode::SUCCESS);
+    }
     let build_s = Mutex::new(0.0f64);
     let build = |k: usize| -> anyhow::Result<Renderer> {
         let t = Instant::now();

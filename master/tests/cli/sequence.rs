@@ -1,7 +1,8 @@
 //! `parrt render` of a sequence end to end through the real binary: every frame is the same
 //! bytes as that frame rendered alone (orbit frames, several files, a frame LIST), whatever the
 //! threads, tile size, executor and window; and the usage errors (output pattern, flags that
-//! contradict one another, a bad LIST line, `--workers`) exit 2 with their exact message.
+//! contradict one another, a bad LIST line, `--checkpoint`) exit 2 with their exact message.
+//! Through local workers (`--workers 2`) every frame is the same bytes as the SMP sequence's.
 
 use crate::{parrt, spd, stderr};
 use parrt_render::sequence::Sequence;
@@ -142,6 +143,68 @@ fn threads_tiles_executors_and_windows_give_the_same_frames() {
 }
 
 #[test]
+fn a_sequence_through_two_local_workers_is_the_smp_sequence() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let scene = spd("mount-4.nff");
+    // A 3-frame orbit: frames that only move the camera.
+    let orbit = [
+        scene.as_str(),
+        "--orbit",
+        "270",
+        "--frames",
+        "3",
+        "--tile",
+        "8",
+    ];
+    for (out, extra) in [
+        ("smp-o%d.png", &["--threads", "2"][..]),
+        ("w-o%d.png", &["--workers", "2", "--threads", "1"][..]),
+    ] {
+        let mut args = orbit.to_vec();
+        let out = d(out);
+        args.extend(["-o", out.as_str()]);
+        args.extend_from_slice(extra);
+        render_ok(&args);
+    }
+    // Two scene files of different scenes (and so different Jobs).
+    let (a, b) = (spd("tetra-4.nff"), spd("gears-1.nff"));
+    for (out, extra) in [
+        ("smp-f%d.ppm", &["--threads", "2"][..]),
+        (
+            "w-f%d.ppm",
+            &["--workers", "2", "--threads", "1", "--tile", "5"][..],
+        ),
+    ] {
+        let out = d(out);
+        let mut args = vec![a.as_str(), b.as_str(), "-o", out.as_str()];
+        args.extend_from_slice(extra);
+        render_ok(&args);
+    }
+    for k in 0..3 {
+        let smp = bytes(&dir.path().join(format!("smp-o{k}.png")));
+        assert!(
+            smp == bytes(&dir.path().join(format!("w-o{k}.png"))),
+            "orbit frame {k} through workers differs from SMP"
+        );
+    }
+    assert!(!dir.path().join("w-o3.png").exists());
+    for (k, scene) in [&a, &b].into_iter().enumerate() {
+        let alone = d(&format!("alone-{k}.ppm"));
+        render_ok(&[scene, "-o", &alone]);
+        let want = bytes(Path::new(&alone));
+        assert!(
+            want == bytes(&dir.path().join(format!("smp-f{k}.ppm"))),
+            "{scene}: SMP"
+        );
+        assert!(
+            want == bytes(&dir.path().join(format!("w-f{k}.ppm"))),
+            "{scene}: workers"
+        );
+    }
+}
+
+#[test]
 fn output_patterns_and_sequence_flags_are_checked_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().display().to_string();
@@ -190,9 +253,21 @@ fn output_patterns_and_sequence_flags_are_checked_before_any_work() {
          several files or --frames-from",
     );
     refused(
-        &[&a, &b, "--workers", "2", "-o", &out],
-        "--workers: sequences render on one machine so far; drop --workers to render the \
-         frames on this machine's threads",
+        &[
+            &a,
+            &b,
+            "--workers",
+            "2",
+            "--checkpoint",
+            &format!("{d}/c.ckpt"),
+            "-o",
+            &out,
+        ],
+        "--checkpoint is not available for sequences yet; render the frame alone for it",
+    );
+    refused(
+        &[&a, &b, "--workers", "0", "-o", &out],
+        "--workers must be at least 1",
     );
     refused(
         &[&a, "--window", "3", "-o", &format!("{d}/one.png")],

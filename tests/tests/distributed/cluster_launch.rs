@@ -342,3 +342,47 @@ fn a_worker_rank_without_a_master_times_out_clearly() {
     assert!(err.contains("rank 2 of 3"), "{err}");
     assert!(t0.elapsed() < Duration::from_secs(20));
 }
+
+#[test]
+fn three_slurm_ranks_render_a_sequence_to_the_smp_sequence_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let orbit = ["--orbit", "120", "--frames", "3"];
+    let children: Vec<_> = (0..3)
+        .map(|r| {
+            cluster(dir.path(), &slurm(r, "5151"), &["--threads", "1"])
+                .args(orbit)
+                .arg("-o")
+                .arg(dir.path().join("cl-%d.exr"))
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for (r, c) in children.into_iter().enumerate() {
+        let out = c.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "rank {r}: {err}");
+        if r == 0 {
+            assert!(err.contains("parrt cluster: wrote 3 frames"), "{err}");
+        }
+    }
+    let st = Command::new(EXE)
+        .arg("render")
+        .args(SCENE)
+        .args(orbit)
+        .args(["--tile", "16", "-o"])
+        .arg(dir.path().join("smp-%d.exr"))
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "{st:?}");
+    for k in 0..3 {
+        let read = |name: String| std::fs::read(dir.path().join(name)).unwrap();
+        assert!(
+            read(format!("cl-{k}.exr")) == read(format!("smp-{k}.exr")),
+            "frame {k} of the cluster differs from SMP"
+        );
+    }
+    assert!(!dir.path().join("cl-3.exr").exists());
+    assert!(rendezvous_files(dir.path()).is_empty());
+}

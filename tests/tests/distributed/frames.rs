@@ -1,6 +1,6 @@
 //! Frames after the handshake: their size and their rate. After Welcome the master takes no
-//! frame larger than the job's biggest result, and the worker none larger than a small message
-//! after the job; a job or a result trickling in slower than the timeout allows for a whole
+//! frame larger than the job's biggest result, and the worker none larger than its frame limit
+//! (a sequence sends a Job a frame, on the same connection); a job or a result trickling in slower than the timeout allows for a whole
 //! message, but above the floor rate, is taken, a stalled one is not; a master that stops
 //! reading cannot hang a worker.
 
@@ -19,7 +19,7 @@ use tokio::time::{sleep, timeout};
 use tokio_util::codec::Decoder;
 
 /// Item 14: after Welcome the master accepts no frame larger than the job's biggest result,
-/// and the worker none larger than a small message after the job.
+/// and the worker none larger than its frame limit.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn oversized_frames_after_welcome_are_refused_at_once() {
     let desc = test_scene(16, 16);
@@ -36,17 +36,88 @@ async fn oversized_frames_after_welcome_are_refused_at_once() {
     m.cancel.cancel();
     let _ = m.handle.await;
 
+    // The worker keeps its frame limit after the job (a sequence sends a Job a frame), and
+    // refuses any frame beyond it at once.
     let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let worker = start_worker(worker_options(listener.local_addr().unwrap(), 1, "w"));
+    let mut opts = worker_options(listener.local_addr().unwrap(), 1, "w");
+    opts.max_frame = 1 << 20;
+    let worker = start_worker(opts);
     let mut c = welcome_one(&listener).await;
     c.write(&job(16, 16, 8)).await.unwrap();
     let mut s = c.into_inner();
     s.write_all(&(10u32 << 20).to_be_bytes()).await.unwrap();
     let ended = timeout(Duration::from_secs(5), worker)
         .await
-        .expect("the worker waited for a 10 MiB frame after the job");
+        .expect("the worker waited for a 10 MiB frame past its 1 MiB limit");
     let err = ended.unwrap().unwrap_err();
     assert!(err.to_string().contains("larger than the limit"), "{err}");
+}
+
+/// The Ready a worker sends next, past heartbeats.
+async fn next_ready(
+    c: &mut parrt_protocol::Connection<parrt_protocol::SecureStream<tokio::net::TcpStream>>,
+) -> u64 {
+    loop {
+        match timeout(Duration::from_secs(10), c.read()).await {
+            Ok(Ok(Some(Message::Ready { job_id, .. }))) => return job_id,
+            Ok(Ok(Some(Message::Heartbeat))) => {}
+            other => panic!("no Ready: {other:?}"),
+        }
+    }
+}
+
+/// A sequence's next frame: a second Job on the same connection, larger than any other
+/// message, is built in place of the first and answered with its Ready; the same job sent
+/// again changes nothing (no second build, no second Ready).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_worker_builds_each_frame_of_a_sequence_on_one_connection() {
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let worker = start_worker(worker_options(listener.local_addr().unwrap(), 1, "w"));
+    let mut c = welcome_one(&listener).await;
+    c.write(&job(16, 16, 8)).await.unwrap();
+    assert_eq!(next_ready(&mut c).await, 7);
+    let Message::Job(mut next) = big_job(2 * limits::MASTER_FRAME_AFTER_JOB) else {
+        unreachable!()
+    };
+    next.job_id = 8;
+    let next = Message::Job(next);
+    c.write(&next).await.unwrap();
+    assert_eq!(next_ready(&mut c).await, 8);
+    c.write(&next).await.unwrap();
+    // A tile of job 8 then comes back: nothing was rebuilt or dropped in between.
+    let tile = Tile {
+        id: 0,
+        x: 0,
+        y: 0,
+        w: 8,
+        h: 8,
+    };
+    c.write(&Message::Assign {
+        job_id: 8,
+        tile,
+        attempt: 1,
+    })
+    .await
+    .unwrap();
+    loop {
+        match timeout(Duration::from_secs(10), c.read()).await {
+            Ok(Ok(Some(Message::TileResult {
+                job_id, tile_id, ..
+            }))) => {
+                assert_eq!((job_id, tile_id), (8, 0));
+                break;
+            }
+            Ok(Ok(Some(Message::Heartbeat))) => {}
+            other => panic!("no result for job 8 (a second Ready or an error?): {other:?}"),
+        }
+    }
+    c.write(&Message::Shutdown).await.unwrap();
+    let summary = timeout(Duration::from_secs(10), worker)
+        .await
+        .unwrap()
+        .unwrap()
+        .unwrap();
+    assert_eq!(summary.jobs, 2, "the repeated job was not built again");
 }
 
 /// Item 11: a master that stops reading cannot hang a worker: its writes give up after the

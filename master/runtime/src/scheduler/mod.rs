@@ -17,6 +17,7 @@
 //!   behind ([`Finished`]);
 //! - `results.rs`: the checks a result must pass and how it lands in the film;
 //! - `membership.rs`: failures, departures, requeues and deadlines;
+//! - `frames.rs`: the next frame of a sequence on the same workers;
 //! - `deal.rs`: batch sizes, the order tiles go out in, backups and assignments.
 
 use crate::lifecycle::Lifecycle;
@@ -38,8 +39,11 @@ use tokio::time::Instant;
 use tracing::{debug, info, warn};
 
 pub use crate::batch::BATCH_SECONDS;
+pub use frames::FrameFinished;
+use frames::Frames;
 
 mod deal;
+mod frames;
 mod membership;
 mod results;
 
@@ -285,6 +289,9 @@ pub struct Scheduler {
     observers: super::observer::Observers,
     /// The job's phase: waiting for workers, tracing, done.
     life: Lifecycle,
+    /// In a sequence: the current frame's Job message (sent to every worker when the frame
+    /// opens, and to a worker that built an earlier frame) and the ids of the frames before.
+    frames: Option<Frames>,
 }
 
 impl Scheduler {
@@ -326,6 +333,7 @@ impl Scheduler {
             accepted: None,
             observers: Default::default(),
             life: Lifecycle::new(opts.rules, Instant::now()),
+            frames: None,
         }
     }
 
@@ -520,7 +528,13 @@ impl Scheduler {
                 build_s,
                 job_to_ready_s,
             } => {
-                if job_id != self.job_id {
+                if self.is_past(job_id) {
+                    // It built an earlier frame (it joined while that frame rendered): the
+                    // current one follows.
+                    if let (Some(w), Some(f)) = (self.workers.get(&id), &self.frames) {
+                        let _ = w.outbox.send(f.job.clone());
+                    }
+                } else if job_id != self.job_id {
                     self.fail(id, format!("built job {job_id}, not {}", self.job_id));
                 } else if let Some(w) = self.workers.get_mut(&id) {
                     info!(worker = id, name = %w.name, build_s, job_to_ready_s, "worker ready");
@@ -754,6 +768,77 @@ mod tests {
             [7, 5, 0, 6, 1, 3, 4],
             "restored 2 skipped; 3 and 4 last"
         );
+    }
+
+    /// The messages waiting in an outbox that are not tile assignments.
+    fn others(rx: &mut UnboundedReceiver<Message>) -> Vec<Message> {
+        let mut v = Vec::new();
+        while let Ok(m) = rx.try_recv() {
+            if !matches!(m, Message::Assign { .. } | Message::AssignBatch { .. }) {
+                v.push(m);
+            }
+        }
+        v
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn the_next_frame_goes_to_every_worker_costliest_first_and_stale_messages_are_no_fault() {
+        const NEXT: u64 = 78;
+        // The scheduler passes a frame's Job message through untouched: any message stands
+        // for it here.
+        let job = || Message::Error {
+            reason: "frame 1's job".into(),
+        };
+        let all = tiles(16, 8, 4);
+        let mut s = sched(1); // one failure drops a worker
+        let mut a = join(&mut s, 1, 4); // a window of 8: every tile at once
+        s.fill(Instant::now());
+        assert_eq!(assigned(&mut a).len(), 8);
+        let costs = [0.1, 0.5, 0.2, 0.9, 0.3, 0.9, 0.05, 0.4];
+        for t in &all {
+            let mut r = result(1, t, 1, t.id as f32);
+            if let Event::Result { seconds, .. } = &mut r {
+                *seconds = costs[t.id as usize];
+            }
+            s.handle(r, Instant::now());
+        }
+        assert!(s.is_done());
+        let frame0 = s.next_frame(NEXT, &RenderSettings::new(16, 8), 1, all.clone(), job());
+        assert_eq!(frame0.tile_seconds, costs);
+        assert_eq!(frame0.film.get(5, 1), [1.0; 3], "tile 1's pixels");
+        assert_eq!(frame0.stats.eye_rays, 128);
+        assert_eq!(others(&mut a), [job()], "the next frame's job went out");
+        assert_eq!((s.ready_workers(), s.progress()), (0, (0, 8)));
+        // A late copy of a frame-0 result came second: no fault, nothing written.
+        s.handle(result(1, &all[0], 1, 9.0), Instant::now());
+        assert_eq!(s.faults.duplicate_results, 1);
+        assert_eq!(s.faults.rejected_results, 0);
+        // A worker that joins now built frame 0 (the job every connection starts with): it is
+        // sent the current frame instead of being failed.
+        let mut b = join(&mut s, 2, 1);
+        assert_eq!(others(&mut b), [job()]);
+        assert_eq!(s.connected_workers(), 2);
+        s.handle(
+            Event::Ready {
+                id: 1,
+                job_id: NEXT,
+                build_s: 0.0,
+                job_to_ready_s: 0.0,
+            },
+            Instant::now(),
+        );
+        s.fill(Instant::now());
+        // Costliest first by frame 0's times (ties in tile order), dealt as an order is.
+        assert_eq!(ids(&mut a), [3, 5, 1, 7, 4, 2, 0, 6]);
+        assert!(ids(&mut b).is_empty(), "b has not built frame 1 yet");
+        // A result for the current frame lands in the new film.
+        let mut r = result(1, &all[3], 1, 0.25);
+        if let Event::Result { job_id, .. } = &mut r {
+            *job_id = NEXT;
+        }
+        s.handle(r, Instant::now());
+        assert_eq!(s.progress(), (1, 8));
+        assert_eq!(s.faults.rejected_results, 0);
     }
 
     fn ids(rx: &mut UnboundedReceiver<Message>) -> Vec<u32> {

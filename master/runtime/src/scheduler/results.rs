@@ -17,6 +17,14 @@ impl Scheduler {
         seconds: f64,
         now: Instant,
     ) {
+        if self.is_past(job_id) {
+            // A backup (or a result sent before the worker read the next frame) of a frame
+            // already complete: it came second.
+            if self.workers.contains_key(&id) {
+                self.faults.duplicate_results += 1;
+            }
+            return;
+        }
         let Some(w) = self.workers.get_mut(&id) else {
             return; // Already removed: nothing it says counts any more.
         };

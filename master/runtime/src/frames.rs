@@ -1,0 +1,108 @@
+//! The frames of a sequence as the master's loop drives them ([`crate::Master::render_sequence`]):
+//! where the later frames come from and where finished ones go ([`FrameSource`]), and the loop
+//! over frames: drive one frame to its end, then open the next on the same workers
+//! ([`crate::scheduler::Scheduler::next_frame`]), summing what the sequence did.
+
+use crate::options::MasterConfig;
+use crate::scheduler::FrameFinished;
+use crate::server::{drive, encode_job, job_message, Loop};
+use crate::DistError;
+use parrt_render::description::SceneDescription;
+use parrt_render::settings::RenderSettings;
+use parrt_render::stats::RayStats;
+use parrt_render::tile::{tiles, Tile};
+use rand::Rng;
+
+/// The later frames of a sequence ([`Master::render_sequence`]): what each is, and where each
+/// finished frame goes.
+pub trait FrameSource {
+    /// Frames in the sequence, the first included.
+    fn count(&self) -> usize;
+    /// Frame `k`'s scene and settings (`k` ≥ 1), asked for when frame `k - 1` is complete.
+    fn frame(&mut self, k: usize) -> Result<(SceneDescription, RenderSettings), DistError>;
+    /// Frame `k` is complete (every frame but the last, which is the render's result).
+    fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError>;
+}
+
+/// No later frames: the type of a render of one frame.
+pub(crate) enum NoFrames {}
+
+impl FrameSource for NoFrames {
+    fn count(&self) -> usize {
+        match *self {}
+    }
+    fn frame(&mut self, _: usize) -> Result<(SceneDescription, RenderSettings), DistError> {
+        match *self {}
+    }
+    fn finished(&mut self, _: usize, _: FrameFinished) -> Result<(), DistError> {
+        match *self {}
+    }
+}
+
+/// What a sequence sums over its frames beside the last one's film.
+#[derive(Default)]
+pub(crate) struct SequenceSums {
+    /// Tiles in every frame opened.
+    pub(crate) tiles: usize,
+    /// Ray statistics of the frames before the last.
+    pub(crate) stats: RayStats,
+    /// The master's CPU seconds when the first tile went out.
+    pub(crate) cpu_at_start: f64,
+    /// The most events that waited at once, over the frames.
+    pub(crate) events_peak: usize,
+}
+
+/// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, its Job refused if it
+/// would not fit a frame.
+fn open_frame<F: FrameSource + ?Sized>(
+    src: &mut F,
+    k: usize,
+    rng: &mut rand::rngs::StdRng,
+    config: &MasterConfig,
+) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>), DistError> {
+    let (desc, settings) = src.frame(k)?;
+    let job_id = rng.gen::<u64>();
+    encode_job(job_id, &desc, &settings, config)?;
+    let list = tiles(settings.width, settings.height, config.schedule.tile);
+    Ok((job_id, desc, settings, list))
+}
+
+/// Drives frame 0 (`first`: its job id, scene and settings, already the scheduler's) to its
+/// end, then each later frame of `frames` in turn on the same workers; each finished frame but
+/// the last goes to `frames`. Stops at the first failure.
+pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
+    l: &mut Loop<'_>,
+    first: (u64, &SceneDescription, &RenderSettings),
+    mut frames: Option<&mut F>,
+    rng: &mut rand::rngs::StdRng,
+    config: &MasterConfig,
+    seq: &mut SequenceSums,
+) -> Result<(), DistError> {
+    let count = frames.as_ref().map_or(1, |f| f.count());
+    if count > 1 {
+        let (job_id, desc, settings) = first;
+        l.sched
+            .start_frames(job_message(job_id, desc, settings, config));
+    }
+    for frame in 0..count {
+        let frame_tiles = l.sched.progress().1;
+        let driven = drive(l, frame_tiles).await;
+        if frame == 0 {
+            seq.cpu_at_start = driven.cpu_at_start;
+        }
+        seq.events_peak = seq.events_peak.max(driven.events_peak);
+        driven.outcome?;
+        let (Some(src), true) = (frames.as_deref_mut(), frame + 1 < count) else {
+            break;
+        };
+        let (job_id, desc, settings, list) = open_frame(src, frame + 1, rng, config)?;
+        seq.tiles += list.len();
+        let msg = job_message(job_id, &desc, &settings, config);
+        let done = l
+            .sched
+            .next_frame(job_id, &settings, desc.lights.len(), list, msg);
+        seq.stats += done.stats;
+        src.finished(frame, done)?;
+    }
+    Ok(())
+}
