@@ -305,7 +305,7 @@ fn run_master_sequence(
     job: &str,
     timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
-    use super::render_sequence::{prepare, through_runtime, PreparedRef, SequenceInput};
+    use super::render_sequence::{prepare, report_frames, through_runtime, SequenceInput};
     for (flag, given) in [
         ("--checkpoint", args.job.checkpoint.is_some()),
         ("--timeline", args.job.timeline.is_some()),
@@ -351,40 +351,22 @@ fn run_master_sequence(
         p.outputs[n - 1].display()
     );
     let mut published = None;
-    let result = through_runtime(
-        &config,
-        &PreparedRef {
-            loaded: &p.loaded,
-            settings: &p.settings,
-            outputs: &p.outputs,
-        },
-        None,
-        &mut |bound| {
-            published = Some(publish(
-                args,
-                rank,
-                job,
-                &token_text,
-                bound,
-                timeout,
-                wait_workers,
-                &what,
-            )?);
-            Ok(None)
-        },
-    );
+    let result = through_runtime(&config, &p.as_ref(), None, &mut |bound| {
+        published = Some(publish(
+            args,
+            rank,
+            job,
+            &token_text,
+            bound,
+            timeout,
+            wait_workers,
+            &what,
+        )?);
+        Ok(None)
+    });
     drop(published);
     let r = result?;
-    crate::errln!(
-        "parrt cluster: wrote {n} frames ({} … {}; {} tiles in {:.3} s; {} rays; {} bytes out, {} in)",
-        p.outputs[0].display(),
-        p.outputs[n - 1].display(),
-        r.tiles,
-        r.trace_s,
-        r.stats.total_rays(),
-        r.bytes_sent,
-        r.bytes_received,
-    );
+    report_frames("parrt cluster", &p.outputs, &r);
     Ok(ExitCode::SUCCESS)
 }
 

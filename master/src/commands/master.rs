@@ -256,7 +256,7 @@ fn run_sequence(
     tile_deadline: Duration,
     heartbeat_timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
-    use super::render_sequence::{prepare, through_runtime, PreparedRef, SequenceInput};
+    use super::render_sequence::{prepare, report_frames, through_runtime, SequenceInput};
     for (flag, given) in [
         ("--checkpoint", args.job.checkpoint.is_some()),
         ("--timeline", args.job.timeline.is_some()),
@@ -301,32 +301,14 @@ fn run_sequence(
     config.net.heartbeat_timeout = heartbeat_timeout;
     let n = p.outputs.len();
     let waiting = waiting_line(config.schedule.min_workers, wait_workers);
-    let r = through_runtime(
-        &config,
-        &PreparedRef {
-            loaded: &p.loaded,
-            settings: &p.settings,
-            outputs: &p.outputs,
-        },
-        None,
-        &mut |addr| {
-            crate::errln!(
-                "parrt master: listening on {addr}; {n} frames, tiles of {} px",
-                args.tile
-            );
-            crate::errln!("parrt master: {waiting}");
-            Ok(None)
-        },
-    )?;
-    crate::errln!(
-        "parrt master: wrote {n} frames ({} … {}; {} tiles in {:.3} s; {} rays; {} bytes out, {} in)",
-        p.outputs[0].display(),
-        p.outputs[n - 1].display(),
-        r.tiles,
-        r.trace_s,
-        r.stats.total_rays(),
-        r.bytes_sent,
-        r.bytes_received,
-    );
+    let r = through_runtime(&config, &p.as_ref(), None, &mut |addr| {
+        crate::errln!(
+            "parrt master: listening on {addr}; {n} frames, tiles of {} px",
+            args.tile
+        );
+        crate::errln!("parrt master: {waiting}");
+        Ok(None)
+    })?;
+    report_frames("parrt master", &p.outputs, &r);
     Ok(ExitCode::SUCCESS)
 }

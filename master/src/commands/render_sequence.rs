@@ -436,6 +436,33 @@ pub struct PreparedRef<'a> {
     pub outputs: &'a [PathBuf],
 }
 
+impl Prepared {
+    /// The prepared sequence, borrowed as [`through_runtime`] takes it.
+    pub fn as_ref(&self) -> PreparedRef<'_> {
+        PreparedRef {
+            loaded: &self.loaded,
+            settings: &self.settings,
+            outputs: &self.outputs,
+        }
+    }
+}
+
+/// The line `parrt master` and `parrt cluster` end a sequence with: the frames written, the
+/// tiles, the trace time, the rays and the bytes each way.
+pub fn report_frames(who: &str, outputs: &[PathBuf], r: &parrt_runtime::DistResult) {
+    let n = outputs.len();
+    crate::errln!(
+        "{who}: wrote {n} frames ({} … {}; {} tiles in {:.3} s; {} rays; {} bytes out, {} in)",
+        outputs[0].display(),
+        outputs[n - 1].display(),
+        r.tiles,
+        r.trace_s,
+        r.stats.total_rays(),
+        r.bytes_sent,
+        r.bytes_received,
+    );
+}
+
 /// Renders a prepared sequence through the distributed runtime as `config` says (local
 /// workers, a listen address, a token), every frame on the same workers, each written to its
 /// output as soon as it is complete (the last when the render returns). `on_listen` is
