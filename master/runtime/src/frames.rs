@@ -13,7 +13,7 @@ use parrt_render::stats::RayStats;
 use parrt_render::tile::{tiles, Tile};
 use rand::Rng;
 
-/// The later frames of a sequence ([`Master::render_sequence`]): what each is, and where each
+/// The later frames of a sequence ([`crate::Master::render_sequence`]): what each is, and where each
 /// finished frame goes.
 pub trait FrameSource {
     /// Frames in the sequence, the first included.
