@@ -305,20 +305,15 @@ fn run_master_sequence(
     job: &str,
     timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
-    use super::render_sequence::{prepare, report_frames, through_runtime, SequenceInput};
-    for (flag, given) in [
+    use super::render_sequence::{
+        prepare, refuse_for_sequences, report_frames, through_runtime, SequenceInput,
+    };
+    refuse_for_sequences(&[
         ("--checkpoint", args.job.checkpoint.is_some()),
         ("--timeline", args.job.timeline.is_some()),
         ("--http", args.job.live.http.is_some()),
         ("--costly-first", args.order.costly_first.is_some()),
-    ] {
-        if given {
-            return Err(crate::cli_args::ArgError::Conflict(format!(
-                "{flag} is not available for sequences yet; render the frame alone for it"
-            ))
-            .into());
-        }
-    }
+    ])?;
     let wait_workers = check_master_flags(args, job, timeout)?;
     let p = prepare(&SequenceInput {
         files: &args.files,

@@ -256,21 +256,16 @@ fn run_sequence(
     tile_deadline: Duration,
     heartbeat_timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
-    use super::render_sequence::{prepare, report_frames, through_runtime, SequenceInput};
-    for (flag, given) in [
+    use super::render_sequence::{
+        prepare, refuse_for_sequences, report_frames, through_runtime, SequenceInput,
+    };
+    refuse_for_sequences(&[
         ("--checkpoint", args.job.checkpoint.is_some()),
         ("--timeline", args.job.timeline.is_some()),
         ("--http", args.job.live.http.is_some()),
         ("--scene-json", args.scene_json.is_some()),
         ("--report-json", args.report_json.is_some()),
-    ] {
-        if given {
-            return Err(crate::cli_args::ArgError::Conflict(format!(
-                "{flag} is not available for sequences yet; render the frame alone for it"
-            ))
-            .into());
-        }
-    }
+    ])?;
     let sequence = args.frames.sequence();
     let p = prepare(&SequenceInput {
         files: &args.files,

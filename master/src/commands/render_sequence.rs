@@ -447,6 +447,17 @@ impl Prepared {
     }
 }
 
+/// Refuses the first of `flags` given (`(flag, given)`) that sequences do not take yet (exit 2).
+pub fn refuse_for_sequences(flags: &[(&str, bool)]) -> anyhow::Result<()> {
+    match flags.iter().find(|(_, given)| *given) {
+        Some((flag, _)) => Err(ArgError::Conflict(format!(
+            "{flag} is not available for sequences yet; render the frame alone for it"
+        ))
+        .into()),
+        None => Ok(()),
+    }
+}
+
 /// The line `parrt master` and `parrt cluster` end a sequence with: the frames written, the
 /// tiles, the trace time, the rays and the bytes each way.
 pub fn report_frames(who: &str, outputs: &[PathBuf], r: &parrt_runtime::DistResult) {
