@@ -31,9 +31,16 @@ echo "|---|---:|---:|---:|---|"
 for s in "$@"; do
     : > "$T/old"
     : > "$T/new"
-    for _ in $(seq "$RUNS"); do
-        cast "$OLD" "$s" >> "$T/old"
-        cast "$NEW" "$s" >> "$T/new"
+    # The order alternates within pairs (old first, then new first): on this VM the run
+    # that comes first in a pair reads up to 5 % faster, and alternating cancels that.
+    for i in $(seq "$RUNS"); do
+        if [ $((i % 2)) -eq 1 ]; then
+            cast "$OLD" "$s" >> "$T/old"
+            cast "$NEW" "$s" >> "$T/new"
+        else
+            cast "$NEW" "$s" >> "$T/new"
+            cast "$OLD" "$s" >> "$T/old"
+        fi
     done
     python3 - "$s" "$T/old" "$T/new" <<'PY'
 import statistics as st, sys
