@@ -67,7 +67,7 @@ pub(crate) struct RootHits<L> {
 ///
 /// `f` is the origin minus the centre, `d` the direction, `a` is `|d|²`, `r2` the squared
 /// radius; the lanes
-/// of `live` (bits) count. `None` when every live lane is outside and heading away.
+/// of `live` (bits) count. `None` when every live lane misses (no lane hit).
 #[inline(always)]
 pub(crate) fn nearest_root<L: Lanes>(
     f: [L; 3],
@@ -95,6 +95,13 @@ pub(crate) fn nearest_root<L: Lanes>(
     let v = [f[0] - d[0] * ba, f[1] - d[1] * ba, f[2] - d[2] * ba];
     let disc = a * (r2 - dot(v, v));
     reject = reject | disc.lt(zero);
+    // Every live lane missed: return before the root and the two divisions. For one lane (the
+    // scalar test) this is the miss's early return, most of a shadow ray's work among spheres;
+    // without it lattice-12 cast 8 % slower on `avx512`, whose packet leaves of mixed spheres
+    // and cones test the spheres one ray at a time.
+    if reject.bits() & live == live {
+        return None;
+    }
     let root = disc.sqrt();
     let q = (b + root.copysign(b)).neg();
     let q_zero = q.eq(zero);
