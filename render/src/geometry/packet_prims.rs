@@ -1,16 +1,17 @@
-//! One triangle or sphere against up to sixteen rays at once, a ray per SIMD lane: the
-//! transposed form of [`super::leaf_triangles`] and [`super::leaf_spheres`], for a packet's rays that
-//! enter a BVH leaf. Every lane does the scalar test's IEEE operations in the same order (no
-//! FMA, no reassociation, `f32::max`'s NaN rule, edge functions that come out exactly zero
-//! redone in `f64` lane by lane), so each lane's answer is bit for bit what
-//! [`super::triangle::intersect_triangle`] or [`super::sphere::Sphere::intersect`] gives that
-//! ray. The rays' axis permutations may differ: each lane picks its vertex components with
-//! masks. The arithmetic is the one triangle test (`watertight`) and the one sphere test
-//! (`nearest_root`): the `avx512` tier ([`crate::isa`]) runs them on the sixteen rays in one
-//! AVX-512 register, the `avx2` tier in two halves of eight AVX lanes. [`ShearedRays::new`] is `None`
-//! unless the process's tier runs AVX; the portable kernel ([`portable16`], the scalar test ray
-//! by ray) defines the answers and serves the tests. [`packet16`] takes either primitive
-//! ([`PacketShape`]).
+//! One triangle, sphere or cone against up to sixteen rays at once, a ray per SIMD lane: the
+//! transposed form of [`super::leaf_triangles`], [`super::leaf_spheres`] and
+//! [`super::cone::lanes`], for a packet's rays that enter a BVH leaf. Every lane does the scalar
+//! test's IEEE operations in the same order (no FMA, no reassociation, `f32::max`'s NaN rule,
+//! edge functions that come out exactly zero redone in `f64` lane by lane), so each lane's
+//! answer is bit for bit what [`super::triangle::intersect_triangle`],
+//! [`super::sphere::Sphere::intersect`] or [`super::cone::Cone::intersect`] gives that ray. The
+//! rays' axis permutations may differ: each lane picks its vertex components with masks. The
+//! arithmetic is the one triangle test (`watertight`), the one sphere test (`nearest_root`) and
+//! the one cone test (`lateral_hits`): the `avx512` tier ([`crate::isa`]) runs them on the
+//! sixteen rays in one AVX-512 register, the `avx2` tier in two halves of eight AVX lanes.
+//! [`ShearedRays::new`] is `None` unless the process's tier runs AVX; the portable kernel
+//! ([`portable16`], the scalar test ray by ray) defines the answers and serves the tests.
+//! [`packet16`] takes any of the three ([`PacketShape`]).
 
 use super::cone::{lateral_hits, Cone, ConeLanes, ConeRays};
 use super::ray::PreparedRay;
@@ -51,7 +52,7 @@ pub struct ShearedRays {
 }
 
 /// The answers of the sixteen lanes: bit `i` of `mask` is set when ray `i` hits; `t`, `b1`,
-/// `b2` are valid for set bits (`b1`, `b2` are zero for spheres).
+/// `b2` are valid for set bits (`b1`, `b2` are zero for spheres and cones).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub struct PacketHits {
@@ -173,13 +174,13 @@ pub fn available() -> bool {
 }
 
 /// A primitive the packet kernels test up to sixteen rays against at once: a triangle (its
-/// three vertices) or a sphere.
+/// three vertices), a sphere or a cone.
 pub trait PacketShape {
     /// The lane kernel on one group of `L::N` lanes: their hits into `out`, at the group's
     /// lanes.
     fn group<L: Lanes<Elem = f32>>(&self, g: LaneGroup, out: &mut PacketHits);
     /// The scalar test of one ray within `t_max`: its hit's `(t, b1, b2)` (the barycentrics
-    /// zero for a sphere).
+    /// zero for a sphere or a cone).
     fn scalar(&self, pr: &PreparedRay<f32>, t_max: f32) -> Option<(f32, f32, f32)>;
 }
 

@@ -241,8 +241,8 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
 }
 
 /// The primitive test of one packet in lanes ([`LanesPrimTest`]), for an `f32` scene: a leaf of
-/// triangles, of spheres or of cones that several rays enter goes to the ray-per-lane kernels straight
-/// from the packet's lanes (where the tier runs them, as [`PacketLeaf`] decides); any other
+/// triangles, of spheres or of cones that several rays enter goes to the ray-per-lane kernels
+/// straight from the packet's lanes (where the tier runs them, as [`PacketLeaf`] decides); any other
 /// leaf goes through [`SceneLeaf`] with the rays prepared one by one from their lanes, each the
 /// first time it needs it. Make one per packet, with a buffer that outlives the packets.
 #[derive(Debug)]
