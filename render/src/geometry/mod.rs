@@ -11,7 +11,7 @@
 //!   four-lane kernels; [`distance_hits`] the answers of the kernels that find only distances
 //!   and their portable loop.
 //! - [`ray_packet`], [`packet_prims`]: a packet's rays in lanes, and the packet against one
-//!   triangle or sphere (one kernel per primitive, [`packet_prims::PacketShape`]).
+//!   triangle, sphere or cone (one kernel per primitive, [`packet_prims::PacketShape`]).
 //! - [`triangulate`]: polygons into triangles.
 
 pub mod aabb;

@@ -1,22 +1,24 @@
-//! One triangle or sphere against up to sixteen rays at once, a ray per SIMD lane: the
-//! transposed form of [`super::leaf_triangles`] and [`super::leaf_spheres`], for a packet's rays that
-//! enter a BVH leaf. Every lane does the scalar test's IEEE operations in the same order (no
-//! FMA, no reassociation, `f32::max`'s NaN rule, edge functions that come out exactly zero
-//! redone in `f64` lane by lane), so each lane's answer is bit for bit what
-//! [`super::triangle::intersect_triangle`] or [`super::sphere::Sphere::intersect`] gives that
-//! ray. The rays' axis permutations may differ: each lane picks its vertex components with
-//! masks. The arithmetic is the one triangle test (`watertight`) and the one sphere test
-//! (`nearest_root`): the `avx512` tier ([`crate::isa`]) runs them on the sixteen rays in one
-//! AVX-512 register, the `avx2` tier in two halves of eight AVX lanes. [`ShearedRays::new`] is `None`
-//! unless the process's tier runs AVX; the portable kernel ([`portable16`], the scalar test ray
-//! by ray) defines the answers and serves the tests. [`packet16`] takes either primitive
-//! ([`PacketShape`]).
+//! One triangle, sphere or cone against up to sixteen rays at once, a ray per SIMD lane: the
+//! transposed form of [`super::leaf_triangles`], [`super::leaf_spheres`] and
+//! [`super::cone::lanes`], for a packet's rays that enter a BVH leaf. Every lane does the scalar
+//! test's IEEE operations in the same order (no FMA, no reassociation, `f32::max`'s NaN rule,
+//! edge functions that come out exactly zero redone in `f64` lane by lane), so each lane's
+//! answer is bit for bit what [`super::triangle::intersect_triangle`],
+//! [`super::sphere::Sphere::intersect`] or [`super::cone::Cone::intersect`] gives that ray. The
+//! rays' axis permutations may differ: each lane picks its vertex components with masks. The
+//! arithmetic is the one triangle test (`watertight`), the one sphere test (`nearest_root`) and
+//! the one cone test (`lateral_hits`): the `avx512` tier ([`crate::isa`]) runs them on the
+//! sixteen rays in one AVX-512 register, the `avx2` tier in two halves of eight AVX lanes.
+//! [`ShearedRays::new`] is `None` unless the process's tier runs AVX; the portable kernel
+//! ([`portable16`], the scalar test ray by ray) defines the answers and serves the tests.
+//! [`packet16`] takes any of the three ([`PacketShape`]).
 
+use super::cone::{lateral_hits, Cone, ConeLanes, ConeRays};
 use super::ray::PreparedRay;
 use super::sphere::{nearest_root, Sphere};
 use super::triangle::{intersect_triangle, watertight};
 use crate::isa::{Isa, Kernel, Tier};
-use crate::lanes::Lanes;
+use crate::lanes::{Lanes, Mask};
 use crate::vec3::V3;
 
 /// Rays per call.
@@ -50,7 +52,7 @@ pub struct ShearedRays {
 }
 
 /// The answers of the sixteen lanes: bit `i` of `mask` is set when ray `i` hits; `t`, `b1`,
-/// `b2` are valid for set bits (`b1`, `b2` are zero for spheres).
+/// `b2` are valid for set bits (`b1`, `b2` are zero for spheres and cones).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub struct PacketHits {
@@ -172,13 +174,13 @@ pub fn available() -> bool {
 }
 
 /// A primitive the packet kernels test up to sixteen rays against at once: a triangle (its
-/// three vertices) or a sphere.
+/// three vertices), a sphere or a cone.
 pub trait PacketShape {
     /// The lane kernel on one group of `L::N` lanes: their hits into `out`, at the group's
     /// lanes.
     fn group<L: Lanes<Elem = f32>>(&self, g: LaneGroup, out: &mut PacketHits);
     /// The scalar test of one ray within `t_max`: its hit's `(t, b1, b2)` (the barycentrics
-    /// zero for a sphere).
+    /// zero for a sphere or a cone).
     fn scalar(&self, pr: &PreparedRay<f32>, t_max: f32) -> Option<(f32, f32, f32)>;
 }
 
@@ -265,6 +267,38 @@ impl PacketShape for Sphere<f32> {
         if let Some(hit) = nearest_root(f, d, a, r2, t_min, t_max, live) {
             out.mask |= hit.mask << h;
             hit.t.store(&mut out.t[h..]);
+        }
+    }
+    #[inline(always)]
+    fn scalar(&self, pr: &PreparedRay<f32>, t_max: f32) -> Option<(f32, f32, f32)> {
+        self.intersect(&pr.ray, t_max).map(|t| (t, 0.0, 0.0))
+    }
+}
+
+impl PacketShape for Cone<f32> {
+    /// The lateral surface test (`lateral_hits`) with a ray per lane: the cone in every lane.
+    #[inline(always)]
+    fn group<L: Lanes<Elem = f32>>(&self, g: LaneGroup, out: &mut PacketHits) {
+        let LaneGroup { r, h, live, t_max } = g;
+        let rays = ConeRays {
+            o: [
+                L::load(&r.o[0][h..]),
+                L::load(&r.o[1][h..]),
+                L::load(&r.o[2][h..]),
+            ],
+            d: [
+                L::load(&r.d[0][h..]),
+                L::load(&r.d[1][h..]),
+                L::load(&r.d[2][h..]),
+            ],
+            t_min: L::load(&r.t_min[h..]),
+            t_max: L::load(&t_max[h..]),
+        };
+        let (hit, t) = lateral_hits(&ConeLanes::splat(&self.lanes()), &rays);
+        let hit = hit.bits() & live;
+        if hit != 0 {
+            out.mask |= hit << h;
+            t.store(&mut out.t[h..]);
         }
     }
     #[inline(always)]
@@ -400,33 +434,41 @@ mod tests {
     use crate::geometry::test_coords::point;
     use proptest::prelude::*;
 
-    /// The answers of every kernel this CPU runs, the process's tier aside: the dispatched
-    /// kernel and each tier's (the AVX halves, the AVX-512 kernel).
-    fn kernels(
+    /// Asserts that every kernel this CPU runs (the dispatched kernel and each tier's: the AVX
+    /// halves, the AVX-512 kernel) gives the portable kernel's answers for `shape` bit for bit;
+    /// returns the rays hit.
+    fn agree<P: PacketShape + std::fmt::Debug>(
         lanes: &ShearedRays,
         rays: &[PreparedRay<f32>],
-        tri: &[V3<f32>; 3],
-        s: &Sphere<f32>,
+        shape: &P,
         active: u32,
         t_max: &[f32; LANES],
-    ) -> Vec<(&'static str, PacketHits, PacketHits)> {
-        let mut out = vec![(
-            "dispatched",
-            packet16(lanes, rays, tri, active, t_max),
-            packet16(lanes, rays, s, active, t_max),
-        )];
+    ) -> u32 {
+        let want = portable16(rays, shape, active, t_max);
+        let mut got = vec![("dispatched", packet16(lanes, rays, shape, active, t_max))];
         for tier in Isa::ALL {
-            let tri = packet16_on(tier, lanes, rays, tri, active, t_max);
-            let sphere = packet16_on(tier, lanes, rays, s, active, t_max);
-            if let (Some(tri), Some(sphere)) = (tri, sphere) {
-                out.push((tier.name(), tri, sphere));
+            if let Some(h) = packet16_on(tier, lanes, rays, shape, active, t_max) {
+                got.push((tier.name(), h));
             }
         }
-        out
+        for (kernel, got) in got {
+            let case = format!("{kernel}: {rays:?} {shape:?} {active:#x} {t_max:?}");
+            assert_agree(&want, &[got], &case);
+        }
+        want.mask
     }
 
-    /// Asserts that every SIMD kernel this CPU runs gives the portable kernels' answers bit for
-    /// bit; returns the rays hit.
+    /// A cone (or cylinder, by `shape`) around the triangle's first edge, its radii from the
+    /// other edges' lengths.
+    fn cone_of(tri: &[V3<f32>; 3], shape: usize) -> Cone<f32> {
+        let r = (tri[2] - tri[0]).length().max(1e-3);
+        let r1 = [r, 0.0, 0.5 * r][shape % 3];
+        Cone::new(tri[0], r, tri[1], r1)
+            .unwrap_or_else(|| Cone::new(V3::zero(), 1.0, V3::new(0.0, 0.0, 1.0), 0.5).unwrap())
+    }
+
+    /// [`agree`] for the triangle, a sphere at its first vertex and cones along its first
+    /// edge; returns the rays hit by any.
     fn check(
         rays: &[PreparedRay<f32>],
         tri: &[V3<f32>; 3],
@@ -434,18 +476,16 @@ mod tests {
         t_max: &[f32; LANES],
     ) -> u32 {
         let lanes = ShearedRays::lanes(rays);
-        let want = portable16(rays, tri, active, t_max);
         let s = Sphere {
             center: tri[0],
             radius: (tri[1] - tri[0]).length().max(1e-3),
         };
-        let want_s = portable16(rays, &s, active, t_max);
-        for (kernel, got, got_s) in kernels(&lanes, rays, tri, &s, active, t_max) {
-            let case = format!("{kernel}: {rays:?} {tri:?} {active:#x}");
-            assert_agree(&want, &[got], &case);
-            assert_agree(&want_s, &[got_s], &case);
+        let mut hit = agree(&lanes, rays, tri, active, t_max);
+        hit |= agree(&lanes, rays, &s, active, t_max);
+        for shape in 0..3 {
+            hit |= agree(&lanes, rays, &cone_of(tri, shape), active, t_max);
         }
-        want.mask | want_s.mask
+        hit
     }
 
     /// Rays through a unit triangle's vertices, edges and inside from all sides, with every
@@ -497,6 +537,83 @@ mod tests {
             }
         }
         assert!(hits > 100, "{hits}");
+    }
+
+    /// Rays at cylinders, a true cone and a widening cone from all sides: at the rims, through
+    /// the sides and the middle, past the ends, along the axis and parallel to a generator
+    /// line, sixteen to a packet (and one target's rays to a packet) with partial masks and
+    /// bounds before, at and beyond the hits.
+    #[test]
+    fn cone_kernels_agree_on_rims_axes_and_generators() {
+        let cones = [
+            Cone::new(V3::new(0.0f32, 0.0, 5.0), 1.0, V3::new(0.0, 0.0, 7.0), 1.0),
+            Cone::new(V3::new(0.0, 0.0, -1.0), 2.0, V3::new(0.0, 0.0, 1.0), 0.0),
+            Cone::new(V3::new(0.0, -3.0, 0.0), 0.5, V3::new(0.0, 3.0, 0.0), 1.5),
+            Cone::new(
+                V3::new(0.93, 2.61, 0.0),
+                0.074,
+                V3::new(0.29, 1.73, 0.0),
+                0.074,
+            ),
+        ]
+        .map(|c| c.unwrap());
+        let offsets = [
+            [0.0f32, 0.0, 20.0],
+            [0.0, 0.0, -20.0],
+            [20.0, 1.0, 0.5],
+            [-3.0, -20.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [-0.5, 2.0, -4.0],
+        ];
+        let (mut hits, mut packets) = (0, 0);
+        for c in &cones {
+            let apex = c.base + c.axis * c.height;
+            let side = c.axis.cross(V3::new(0.3, 0.5, 0.8)).normalize();
+            let r1 = c.r0 + c.slope * c.height;
+            let mid = c.base + c.axis * (0.5 * c.height);
+            let targets = [
+                c.base + side * c.r0,
+                apex + side * r1,
+                mid + side * (0.5 * (c.r0 + r1)),
+                mid + side * (0.6 * (c.r0 + r1)),
+                mid,
+                c.base - c.axis * 0.1 + side * (0.5 * c.r0),
+            ];
+            let mut rays = Vec::new();
+            let ray = |o: V3<f32>, d: V3<f32>| {
+                PreparedRay::new(Ray {
+                    o,
+                    d: d.normalize(),
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                })
+            };
+            for t in targets {
+                for o in offsets {
+                    let o = t + V3::from_array(o);
+                    rays.push(ray(o, t - o));
+                }
+            }
+            let generator = (apex + side * r1) - (c.base + side * c.r0);
+            for k in [-0.5f32, 0.0, 0.5, 0.999, 1.0, 1.001, 2.0] {
+                let on = c.base + side * (c.r0 * k);
+                rays.push(ray(on - c.axis * 3.0, c.axis));
+                rays.push(ray(on + c.axis * (c.height + 3.0), -c.axis));
+                rays.push(ray(on - generator * 2.0, generator));
+            }
+            for packet in rays.chunks(LANES).chain(rays.chunks(offsets.len())) {
+                let lanes = ShearedRays::lanes(packet);
+                for active in [u32::MAX, 0x5555, 0xaaaa, 1, 0x8000] {
+                    let active = active & ((1u32 << packet.len()) - 1);
+                    for bound in [f32::INFINITY, 20.0, 19.0, 2.0, 0.5] {
+                        let t_max = &[bound; LANES];
+                        hits += agree(&lanes, packet, c, active, t_max).count_ones();
+                        packets += 1;
+                    }
+                }
+            }
+        }
+        assert!(hits > 1000, "{hits} hits in {packets} packets");
     }
 
     proptest! {

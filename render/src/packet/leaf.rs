@@ -1,7 +1,7 @@
 //! The primitive test of one packet's rays ([`crate::accel::RayPrimTest`]): [`SceneLeaf`], except
 //! that where the process's tier runs AVX ([`crate::isa`]) and the scene is in `f32`, a leaf of
-//! triangles or of spheres that several of the packet's rays enter is tested one primitive at a
-//! time against all of them at once, a ray per lane ([`crate::geometry::packet_prims`]). The packet's rays are put into lanes
+//! triangles, of spheres or of cones that several of the packet's rays enter is tested one
+//! primitive at a time against all of them at once, a ray per lane ([`crate::geometry::packet_prims`]). The packet's rays are put into lanes
 //! once, when the first such leaf needs them; every ray gets exactly the one-ray test's answer.
 
 use crate::bits::SetBits;
@@ -45,8 +45,8 @@ impl<'a, R: Real> PacketLeaf<'a, R> {
     }
 
     /// The scene, the rays and their lanes when the ray-per-lane kernels take `rays` into
-    /// `leaf`, a leaf of triangles or of spheres (the kind is checked first, so a leaf of cones
-    /// or of mixed kinds costs no lanes; the lanes are made once per packet: again only when
+    /// `leaf`, a leaf of triangles, of spheres or of cones (the kind is checked first, so a
+    /// leaf of mixed kinds costs no lanes; the lanes are made once per packet: again only when
     /// `rays` is another slice).
     #[inline(always)]
     fn lanes<'b>(&'b mut self, rays: &'b [PreparedRay<R>], leaf: &[u32]) -> Option<Lanes<'a, 'b>> {
@@ -81,6 +81,7 @@ fn f32_rays<R: Real>(rays: &[PreparedRay<R>]) -> Option<&[PreparedRay<f32>]> {
 enum Kind {
     Triangles,
     Spheres,
+    Cones,
     Other,
 }
 
@@ -89,7 +90,8 @@ fn kind(prims: &[Prim<f32>], leaf: &[u32]) -> Kind {
     let of = |p: u32| match prims.get(p as usize) {
         Some(Prim::Triangle(_)) => Kind::Triangles,
         Some(Prim::Sphere(_)) => Kind::Spheres,
-        _ => Kind::Other,
+        Some(Prim::Cone(_)) => Kind::Cones,
+        None => Kind::Other,
     };
     let Some(&first) = leaf.first() else {
         return Kind::Other;
@@ -115,7 +117,7 @@ fn run(
     match &scene.prims[p as usize] {
         Prim::Triangle(v) => packet_prims::packet16(lanes, rays, v, active, t_max),
         Prim::Sphere(s) => packet_prims::packet16(lanes, rays, s, active, t_max),
-        Prim::Cone(_) => unreachable!("leaf kind checked"),
+        Prim::Cone(c) => packet_prims::packet16(lanes, rays, c, active, t_max),
     }
 }
 
@@ -239,8 +241,8 @@ impl<R: Real> RayPrimTest<R> for PacketLeaf<'_, R> {
 }
 
 /// The primitive test of one packet in lanes ([`LanesPrimTest`]), for an `f32` scene: a leaf of
-/// triangles or of spheres that several rays enter goes to the ray-per-lane kernels straight
-/// from the packet's lanes (where the tier runs them, as [`PacketLeaf`] decides); any other
+/// triangles, of spheres or of cones that several rays enter goes to the ray-per-lane kernels
+/// straight from the packet's lanes (where the tier runs them, as [`PacketLeaf`] decides); any other
 /// leaf goes through [`SceneLeaf`] with the rays prepared one by one from their lanes, each the
 /// first time it needs it. Make one per packet, with a buffer that outlives the packets.
 #[derive(Debug)]

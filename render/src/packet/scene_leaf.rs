@@ -5,7 +5,9 @@
 //! [`crate::geometry::cone::lanes`]), which gives each primitive exactly the scalar test's answer. A
 //! packet's rays entering a leaf of triangles or spheres share one gather of its primitives
 //! into the kernel's lanes ([`RayPrimTest::closest_many`]); those entering a leaf with a cone
-//! meet each of its cones four rays at a time ([`cone_lanes::intersect_rays4`]). The choice of
+//! meet each of its cones four rays at a time ([`cone_lanes::intersect_rays4`]; where the tier
+//! runs AVX, [`crate::packet::leaf::PacketLeaf`] takes a leaf of cones before this, each cone
+//! against all the rays in AVX lanes). The choice of
 //! precision is by type and folds away at compile time; the kernel is chosen at run time by
 //! CPU features.
 

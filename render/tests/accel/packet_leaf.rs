@@ -4,7 +4,7 @@
 //! rays at once, a ray per AVX lane, where the CPU has it) give every ray of the mask
 //! exactly what the one-ray-at-a-time scalar test gives it — primitive, `t`, `u`, `v` and the bound bit for bit,
 //! the first blocking primitive's position — and leave the rays outside the mask alone. Leaves
-//! of 2..=4 triangles and spheres from SPD scenes and from a mesh on integer vertices (rays
+//! of 2..=4 triangles, spheres and cones from SPD scenes and from a mesh on integer vertices (rays
 //! exactly through edges and vertices, ties the primitive index decides), mixed leaves, rays
 //! that miss, ranges ending before or exactly at a hit, and full, partial and single-ray masks.
 
@@ -52,7 +52,8 @@ pub fn triangle_targets<R: Real>(v: &[V3<R>; 3]) -> [V3<R>; 7] {
 }
 
 /// Points to aim at on primitive `p`: a triangle's vertices, edge midpoints and centroid; a
-/// sphere's centre and points on its silhouette seen from `eye`.
+/// sphere's centre and points on its silhouette seen from `eye`; a cone's rims, a point on
+/// its side half way up, and its axis there.
 fn targets<R: Real>(p: &Prim<R>, eye: V3<R>) -> Vec<V3<R>> {
     match p {
         Prim::Triangle(v) => triangle_targets(v).to_vec(),
@@ -70,7 +71,20 @@ fn targets<R: Real>(p: &Prim<R>, eye: V3<R>) -> Vec<V3<R>> {
                 s.center - side * (s.radius * R::HALF),
             ]
         }
-        Prim::Cone(_) => Vec::new(),
+        Prim::Cone(c) => {
+            let side = c
+                .axis
+                .cross(V3::new(R::from_f64(0.3), R::HALF, R::from_f64(0.8)))
+                .normalize();
+            let r1 = c.r0 + c.slope * c.height;
+            let mid = c.base + c.axis * (c.height * R::HALF);
+            vec![
+                c.base + side * c.r0,
+                c.base + c.axis * c.height - side * r1,
+                mid + side * ((c.r0 + r1) * R::HALF),
+                mid,
+            ]
+        }
     }
 }
 
@@ -227,7 +241,7 @@ fn compare_leaf<R: Real>(
 }
 
 /// Leaves of `k` = 1..=4 consecutive primitives (neighbours in a mesh share edges), every
-/// `step`-th start, and a few leaves mixing a triangle with a sphere.
+/// `step`-th start, and a few leaves mixing a triangle or a cone with a sphere.
 fn leaves<R: Real>(scene: &Scene<R>, step: usize) -> Vec<Vec<u32>> {
     let n = scene.prims.len() as u32;
     let mut out = Vec::new();
@@ -243,6 +257,11 @@ fn leaves<R: Real>(scene: &Scene<R>, step: usize) -> Vec<Vec<u32>> {
     if let (Some(t), Some(s)) = (tri, sph) {
         out.push(vec![t, s]);
         out.push(vec![s, t, s]);
+    }
+    let cone = (0..n).find(|&i| matches!(scene.prims[i as usize], Prim::Cone(_)));
+    if let (Some(c), Some(s)) = (cone, sph) {
+        out.push(vec![c, s]);
+        out.push(vec![s, c, c + 1]);
     }
     out
 }
@@ -278,6 +297,22 @@ fn packet_leaves_agree_with_one_ray_at_a_time_on_spd_scenes() {
         "{c:?}"
     );
     assert!(c.edge_hits > 500 && c.partial_masks > 5_000, "{c:?}");
+}
+
+/// Leaves of cones and cylinders (rings' rods, lattice's struts, tree's branches), alone and next to
+/// spheres: the packet's rays meet each cone a ray per lane and get the one-ray answers.
+#[test]
+fn packet_leaves_of_cones_agree_with_one_ray_at_a_time() {
+    let mut rng = StdRng::seed_from_u64(18);
+    let mut c = Covered::default();
+    for (name, step) in [("rings-2", 1), ("lattice-4", 2), ("tree-6", 3)] {
+        spd_scene::<f32>(name, step, &mut rng, &mut c);
+    }
+    spd_scene::<f64>("rings-2", 5, &mut rng, &mut c);
+    assert!(
+        c.hits > 5_000 && c.misses > 5_000 && c.blocked > 5_000,
+        "{c:?}"
+    );
 }
 
 /// A flat mesh on integer vertices, every triangle twice (once wound the other way, so every

@@ -5,7 +5,8 @@
 //!
 //! The lateral surface test is written once, `lateral_hits`, over the lane types of
 //! [`crate::lanes`]: the scalar test here and the SIMD kernels of [`lanes`] (four cones against
-//! one ray, one cone against four rays) are its instances.
+//! one ray, one cone against four rays) and of [`crate::geometry::packet_prims`] (one cone
+//! against a packet's rays) are its instances.
 
 pub mod lanes;
 
@@ -221,7 +222,8 @@ fn accept<L: Lanes>(
 
 /// The cone's lateral surface test, written once for every lane type ([`crate::lanes`]): the
 /// scalar [`Cone::intersect`] (past its far-miss filter) is its one-lane instance, the SIMD
-/// kernels of [`lanes`] its four-lane instances. The quadratic is solved in a frame moved to
+/// kernels of [`lanes`] its four-lane instances, the packet kernel of
+/// [`crate::geometry::packet_prims`] its eight- and sixteen-lane ones. The quadratic is solved in a frame moved to
 /// the ray's closest approach to the cone's middle; each early answer of the scalar reasoning
 /// (a ray parallel to a generator, a negative discriminant, `q == 0`, the roots in order, the
 /// `t` and height ranges) is a lane mask. The lanes hit, and their `t` (meaningful in the lanes
