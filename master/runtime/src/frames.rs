@@ -8,8 +8,9 @@
 
 use crate::options::MasterConfig;
 use crate::scheduler::{FrameFinished, Scheduler};
-use crate::server::{drive, encode_job, job_message, Loop};
+use crate::server::{drive, encode_job, Loop};
 use crate::DistError;
+use parrt_protocol::Encoded;
 use parrt_render::description::SceneDescription;
 use parrt_render::settings::RenderSettings;
 use parrt_render::stats::RayStats;
@@ -59,19 +60,19 @@ pub(crate) struct SequenceSums {
     pub(crate) last: Option<FrameFinished>,
 }
 
-/// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, its Job refused if it
-/// would not fit a frame.
+/// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, and its Job encoded
+/// once for every worker (refused if it would not fit a frame).
 fn open_frame<F: FrameSource + ?Sized>(
     src: &mut F,
     k: usize,
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
-) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>), DistError> {
+) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>, Encoded), DistError> {
     let (desc, settings) = src.frame(k)?;
     let job_id = rng.gen::<u64>();
-    encode_job(job_id, &desc, &settings, config)?;
+    let job = encode_job(job_id, &desc, &settings, config)?;
     let list = tiles(settings.width, settings.height, config.schedule.tile);
-    Ok((job_id, desc, settings, list))
+    Ok((job_id, desc, settings, list, job))
 }
 
 /// Drives frame 0 (`first`: its job id, scene and settings, already the scheduler's) and every
@@ -81,18 +82,18 @@ fn open_frame<F: FrameSource + ?Sized>(
 pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
     l: &mut Loop<'_>,
     first: (u64, &SceneDescription, &RenderSettings),
-    mut frames: Option<&mut F>,
+    frames: Option<&mut F>,
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
     seq: &mut SequenceSums,
 ) -> Result<(), DistError> {
     let count = frames.as_ref().map_or(1, |f| f.count());
-    let driven = match frames.as_deref_mut() {
+    let driven = match frames {
         Some(src) if count > 1 => {
             let (job_id, desc, settings) = first;
             l.sched.start_frames(
                 config.schedule.frames_window,
-                job_message(job_id, desc, settings, config),
+                encode_job(job_id, desc, settings, config)?,
             );
             let mut next = 1;
             let mut hook = |sched: &mut Scheduler| -> Result<(), DistError> {
@@ -105,10 +106,9 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
                     }
                 }
                 if next < count && sched.pending_frames() == 0 {
-                    let (job_id, desc, settings, list) = open_frame(src, next, rng, config)?;
+                    let (job_id, desc, settings, list, job) = open_frame(src, next, rng, config)?;
                     seq.tiles += list.len();
-                    let msg = job_message(job_id, &desc, &settings, config);
-                    sched.push_frame(next, job_id, &settings, desc.lights.len(), list, msg);
+                    sched.push_frame(next, job_id, &settings, desc.lights.len(), list, job);
                     next += 1;
                 }
                 Ok(())

@@ -60,6 +60,7 @@ pub mod mutation;
 pub mod net;
 pub mod observer;
 pub mod options;
+pub mod outgoing;
 pub mod refusals;
 pub mod rendezvous;
 pub mod scheduler;

@@ -239,7 +239,7 @@ impl Scheduler {
                 tiles: sent,
             },
         };
-        if w.outbox.send(msg).is_err() {
+        if w.outbox.send(msg.into()).is_err() {
             // Its connection task has ended; the Gone event is on its way.
             self.remove(id, "connection closed".into());
         }

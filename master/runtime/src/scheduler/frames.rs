@@ -122,7 +122,7 @@ pub(super) struct NextFrame {
     settings: RenderSettings,
     lights: usize,
     tiles: Vec<Tile>,
-    job: Message,
+    job: Encoded,
 }
 
 /// The frames of a sequence rendered on the same workers, up to `window` at once.
@@ -131,8 +131,9 @@ pub(super) struct Frames {
     pub(super) window: usize,
     /// Frame 0's job id: the Job every connection starts with.
     pub(super) first_job: u64,
-    /// The Job message of each frame open, by frame index: sent to a worker that joins.
-    pub(super) jobs: BTreeMap<usize, Message>,
+    /// The encoded Job of each frame open, by frame index, one copy for every worker: sent
+    /// to a worker that joins.
+    pub(super) jobs: BTreeMap<usize, Encoded>,
     /// Frames given and not open yet, in order.
     pub(super) pending: VecDeque<NextFrame>,
     /// Ids of the frames closed: a late Ready or result naming one is stale, not a fault.
@@ -162,11 +163,11 @@ pub struct FrameFinished {
 }
 
 impl Scheduler {
-    /// Makes this scheduler's job frame 0 of a sequence whose Job message is `job`, with up to
+    /// Makes this scheduler's job frame 0 of a sequence whose encoded Job is `job`, with up to
     /// `window` frames open at once (at least 1, at most what a worker keeps built,
     /// [`parrt_protocol::limits::MAX_JOBS_HELD`]): later frames are given by
     /// [`Self::push_frame`], complete ones taken by [`Self::take_complete`].
-    pub fn start_frames(&mut self, window: usize, job: Message) {
+    pub fn start_frames(&mut self, window: usize, job: Encoded) {
         let Some(f) = self.open.first() else {
             return;
         };
@@ -185,8 +186,8 @@ impl Scheduler {
     }
 
     /// Gives the next frame of the sequence: frame `index`, job `job_id` of `tiles` in the
-    /// image `settings` describe (`lights` lights), whose Job message `job` goes to every
-    /// worker when the frame opens. It opens when no tile of the frames open is left to hand
+    /// image `settings` describe (`lights` lights), whose encoded Job `job` goes to every
+    /// worker when the frame opens (the same bytes to each). It opens when no tile of the frames open is left to hand
     /// out and fewer than the window are open.
     pub fn push_frame(
         &mut self,
@@ -195,7 +196,7 @@ impl Scheduler {
         settings: &RenderSettings,
         lights: usize,
         tiles: Vec<Tile>,
-        job: Message,
+        job: Encoded,
     ) {
         if let Some(s) = &mut self.frames {
             s.pending.push_back(NextFrame {
@@ -263,7 +264,7 @@ impl Scheduler {
                 f.set_order(&order);
             }
             for w in self.workers.values() {
-                let _ = w.outbox.send(next.job.clone());
+                let _ = w.outbox.send(Outgoing::Encoded(next.job.clone()));
             }
             s.jobs.insert(next.index, next.job);
             self.open.push(f);
@@ -296,7 +297,7 @@ impl Scheduler {
         let f = self.open.remove(p);
         for w in self.workers.values_mut() {
             w.inflight.retain(|&(k, _), _| k != f.index);
-            let _ = w.outbox.send(Message::Cancel { job_id: f.job_id });
+            let _ = w.outbox.send(Message::Cancel { job_id: f.job_id }.into());
         }
         s.jobs.remove(&f.index);
         s.past.push(f.job_id);
@@ -320,13 +321,16 @@ impl Scheduler {
         };
         for (&k, job) in &s.jobs {
             if k != 0 {
-                let _ = w.outbox.send(job.clone());
+                let _ = w.outbox.send(Outgoing::Encoded(job.clone()));
             }
         }
         if !s.jobs.contains_key(&0) {
-            let _ = w.outbox.send(Message::Cancel {
-                job_id: s.first_job,
-            });
+            let _ = w.outbox.send(
+                Message::Cancel {
+                    job_id: s.first_job,
+                }
+                .into(),
+            );
         }
     }
 

@@ -21,9 +21,12 @@ impl Scheduler {
     pub(super) fn drop_worker(&mut self, id: WorkerId, reason: String) {
         if let Some(w) = self.workers.get(&id) {
             warn!(worker = id, name = %w.name, %reason, "dropping worker");
-            let _ = w.outbox.send(Message::Error {
-                reason: reason.clone(),
-            });
+            let _ = w.outbox.send(
+                Message::Error {
+                    reason: reason.clone(),
+                }
+                .into(),
+            );
             self.faults.dropped += 1;
             self.remove(id, reason);
         }

@@ -23,8 +23,9 @@
 use crate::lifecycle::Lifecycle;
 pub use crate::lifecycle::{Rules, Step, Verdict};
 use crate::mutation::{self, Mutation};
+pub use crate::outgoing::Outgoing;
 use crate::window::Window;
-use parrt_protocol::{Message, PixelFormat, TilePixels, WireCounters};
+use parrt_protocol::{Encoded, Message, PixelFormat, TilePixels, WireCounters};
 use parrt_render::film::Film;
 use parrt_render::film::Rgb;
 use parrt_render::isa::Isa;
@@ -71,7 +72,7 @@ pub enum Event {
         /// Its instruction-set tier, as its Hello said.
         isa: Isa,
         /// Where to send it messages.
-        outbox: UnboundedSender<Message>,
+        outbox: UnboundedSender<Outgoing>,
         /// Its connection's byte counters.
         counters: Arc<WireCounters>,
     },
@@ -180,7 +181,7 @@ struct Slot {
     name: String,
     threads: u32,
     isa: Isa,
-    outbox: UnboundedSender<Message>,
+    outbox: UnboundedSender<Outgoing>,
     counters: Arc<WireCounters>,
     ready_at: Option<Instant>,
     joined_at: Instant,
@@ -550,7 +551,7 @@ impl Scheduler {
         let mut reports = std::mem::take(&mut self.gone);
         for id in ids {
             if let Some(w) = self.workers.remove(&id) {
-                let _ = w.outbox.send(Message::Shutdown);
+                let _ = w.outbox.send(Message::Shutdown.into());
                 reports.push(report(&w, None));
             }
         }
@@ -630,7 +631,7 @@ mod tests {
         )
     }
 
-    fn join(s: &mut Scheduler, id: WorkerId, threads: u32) -> UnboundedReceiver<Message> {
+    fn join(s: &mut Scheduler, id: WorkerId, threads: u32) -> UnboundedReceiver<Outgoing> {
         let (tx, rx) = unbounded_channel();
         let now = Instant::now();
         s.handle(
@@ -686,12 +687,12 @@ mod tests {
         );
     }
 
-    fn assigned(rx: &mut UnboundedReceiver<Message>) -> Vec<(Tile, u32)> {
+    fn assigned(rx: &mut UnboundedReceiver<Outgoing>) -> Vec<(Tile, u32)> {
         let mut v = Vec::new();
         while let Ok(m) = rx.try_recv() {
             match m {
-                Message::Assign { tile, attempt, .. } => v.push((tile, attempt)),
-                Message::AssignBatch { tiles, .. } => v.extend(tiles),
+                Outgoing::Message(Message::Assign { tile, attempt, .. }) => v.push((tile, attempt)),
+                Outgoing::Message(Message::AssignBatch { tiles, .. }) => v.extend(tiles),
                 _ => {}
             }
         }
@@ -749,7 +750,7 @@ mod tests {
     }
 
     /// Every message waiting in an outbox.
-    fn drain(rx: &mut UnboundedReceiver<Message>) -> Vec<Message> {
+    fn drain(rx: &mut UnboundedReceiver<Outgoing>) -> Vec<Outgoing> {
         let mut v = Vec::new();
         while let Ok(m) = rx.try_recv() {
             v.push(m);
@@ -758,16 +759,16 @@ mod tests {
     }
 
     /// The `(job, tile, attempt)` of each tile assigned in `msgs`.
-    fn assignments(msgs: &[Message]) -> Vec<(u64, u32, u32)> {
+    fn assignments(msgs: &[Outgoing]) -> Vec<(u64, u32, u32)> {
         let mut v = Vec::new();
         for m in msgs {
             match m {
-                Message::Assign {
+                Outgoing::Message(Message::Assign {
                     job_id,
                     tile,
                     attempt,
-                } => v.push((*job_id, tile.id, *attempt)),
-                Message::AssignBatch { job_id, tiles } => {
+                }) => v.push((*job_id, tile.id, *attempt)),
+                Outgoing::Message(Message::AssignBatch { job_id, tiles }) => {
                     v.extend(tiles.iter().map(|(t, a)| (*job_id, t.id, *a)))
                 }
                 _ => {}
@@ -788,12 +789,23 @@ mod tests {
 
     const NEXT: u64 = 78;
 
-    /// A frame's Job message: the scheduler passes it through untouched, so any message stands
+    /// A frame's encoded Job: the scheduler passes it through untouched, so any message stands
     /// for it here.
-    fn job_of(frame: usize) -> Message {
-        Message::Error {
+    fn job_of(frame: usize) -> Encoded {
+        Encoded::new(&Message::Error {
             reason: format!("frame {frame}'s job"),
-        }
+        })
+        .unwrap()
+    }
+
+    /// What an outbox holds when a frame's Job was sent to it.
+    fn sent_job(frame: usize) -> Outgoing {
+        Outgoing::Encoded(job_of(frame))
+    }
+
+    /// What an outbox holds when a frame was closed.
+    fn cancel(job_id: u64) -> Outgoing {
+        Message::Cancel { job_id }.into()
     }
 
     /// A scheduler of a two-frame sequence (frames 0 and 1 of the same 8 tiles, jobs `JOB`
@@ -835,11 +847,7 @@ mod tests {
         assert_eq!(frame0.film.get(5, 1), [1.0; 3], "tile 1's pixels");
         assert_eq!(frame0.stats.eye_rays, 128);
         assert!(s.take_complete().is_empty());
-        assert_eq!(
-            drain(&mut a),
-            [Message::Cancel { job_id: JOB }],
-            "frame 0's scene dropped"
-        );
+        assert_eq!(drain(&mut a), [cancel(JOB)], "frame 0's scene dropped");
         assert!(!s.is_done(), "frame 1 is still to come");
         // A late copy of a frame-0 result came second: no fault, nothing written.
         s.handle(result(1, &all[0], 1, 9.0), Instant::now());
@@ -849,14 +857,14 @@ mod tests {
         // times (ties in tile order), dealt as an order is, with no new Ready needed.
         s.fill(Instant::now());
         let msgs = drain(&mut a);
-        assert_eq!(msgs[0], job_of(1));
+        assert_eq!(msgs[0], sent_job(1));
         let ids: Vec<u32> = assignments(&msgs).iter().map(|a| a.1).collect();
         assert_eq!(ids, [3, 5, 1, 7, 4, 2, 0, 6]);
         assert!(assignments(&msgs).iter().all(|a| a.0 == NEXT));
         // A worker that joins now built frame 0 (the job every connection starts with): it is
         // sent the frame open and told to drop frame 0, and its Ready for frame 0 is no fault.
         let mut b = join(&mut s, 2, 1);
-        assert_eq!(drain(&mut b), [job_of(1), Message::Cancel { job_id: JOB }]);
+        assert_eq!(drain(&mut b), [sent_job(1), cancel(JOB)]);
         assert_eq!((s.connected_workers(), s.ready_workers()), (2, 1));
         // A result for frame 1 lands in its film.
         s.handle(result_of(1, NEXT, 3, 1, 0.25), Instant::now());
@@ -881,10 +889,10 @@ mod tests {
         // to every worker, to build while frame 0's tail renders.
         let to_a = drain(&mut a);
         assert_eq!(assignments(&to_a), [(JOB, 4, 1), (JOB, 5, 1)]);
-        assert_eq!(to_a.last(), Some(&job_of(1)));
+        assert_eq!(to_a.last(), Some(&sent_job(1)));
         let to_b = drain(&mut b);
         assert_eq!(assignments(&to_b), [(JOB, 6, 1), (JOB, 7, 1)]);
-        assert_eq!(to_b.last(), Some(&job_of(1)));
+        assert_eq!(to_b.last(), Some(&sent_job(1)));
         assert_eq!(s.open_frames(), 2);
         // Tiles 5, 6 and 7 of frame 0 in flight: a's free slot takes frame 1's first tile.
         s.handle(result_of(1, JOB, 4, 1, 0.5), Instant::now());
@@ -949,7 +957,7 @@ mod tests {
         assert_eq!(s.faults.rejected_results, 0);
     }
 
-    fn ids(rx: &mut UnboundedReceiver<Message>) -> Vec<u32> {
+    fn ids(rx: &mut UnboundedReceiver<Outgoing>) -> Vec<u32> {
         assigned(rx).iter().map(|(t, _)| t.id).collect()
     }
 
@@ -1161,8 +1169,10 @@ mod tests {
         while !s.is_done() {
             while let Ok(m) = rx.try_recv() {
                 let batch = match m {
-                    Message::Assign { tile, attempt, .. } => vec![(tile, attempt)],
-                    Message::AssignBatch { tiles, .. } => {
+                    Outgoing::Message(Message::Assign { tile, attempt, .. }) => {
+                        vec![(tile, attempt)]
+                    }
+                    Outgoing::Message(Message::AssignBatch { tiles, .. }) => {
                         assert!(tiles.len() > 1);
                         tiles
                     }
@@ -1310,7 +1320,10 @@ mod tests {
         s.handle(result(2, &tiles(16, 8, 4)[7], 1, 0.0), Instant::now());
         s.handle(result(2, &tiles(16, 8, 4)[7], 1, 0.0), Instant::now());
         assert_eq!(s.connected_workers(), 0);
-        assert!(matches!(rx2.try_recv(), Ok(Message::Error { .. })));
+        assert!(matches!(
+            rx2.try_recv(),
+            Ok(Outgoing::Message(Message::Error { .. }))
+        ));
         let f = s.finish();
         assert_eq!(f.faults.dropped, 1);
         assert_eq!(f.reports.len(), 2);
@@ -1340,7 +1353,10 @@ mod tests {
             Instant::now(),
         );
         assert_eq!(s.connected_workers(), 0);
-        assert!(matches!(rx.try_recv(), Ok(Message::Error { .. })));
+        assert!(matches!(
+            rx.try_recv(),
+            Ok(Outgoing::Message(Message::Error { .. }))
+        ));
     }
 
     #[tokio::test(start_paused = true)]
