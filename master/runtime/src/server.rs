@@ -162,12 +162,13 @@ impl<L: Listener> Master<L> {
             .await
     }
 
-    /// Renders a sequence on whatever workers connect, frame after frame on the same workers:
-    /// `desc` and `settings` are frame 0's, `frames` gives the later ones and takes every
-    /// finished frame but the last, which is the result's film (its statistics, tiles and
-    /// tile count are summed over the whole sequence). Each frame's Job goes to every worker
-    /// when the frame before is complete; its tiles go out costliest first by the frame
-    /// before's measured tile times ([`Scheduler::next_frame`]). A checkpoint holds one frame
+    /// Renders a sequence on whatever workers connect, every frame on the same workers with up
+    /// to [`crate::options::Schedule::frames_window`] frames open at once: `desc` and
+    /// `settings` are frame 0's, `frames` gives the later ones and takes every finished frame
+    /// but the last, which is the result's film (its statistics, tiles and tile count are
+    /// summed over the whole sequence). A frame opens when no tile of those open is left to
+    /// hand out: its Job goes to every worker and its tiles go out costliest first by each
+    /// tile's latest measured time ([`Scheduler::push_frame`]). A checkpoint holds one frame
     /// only: it is refused with a sequence of more than one.
     pub async fn render_sequence(
         self,
