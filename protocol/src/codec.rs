@@ -266,7 +266,7 @@ impl Encoder<&Message> for MessageCodec {
 
 /// A message encoded once, to be sent to many peers (the job, with its scene) without encoding
 /// it again for each.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Encoded {
     payload: bytes::Bytes,
 }

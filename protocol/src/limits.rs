@@ -19,6 +19,11 @@ pub const DEFAULT_MAX_FRAME: usize = 256 * 1024 * 1024;
 /// sequence sends the next frame's Job on the same connection.)
 pub const MASTER_FRAME_AFTER_JOB: usize = 64 * 1024;
 
+/// The most jobs (frames of a sequence) a worker keeps built at once: a master opens at most
+/// its window of frames and cancels each as it closes; beyond this the worker drops the job it
+/// received first (its tiles unanswered, which the master's deadline requeues).
+pub const MAX_JOBS_HELD: usize = 16;
+
 /// The most tiles in one AssignBatch: with ~25 bytes a tile, a batch stays far inside
 /// [`MASTER_FRAME_AFTER_JOB`] whatever a master is told.
 pub const MAX_BATCH: usize = 256;

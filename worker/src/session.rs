@@ -291,12 +291,13 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
     exec: &mut E,
 ) -> Result<SessionEnd, WorkerError> {
     exec.start(opts);
-    let mut job: Option<CurrentJob> = None;
+    // The jobs held, oldest first: one, or the frames of a sequence the master has open.
+    let mut jobs: Vec<CurrentJob> = Vec::new();
     let mut beat = interval(opts.heartbeat);
     beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
     let limit = opts.master_timeout;
-    let finish = |job: &Option<CurrentJob>| {
-        if let Some(j) = job {
+    let finish = |jobs: &[CurrentJob]| {
+        for j in jobs {
             j.cancelled.store(true, Ordering::Relaxed);
         }
     };
@@ -310,49 +311,54 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
             biased;
             _ = stop.cancelled() => {
                 // Stop taking tiles; dropping the connection tells the master to requeue ours.
-                finish(&job);
+                finish(&jobs);
                 info!("stopping: disconnecting from the master");
                 return Ok(SessionEnd::Stopped);
             }
             read = conn.read() => {
                 let msg = match read {
                     Err(e) => {
-                        finish(&job);
+                        finish(&jobs);
                         return Err(e.into());
                     }
                     Ok(None) => {
-                        finish(&job);
+                        finish(&jobs);
                         info!("master closed the connection");
                         return Ok(SessionEnd::MasterClosed);
                     }
                     Ok(Some(m)) => m,
                 };
                 match msg {
-                    // The job already held, sent again (a master sends the current frame to a
-                    // worker whose Ready named an earlier one, which may cross the frame's own
-                    // Job): nothing changes, its tiles keep rendering.
-                    Message::Job(spec) if job.as_ref().is_some_and(|j| j.spec_id == spec.job_id) => {}
+                    // A job already held, sent again: nothing changes, its tiles keep
+                    // rendering.
+                    Message::Job(spec) if jobs.iter().any(|j| j.spec_id == spec.job_id) => {}
                     Message::Job(spec) => {
-                        // A sequence sends a further Job for each frame, so the limit stays the
-                        // job's; a new job replaces the current one (its tiles are dropped).
-                        finish(&job);
+                        // A sequence sends a Job for each frame and keeps a window of them
+                        // open: each is held beside the others until the master cancels it
+                        // (the limit stays the job's); past the most held, the oldest goes.
+                        if jobs.len() >= limits::MAX_JOBS_HELD {
+                            let oldest = jobs.remove(0);
+                            finish(std::slice::from_ref(&oldest));
+                        }
                         summary.jobs += 1;
-                        job = Some(start_build(*spec, exec));
+                        jobs.push(start_build(*spec, exec));
                     }
                     Message::Assign { job_id, tile, attempt } => {
-                        take_tiles(&mut conn, opts, exec, job.as_mut(), job_id, vec![(tile, attempt)]).await?;
+                        let job = jobs.iter_mut().find(|j| j.spec_id == job_id);
+                        take_tiles(&mut conn, opts, exec, job, job_id, vec![(tile, attempt)]).await?;
                     }
                     Message::AssignBatch { job_id, tiles } => {
-                        take_tiles(&mut conn, opts, exec, job.as_mut(), job_id, tiles).await?;
+                        let job = jobs.iter_mut().find(|j| j.spec_id == job_id);
+                        take_tiles(&mut conn, opts, exec, job, job_id, tiles).await?;
                     }
                     Message::Cancel { job_id } => {
-                        if job.as_ref().is_some_and(|j| j.spec_id == job_id) {
-                            finish(&job);
-                            job = None;
+                        if let Some(i) = jobs.iter().position(|j| j.spec_id == job_id) {
+                            let gone = jobs.remove(i);
+                            finish(std::slice::from_ref(&gone));
                         }
                     }
                     Message::Shutdown => {
-                        finish(&job);
+                        finish(&jobs);
                         info!("master said shutdown");
                         return Ok(SessionEnd::Shutdown);
                     }
@@ -362,20 +368,20 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                         warn!(%reason, "master reported an error");
                     }
                     other => {
-                        finish(&job);
+                        finish(&jobs);
                         return Err(WorkerError::Unexpected { got: other.kind(), during: "serving" });
                     }
                 }
             }
             event = exec.next() => match event? {
-                ExecEvent::Built(b) => built(&mut conn, exec, &mut job, *b, limit).await?,
+                ExecEvent::Built(b) => built(&mut conn, exec, &mut jobs, *b, limit).await?,
                 ExecEvent::Results(msgs) => {
                     summary.tiles_rendered += msgs
                         .iter()
                         .filter(|m| matches!(m, Message::TileResult { .. }))
                         .count() as u64;
                     if let Err(e) = write_all_within(&mut conn, &msgs, limit).await {
-                        finish(&job);
+                        finish(&jobs);
                         return Err(e);
                     }
                 }
@@ -385,26 +391,27 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                 if Instant::now() < conn.alive_until(limit) {
                     continue;
                 }
-                finish(&job);
+                finish(&jobs);
                 return Err(WorkerError::MasterSilent(limit));
             }
         }
     }
 }
 
-/// A renderer build ended: for the current job, Ready and the tiles that waited for it go to
-/// the executor, or the build's error goes to the master and the job is dropped; a build of a
-/// job since replaced is ignored.
+/// A renderer build ended: for a job held, Ready and the tiles that waited for it go to the
+/// executor, or the build's error goes to the master and the job is dropped; a build of a job
+/// since cancelled or dropped is ignored.
 async fn built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
     conn: &mut Connection<S>,
     exec: &mut E,
-    job: &mut Option<CurrentJob>,
+    jobs: &mut Vec<CurrentJob>,
     b: Built,
     limit: Duration,
 ) -> Result<(), WorkerError> {
-    let Some(j) = job.as_mut().filter(|j| j.spec_id == b.job_id) else {
+    let Some(i) = jobs.iter().position(|j| j.spec_id == b.job_id) else {
         return Ok(());
     };
+    let j = &mut jobs[i];
     match b.result {
         Ok(r) => {
             info!(job = b.job_id, build_s = b.seconds, "renderer built");
@@ -428,7 +435,7 @@ async fn built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
             warn!(job = b.job_id, %reason, "cannot build the job");
             let reason = limits::capped_reason(format!("cannot build job {}: {reason}", b.job_id));
             write_within(conn, &Message::Error { reason }, limit).await?;
-            *job = None;
+            jobs.remove(i);
         }
     }
     Ok(())

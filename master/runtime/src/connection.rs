@@ -10,6 +10,7 @@
 
 use super::admission::HandshakeSlot;
 use super::scheduler::{Event, WorkerId};
+use crate::outgoing::Outgoing;
 use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt_protocol::limits::{self, MAX_THREADS};
 use parrt_protocol::message::NONCE_LEN;
@@ -257,6 +258,19 @@ async fn write_within<S: AsyncRead + AsyncWrite + Unpin>(
     }
 }
 
+/// Writes `msg`, encoded once for every worker, giving up after `limit` as [`write_within`].
+async fn write_encoded_within<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
+    msg: &Encoded,
+    limit: Duration,
+) -> Result<(), String> {
+    match timeout(limit, conn.write_encoded(msg)).await {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(format!("write failed: {e}")),
+        Err(_) => Err(format!("the worker took nothing for {}", seconds(limit))),
+    }
+}
+
 /// After Shutdown: reads and discards until the worker closes (at most [`DRAIN_TIMEOUT`]), so
 /// it reads our Shutdown before we close rather than meeting a reset mid-write.
 async fn drain<S: AsyncRead + AsyncWrite + Unpin>(conn: &mut Connection<S>) {
@@ -275,7 +289,7 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
     id: WorkerId,
     ctx: &ConnContext,
     events: &UnboundedSender<Event>,
-    inbox: &mut mpsc::UnboundedReceiver<Message>,
+    inbox: &mut mpsc::UnboundedReceiver<Outgoing>,
     stop: &CancellationToken,
 ) -> String {
     let job_sent = Instant::now();
@@ -317,10 +331,13 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
                 Some(msg) => {
                     ctx.outbox_peak
                         .fetch_max(inbox.len() + 1, std::sync::atomic::Ordering::Relaxed);
-                    let last = matches!(msg, Message::Shutdown);
-                    // A sequence's next frame is a Job: as much time as the first one had.
-                    let within = if matches!(msg, Message::Job(_)) { ctx.job_write_timeout } else { limit };
-                    if let Err(e) = write_within(conn, &msg, within).await {
+                    let last = matches!(msg, Outgoing::Message(Message::Shutdown));
+                    let written = match &msg {
+                        Outgoing::Message(m) => write_within(conn, m, limit).await,
+                        // A sequence's next frame is a Job: as much time as the first one had.
+                        Outgoing::Encoded(e) => write_encoded_within(conn, e, ctx.job_write_timeout).await,
+                    };
+                    if let Err(e) = written {
                         return e;
                     }
                     if last {

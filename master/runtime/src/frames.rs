@@ -1,12 +1,16 @@
 //! The frames of a sequence as the master's loop drives them ([`crate::Master::render_sequence`]):
-//! where the later frames come from and where finished ones go ([`FrameSource`]), and the loop
-//! over frames: drive one frame to its end, then open the next on the same workers
-//! ([`crate::scheduler::Scheduler::next_frame`]), summing what the sequence did.
+//! where the later frames come from and where finished ones go ([`FrameSource`]), and the one
+//! loop over the whole sequence: the scheduler always has the next frame in hand
+//! ([`crate::scheduler::Scheduler::push_frame`]) to open when the frames open run out of tiles
+//! to hand out, and each frame complete goes to the source as soon as the round that
+//! completed it ends ([`crate::scheduler::Scheduler::take_complete`]), summing what the
+//! sequence did.
 
 use crate::options::MasterConfig;
-use crate::scheduler::FrameFinished;
-use crate::server::{drive, encode_job, job_message, Loop};
+use crate::scheduler::{FrameFinished, Scheduler};
+use crate::server::{drive, encode_job, Loop};
 use crate::DistError;
+use parrt_protocol::Encoded;
 use parrt_render::description::SceneDescription;
 use parrt_render::settings::RenderSettings;
 use parrt_render::stats::RayStats;
@@ -18,9 +22,11 @@ use rand::Rng;
 pub trait FrameSource {
     /// Frames in the sequence, the first included.
     fn count(&self) -> usize;
-    /// Frame `k`'s scene and settings (`k` ≥ 1), asked for when frame `k - 1` is complete.
+    /// Frame `k`'s scene and settings (`k` ≥ 1), asked for in order, when frame `k - 1` is
+    /// given to the scheduler (before it opens).
     fn frame(&mut self, k: usize) -> Result<(SceneDescription, RenderSettings), DistError>;
-    /// Frame `k` is complete (every frame but the last, which is the render's result).
+    /// Frame `k` is complete (every frame but the last, which is the render's result), each
+    /// once, as soon as it is: frames may complete out of order.
     fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError>;
 }
 
@@ -50,59 +56,73 @@ pub(crate) struct SequenceSums {
     pub(crate) cpu_at_start: f64,
     /// The most events that waited at once, over the frames.
     pub(crate) events_peak: usize,
+    /// The last frame, once complete: the render's result.
+    pub(crate) last: Option<FrameFinished>,
 }
 
-/// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, its Job refused if it
-/// would not fit a frame.
+/// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, and its Job encoded
+/// once for every worker (refused if it would not fit a frame).
 fn open_frame<F: FrameSource + ?Sized>(
     src: &mut F,
     k: usize,
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
-) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>), DistError> {
+) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>, Encoded), DistError> {
     let (desc, settings) = src.frame(k)?;
     let job_id = rng.gen::<u64>();
-    encode_job(job_id, &desc, &settings, config)?;
+    let job = encode_job(job_id, &desc, &settings, config)?;
     let list = tiles(settings.width, settings.height, config.schedule.tile);
-    Ok((job_id, desc, settings, list))
+    Ok((job_id, desc, settings, list, job))
 }
 
-/// Drives frame 0 (`first`: its job id, scene and settings, already the scheduler's) to its
-/// end, then each later frame of `frames` in turn on the same workers; each finished frame but
-/// the last goes to `frames`. Stops at the first failure.
+/// Drives frame 0 (`first`: its job id, scene and settings, already the scheduler's) and every
+/// later frame of `frames` on the same workers, up to `window` frames open at once, in one run
+/// of the master's loop; each finished frame but the last goes to `frames`, the last to
+/// `seq.last`. Stops at the first failure.
 pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
     l: &mut Loop<'_>,
     first: (u64, &SceneDescription, &RenderSettings),
-    mut frames: Option<&mut F>,
+    frames: Option<&mut F>,
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
     seq: &mut SequenceSums,
 ) -> Result<(), DistError> {
     let count = frames.as_ref().map_or(1, |f| f.count());
-    if count > 1 {
-        let (job_id, desc, settings) = first;
-        l.sched
-            .start_frames(job_message(job_id, desc, settings, config));
-    }
-    for frame in 0..count {
-        let frame_tiles = l.sched.progress().1;
-        let driven = drive(l, frame_tiles).await;
-        if frame == 0 {
-            seq.cpu_at_start = driven.cpu_at_start;
+    let driven = match frames {
+        Some(src) if count > 1 => {
+            let (job_id, desc, settings) = first;
+            l.sched.start_frames(
+                config.schedule.frames_window,
+                encode_job(job_id, desc, settings, config)?,
+            );
+            let mut next = 1;
+            let mut hook = |sched: &mut Scheduler| -> Result<(), DistError> {
+                for (k, done) in sched.take_complete() {
+                    if k + 1 == count {
+                        seq.last = Some(done);
+                    } else {
+                        seq.stats += done.stats;
+                        src.finished(k, done)?;
+                    }
+                }
+                if next < count && sched.pending_frames() == 0 {
+                    let (job_id, desc, settings, list, job) = open_frame(src, next, rng, config)?;
+                    seq.tiles += list.len();
+                    sched.push_frame(next, job_id, &settings, desc.lights.len(), list, job);
+                    next += 1;
+                }
+                Ok(())
+            };
+            hook(l.sched)?;
+            let frame_tiles = l.sched.progress().1;
+            drive(l, frame_tiles, &mut hook).await
         }
-        seq.events_peak = seq.events_peak.max(driven.events_peak);
-        driven.outcome?;
-        let (Some(src), true) = (frames.as_deref_mut(), frame + 1 < count) else {
-            break;
-        };
-        let (job_id, desc, settings, list) = open_frame(src, frame + 1, rng, config)?;
-        seq.tiles += list.len();
-        let msg = job_message(job_id, &desc, &settings, config);
-        let done = l
-            .sched
-            .next_frame(job_id, &settings, desc.lights.len(), list, msg);
-        seq.stats += done.stats;
-        src.finished(frame, done)?;
-    }
-    Ok(())
+        _ => {
+            let frame_tiles = l.sched.progress().1;
+            drive(l, frame_tiles, &mut |_: &mut Scheduler| Ok(())).await
+        }
+    };
+    seq.cpu_at_start = driven.cpu_at_start;
+    seq.events_peak = seq.events_peak.max(driven.events_peak);
+    driven.outcome
 }

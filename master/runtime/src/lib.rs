@@ -60,6 +60,7 @@ pub mod mutation;
 pub mod net;
 pub mod observer;
 pub mod options;
+pub mod outgoing;
 pub mod refusals;
 pub mod rendezvous;
 pub mod scheduler;
@@ -120,6 +121,8 @@ pub struct DistResult {
     pub checkpoint_bad_records: usize,
     /// The most messages that ever waited in the master's queues.
     pub queue_peaks: QueuePeaks,
+    /// The most frames of a sequence open at once (1 for one frame).
+    pub most_open_frames: usize,
 }
 
 /// High-water marks of the master's in-memory queues (the deterministic simulation checks

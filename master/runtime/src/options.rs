@@ -68,6 +68,10 @@ pub struct Schedule {
     pub min_workers: usize,
     /// How long to wait for `min_workers` (and, mid-job, for any worker when all have left).
     pub wait_workers: Duration,
+    /// In a sequence, the most frames open at once (at least 1): when no tile of those open
+    /// is left to hand out, the next frame opens and its tiles fill the tail of the frames
+    /// before. Each open frame holds a film here and a built scene on every worker.
+    pub frames_window: usize,
     /// Wait for `min_workers` even when a resumed checkpoint left nothing to render, so that
     /// each is told to shut down (`parrt cluster`: its worker ranks would otherwise wait for a
     /// master that has gone).
@@ -88,6 +92,7 @@ impl Default for Schedule {
             pixel_format: PixelFormat::F32,
             min_workers: 1,
             wait_workers: Duration::from_secs(60),
+            frames_window: 2,
             await_all_workers: false,
         }
     }

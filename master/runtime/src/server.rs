@@ -162,12 +162,13 @@ impl<L: Listener> Master<L> {
             .await
     }
 
-    /// Renders a sequence on whatever workers connect, frame after frame on the same workers:
-    /// `desc` and `settings` are frame 0's, `frames` gives the later ones and takes every
-    /// finished frame but the last, which is the result's film (its statistics, tiles and
-    /// tile count are summed over the whole sequence). Each frame's Job goes to every worker
-    /// when the frame before is complete; its tiles go out costliest first by the frame
-    /// before's measured tile times ([`Scheduler::next_frame`]). A checkpoint holds one frame
+    /// Renders a sequence on whatever workers connect, every frame on the same workers with up
+    /// to [`crate::options::Schedule::frames_window`] frames open at once: `desc` and
+    /// `settings` are frame 0's, `frames` gives the later ones and takes every finished frame
+    /// but the last, which is the result's film (its statistics, tiles and tile count are
+    /// summed over the whole sequence). A frame opens when no tile of those open is left to
+    /// hand out: its Job goes to every worker and its tiles go out costliest first by each
+    /// tile's latest measured time ([`Scheduler::push_frame`]). A checkpoint holds one frame
     /// only: it is refused with a sequence of more than one.
     pub async fn render_sequence(
         self,
@@ -259,6 +260,7 @@ impl<L: Listener> Master<L> {
             0.0
         };
         let complete = sched.is_done();
+        let most_open_frames = sched.most_open_frames();
         observers.each(|o| o.finished(complete, Instant::now()));
 
         // A complete render is on the disk before any worker is told to go: a machine that
@@ -280,6 +282,11 @@ impl<L: Listener> Master<L> {
         drop(events);
         outcome?;
         let mut finished = finished;
+        if let Some(last) = seq.last.take() {
+            finished.film = last.film;
+            finished.tile_seconds = last.tile_seconds;
+            finished.stats = last.stats;
+        }
         finished.stats += seq.stats;
         Ok(dist_result(
             finished,
@@ -288,6 +295,7 @@ impl<L: Listener> Master<L> {
                 restored_tiles,
                 checkpoint_bad_records,
                 events_peak,
+                most_open_frames,
             },
             trace_s,
             master_cpu_s,
@@ -341,7 +349,13 @@ pub(crate) struct Driven {
 /// The master's loop: steps the scheduler, reports progress, and waits for Ctrl-C, the
 /// deadline tick or the connections' events, in that order, until the job is done, fails or is
 /// cancelled; each round's accepted tiles go to the checkpoint's sink.
-pub(crate) async fn drive(l: &mut Loop<'_>, n_tiles: usize) -> Driven {
+/// `after` runs after each round of events, before the next step (a sequence's frames: take
+/// those complete, give the next).
+pub(crate) async fn drive<H: FnMut(&mut Scheduler) -> Result<(), DistError>>(
+    l: &mut Loop<'_>,
+    n_tiles: usize,
+    after: &mut H,
+) -> Driven {
     let Loop {
         sched,
         events,
@@ -398,6 +412,9 @@ pub(crate) async fn drive(l: &mut Loop<'_>, n_tiles: usize) -> Driven {
                 break Err(e.into());
             }
         }
+        if let Err(e) = after(sched) {
+            break Err(e);
+        }
     };
     Driven {
         outcome,
@@ -412,6 +429,7 @@ struct Counts {
     restored_tiles: usize,
     checkpoint_bad_records: usize,
     events_peak: usize,
+    most_open_frames: usize,
 }
 
 /// What a finished render returns: the scheduler's film and reports, the traffic summed over
@@ -456,6 +474,7 @@ fn dist_result(
                 .outbox_peak
                 .load(std::sync::atomic::Ordering::Relaxed),
         },
+        most_open_frames: counts.most_open_frames,
     }
 }
 

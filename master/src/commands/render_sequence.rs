@@ -409,6 +409,7 @@ fn render_through_workers(
     });
     config.spawn.count = n;
     config.spawn.threads = threads;
+    config.schedule.frames_window = args.sequence.window();
     let prepared = PreparedRef {
         loaded,
         settings,
@@ -420,7 +421,7 @@ fn render_through_workers(
         tiles: done.tiles,
         stats: done.stats,
         wall_s: done.trace_s,
-        most_alive: 1,
+        most_alive: done.most_open_frames,
         stopped: false,
     };
     Ok((result, threads))
@@ -548,7 +549,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         progress.finish();
         let opts = SequenceOptions {
             threads: workers * threads,
-            window: 1,
             ..opts
         };
         print_report(

@@ -232,14 +232,14 @@ mod tests {
     use parrt_render::settings::RenderSettings;
     use parrt_render::tile::tiles;
     use parrt_runtime::observer::Observers;
-    use parrt_runtime::scheduler::{Event, SchedOptions, Scheduler};
+    use parrt_runtime::scheduler::{Event, Outgoing, SchedOptions, Scheduler};
     use std::sync::Arc;
     use std::time::Duration;
     use tokio::sync::mpsc::{unbounded_channel, UnboundedReceiver};
 
     const JOB: u64 = 5;
 
-    fn join(s: &mut Scheduler, id: WorkerId, now: Instant) -> UnboundedReceiver<Message> {
+    fn join(s: &mut Scheduler, id: WorkerId, now: Instant) -> UnboundedReceiver<Outgoing> {
         let (tx, rx) = unbounded_channel();
         s.handle(
             Event::Joined {
@@ -264,12 +264,12 @@ mod tests {
         rx
     }
 
-    fn assigned(rx: &mut UnboundedReceiver<Message>) -> Vec<(Tile, u32)> {
+    fn assigned(rx: &mut UnboundedReceiver<Outgoing>) -> Vec<(Tile, u32)> {
         let mut v = Vec::new();
         while let Ok(m) = rx.try_recv() {
             match m {
-                Message::Assign { tile, attempt, .. } => v.push((tile, attempt)),
-                Message::AssignBatch { tiles, .. } => v.extend(tiles),
+                Outgoing::Message(Message::Assign { tile, attempt, .. }) => v.push((tile, attempt)),
+                Outgoing::Message(Message::AssignBatch { tiles, .. }) => v.extend(tiles),
                 _ => {}
             }
         }

@@ -68,7 +68,8 @@ async fn next_ready(
 
 /// A sequence's next frame: a second Job on the same connection, larger than any other
 /// message, is built in place of the first and answered with its Ready; the same job sent
-/// again changes nothing (no second build, no second Ready).
+/// again changes nothing (no second build, no second Ready); both jobs are held until the
+/// master cancels one.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_worker_builds_each_frame_of_a_sequence_on_one_connection() {
     let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
@@ -99,18 +100,29 @@ async fn a_worker_builds_each_frame_of_a_sequence_on_one_connection() {
     })
     .await
     .unwrap();
-    loop {
-        match timeout(Duration::from_secs(10), c.read()).await {
-            Ok(Ok(Some(Message::TileResult {
-                job_id, tile_id, ..
-            }))) => {
-                assert_eq!((job_id, tile_id), (8, 0));
-                break;
-            }
-            Ok(Ok(Some(Message::Heartbeat))) => {}
-            other => panic!("no result for job 8 (a second Ready or an error?): {other:?}"),
-        }
-    }
+    assert_eq!(next_answer(&mut c).await, Ok((8, 0)));
+    // Job 7 is still held beside job 8 (a window of frames in flight): its tiles render too.
+    c.write(&Message::Assign {
+        job_id: 7,
+        tile,
+        attempt: 1,
+    })
+    .await
+    .unwrap();
+    assert_eq!(next_answer(&mut c).await, Ok((7, 0)));
+    // Once the master cancels job 7 (its frame closed), the worker holds it no more.
+    c.write(&Message::Cancel { job_id: 7 }).await.unwrap();
+    c.write(&Message::Assign {
+        job_id: 7,
+        tile,
+        attempt: 2,
+    })
+    .await
+    .unwrap();
+    assert_eq!(
+        next_answer(&mut c).await,
+        Err("tile(s) [0] assigned for unknown job 7".to_string())
+    );
     c.write(&Message::Shutdown).await.unwrap();
     let summary = timeout(Duration::from_secs(10), worker)
         .await
@@ -118,6 +130,22 @@ async fn a_worker_builds_each_frame_of_a_sequence_on_one_connection() {
         .unwrap()
         .unwrap();
     assert_eq!(summary.jobs, 2, "the repeated job was not built again");
+}
+
+/// The next tile result's `(job, tile)`, or the next error's reason, skipping heartbeats.
+async fn next_answer<S: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin>(
+    c: &mut parrt_protocol::Connection<S>,
+) -> Result<(u64, u32), String> {
+    loop {
+        match timeout(Duration::from_secs(10), c.read()).await {
+            Ok(Ok(Some(Message::TileResult {
+                job_id, tile_id, ..
+            }))) => return Ok((job_id, tile_id)),
+            Ok(Ok(Some(Message::Error { reason }))) => return Err(reason),
+            Ok(Ok(Some(Message::Heartbeat))) => {}
+            other => panic!("no answer (a second Ready?): {other:?}"),
+        }
+    }
 }
 
 /// Item 11: a master that stops reading cannot hang a worker: its writes give up after the

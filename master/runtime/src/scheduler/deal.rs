@@ -1,6 +1,7 @@
-//! Handing out tiles: how many a worker is sent at once, which come first (the queue, then
-//! backup copies of tiles still in flight elsewhere once the queue is empty), and the
-//! assignment with its deadline.
+//! Handing out tiles: how many a worker is sent at once, which come first (the queues of the
+//! frames open, oldest frame first; then, in a sequence, the next frame's; then backup copies
+//! of tiles still in flight elsewhere once every queue is empty), and the assignment with its
+//! deadline.
 
 use super::*;
 
@@ -20,7 +21,7 @@ impl Scheduler {
     pub(super) fn batch_size(&self, threads: usize) -> usize {
         crate::batch::batch_size(
             self.opts.max_batch,
-            self.queue.len(),
+            self.open.iter().map(|f| f.queue.len()).sum(),
             threads,
             self.mean_cost(),
             self.opts.batch_seconds,
@@ -52,7 +53,12 @@ impl Scheduler {
         // The backup candidates, built once per fill when the queue runs dry.
         let mut backups = None;
         let threads = self.ready_threads();
-        if self.deal_in_rounds {
+        self.open_next();
+        let in_rounds = self
+            .open
+            .iter_mut()
+            .find_map(|f| f.has_queued().then_some(f.deal_in_rounds));
+        if in_rounds.unwrap_or(false) {
             let mut open = ids;
             while !open.is_empty() {
                 open.retain(|&id| self.deal(id, now, threads, &mut backups));
@@ -73,6 +79,8 @@ impl Scheduler {
         threads: usize,
         backups: &mut Option<(Vec<Candidate>, usize)>,
     ) -> bool {
+        // When no frame open has a tile queued, the next frame of a sequence opens.
+        self.open_next();
         let batch_size = self.batch_size(threads);
         let Some(w) = self.workers.get(&id) else {
             return false;
@@ -91,22 +99,28 @@ impl Scheduler {
             return false;
         }
         let want = batch_size.min(free);
-        let mut batch = Vec::with_capacity(want);
-        // Tiles this worker already holds (expired) are left for someone else.
-        let mut skipped = Vec::new();
-        while batch.len() < want {
-            match self.next_queued() {
-                Some(t) if self.workers[&id].inflight.contains_key(&t) => skipped.push(t),
-                Some(t) => batch.push(t),
-                None => break,
+        // A batch is of one frame: the oldest with a tile queued that this worker does not
+        // already hold (expired).
+        for p in 0..self.open.len() {
+            let mut batch = Vec::with_capacity(want);
+            let mut skipped = Vec::new();
+            let index = self.open[p].index;
+            while batch.len() < want {
+                match self.open[p].next_queued() {
+                    Some(t) if self.workers[&id].inflight.contains_key(&(index, t)) => {
+                        skipped.push(t)
+                    }
+                    Some(t) => batch.push(t),
+                    None => break,
+                }
             }
-        }
-        for t in skipped.into_iter().rev() {
-            self.queue.push_front(t);
-        }
-        if !batch.is_empty() {
-            self.assign(id, &batch, now, false);
-            return true;
+            for t in skipped.into_iter().rev() {
+                self.open[p].queue.push_front(t);
+            }
+            if !batch.is_empty() {
+                self.assign(id, p, &batch, now, false);
+                return true;
+            }
         }
         // Queue empty: an idle worker may take backups, up to one per thread.
         loop {
@@ -118,22 +132,16 @@ impl Scheduler {
                 return false;
             }
             match self.backup_candidate(id, backups) {
-                Some(tile_id) => {
+                Some((k, tile_id)) => {
+                    let Some(p) = self.frame_at(k) else {
+                        return false;
+                    };
                     self.faults.backups += 1;
-                    self.assign(id, &[tile_id], now, true);
+                    self.assign(id, p, &[tile_id], now, true);
                 }
                 None => return false,
             }
         }
-    }
-
-    pub(super) fn next_queued(&mut self) -> Option<u32> {
-        while let Some(t) = self.queue.pop_front() {
-            if self.state[t as usize] == TileState::Queued {
-                return Some(t);
-            }
-        }
-        None
     }
 
     /// The oldest in-flight tile with a single active holder, not held by `id` (the oldest
@@ -145,7 +153,7 @@ impl Scheduler {
         &self,
         id: WorkerId,
         list: &mut Option<(Vec<Candidate>, usize)>,
-    ) -> Option<u32> {
+    ) -> Option<Key> {
         let mine = &self.workers.get(&id)?.inflight;
         let (list, spent) = list.get_or_insert_with(|| {
             let mut v: Vec<Candidate> = self
@@ -155,33 +163,49 @@ impl Scheduler {
                     w.inflight
                         .iter()
                         .filter(|(_, a)| !a.expired)
-                        .map(move |(&t, a)| (a.since, wid, t))
+                        .map(move |(&key, a)| (a.since, wid, key))
                 })
-                .filter(|&(_, _, t)| self.holders[t as usize] == 1)
+                .filter(|&(_, _, (k, t))| {
+                    self.frame_at(k)
+                        .is_some_and(|p| self.open[p].holders[t as usize] == 1)
+                })
                 .collect();
             v.sort_unstable();
             (v, 0)
         });
-        let usable =
-            |t: u32| self.state[t as usize] == TileState::InFlight && self.active_holders(t) == 1;
-        while list.get(*spent).is_some_and(|&(_, _, t)| !usable(t)) {
+        let usable = |(k, t): Key| {
+            self.frame_at(k).is_some_and(|p| {
+                self.open[p].state[t as usize] == TileState::InFlight
+                    && self.active_holders(p, t) == 1
+            })
+        };
+        while list.get(*spent).is_some_and(|&(_, _, key)| !usable(key)) {
             *spent += 1;
         }
         list[*spent..]
             .iter()
-            .find(|&&(_, wid, t)| wid != id && !mine.contains_key(&t) && usable(t))
-            .map(|&(_, _, t)| t)
+            .find(|&&(_, wid, key)| wid != id && !mine.contains_key(&key) && usable(key))
+            .map(|&(_, _, key)| key)
     }
 
-    /// Assigns `tiles` to worker `id` in one message (`Assign` for one, `AssignBatch` for
-    /// more).
-    pub(super) fn assign(&mut self, id: WorkerId, tiles: &[u32], now: Instant, backup: bool) {
+    /// Assigns `tiles` of the open frame at `p` to worker `id` in one message (`Assign` for
+    /// one, `AssignBatch` for more).
+    pub(super) fn assign(
+        &mut self,
+        id: WorkerId,
+        p: usize,
+        tiles: &[u32],
+        now: Instant,
+        backup: bool,
+    ) {
+        let f = &mut self.open[p];
+        f.first_out.get_or_insert(now);
         let mut sent = Vec::with_capacity(tiles.len());
         for &tile_id in tiles {
             let t = tile_id as usize;
-            self.attempts[t] += 1;
-            self.state[t] = TileState::InFlight;
-            sent.push((self.tiles[t], self.attempts[t]));
+            f.attempts[t] += 1;
+            f.state[t] = TileState::InFlight;
+            sent.push((f.tiles[t], f.attempts[t]));
         }
         let Some(w) = self.workers.get_mut(&id) else {
             return;
@@ -190,7 +214,7 @@ impl Scheduler {
             self.observers
                 .each(|o| o.assigned(id, &tile, attempt, backup, now));
             let old = w.inflight.insert(
-                tile.id,
+                (f.index, tile.id),
                 Assignment {
                     attempt,
                     since: now,
@@ -199,23 +223,23 @@ impl Scheduler {
                     single: sent.len() == 1,
                 },
             );
-            self.holders[tile.id as usize] += 1;
+            f.holders[tile.id as usize] += 1;
             if old.is_some_and(|a| !a.expired) {
-                self.holders[tile.id as usize] -= 1;
+                f.holders[tile.id as usize] -= 1;
             }
         }
         let msg = match sent[..] {
             [(tile, attempt)] => Message::Assign {
-                job_id: self.job_id,
+                job_id: f.job_id,
                 tile,
                 attempt,
             },
             _ => Message::AssignBatch {
-                job_id: self.job_id,
+                job_id: f.job_id,
                 tiles: sent,
             },
         };
-        if w.outbox.send(msg).is_err() {
+        if w.outbox.send(msg.into()).is_err() {
             // Its connection task has ended; the Gone event is on its way.
             self.remove(id, "connection closed".into());
         }

@@ -17,14 +17,15 @@
 //!   behind ([`Finished`]);
 //! - `results.rs`: the checks a result must pass and how it lands in the film;
 //! - `membership.rs`: failures, departures, requeues and deadlines;
-//! - `frames.rs`: the next frame of a sequence on the same workers;
+//! - `frames.rs`: one frame's tiles and film, and the window of frames a sequence keeps open;
 //! - `deal.rs`: batch sizes, the order tiles go out in, backups and assignments.
 
 use crate::lifecycle::Lifecycle;
 pub use crate::lifecycle::{Rules, Step, Verdict};
 use crate::mutation::{self, Mutation};
+pub use crate::outgoing::Outgoing;
 use crate::window::Window;
-use parrt_protocol::{Message, PixelFormat, TilePixels, WireCounters};
+use parrt_protocol::{Encoded, Message, PixelFormat, TilePixels, WireCounters};
 use parrt_render::film::Film;
 use parrt_render::film::Rgb;
 use parrt_render::isa::Isa;
@@ -40,7 +41,7 @@ use tracing::{debug, info, warn};
 
 pub use crate::batch::BATCH_SECONDS;
 pub use frames::FrameFinished;
-use frames::Frames;
+use frames::{Frame, Frames};
 
 mod deal;
 mod frames;
@@ -71,7 +72,7 @@ pub enum Event {
         /// Its instruction-set tier, as its Hello said.
         isa: Isa,
         /// Where to send it messages.
-        outbox: UnboundedSender<Message>,
+        outbox: UnboundedSender<Outgoing>,
         /// Its connection's byte counters.
         counters: Arc<WireCounters>,
     },
@@ -156,8 +157,11 @@ pub struct AcceptedTile {
     pub seconds: f64,
 }
 
+/// A tile of a sequence: the frame's index (0 for a render of one frame) and the tile's id.
+type Key = (usize, u32);
+
 /// A backup candidate: when its one live assignment was made, by whom, which tile.
-type Candidate = (Instant, WorkerId, u32);
+type Candidate = (Instant, WorkerId, Key);
 
 /// One assignment of a tile to a worker.
 #[derive(Clone, Copy, Debug)]
@@ -177,11 +181,12 @@ struct Slot {
     name: String,
     threads: u32,
     isa: Isa,
-    outbox: UnboundedSender<Message>,
+    outbox: UnboundedSender<Outgoing>,
     counters: Arc<WireCounters>,
     ready_at: Option<Instant>,
     joined_at: Instant,
-    inflight: BTreeMap<u32, Assignment>,
+    /// Its assignments, by frame and tile.
+    inflight: BTreeMap<Key, Assignment>,
     failures: u32,
     tiles: u64,
     render_s: f64,
@@ -246,7 +251,7 @@ pub struct FaultCounts {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum TileState {
+pub(super) enum TileState {
     Queued,
     InFlight,
     Done,
@@ -254,27 +259,10 @@ enum TileState {
 
 /// The scheduler of one job.
 pub struct Scheduler {
-    job_id: u64,
     opts: SchedOptions,
-    /// The job's settings: what a result's statistics are checked against.
-    settings: RenderSettings,
-    /// Lights in the scene (each hit casts at most one shadow ray per light).
-    lights: usize,
-    tiles: Vec<Tile>,
-    state: Vec<TileState>,
-    attempts: Vec<u32>,
-    /// Per tile, the workers holding it in a live (unexpired) assignment: kept as assignments
-    /// come and go so that the question costs nothing (a scan of every worker per tile made
-    /// the tail of a 4 096-worker frame quadratic and more).
-    holders: Vec<u16>,
-    queue: VecDeque<u32>,
-    /// The queue is in an order given by cost ([`Self::set_order`]): workers with room are
-    /// dealt in rounds ([`Self::fill`]).
-    deal_in_rounds: bool,
-    done: usize,
-    film: Film,
-    stats: RayStats,
-    tile_seconds: Vec<f64>,
+    /// The frames open, oldest first: the job's one frame, or a sequence's window of frames
+    /// ([`frames`]).
+    open: Vec<Frame>,
     workers: BTreeMap<WorkerId, Slot>,
     gone: Vec<WorkerReport>,
     /// A result's decoded pixels, reused from one result to the next.
@@ -289,8 +277,8 @@ pub struct Scheduler {
     observers: super::observer::Observers,
     /// The job's phase: waiting for workers, tracing, done.
     life: Lifecycle,
-    /// In a sequence: the current frame's Job message (sent to every worker when the frame
-    /// opens, and to a worker that built an earlier frame) and the ids of the frames before.
+    /// In a sequence: the window, the frames given but not opened yet, the ids of the frames
+    /// closed and the frames complete that the driver has not taken.
     frames: Option<Frames>,
 }
 
@@ -304,27 +292,16 @@ impl Scheduler {
         tiles: Vec<Tile>,
         opts: SchedOptions,
     ) -> Self {
-        let n = tiles.len();
-        let (width, height) = (settings.width, settings.height);
         Scheduler {
-            job_id,
+            open: vec![Frame::new(
+                0,
+                job_id,
+                settings,
+                lights,
+                tiles,
+                opts.pixel_format,
+            )],
             opts,
-            settings: settings.clone(),
-            lights,
-            state: vec![TileState::Queued; n],
-            attempts: vec![0; n],
-            holders: vec![0; n],
-            queue: (0..n as u32).collect(),
-            deal_in_rounds: false,
-            tiles,
-            done: 0,
-            // An 8-bit output's film keeps bytes: 8-bit results go in with a copy.
-            film: match opts.pixel_format {
-                PixelFormat::Rgb8 => Film::new_rgb8(width, height),
-                PixelFormat::F32 => Film::new(width, height),
-            },
-            stats: RayStats::default(),
-            tile_seconds: vec![0.0; n],
             workers: BTreeMap::new(),
             gone: Vec::new(),
             scratch: Vec::new(),
@@ -347,7 +324,7 @@ impl Scheduler {
         if step == (Step::Run { started: true }) {
             info!(
                 workers = self.ready_workers(),
-                tiles = self.tiles.len(),
+                tiles = self.progress().1,
                 "starting"
             );
             self.observers.each(|o| o.started(now));
@@ -384,21 +361,9 @@ impl Scheduler {
     /// the order leaves out follow in raster order, so every tile is still handed out once.
     /// Call before the first tile goes out.
     pub fn set_order(&mut self, order: &[u32]) {
-        let n = self.tiles.len();
-        let mut placed = vec![false; n];
-        let mut queue = VecDeque::with_capacity(n);
-        for &t in order {
-            if let Some(p) = placed.get_mut(t as usize) {
-                if !std::mem::replace(p, true) {
-                    queue.push_back(t);
-                }
-            }
+        if let Some(f) = self.open.first_mut() {
+            f.set_order(order);
         }
-        queue.extend((0..n as u32).filter(|&t| !placed[t as usize]));
-        // Only what is still queued (a restored tile is done).
-        queue.retain(|&t| self.state[t as usize] == TileState::Queued);
-        self.queue = queue;
-        self.deal_in_rounds = true;
     }
 
     /// Marks tiles done before any worker came (from a checkpoint): each is checked as a
@@ -408,44 +373,48 @@ impl Scheduler {
     pub fn restore(&mut self, done: Vec<AcceptedTile>) -> usize {
         let mut taken = 0;
         let mut decoded = std::mem::take(&mut self.scratch);
-        for t in done {
-            let Some(&tile) = self.tiles.get(t.tile_id as usize) else {
-                continue;
-            };
-            let ok = t
-                .pixels
-                .decode_into(self.opts.pixel_format, tile.pixel_count(), &mut decoded)
-                .is_ok()
-                && t.stats
-                    .check_tile(&tile, &self.settings, self.lights)
-                    .is_ok();
-            let i = tile.id as usize;
-            if ok
-                && self.state[i] == TileState::Queued
-                && self.film.write_tile(&tile, &decoded).is_ok()
-            {
-                self.state[i] = TileState::Done;
-                self.stats += t.stats;
-                self.tile_seconds[i] = t.seconds;
-                self.done += 1;
-                taken += 1;
+        let format = self.opts.pixel_format;
+        if let Some(f) = self.open.first_mut() {
+            for t in done {
+                let Some(&tile) = f.tiles.get(t.tile_id as usize) else {
+                    continue;
+                };
+                let ok = t
+                    .pixels
+                    .decode_into(format, tile.pixel_count(), &mut decoded)
+                    .is_ok()
+                    && t.stats.check_tile(&tile, &f.settings, f.lights).is_ok();
+                let i = tile.id as usize;
+                if ok
+                    && f.state[i] == TileState::Queued
+                    && f.film.write_tile(&tile, &decoded).is_ok()
+                {
+                    f.state[i] = TileState::Done;
+                    f.stats += t.stats;
+                    f.tile_seconds[i] = t.seconds;
+                    f.done += 1;
+                    taken += 1;
+                }
             }
+            let state = &f.state;
+            f.queue.retain(|&t| state[t as usize] == TileState::Queued);
         }
         self.scratch = decoded;
-        let state = &self.state;
-        self.queue
-            .retain(|&t| state[t as usize] == TileState::Queued);
         taken
     }
 
-    /// Whether every tile is in the film.
+    /// Whether every tile is in the film: of the one frame, or of every frame of a sequence
+    /// given so far (none is waiting to open, every one open is complete).
     pub fn is_done(&self) -> bool {
-        self.done == self.tiles.len()
+        self.open.iter().all(|f| f.done == f.tiles.len())
+            && self.frames.as_ref().is_none_or(|s| s.pending.is_empty())
     }
 
-    /// Tiles done and in total.
+    /// Tiles done and in total, over the frames open.
     pub fn progress(&self) -> (usize, usize) {
-        (self.done, self.tiles.len())
+        self.open
+            .iter()
+            .fold((0, 0), |(d, n), f| (d + f.done, n + f.tiles.len()))
     }
 
     /// Workers that have built the job.
@@ -521,6 +490,7 @@ impl Scheduler {
                         round_trip: None,
                     },
                 );
+                self.joined_sequence(id);
             }
             Event::Ready {
                 id,
@@ -528,20 +498,24 @@ impl Scheduler {
                 build_s,
                 job_to_ready_s,
             } => {
-                if self.is_past(job_id) {
-                    // It built an earlier frame (it joined while that frame rendered): the
-                    // current one follows.
-                    if let (Some(w), Some(f)) = (self.workers.get(&id), &self.frames) {
-                        let _ = w.outbox.send(f.job.clone());
+                if self.frame_of_job(job_id).is_some() {
+                    if let Some(w) = self.workers.get_mut(&id) {
+                        if w.ready_at.is_some() {
+                            // A later frame of a sequence built beside the earlier ones.
+                            w.build_s += build_s;
+                        } else {
+                            info!(worker = id, name = %w.name, build_s, job_to_ready_s, "worker ready");
+                            w.ready_at = Some(now);
+                            w.build_s = build_s;
+                            w.job_to_ready_s = job_to_ready_s;
+                            self.observers.each(|o| o.ready(id, now));
+                        }
                     }
-                } else if job_id != self.job_id {
-                    self.fail(id, format!("built job {job_id}, not {}", self.job_id));
-                } else if let Some(w) = self.workers.get_mut(&id) {
-                    info!(worker = id, name = %w.name, build_s, job_to_ready_s, "worker ready");
-                    w.ready_at = Some(now);
-                    w.build_s = build_s;
-                    w.job_to_ready_s = job_to_ready_s;
-                    self.observers.each(|o| o.ready(id, now));
+                } else if !self.is_past(job_id) {
+                    // (A frame already closed was built by a worker that joined while it was
+                    // open: the frames open were sent to it when it joined.)
+                    let current = self.open.first().map_or(0, |f| f.job_id);
+                    self.fail(id, format!("built job {job_id}, not {current}"));
                 }
             }
             Event::Result {
@@ -577,17 +551,22 @@ impl Scheduler {
         let mut reports = std::mem::take(&mut self.gone);
         for id in ids {
             if let Some(w) = self.workers.remove(&id) {
-                let _ = w.outbox.send(Message::Shutdown);
+                let _ = w.outbox.send(Message::Shutdown.into());
                 reports.push(report(&w, None));
             }
         }
+        let complete = self.is_done();
+        let (film, stats, tile_seconds) = match self.open.drain(..).next() {
+            Some(f) => (f.film, f.stats, f.tile_seconds),
+            None => (Film::new(0, 0), RayStats::default(), Vec::new()),
+        };
         Finished {
-            film: self.film,
-            stats: self.stats,
-            tile_seconds: self.tile_seconds,
+            film,
+            stats,
+            tile_seconds,
             reports,
             faults: self.faults,
-            complete: self.done == self.tiles.len(),
+            complete,
         }
     }
 }
@@ -652,7 +631,7 @@ mod tests {
         )
     }
 
-    fn join(s: &mut Scheduler, id: WorkerId, threads: u32) -> UnboundedReceiver<Message> {
+    fn join(s: &mut Scheduler, id: WorkerId, threads: u32) -> UnboundedReceiver<Outgoing> {
         let (tx, rx) = unbounded_channel();
         let now = Instant::now();
         s.handle(
@@ -708,12 +687,12 @@ mod tests {
         );
     }
 
-    fn assigned(rx: &mut UnboundedReceiver<Message>) -> Vec<(Tile, u32)> {
+    fn assigned(rx: &mut UnboundedReceiver<Outgoing>) -> Vec<(Tile, u32)> {
         let mut v = Vec::new();
         while let Ok(m) = rx.try_recv() {
             match m {
-                Message::Assign { tile, attempt, .. } => v.push((tile, attempt)),
-                Message::AssignBatch { tiles, .. } => v.extend(tiles),
+                Outgoing::Message(Message::Assign { tile, attempt, .. }) => v.push((tile, attempt)),
+                Outgoing::Message(Message::AssignBatch { tiles, .. }) => v.extend(tiles),
                 _ => {}
             }
         }
@@ -770,27 +749,85 @@ mod tests {
         );
     }
 
-    /// The messages waiting in an outbox that are not tile assignments.
-    fn others(rx: &mut UnboundedReceiver<Message>) -> Vec<Message> {
+    /// Every message waiting in an outbox.
+    fn drain(rx: &mut UnboundedReceiver<Outgoing>) -> Vec<Outgoing> {
         let mut v = Vec::new();
         while let Ok(m) = rx.try_recv() {
-            if !matches!(m, Message::Assign { .. } | Message::AssignBatch { .. }) {
-                v.push(m);
+            v.push(m);
+        }
+        v
+    }
+
+    /// The `(job, tile, attempt)` of each tile assigned in `msgs`.
+    fn assignments(msgs: &[Outgoing]) -> Vec<(u64, u32, u32)> {
+        let mut v = Vec::new();
+        for m in msgs {
+            match m {
+                Outgoing::Message(Message::Assign {
+                    job_id,
+                    tile,
+                    attempt,
+                }) => v.push((*job_id, tile.id, *attempt)),
+                Outgoing::Message(Message::AssignBatch { job_id, tiles }) => {
+                    v.extend(tiles.iter().map(|(t, a)| (*job_id, t.id, *a)))
+                }
+                _ => {}
             }
         }
         v
     }
 
+    /// Worker `id`'s result for tile `tile` of job `job`, every pixel `value`.
+    fn result_of(id: WorkerId, job: u64, tile: u32, attempt: u32, value: f32) -> Event {
+        let all = tiles(16, 8, 4);
+        let mut r = result(id, &all[tile as usize], attempt, value);
+        if let Event::Result { job_id, .. } = &mut r {
+            *job_id = job;
+        }
+        r
+    }
+
+    const NEXT: u64 = 78;
+
+    /// A frame's encoded Job: the scheduler passes it through untouched, so any message stands
+    /// for it here.
+    fn job_of(frame: usize) -> Encoded {
+        Encoded::new(&Message::Error {
+            reason: format!("frame {frame}'s job"),
+        })
+        .unwrap()
+    }
+
+    /// What an outbox holds when a frame's Job was sent to it.
+    fn sent_job(frame: usize) -> Outgoing {
+        Outgoing::Encoded(job_of(frame))
+    }
+
+    /// What an outbox holds when a frame was closed.
+    fn cancel(job_id: u64) -> Outgoing {
+        Message::Cancel { job_id }.into()
+    }
+
+    /// A scheduler of a two-frame sequence (frames 0 and 1 of the same 8 tiles, jobs `JOB`
+    /// and `NEXT`) with `window` frames open at most.
+    fn two_frames(max_failures: u32, window: usize) -> Scheduler {
+        let mut s = sched(max_failures);
+        s.start_frames(window, job_of(0));
+        s.push_frame(
+            1,
+            NEXT,
+            &RenderSettings::new(16, 8),
+            1,
+            tiles(16, 8, 4),
+            job_of(1),
+        );
+        s
+    }
+
     #[tokio::test(start_paused = true)]
     async fn the_next_frame_goes_to_every_worker_costliest_first_and_stale_messages_are_no_fault() {
-        const NEXT: u64 = 78;
-        // The scheduler passes a frame's Job message through untouched: any message stands
-        // for it here.
-        let job = || Message::Error {
-            reason: "frame 1's job".into(),
-        };
         let all = tiles(16, 8, 4);
-        let mut s = sched(1); // one failure drops a worker
+        let mut s = two_frames(1, 1); // one failure drops a worker; one frame at a time
         let mut a = join(&mut s, 1, 4); // a window of 8: every tile at once
         s.fill(Instant::now());
         assert_eq!(assigned(&mut a).len(), 8);
@@ -802,46 +839,125 @@ mod tests {
             }
             s.handle(r, Instant::now());
         }
-        assert!(s.is_done());
-        let frame0 = s.next_frame(NEXT, &RenderSettings::new(16, 8), 1, all.clone(), job());
+        let done = s.take_complete();
+        assert_eq!(done.len(), 1, "frame 0 complete, once");
+        let (k, frame0) = &done[0];
+        assert_eq!(*k, 0);
         assert_eq!(frame0.tile_seconds, costs);
         assert_eq!(frame0.film.get(5, 1), [1.0; 3], "tile 1's pixels");
         assert_eq!(frame0.stats.eye_rays, 128);
-        assert_eq!(others(&mut a), [job()], "the next frame's job went out");
-        assert_eq!((s.ready_workers(), s.progress()), (0, (0, 8)));
+        assert!(s.take_complete().is_empty());
+        assert_eq!(drain(&mut a), [cancel(JOB)], "frame 0's scene dropped");
+        assert!(!s.is_done(), "frame 1 is still to come");
         // A late copy of a frame-0 result came second: no fault, nothing written.
         s.handle(result(1, &all[0], 1, 9.0), Instant::now());
         assert_eq!(s.faults.duplicate_results, 1);
         assert_eq!(s.faults.rejected_results, 0);
-        // A worker that joins now built frame 0 (the job every connection starts with): it is
-        // sent the current frame instead of being failed.
-        let mut b = join(&mut s, 2, 1);
-        assert_eq!(others(&mut b), [job()]);
-        assert_eq!(s.connected_workers(), 2);
-        s.handle(
-            Event::Ready {
-                id: 1,
-                job_id: NEXT,
-                build_s: 0.0,
-                job_to_ready_s: 0.0,
-            },
-            Instant::now(),
-        );
+        // Frame 1 opens: its Job to the worker, then its tiles costliest first by frame 0's
+        // times (ties in tile order), dealt as an order is, with no new Ready needed.
         s.fill(Instant::now());
-        // Costliest first by frame 0's times (ties in tile order), dealt as an order is.
-        assert_eq!(ids(&mut a), [3, 5, 1, 7, 4, 2, 0, 6]);
-        assert!(ids(&mut b).is_empty(), "b has not built frame 1 yet");
-        // A result for the current frame lands in the new film.
-        let mut r = result(1, &all[3], 1, 0.25);
-        if let Event::Result { job_id, .. } = &mut r {
-            *job_id = NEXT;
-        }
-        s.handle(r, Instant::now());
+        let msgs = drain(&mut a);
+        assert_eq!(msgs[0], sent_job(1));
+        let ids: Vec<u32> = assignments(&msgs).iter().map(|a| a.1).collect();
+        assert_eq!(ids, [3, 5, 1, 7, 4, 2, 0, 6]);
+        assert!(assignments(&msgs).iter().all(|a| a.0 == NEXT));
+        // A worker that joins now built frame 0 (the job every connection starts with): it is
+        // sent the frame open and told to drop frame 0, and its Ready for frame 0 is no fault.
+        let mut b = join(&mut s, 2, 1);
+        assert_eq!(drain(&mut b), [sent_job(1), cancel(JOB)]);
+        assert_eq!((s.connected_workers(), s.ready_workers()), (2, 1));
+        // A result for frame 1 lands in its film.
+        s.handle(result_of(1, NEXT, 3, 1, 0.25), Instant::now());
         assert_eq!(s.progress(), (1, 8));
         assert_eq!(s.faults.rejected_results, 0);
     }
 
-    fn ids(rx: &mut UnboundedReceiver<Message>) -> Vec<u32> {
+    #[tokio::test(start_paused = true)]
+    async fn with_two_frames_open_the_next_frame_fills_the_tail_of_the_one_before() {
+        let mut s = two_frames(3, 2);
+        // One thread each: windows of two tiles.
+        let mut a = join(&mut s, 1, 1);
+        let mut b = join(&mut s, 2, 1);
+        s.fill(Instant::now());
+        assert_eq!(assignments(&drain(&mut a)), [(JOB, 0, 1), (JOB, 1, 1)]);
+        assert_eq!(assignments(&drain(&mut b)), [(JOB, 2, 1), (JOB, 3, 1)]);
+        for (w, t) in [(1, 0), (1, 1), (2, 2), (2, 3)] {
+            s.handle(result_of(w, JOB, t, 1, 0.5), Instant::now());
+        }
+        s.fill(Instant::now());
+        // Frame 0's last tiles go out, and with its queue empty frame 1 opens: its Job goes
+        // to every worker, to build while frame 0's tail renders.
+        let to_a = drain(&mut a);
+        assert_eq!(assignments(&to_a), [(JOB, 4, 1), (JOB, 5, 1)]);
+        assert_eq!(to_a.last(), Some(&sent_job(1)));
+        let to_b = drain(&mut b);
+        assert_eq!(assignments(&to_b), [(JOB, 6, 1), (JOB, 7, 1)]);
+        assert_eq!(to_b.last(), Some(&sent_job(1)));
+        assert_eq!(s.open_frames(), 2);
+        // Tiles 5, 6 and 7 of frame 0 in flight: a's free slot takes frame 1's first tile.
+        s.handle(result_of(1, JOB, 4, 1, 0.5), Instant::now());
+        s.fill(Instant::now());
+        assert_eq!(assignments(&drain(&mut a)), [(NEXT, 0, 1)]);
+        assert!(drain(&mut b).is_empty(), "b has no room");
+        assert_eq!(s.progress(), (5, 16), "frame 0: 5 of 8 in; frame 1: 0 of 8");
+        assert!(s.take_complete().is_empty());
+        assert_eq!(s.ready_workers(), 2, "no frame boundary to wait at");
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_worker_lost_with_two_frames_open_loses_no_tile_of_either() {
+        let mut s = two_frames(3, 2);
+        let mut a = join(&mut s, 1, 1);
+        let mut b = join(&mut s, 2, 1);
+        s.fill(Instant::now());
+        for (w, t) in [(1, 0), (1, 1), (2, 2), (2, 3)] {
+            s.handle(result_of(w, JOB, t, 1, 0.5), Instant::now());
+        }
+        s.fill(Instant::now());
+        s.handle(result_of(1, JOB, 4, 1, 0.5), Instant::now());
+        s.fill(Instant::now());
+        drain(&mut a);
+        drain(&mut b);
+        // a holds frame 0's tile 5 and frame 1's tile 0, and goes.
+        s.handle(
+            Event::Gone {
+                id: 1,
+                reason: "killed".into(),
+            },
+            Instant::now(),
+        );
+        assert_eq!(s.faults.requeued, 2, "one tile of each frame");
+        // b renders everything else, each frame's tiles valued by frame: first the two it
+        // held, then what it is dealt.
+        s.handle(result_of(2, JOB, 6, 1, 1.0), Instant::now());
+        s.handle(result_of(2, JOB, 7, 1, 1.0), Instant::now());
+        let mut rounds = 0;
+        let mut frames = Vec::new();
+        while !s.is_done() && rounds < 100 {
+            rounds += 1;
+            s.fill(Instant::now());
+            for (job, t, attempt) in assignments(&drain(&mut b)) {
+                let value = if job == JOB { 1.0 } else { 2.0 };
+                s.handle(result_of(2, job, t, attempt, value), Instant::now());
+            }
+            frames.extend(s.take_complete());
+        }
+        assert!(s.is_done());
+        let indices: Vec<usize> = frames.iter().map(|(k, _)| *k).collect();
+        assert_eq!(indices, [0, 1], "each frame complete, once");
+        for (k, f) in &frames {
+            let b_value = if *k == 0 { 1.0 } else { 2.0 };
+            for t in tiles(16, 8, 4) {
+                // Frame 0's first five tiles came at 0.5 before a went.
+                let want = if *k == 0 && t.id < 5 { 0.5 } else { b_value };
+                assert_eq!(f.film.get(t.x, t.y), [want; 3], "frame {k} tile {}", t.id);
+            }
+            assert_eq!(f.stats.eye_rays, 128, "frame {k}: every pixel once");
+        }
+        assert_eq!(s.faults.rejected_results, 0);
+    }
+
+    fn ids(rx: &mut UnboundedReceiver<Outgoing>) -> Vec<u32> {
         assigned(rx).iter().map(|(t, _)| t.id).collect()
     }
 
@@ -883,7 +999,7 @@ mod tests {
             "the short and the NaN records are refused"
         );
         assert_eq!(s.progress(), (2, 8));
-        assert_eq!(s.stats.eye_rays, 32);
+        assert_eq!(s.open[0].stats.eye_rays, 32);
         let mut rx = join(&mut s, 1, 4);
         s.fill(Instant::now());
         let sent = assigned(&mut rx);
@@ -1053,8 +1169,10 @@ mod tests {
         while !s.is_done() {
             while let Ok(m) = rx.try_recv() {
                 let batch = match m {
-                    Message::Assign { tile, attempt, .. } => vec![(tile, attempt)],
-                    Message::AssignBatch { tiles, .. } => {
+                    Outgoing::Message(Message::Assign { tile, attempt, .. }) => {
+                        vec![(tile, attempt)]
+                    }
+                    Outgoing::Message(Message::AssignBatch { tiles, .. }) => {
                         assert!(tiles.len() > 1);
                         tiles
                     }
@@ -1202,7 +1320,10 @@ mod tests {
         s.handle(result(2, &tiles(16, 8, 4)[7], 1, 0.0), Instant::now());
         s.handle(result(2, &tiles(16, 8, 4)[7], 1, 0.0), Instant::now());
         assert_eq!(s.connected_workers(), 0);
-        assert!(matches!(rx2.try_recv(), Ok(Message::Error { .. })));
+        assert!(matches!(
+            rx2.try_recv(),
+            Ok(Outgoing::Message(Message::Error { .. }))
+        ));
         let f = s.finish();
         assert_eq!(f.faults.dropped, 1);
         assert_eq!(f.reports.len(), 2);
@@ -1232,7 +1353,10 @@ mod tests {
             Instant::now(),
         );
         assert_eq!(s.connected_workers(), 0);
-        assert!(matches!(rx.try_recv(), Ok(Message::Error { .. })));
+        assert!(matches!(
+            rx.try_recv(),
+            Ok(Outgoing::Message(Message::Error { .. }))
+        ));
     }
 
     #[tokio::test(start_paused = true)]

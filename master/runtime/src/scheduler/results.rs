@@ -1,4 +1,4 @@
-//! A worker's result for a tile: the checks it must pass (this job, a tile the worker holds,
+//! A worker's result for a tile: the checks it must pass (a frame open, a tile the worker holds,
 //! the right pixel count, finite pixels, plausible ray statistics) and how a checked result
 //! lands in the film, first result wins.
 
@@ -25,15 +25,20 @@ impl Scheduler {
             }
             return;
         }
-        let Some(w) = self.workers.get_mut(&id) else {
+        if !self.workers.contains_key(&id) {
             return; // Already removed: nothing it says counts any more.
-        };
-        if job_id != self.job_id {
-            self.faults.rejected_results += 1;
-            self.fail(id, format!("result for job {job_id}, not {}", self.job_id));
-            return;
         }
-        let Some(&a) = w.inflight.get(&tile_id).filter(|a| a.attempt == attempt) else {
+        let Some(p) = self.frame_of_job(job_id) else {
+            self.faults.rejected_results += 1;
+            let current = self.open.first().map_or(0, |f| f.job_id);
+            self.fail(id, format!("result for job {job_id}, not {current}"));
+            return;
+        };
+        let key = (self.open[p].index, tile_id);
+        let Some(w) = self.workers.get_mut(&id) else {
+            return;
+        };
+        let Some(&a) = w.inflight.get(&key).filter(|a| a.attempt == attempt) else {
             self.faults.rejected_results += 1;
             self.fail(
                 id,
@@ -41,9 +46,9 @@ impl Scheduler {
             );
             return;
         };
-        w.inflight.remove(&tile_id);
+        w.inflight.remove(&key);
         if !a.expired {
-            self.holders[tile_id as usize] -= 1;
+            self.open[p].holders[tile_id as usize] -= 1;
         }
         if a.single && !a.backup && seconds.is_finite() {
             let turnaround = now.saturating_duration_since(a.since).as_secs_f64();
@@ -52,11 +57,12 @@ impl Scheduler {
         }
         // Held tiles come from our own list, so the id indexes it.
         let t = tile_id as usize;
-        let tile = self.tiles[t];
+        let f = &self.open[p];
+        let tile = f.tiles[t];
         let mut decoded = std::mem::take(&mut self.scratch);
         // 8-bit pixels go into an 8-bit film as they came, decoded only for observers.
         let (format, count) = (self.opts.pixel_format, tile.pixel_count());
-        let checked = if self.film.is_rgb8() && self.observers.is_empty() {
+        let checked = if f.film.is_rgb8() && self.observers.is_empty() {
             decoded.clear();
             pixels.rgb8(format, count).map(Checked::Rgb8)
         } else {
@@ -65,17 +71,17 @@ impl Scheduler {
                 .map(|()| Checked::Linear(&decoded))
         };
         let checked = checked.map_err(|e| e.to_string()).and_then(|px| {
-            let valid = stats.check_tile(&tile, &self.settings, self.lights);
+            let valid = stats.check_tile(&tile, &f.settings, f.lights);
             valid.map(|()| px).map_err(|e| e.to_string())
         });
         match checked.map_err(|e| format!("tile {tile_id}: {e}")) {
             Err(reason) => {
                 self.faults.rejected_results += 1;
-                self.requeue(tile_id);
+                self.requeue(p, tile_id);
                 self.fail(id, reason);
             }
             Ok(px) => {
-                let accepted = self.accept(id, t, px, stats, seconds);
+                let accepted = self.accept(id, p, t, px, stats, seconds);
                 let shown: &[Rgb] = if accepted { &decoded } else { &[] };
                 self.observers
                     .each(|o| o.result(id, &tile, shown, &stats, seconds, accepted));
@@ -88,6 +94,7 @@ impl Scheduler {
                             seconds,
                         });
                     }
+                    self.close_if_complete(p, now);
                 }
             }
         }
@@ -99,20 +106,22 @@ impl Scheduler {
     pub(super) fn accept(
         &mut self,
         id: WorkerId,
+        p: usize,
         t: usize,
         pixels: Checked,
         stats: RayStats,
         seconds: f64,
     ) -> bool {
-        let tile = self.tiles[t];
-        if self.state[t] == TileState::Done && !mutation::is(Mutation::AcceptDuplicates) {
+        let f = &mut self.open[p];
+        let tile = f.tiles[t];
+        if f.state[t] == TileState::Done && !mutation::is(Mutation::AcceptDuplicates) {
             self.faults.duplicate_results += 1;
             debug!(worker = id, tile_id = t, "duplicate result ignored");
             return false;
         }
         let written = match pixels {
-            Checked::Linear(px) => self.film.write_tile(&tile, px),
-            Checked::Rgb8(bytes) => self.film.write_tile_rgb8(&tile, bytes),
+            Checked::Linear(px) => f.film.write_tile(&tile, px),
+            Checked::Rgb8(bytes) => f.film.write_tile_rgb8(&tile, bytes),
         };
         if let Err(e) = written {
             // Cannot happen: the tile is ours and the count was checked.
@@ -124,21 +133,22 @@ impl Scheduler {
             w.render_s += seconds;
             w.failures = 0;
         }
-        self.state[t] = TileState::Done;
+        f.state[t] = TileState::Done;
         // A worker's clock is its own word: only a plausible figure enters the mean.
         if seconds.is_finite() && (0.0..=86_400.0).contains(&seconds) {
             self.cost = (self.cost.0 + seconds, self.cost.1.saturating_add(1));
         }
-        self.stats += stats;
-        self.tile_seconds[t] = seconds;
-        self.done += 1;
+        f.stats += stats;
+        f.tile_seconds[t] = seconds;
+        f.done += 1;
         if mutation::is(Mutation::MarkNeighbourDone)
-            && self.state.get(t + 1) == Some(&TileState::Queued)
+            && f.state.get(t + 1) == Some(&TileState::Queued)
         {
-            self.state[t + 1] = TileState::Done;
-            self.queue.retain(|&q| q as usize != t + 1);
-            self.done += 1;
+            f.state[t + 1] = TileState::Done;
+            f.queue.retain(|&q| q as usize != t + 1);
+            f.done += 1;
         }
+        self.measured(p, t, seconds);
         true
     }
 }
