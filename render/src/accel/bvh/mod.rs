@@ -6,6 +6,7 @@
 pub mod binary;
 pub mod build;
 pub mod goldsmith;
+mod least_surface;
 pub mod node;
 pub mod packet;
 pub mod traverse;

@@ -4,9 +4,9 @@
 //! the primitive order), packed into one `u32` ([`ChildRef`]).
 
 use super::build::MAX_LEAF;
+use super::least_surface::{Inner, SlotCosts};
 use super::node::BvhNode;
 use crate::geometry::slab::Box8;
-use crate::geometry::Aabb;
 
 /// Children per node.
 pub const WIDTH: usize = crate::geometry::slab::WIDTH;
@@ -72,10 +72,10 @@ impl WideNode {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TooManyReferences(pub usize);
 
-/// Collapses a binary tree: each wide node takes its binary node's two children and, while it
-/// has fewer than eight, replaces the inner child with the largest surface by that child's own
-/// two children. No nodes for an empty tree; a tree that is a single leaf gets one node with
-/// one leaf child.
+/// Collapses a binary tree into wide nodes of the least summed surface ([`SlotCosts`]): each
+/// wide node takes the descendants of its binary node that cover the subtree in at most eight
+/// slots and leave the fewest and smallest inner nodes below. No nodes for an empty tree; a
+/// tree that is a single leaf gets one node with one leaf child.
 ///
 /// Takes the binary nodes (`references` is the length of their primitive order) and frees them
 /// from the end as the collapse leaves them behind: it walks the subtrees right to left, so the
@@ -109,27 +109,30 @@ pub fn collapse(
     // binary node's subtree). A subtree is the range [node, end) of the depth-first array, the
     // gathered children's ranges follow each other, and the last child pushed is taken first:
     // when a node is taken, every binary node from its end on is done with.
+    let mut costs = SlotCosts::of(&nodes);
     out.push(placeholder());
-    let mut work = vec![(0u32, 0u32, nodes.len() as u32)];
+    let mut work = vec![(Inner::ROOT, 0u32, nodes.len() as u32)];
+    let mut kids = Vec::with_capacity(WIDTH);
     while let Some((b, slot, end)) = work.pop() {
         if (end as usize) <= next {
             nodes.truncate(end as usize);
             nodes.shrink_to_fit();
+            costs.forget_from(b, end);
             crate::heap::give_back_free_pages();
             next = (end as usize).saturating_sub(step);
         }
-        let kids = gather(&nodes, b);
+        costs.wide_slots(&nodes, b, &mut kids);
         let mut node = placeholder();
         node.used = kids.len() as u32;
         for (i, &k) in kids.iter().enumerate() {
-            let n = &nodes[k as usize];
+            let n = &nodes[k.node as usize];
             node.bounds.set(i, n.min, n.max);
             node.child[i] = if n.is_leaf() {
                 leaf_ref(n.offset, n.count as u32)
             } else {
                 let index = out.len() as u32;
                 out.push(placeholder());
-                let kid_end = kids.get(i + 1).copied().unwrap_or(end);
+                let kid_end = kids.get(i + 1).map_or(end, |k| k.node);
                 work.push((k, index, kid_end));
                 index
             };
@@ -147,38 +150,10 @@ fn placeholder() -> WideNode {
     }
 }
 
-/// Up to eight binary descendants of inner node `b` that together hold its whole subtree.
-fn gather(nodes: &[BvhNode], b: u32) -> Vec<u32> {
-    let n = &nodes[b as usize];
-    let mut kids = vec![b + 1, n.offset];
-    while kids.len() < WIDTH {
-        let area = |k: u32| {
-            let n = &nodes[k as usize];
-            Aabb {
-                min: n.min,
-                max: n.max,
-            }
-            .half_area()
-        };
-        let Some((pos, _)) = kids
-            .iter()
-            .enumerate()
-            .filter(|(_, &k)| !nodes[k as usize].is_leaf())
-            .max_by(|(_, &a), (_, &b)| area(a).total_cmp(&area(b)))
-        else {
-            break;
-        };
-        let k = kids[pos];
-        let inner = &nodes[k as usize];
-        kids[pos] = k + 1;
-        kids.insert(pos + 1, inner.offset);
-    }
-    kids
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Aabb;
     use crate::accel::bvh::build::build_binary;
 
     fn boxes(n: usize) -> Vec<Aabb> {
@@ -253,6 +228,104 @@ mod tests {
                     bin.nodes.len()
                 );
             }
+        }
+    }
+
+    fn half_area(n: &BvhNode) -> f32 {
+        Aabb {
+            min: n.min,
+            max: n.max,
+        }
+        .half_area()
+    }
+
+    /// The least cost of the wide nodes below every way to cover binary node `b`'s subtree
+    /// with exactly `s` slots, at index `s` (infinite where there is none): `b` alone in one
+    /// slot, or a way for each child side by side. Cost is additive over the slots, so the
+    /// least for each count stands for all the ways of that count.
+    fn covers(nodes: &[BvhNode], b: usize) -> [f32; WIDTH + 1] {
+        let mut all = [f32::INFINITY; WIDTH + 1];
+        let n = &nodes[b];
+        if n.is_leaf() {
+            all[1] = 0.0;
+            return all;
+        }
+        all[1] = best_root(nodes, b);
+        let (l, r) = (covers(nodes, b + 1), covers(nodes, n.offset as usize));
+        for sl in 1..WIDTH {
+            for sr in 1..=WIDTH - sl {
+                all[sl + sr] = all[sl + sr].min(l[sl] + r[sr]);
+            }
+        }
+        all
+    }
+
+    /// The least summed surface of the wide nodes of a tree rooted at inner node `b`.
+    fn best_root(nodes: &[BvhNode], b: usize) -> f32 {
+        let n = &nodes[b];
+        let (l, r) = (covers(nodes, b + 1), covers(nodes, n.offset as usize));
+        let mut best = f32::INFINITY;
+        for sl in 1..WIDTH {
+            for sr in 1..=WIDTH - sl {
+                best = best.min(l[sl] + r[sr]);
+            }
+        }
+        half_area(n) + best
+    }
+
+    /// Boxes at the corners of a tetrahedron, each again cut into four, `depth` times: a tree
+    /// four-ary by construction, like the SPD tetra's.
+    fn tetra_boxes(depth: u32) -> Vec<Aabb> {
+        let corners = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 0.87, 0.0],
+            [0.5, 0.29, 0.82],
+        ];
+        let mut at = vec![([0f32; 3], 1f32)];
+        for _ in 0..depth {
+            at = at
+                .iter()
+                .flat_map(|&(o, size)| {
+                    corners.map(|c| ([0, 1, 2].map(|a| o[a] + c[a] * size / 2.0), size / 2.0))
+                })
+                .collect();
+        }
+        at.iter()
+            .map(|&(o, size)| Aabb {
+                min: o,
+                max: o.map(|v| v + size),
+            })
+            .collect()
+    }
+
+    /// The collapse is the cheapest there is: its wide nodes' summed surface (each node's box
+    /// is its slot's in the parent) equals the least over every collapse ([`best_root`]). The
+    /// greedy rule it replaced (open the largest inner child while a slot is free) is over the
+    /// least by 7.4 % and 5.9 % on the four-ary trees of 256 and 1 024 boxes, by 3.0 % and 2.2 %
+    /// on 300 and 2 000 scattered ones (and on the SPD tetra-6 it made 585 nodes, this 187).
+    #[test]
+    fn collapse_has_the_least_summed_surface() {
+        let sets = [5usize, 17, 40, 300, 2000].map(boxes);
+        for b in sets.iter().chain([&tetra_boxes(4), &tetra_boxes(5)]) {
+            let bin = build_binary(b);
+            let wide = collapse(bin.nodes.clone(), bin.order.len()).expect("collapses");
+            let mut got = half_area(&bin.nodes[0]);
+            for node in &wide {
+                for lane in 0..node.used as usize {
+                    if !is_leaf(node.child[lane]) {
+                        let lo = [0, 1, 2].map(|a| node.bounds.lo[a][lane]);
+                        let hi = [0, 1, 2].map(|a| node.bounds.hi[a][lane]);
+                        got += Aabb { min: lo, max: hi }.half_area();
+                    }
+                }
+            }
+            let want = best_root(&bin.nodes, 0);
+            assert!(
+                (got - want).abs() <= 1e-5 * want,
+                "{} boxes: the collapse's surface {got}, the least {want}",
+                b.len()
+            );
         }
     }
 
