@@ -94,8 +94,8 @@ impl SlotCosts {
     /// Drops the rows of every inner node from index `end` on in the array, given the inner
     /// node `b` whose subtree ends there (its rows are no longer needed).
     pub fn forget_from(&mut self, b: Inner, end: u32) {
-        // The subtree [b, end) is full binary: (end − b + 1) / 2 leaves, one inner node fewer.
-        let keep = b.rank + (end - b.node + 1) / 2 - 1;
+        // The subtree [b, end) is full binary: an odd count of nodes, one more leaf than inner.
+        let keep = b.rank + (end - b.node).div_ceil(2) - 1;
         self.rows.truncate(keep as usize);
         self.rows.shrink_to_fit();
     }
