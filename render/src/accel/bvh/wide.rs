@@ -153,8 +153,8 @@ fn placeholder() -> WideNode {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Aabb;
     use crate::accel::bvh::build::build_binary;
+    use crate::geometry::Aabb;
 
     fn boxes(n: usize) -> Vec<Aabb> {
         (0..n)
@@ -244,17 +244,27 @@ mod tests {
     /// slot, or a way for each child side by side. Cost is additive over the slots, so the
     /// least for each count stands for all the ways of that count.
     fn covers(nodes: &[BvhNode], b: usize) -> [f32; WIDTH + 1] {
-        let mut all = [f32::INFINITY; WIDTH + 1];
         let n = &nodes[b];
         if n.is_leaf() {
-            all[1] = 0.0;
-            return all;
+            let mut one = [f32::INFINITY; WIDTH + 1];
+            one[1] = 0.0;
+            return one;
         }
+        let mut all = side_by_side(nodes, b);
         all[1] = best_root(nodes, b);
-        let (l, r) = (covers(nodes, b + 1), covers(nodes, n.offset as usize));
-        for sl in 1..WIDTH {
-            for sr in 1..=WIDTH - sl {
-                all[sl + sr] = all[sl + sr].min(l[sl] + r[sr]);
+        all
+    }
+
+    /// The ways to cover inner node `b`'s subtree with a way for each child, by slot count.
+    fn side_by_side(nodes: &[BvhNode], b: usize) -> [f32; WIDTH + 1] {
+        let (l, r) = (
+            covers(nodes, b + 1),
+            covers(nodes, nodes[b].offset as usize),
+        );
+        let mut all = [f32::INFINITY; WIDTH + 1];
+        for (sl, cl) in l.iter().enumerate().skip(1) {
+            for (sr, cr) in r.iter().enumerate().skip(1).take(WIDTH - sl) {
+                all[sl + sr] = all[sl + sr].min(cl + cr);
             }
         }
         all
@@ -262,15 +272,10 @@ mod tests {
 
     /// The least summed surface of the wide nodes of a tree rooted at inner node `b`.
     fn best_root(nodes: &[BvhNode], b: usize) -> f32 {
-        let n = &nodes[b];
-        let (l, r) = (covers(nodes, b + 1), covers(nodes, n.offset as usize));
-        let mut best = f32::INFINITY;
-        for sl in 1..WIDTH {
-            for sr in 1..=WIDTH - sl {
-                best = best.min(l[sl] + r[sr]);
-            }
-        }
-        half_area(n) + best
+        let least = side_by_side(nodes, b)
+            .into_iter()
+            .fold(f32::INFINITY, f32::min);
+        half_area(&nodes[b]) + least
     }
 
     /// Boxes at the corners of a tetrahedron, each again cut into four, `depth` times: a tree
