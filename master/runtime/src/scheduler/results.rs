@@ -88,6 +88,7 @@ impl Scheduler {
                 if accepted {
                     if let Some(sink) = &mut self.accepted {
                         sink.push(AcceptedTile {
+                            frame: self.open[p].index,
                             tile_id,
                             pixels: pixels.clone(),
                             stats,
