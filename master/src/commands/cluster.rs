@@ -309,7 +309,6 @@ fn run_master_sequence(
         prepare, refuse_for_sequences, report_frames, through_runtime, SequenceInput,
     };
     refuse_for_sequences(&[
-        ("--checkpoint", args.job.checkpoint.is_some()),
         ("--timeline", args.job.timeline.is_some()),
         ("--http", args.job.live.http.is_some()),
         ("--costly-first", args.order.costly_first.is_some()),
@@ -346,7 +345,7 @@ fn run_master_sequence(
         p.outputs[n - 1].display()
     );
     let mut published = None;
-    let result = through_runtime(&config, &p.as_ref(), None, &mut |bound| {
+    let result = through_runtime("parrt cluster", &config, &p.as_ref(), None, &mut |bound| {
         published = Some(publish(
             args,
             rank,

@@ -260,7 +260,6 @@ fn run_sequence(
         prepare, refuse_for_sequences, report_frames, through_runtime, SequenceInput,
     };
     refuse_for_sequences(&[
-        ("--checkpoint", args.job.checkpoint.is_some()),
         ("--timeline", args.job.timeline.is_some()),
         ("--http", args.job.live.http.is_some()),
         ("--scene-json", args.scene_json.is_some()),
@@ -296,7 +295,7 @@ fn run_sequence(
     config.net.heartbeat_timeout = heartbeat_timeout;
     let n = p.outputs.len();
     let waiting = waiting_line(config.schedule.min_workers, wait_workers);
-    let r = through_runtime(&config, &p.as_ref(), None, &mut |addr| {
+    let r = through_runtime("parrt master", &config, &p.as_ref(), None, &mut |addr| {
         crate::errln!(
             "parrt master: listening on {addr}; {n} frames, tiles of {} px",
             args.tile

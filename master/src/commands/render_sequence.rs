@@ -3,10 +3,11 @@
 //! threads with a window of frames in flight ([`parrt_render::sequence_smp`]), each frame
 //! written to the file the `-o` pattern names for it as soon as it is finished (docs/sequences.md).
 //! With `--workers N` the frames render one after another through N local worker processes
-//! that stay connected for the whole sequence ([`parrt_runtime::run_sequence`]). The flags
-//! that describe one frame's render (`--timeline`, `--tile-costs`, the live view) and
-//! `--checkpoint` are refused. Every frame is checked (its scene read, its settings and size)
-//! before the first is rendered.
+//! that stay connected for the whole sequence ([`parrt_runtime::run_sequence`]), with
+//! `--checkpoint`/`--resume` if asked ([`crate::sequence_checkpoint`]; on this machine's threads
+//! a sequence keeps no checkpoint, as one frame keeps none). The flags that describe one
+//! frame's render (`--timeline`, `--tile-costs`, the live view) are refused. Every frame is
+//! checked (its scene read, its settings and size) before the first is rendered.
 
 use super::render::RenderArgs;
 use super::report::RenderReport;
@@ -15,6 +16,7 @@ use crate::cli_args::output::{check_distinct, check_file_output, check_image_out
 use crate::cli_args::sequence::read_frame_list;
 use crate::cli_args::{ArgError, SceneSpec};
 use crate::exit::input_error;
+use crate::sequence_checkpoint::{ResumableFrames, Resumed};
 use crate::sequence_progress::SequenceProgress;
 use anyhow::Context;
 use parrt_render::nff::Limits;
@@ -180,7 +182,6 @@ fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
         ("--timeline", args.job.timeline.is_some()),
         ("--tile-costs", args.tile_costs.is_some()),
         ("--http", args.job.live.http.is_some()),
-        ("--checkpoint", args.job.checkpoint.is_some()),
     ] {
         if given {
             return conflict(&format!(
@@ -415,7 +416,9 @@ fn render_through_workers(
         settings,
         outputs,
     };
-    let done = through_runtime(&config, &prepared, Some(progress), &mut |_| Ok(None))?;
+    let done = through_runtime("parrt", &config, &prepared, Some(progress), &mut |_| {
+        Ok(None)
+    })?;
     let result = SequenceResult {
         frames: loaded.sequence.len(),
         tiles: done.tiles,
@@ -461,7 +464,7 @@ pub fn refuse_for_sequences(flags: &[(&str, bool)]) -> anyhow::Result<()> {
 
 /// The line `parrt master` and `parrt cluster` end a sequence with: the frames written, the
 /// tiles, the trace time, the rays and the bytes each way.
-pub fn report_frames(who: &str, outputs: &[PathBuf], r: &parrt_runtime::DistResult) {
+pub fn report_frames(who: &str, outputs: &[PathBuf], r: &SequenceDone) {
     let n = outputs.len();
     crate::errln!(
         "{who}: wrote {n} frames ({} … {}; {} tiles in {:.3} s; {} rays; {} bytes out, {} in)",
@@ -475,11 +478,32 @@ pub fn report_frames(who: &str, outputs: &[PathBuf], r: &parrt_runtime::DistResu
     );
 }
 
+/// What a sequence rendered through workers did: summed over its frames, those a resumed
+/// checkpoint had already (their tiles and ray statistics from its records) included.
+pub struct SequenceDone {
+    /// Tiles over every frame.
+    pub tiles: usize,
+    /// Ray statistics over every frame.
+    pub stats: parrt_render::stats::RayStats,
+    /// Wall seconds of this run's trace (0 when nothing was left to render).
+    pub trace_s: f64,
+    /// Bytes sent to the workers.
+    pub bytes_sent: u64,
+    /// Bytes received from them.
+    pub bytes_received: u64,
+    /// The most frames open at once.
+    pub most_open_frames: usize,
+}
+
 /// Renders a prepared sequence through the distributed runtime as `config` says (local
 /// workers, a listen address, a token), every frame on the same workers, each written to its
-/// output as soon as it is complete (the last when the render returns). `on_listen` is
-/// [`parrt_runtime::run`]'s.
+/// output as soon as it is complete (the last when the render returns). With a checkpoint in
+/// `config` (`--checkpoint`, `--resume`) the sequence's checkpoint is opened first
+/// ([`crate::sequence_checkpoint`]) and only the frames it does not hold are rendered.
+/// `on_listen` is [`parrt_runtime::run`]'s; `who` begins the line that says what a resume
+/// found.
 pub fn through_runtime(
+    who: &str,
     config: &parrt_runtime::MasterConfig,
     p: &PreparedRef<'_>,
     progress: Option<&SequenceProgress>,
@@ -487,7 +511,7 @@ pub fn through_runtime(
         std::net::SocketAddr,
     )
         -> Result<Option<std::net::SocketAddr>, parrt_runtime::DistError>,
-) -> anyhow::Result<parrt_runtime::DistResult> {
+) -> anyhow::Result<SequenceDone> {
     let frame_settings: Vec<RenderSettings> = p.settings.iter().map(|(s, _)| s.clone()).collect();
     let write = |k: usize, film: &parrt_render::film::Film| -> anyhow::Result<()> {
         film.save(&p.outputs[k])
@@ -497,18 +521,58 @@ pub fn through_runtime(
         }
         Ok(())
     };
-    let mut frames = super::distributed::SequenceFrames {
-        sequence: &p.loaded.sequence,
-        settings: &frame_settings,
-        write: &write,
+    let mut frames = ResumableFrames::all(&p.loaded.sequence, &frame_settings, p.outputs, &write);
+    let mut before = Resumed::default();
+    let mut config = config.clone();
+    if let Some(at) = config.checkpoint.take() {
+        let secret = config.net.token.as_ref().filter(|_| at.keyed);
+        let opened = frames.with_checkpoint(
+            &at.path,
+            at.resume,
+            secret.map(|t| t.as_bytes()),
+            config.schedule.tile,
+            config.schedule.pixel_format,
+        )?;
+        (frames, before) = opened;
+        if before.resumed {
+            crate::errln!(
+                "{who}: checkpoint {}: {} frames already written, {} assembled from it, {} \
+                 tiles of the others restored, {} bad records dropped",
+                at.path.display(),
+                before.skipped,
+                before.assembled,
+                before.restored_tiles,
+                before.bad_records
+            );
+        }
+    }
+    let mut done = SequenceDone {
+        tiles: before.tiles_before,
+        stats: before.stats_before,
+        trace_s: 0.0,
+        bytes_sent: 0,
+        bytes_received: 0,
+        most_open_frames: 0,
     };
-    let first = p.loaded.sequence.frames()[0].description().into_owned();
+    let (Some(&first), Some(&last)) = (frames.todo().first(), frames.todo().last()) else {
+        frames.close()?;
+        return Ok(done);
+    };
+    let desc = p.loaded.sequence.frames()[first].description().into_owned();
     let job =
-        parrt_runtime::Job::<parrt_runtime::DistError>::ready(first, frame_settings[0].clone());
-    let done = parrt_runtime::run_sequence(config, job, &mut frames, on_listen, None)
+        parrt_runtime::Job::<parrt_runtime::DistError>::ready(desc, frame_settings[first].clone());
+    let r = parrt_runtime::run_sequence(&config, job, &mut frames, on_listen, None)
         .map_err(|e| crate::exit::dist_error(e).context("distributed render failed"))?;
-    write(p.loaded.sequence.len() - 1, &done.result.film)?;
-    Ok(done.result)
+    frames.write_frame(last, &r.result.film)?;
+    frames.close()?;
+    let r = r.result;
+    done.tiles += r.tiles;
+    done.stats += r.stats;
+    done.trace_s = r.trace_s;
+    done.bytes_sent = r.bytes_sent;
+    done.bytes_received = r.bytes_received;
+    done.most_open_frames = r.most_open_frames;
+    Ok(done)
 }
 
 /// Runs `parrt render` of a sequence.

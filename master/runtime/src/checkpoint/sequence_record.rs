@@ -57,6 +57,31 @@ pub struct SequenceScan {
     pub good_len: u64,
 }
 
+impl Written {
+    /// The length and SHA-256 of the file at `path` as it is now.
+    pub fn of_file(path: &Path) -> std::io::Result<Written> {
+        use sha2::{Digest, Sha256};
+        let mut f = File::open(path)?;
+        let mut h = Sha256::new();
+        let mut buf = vec![0u8; 1 << 16];
+        let mut len = 0u64;
+        loop {
+            let n = match f.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            };
+            h.update(&buf[..n]);
+            len += n as u64;
+        }
+        Ok(Written {
+            len,
+            sha256: h.finalize().into(),
+        })
+    }
+}
+
 impl SequenceScan {
     /// Nothing, for a sequence of `frames` frames.
     pub(super) fn new(frames: usize) -> SequenceScan {
