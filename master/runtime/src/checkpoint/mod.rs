@@ -64,7 +64,9 @@ pub use seal::Seal;
 pub use sequence::{
     open_sequence, SequenceKey, SequenceOpened, SEQUENCE_HEADER_LEN, SEQUENCE_MAGIC,
 };
-pub use sequence_record::{scan_sequence, SequenceCheckpoint, SequenceScan, Written};
+pub use sequence_record::{
+    encode_frame_tile, encode_written, scan_sequence, SequenceCheckpoint, SequenceScan, Written,
+};
 
 use crate::file_guard;
 use std::path::PathBuf;
