@@ -536,10 +536,11 @@ pub fn through_runtime(
         (frames, before) = opened;
         if before.resumed {
             crate::errln!(
-                "{who}: checkpoint {}: {} frames already written, {} assembled from it, {} \
-                 tiles of the others restored, {} bad records dropped",
+                "{who}: checkpoint {}: {} of {} frames already written, {} assembled from it, \
+                 {} tiles of the others restored, {} bad records dropped",
                 at.path.display(),
                 before.skipped,
+                p.outputs.len(),
                 before.assembled,
                 before.restored_tiles,
                 before.bad_records

@@ -168,8 +168,8 @@ fn a_sequence_killed_mid_way_and_resumed_is_every_frame_of_the_smp_sequence() {
     ));
     assert!(
         err.contains(&format!(
-            "checkpoint {}: {} frames already written, 1 assembled from it, {partial} tiles of \
-             the others restored, 0 bad records dropped",
+            "checkpoint {}: {} of 3 frames already written, 1 assembled from it, {partial} \
+             tiles of the others restored, 0 bad records dropped",
             ckpt.display(),
             kept.len()
         )),
@@ -336,7 +336,8 @@ fn the_tiles_of_several_partial_frames_are_restored_each_when_its_frame_opens() 
     ));
     assert!(
         err.contains(
-            "0 frames already written, 0 assembled from it, 70 tiles of the others restored"
+            "0 of 3 frames already written, 0 assembled from it, 70 tiles of the others \
+             restored"
         ),
         "{err}"
     );
