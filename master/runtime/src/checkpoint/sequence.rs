@@ -266,3 +266,101 @@ pub fn open_sequence(
         created: false,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::checkpoint::{Written, RECORD_FIXED};
+    use crate::scheduler::AcceptedTile;
+    use parrt_protocol::TilePixels;
+    use parrt_render::stats::RayStats;
+
+    /// Two frames of 20x12 in tiles of 8 (6 tiles each), 8-bit.
+    fn key() -> (SequenceKey, Vec<Vec<Tile>>) {
+        let a = parrt_scenes::generate("balls", Some(1)).unwrap();
+        let b = parrt_scenes::generate("balls", Some(2)).unwrap();
+        let s = RenderSettings::new(20, 12);
+        let k = SequenceKey::new([(&a, &s), (&b, &s)], 8, PixelFormat::Rgb8).unwrap();
+        let t = parrt_render::tile::tiles(20, 12, 8);
+        (k, vec![t.clone(), t])
+    }
+
+    fn tile(frame: usize, t: &Tile) -> AcceptedTile {
+        AcceptedTile {
+            frame,
+            tile_id: t.id,
+            pixels: TilePixels {
+                format: PixelFormat::Rgb8,
+                bytes: vec![frame as u8 + 1; t.pixel_count() * 3],
+            },
+            stats: RayStats {
+                eye_rays: t.pixel_count() as u64,
+                ..RayStats::default()
+            },
+            seconds: 0.5,
+        }
+    }
+
+    #[test]
+    fn the_header_pins_frames_and_order_and_a_changed_byte_is_not_a_header() {
+        let (k, _) = key();
+        assert_eq!((k.frames, k.tiles), (2, 12));
+        let h = k.header();
+        assert_eq!(SequenceKey::parse(&h, &Seal::Plain), Ok(k.clone()));
+        for i in 0..SEQUENCE_HEADER_LEN {
+            let mut bad = h;
+            bad[i] ^= 0x10;
+            assert!(SequenceKey::parse(&bad, &Seal::Plain).is_err(), "byte {i}");
+        }
+        // The same frames in the other order are another sequence.
+        let a = parrt_scenes::generate("balls", Some(1)).unwrap();
+        let b = parrt_scenes::generate("balls", Some(2)).unwrap();
+        let s = RenderSettings::new(20, 12);
+        let swapped = SequenceKey::new([(&b, &s), (&a, &s)], 8, PixelFormat::Rgb8).unwrap();
+        assert_ne!(swapped.scenes, k.scenes);
+    }
+
+    #[test]
+    fn records_come_back_by_frame_and_a_torn_tail_is_cut() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.ckpt");
+        let (k, tiles) = key();
+        let mut o = open_sequence(&p, &k, &tiles, false).unwrap();
+        let w = Written {
+            len: 7,
+            sha256: [3; 32],
+        };
+        o.checkpoint
+            .append(&[tile(0, &tiles[0][0]), tile(1, &tiles[1][4])])
+            .unwrap();
+        o.checkpoint.written(0, &w).unwrap();
+        o.checkpoint.append(&[tile(1, &tiles[1][5])]).unwrap();
+        o.checkpoint.sync().unwrap();
+        drop(o);
+        // A torn last record: cut off on resume, the rest kept.
+        let whole = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &whole[..whole.len() - 5]).unwrap();
+        let o = open_sequence(&p, &k, &tiles, true).unwrap();
+        let s = &o.scan;
+        assert_eq!(s.written, vec![Some(w), None]);
+        let ids = |f: usize| s.tiles[f].iter().map(|t| t.tile_id).collect::<Vec<_>>();
+        assert_eq!((ids(0), ids(1)), (vec![0], vec![4]));
+        assert!(s.tiles[1]
+            .iter()
+            .all(|t| t.frame == 1 && t.pixels.bytes[0] == 2));
+        assert_eq!(s.bad_records, 0);
+        let last = (4 + 5 + RECORD_FIXED + tiles[1][5].pixel_count() * 3 + CHECK_LEN) as u64;
+        assert_eq!(s.cut_bytes, last - 5);
+        drop(o);
+        let len = std::fs::metadata(&p).unwrap().len();
+        assert_eq!(len, whole.len() as u64 - last);
+        // The file keyed with a token is refused to a run without it, left unchanged.
+        let q = dir.path().join("k.ckpt");
+        let keyed = k.clone().sealed_with(b"token");
+        drop(open_sequence(&q, &keyed, &tiles, false).unwrap());
+        let before = std::fs::read(&q).unwrap();
+        let e = open_sequence(&q, &k, &tiles, true).unwrap_err();
+        assert!(matches!(e, CheckpointError::Unauthenticated { .. }), "{e}");
+        assert_eq!(std::fs::read(&q).unwrap(), before);
+    }
+}
