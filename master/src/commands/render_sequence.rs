@@ -5,8 +5,9 @@
 //! With `--workers N` the frames render one after another through N local worker processes
 //! that stay connected for the whole sequence ([`parrt_runtime::run_sequence`]), with
 //! `--checkpoint`/`--resume` if asked ([`crate::sequence_checkpoint`]; on this machine's threads
-//! a sequence keeps no checkpoint, as one frame keeps none). The flags that describe one
-//! frame's render (`--timeline`, `--tile-costs`, the live view) are refused. Every frame is
+//! a sequence keeps no checkpoint, as one frame keeps none), and with `--timeline FILE` its
+//! tiles' timeline, each tile marked with its frame. The flags that describe one frame's
+//! render (`--tile-costs`, the live view) are refused. Every frame is
 //! checked (its scene read, its settings and size) before the first is rendered.
 
 use super::render::RenderArgs;
@@ -179,7 +180,6 @@ fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
         return Err(ArgError::Value("--workers must be at least 1".into()).into());
     }
     for (flag, given) in [
-        ("--timeline", args.job.timeline.is_some()),
         ("--tile-costs", args.tile_costs.is_some()),
         ("--http", args.job.live.http.is_some()),
     ] {
@@ -395,11 +395,12 @@ fn render_through_workers(
     use parrt_runtime::observer::{Observer, Observers};
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
-    let observers = if progress.drawn() {
+    let mut observers = if progress.drawn() {
         Observers(vec![progress.clone() as std::sync::Arc<dyn Observer>])
     } else {
         Observers::default()
     };
+    let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
     let mut config = super::distributed::master_config(super::distributed::MasterSetup {
         observers,
         job: &args.job,
@@ -419,6 +420,13 @@ fn render_through_workers(
     let done = through_runtime("parrt", &config, &prepared, Some(progress), &mut |_| {
         Ok(None)
     })?;
+    write_sequence_timeline(
+        recorder.as_deref(),
+        args.job.timeline.as_deref(),
+        &prepared,
+        args.tile,
+        done.trace_s,
+    )?;
     let result = SequenceResult {
         frames: loaded.sequence.len(),
         tiles: done.tiles,
@@ -428,6 +436,45 @@ fn render_through_workers(
         stopped: false,
     };
     Ok((result, threads))
+}
+
+/// A timeline recorder of a sequence's tiles, each with its frame, added to `observers` when
+/// `--timeline` was given.
+pub fn sequence_recorder(
+    observers: &mut parrt_runtime::observer::Observers,
+    asked: bool,
+) -> Option<std::sync::Arc<crate::timeline::Recorder>> {
+    asked.then(|| {
+        let rec = std::sync::Arc::new(crate::timeline::Recorder::for_sequence());
+        observers.0.push(rec.clone());
+        rec
+    })
+}
+
+/// What a sequence's timeline says of its job: the sequence, frame 0's image, the tile.
+fn sequence_job<'a>(p: &'a PreparedRef<'_>, tile: u32) -> crate::timeline::Job<'a> {
+    let s0 = &p.settings[0].0;
+    crate::timeline::Job {
+        scene: &p.loaded.scene,
+        width: s0.width,
+        height: s0.height,
+        tile_size: tile,
+    }
+}
+
+/// Writes the timeline `rec` recorded of a sequence through workers to `path`, if both are
+/// given.
+pub fn write_sequence_timeline(
+    rec: Option<&crate::timeline::Recorder>,
+    path: Option<&std::path::Path>,
+    p: &PreparedRef<'_>,
+    tile: u32,
+    trace_s: f64,
+) -> anyhow::Result<()> {
+    match (rec, path) {
+        (Some(rec), Some(path)) => rec.timeline(&sequence_job(p, tile), trace_s).write(path),
+        _ => Ok(()),
+    }
 }
 
 /// A prepared sequence, borrowed.
@@ -641,8 +688,29 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         Ok(())
     };
     stop_on_ctrl_c();
-    let result = render_sequence(n, &opts, &build, &write, &|_| progress.tile(), &STOP)?;
+    // With --timeline each tile's span (thread, start, end) is kept, with its frame.
+    let spans = Mutex::new(Vec::new());
+    let keep = args.job.timeline.is_some();
+    let on_tile = |t: parrt_render::sequence_smp::SequenceTile<'_>| {
+        progress.tile();
+        if keep {
+            let mut s = spans.lock().unwrap_or_else(|e| e.into_inner());
+            s.push((t.frame, t.tile.id, t.span));
+        }
+    };
+    let result = render_sequence(n, &opts, &build, &write, &on_tile, &STOP)?;
     progress.finish();
+    if let Some(path) = &args.job.timeline {
+        let p = PreparedRef {
+            loaded: &loaded,
+            settings: &settings,
+            outputs: &outputs,
+        };
+        let spans = spans.into_inner().unwrap_or_else(|e| e.into_inner());
+        let job = sequence_job(&p, args.tile);
+        crate::timeline::Timeline::from_smp_sequence(&job, threads, &spans, result.wall_s)
+            .write(path)?;
+    }
     if result.stopped {
         crate::errln!(
             "parrt: stopped by Ctrl-C; {} of {n} frames written, each complete",
