@@ -89,7 +89,7 @@ impl Scheduler {
                 if accepted {
                     if let Some(sink) = &mut self.accepted {
                         sink.push(AcceptedTile {
-                            frame: self.open[p].index,
+                            frame,
                             tile_id,
                             pixels: pixels.clone(),
                             stats,
