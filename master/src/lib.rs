@@ -28,6 +28,7 @@
 //!   limits, durations, sizes, outputs), each parsed and checked once.
 //! - the master side of distributed rendering is the `parrt_runtime` crate (`master/runtime`).
 //! - [`progress`]: the one progress bar, an observer of every render.
+//! - [`sequence_checkpoint`]: the frames of a sequence through workers, with its checkpoint.
 //! - [`sequence_progress`]: the progress bar of a sequence (tiles and frames).
 //! - [`observed_smp`]: an SMP render reported to the same observers as a distributed one (its
 //!   threads as workers), so every watcher has one input.
@@ -52,6 +53,7 @@ pub mod machine;
 pub mod observed_smp;
 pub mod plot;
 pub mod progress;
+pub mod sequence_checkpoint;
 pub mod sequence_progress;
 pub mod studies;
 pub mod timeline;

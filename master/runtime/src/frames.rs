@@ -7,7 +7,7 @@
 //! sequence did.
 
 use crate::options::MasterConfig;
-use crate::scheduler::{FrameFinished, Scheduler};
+use crate::scheduler::{AcceptedTile, FrameFinished, Scheduler};
 use crate::server::{drive, encode_job, Loop};
 use crate::DistError;
 use parrt_protocol::Encoded;
@@ -28,6 +28,21 @@ pub trait FrameSource {
     /// Frame `k` is complete (every frame but the last, which is the render's result), each
     /// once, as soon as it is: frames may complete out of order.
     fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError>;
+    /// Whether the source keeps the tiles accepted (a checkpoint of the sequence): then it
+    /// is asked for frame `k`'s tiles an earlier run left before the frame opens
+    /// ([`Self::restored`]), and given every tile accepted, with its frame, after each round
+    /// of the master's loop and before the frames completed in it ([`Self::accepted`]).
+    fn keeps_tiles(&self) -> bool {
+        false
+    }
+    /// Frame `k`'s tiles an earlier run left (never all of them).
+    fn restored(&mut self, _k: usize) -> Vec<AcceptedTile> {
+        Vec::new()
+    }
+    /// The tiles accepted in the last round of the master's loop.
+    fn accepted(&mut self, _tiles: Vec<AcceptedTile>) -> Result<(), DistError> {
+        Ok(())
+    }
 }
 
 /// No later frames: the type of a render of one frame.
@@ -89,14 +104,24 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
 ) -> Result<(), DistError> {
     let count = frames.as_ref().map_or(1, |f| f.count());
     let driven = match frames {
-        Some(src) if count > 1 => {
+        Some(src) if count > 1 || src.keeps_tiles() => {
             let (job_id, desc, settings) = first;
-            l.sched.start_frames(
-                config.schedule.frames_window,
-                encode_job(job_id, desc, settings, config)?,
-            );
+            let keeps = src.keeps_tiles();
+            if keeps {
+                l.sched.keep_accepted();
+                l.sched.restore(src.restored(0));
+            }
+            if count > 1 {
+                l.sched.start_frames(
+                    config.schedule.frames_window,
+                    encode_job(job_id, desc, settings, config)?,
+                );
+            }
             let mut next = 1;
             let mut hook = |sched: &mut Scheduler| -> Result<(), DistError> {
+                if keeps {
+                    src.accepted(sched.take_accepted())?;
+                }
                 for (k, done) in sched.take_complete() {
                     if k + 1 == count {
                         seq.last = Some(done);
@@ -109,6 +134,9 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
                     let (job_id, desc, settings, list, job) = open_frame(src, next, rng, config)?;
                     seq.tiles += list.len();
                     sched.push_frame(next, job_id, &settings, desc.lights.len(), list, job);
+                    if keeps {
+                        sched.restore_pending(src.restored(next));
+                    }
                     next += 1;
                 }
                 Ok(())

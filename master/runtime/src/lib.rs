@@ -265,8 +265,9 @@ pub fn run<E: From<DistError>>(
 
 /// [`run`] of a sequence: `job` is frame 0, `frames` gives the later frames and takes each
 /// finished one but the last, which is the result's film ([`Master::render_sequence`]). The
-/// workers stay connected from the first frame to the last. A checkpoint is refused with a
-/// sequence of more than one frame (it holds one image).
+/// workers stay connected from the first frame to the last. `config.checkpoint` (one image's)
+/// is refused with a sequence of more than one frame: a sequence's checkpoint is kept by
+/// `frames` ([`FrameSource::keeps_tiles`], [`checkpoint::open_sequence`]).
 pub fn run_sequence<E: From<DistError>>(
     config: &MasterConfig,
     job: Job<'_, E>,
@@ -287,7 +288,9 @@ fn run_frames<E: From<DistError>>(
     if config.checkpoint.is_some() && frames.as_ref().is_some_and(|f| f.count() > 1) {
         return Err(DistError::Frame {
             frame: 0,
-            reason: "a checkpoint holds one frame; a sequence cannot be checkpointed yet".into(),
+            reason: "a one-frame checkpoint cannot hold a sequence; a sequence's checkpoint is \
+                     kept by its frames (FrameSource::keeps_tiles, checkpoint::open_sequence)"
+                .into(),
         }
         .into());
     }

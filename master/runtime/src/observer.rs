@@ -34,6 +34,34 @@ pub trait Observer: Send + Sync {
         accepted: bool,
     ) {
     }
+    /// [`Self::assigned`] of a tile of frame `frame` of a sequence (0 for one frame): what
+    /// the scheduler calls; an observer that tells frames apart overrides it.
+    fn assigned_in(
+        &self,
+        frame: usize,
+        id: WorkerId,
+        tile: &Tile,
+        attempt: u32,
+        backup: bool,
+        now: Instant,
+    ) {
+        self.assigned(id, tile, attempt, backup, now)
+    }
+    /// [`Self::result`] of a tile of frame `frame` of a sequence (0 for one frame): what the
+    /// scheduler calls; an observer that tells frames apart overrides it.
+    #[allow(clippy::too_many_arguments)]
+    fn result_in(
+        &self,
+        frame: usize,
+        id: WorkerId,
+        tile: &Tile,
+        pixels: &[Rgb],
+        stats: &RayStats,
+        seconds: f64,
+        accepted: bool,
+    ) {
+        self.result(id, tile, pixels, stats, seconds, accepted)
+    }
     /// A tile went back to the queue.
     fn requeued(&self, tile_id: u32) {}
     /// A worker left or was dropped; its tiles are requeued next.

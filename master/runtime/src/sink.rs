@@ -158,6 +158,7 @@ mod tests {
 
     fn tile(id: u32) -> AcceptedTile {
         AcceptedTile {
+            frame: 0,
             tile_id: id,
             pixels: TilePixels {
                 format: PixelFormat::Rgb8,

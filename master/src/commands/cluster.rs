@@ -306,11 +306,10 @@ fn run_master_sequence(
     timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
     use super::render_sequence::{
-        prepare, refuse_for_sequences, report_frames, through_runtime, SequenceInput,
+        prepare, refuse_for_sequences, report_frames, sequence_recorder, through_runtime,
+        write_sequence_timeline, SequenceInput,
     };
     refuse_for_sequences(&[
-        ("--checkpoint", args.job.checkpoint.is_some()),
-        ("--timeline", args.job.timeline.is_some()),
         ("--http", args.job.live.http.is_some()),
         ("--costly-first", args.order.costly_first.is_some()),
     ])?;
@@ -326,8 +325,10 @@ fn run_master_sequence(
         stats_json: &None,
     })?;
     let (token_text, token) = fresh_token()?;
+    let mut observers = parrt_runtime::observer::Observers::default();
+    let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
     let mut config = master_config(MasterSetup {
-        observers: Default::default(),
+        observers,
         job: &args.job,
         keyed: false,
         tile: args.tile,
@@ -346,7 +347,7 @@ fn run_master_sequence(
         p.outputs[n - 1].display()
     );
     let mut published = None;
-    let result = through_runtime(&config, &p.as_ref(), None, &mut |bound| {
+    let result = through_runtime("parrt cluster", &config, &p.as_ref(), None, &mut |bound| {
         published = Some(publish(
             args,
             rank,
@@ -361,6 +362,13 @@ fn run_master_sequence(
     });
     drop(published);
     let r = result?;
+    write_sequence_timeline(
+        recorder.as_deref(),
+        args.job.timeline.as_deref(),
+        &p.as_ref(),
+        args.tile,
+        r.trace_s,
+    )?;
     report_frames("parrt cluster", &p.outputs, &r);
     Ok(ExitCode::SUCCESS)
 }

@@ -257,11 +257,10 @@ fn run_sequence(
     heartbeat_timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
     use super::render_sequence::{
-        prepare, refuse_for_sequences, report_frames, through_runtime, SequenceInput,
+        prepare, refuse_for_sequences, report_frames, sequence_recorder, through_runtime,
+        write_sequence_timeline, SequenceInput,
     };
     refuse_for_sequences(&[
-        ("--checkpoint", args.job.checkpoint.is_some()),
-        ("--timeline", args.job.timeline.is_some()),
         ("--http", args.job.live.http.is_some()),
         ("--scene-json", args.scene_json.is_some()),
         ("--report-json", args.report_json.is_some()),
@@ -277,8 +276,10 @@ fn run_sequence(
         output: &args.output,
         stats_json: &None,
     })?;
+    let mut observers = parrt_runtime::observer::Observers::default();
+    let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
     let mut config = master_config(MasterSetup {
-        observers: Default::default(),
+        observers,
         job: &args.job,
         keyed: true,
         tile: args.tile,
@@ -296,7 +297,7 @@ fn run_sequence(
     config.net.heartbeat_timeout = heartbeat_timeout;
     let n = p.outputs.len();
     let waiting = waiting_line(config.schedule.min_workers, wait_workers);
-    let r = through_runtime(&config, &p.as_ref(), None, &mut |addr| {
+    let r = through_runtime("parrt master", &config, &p.as_ref(), None, &mut |addr| {
         crate::errln!(
             "parrt master: listening on {addr}; {n} frames, tiles of {} px",
             args.tile
@@ -304,6 +305,13 @@ fn run_sequence(
         crate::errln!("parrt master: {waiting}");
         Ok(None)
     })?;
+    write_sequence_timeline(
+        recorder.as_deref(),
+        args.job.timeline.as_deref(),
+        &p.as_ref(),
+        args.tile,
+        r.trace_s,
+    )?;
     report_frames("parrt master", &p.outputs, &r);
     Ok(ExitCode::SUCCESS)
 }

@@ -3,10 +3,12 @@
 //! threads with a window of frames in flight ([`parrt_render::sequence_smp`]), each frame
 //! written to the file the `-o` pattern names for it as soon as it is finished (docs/sequences.md).
 //! With `--workers N` the frames render one after another through N local worker processes
-//! that stay connected for the whole sequence ([`parrt_runtime::run_sequence`]). The flags
-//! that describe one frame's render (`--timeline`, `--tile-costs`, the live view) and
-//! `--checkpoint` are refused. Every frame is checked (its scene read, its settings and size)
-//! before the first is rendered.
+//! that stay connected for the whole sequence ([`parrt_runtime::run_sequence`]), with
+//! `--checkpoint`/`--resume` if asked ([`crate::sequence_checkpoint`]; on this machine's threads
+//! a sequence keeps no checkpoint, as one frame keeps none), and with `--timeline FILE` its
+//! tiles' timeline, each tile marked with its frame. The flags that describe one frame's
+//! render (`--tile-costs`, the live view) are refused. Every frame is
+//! checked (its scene read, its settings and size) before the first is rendered.
 
 use super::render::RenderArgs;
 use super::report::RenderReport;
@@ -15,6 +17,7 @@ use crate::cli_args::output::{check_distinct, check_file_output, check_image_out
 use crate::cli_args::sequence::read_frame_list;
 use crate::cli_args::{ArgError, SceneSpec};
 use crate::exit::input_error;
+use crate::sequence_checkpoint::{ResumableFrames, Resumed};
 use crate::sequence_progress::SequenceProgress;
 use anyhow::Context;
 use parrt_render::nff::Limits;
@@ -177,10 +180,8 @@ fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
         return Err(ArgError::Value("--workers must be at least 1".into()).into());
     }
     for (flag, given) in [
-        ("--timeline", args.job.timeline.is_some()),
         ("--tile-costs", args.tile_costs.is_some()),
         ("--http", args.job.live.http.is_some()),
-        ("--checkpoint", args.job.checkpoint.is_some()),
     ] {
         if given {
             return conflict(&format!(
@@ -394,11 +395,12 @@ fn render_through_workers(
     use parrt_runtime::observer::{Observer, Observers};
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
-    let observers = if progress.drawn() {
+    let mut observers = if progress.drawn() {
         Observers(vec![progress.clone() as std::sync::Arc<dyn Observer>])
     } else {
         Observers::default()
     };
+    let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
     let mut config = super::distributed::master_config(super::distributed::MasterSetup {
         observers,
         job: &args.job,
@@ -415,7 +417,16 @@ fn render_through_workers(
         settings,
         outputs,
     };
-    let done = through_runtime(&config, &prepared, Some(progress), &mut |_| Ok(None))?;
+    let done = through_runtime("parrt", &config, &prepared, Some(progress), &mut |_| {
+        Ok(None)
+    })?;
+    write_sequence_timeline(
+        recorder.as_deref(),
+        args.job.timeline.as_deref(),
+        &prepared,
+        args.tile,
+        done.trace_s,
+    )?;
     let result = SequenceResult {
         frames: loaded.sequence.len(),
         tiles: done.tiles,
@@ -425,6 +436,45 @@ fn render_through_workers(
         stopped: false,
     };
     Ok((result, threads))
+}
+
+/// A timeline recorder of a sequence's tiles, each with its frame, added to `observers` when
+/// `--timeline` was given.
+pub fn sequence_recorder(
+    observers: &mut parrt_runtime::observer::Observers,
+    asked: bool,
+) -> Option<std::sync::Arc<crate::timeline::Recorder>> {
+    asked.then(|| {
+        let rec = std::sync::Arc::new(crate::timeline::Recorder::for_sequence());
+        observers.0.push(rec.clone());
+        rec
+    })
+}
+
+/// What a sequence's timeline says of its job: the sequence, frame 0's image, the tile.
+fn sequence_job<'a>(p: &'a PreparedRef<'_>, tile: u32) -> crate::timeline::Job<'a> {
+    let s0 = &p.settings[0].0;
+    crate::timeline::Job {
+        scene: &p.loaded.scene,
+        width: s0.width,
+        height: s0.height,
+        tile_size: tile,
+    }
+}
+
+/// Writes the timeline `rec` recorded of a sequence through workers to `path`, if both are
+/// given.
+pub fn write_sequence_timeline(
+    rec: Option<&crate::timeline::Recorder>,
+    path: Option<&std::path::Path>,
+    p: &PreparedRef<'_>,
+    tile: u32,
+    trace_s: f64,
+) -> anyhow::Result<()> {
+    match (rec, path) {
+        (Some(rec), Some(path)) => rec.timeline(&sequence_job(p, tile), trace_s).write(path),
+        _ => Ok(()),
+    }
 }
 
 /// A prepared sequence, borrowed.
@@ -461,7 +511,7 @@ pub fn refuse_for_sequences(flags: &[(&str, bool)]) -> anyhow::Result<()> {
 
 /// The line `parrt master` and `parrt cluster` end a sequence with: the frames written, the
 /// tiles, the trace time, the rays and the bytes each way.
-pub fn report_frames(who: &str, outputs: &[PathBuf], r: &parrt_runtime::DistResult) {
+pub fn report_frames(who: &str, outputs: &[PathBuf], r: &SequenceDone) {
     let n = outputs.len();
     crate::errln!(
         "{who}: wrote {n} frames ({} … {}; {} tiles in {:.3} s; {} rays; {} bytes out, {} in)",
@@ -475,11 +525,32 @@ pub fn report_frames(who: &str, outputs: &[PathBuf], r: &parrt_runtime::DistResu
     );
 }
 
+/// What a sequence rendered through workers did: summed over its frames, those a resumed
+/// checkpoint had already (their tiles and ray statistics from its records) included.
+pub struct SequenceDone {
+    /// Tiles over every frame.
+    pub tiles: usize,
+    /// Ray statistics over every frame.
+    pub stats: parrt_render::stats::RayStats,
+    /// Wall seconds of this run's trace (0 when nothing was left to render).
+    pub trace_s: f64,
+    /// Bytes sent to the workers.
+    pub bytes_sent: u64,
+    /// Bytes received from them.
+    pub bytes_received: u64,
+    /// The most frames open at once.
+    pub most_open_frames: usize,
+}
+
 /// Renders a prepared sequence through the distributed runtime as `config` says (local
 /// workers, a listen address, a token), every frame on the same workers, each written to its
-/// output as soon as it is complete (the last when the render returns). `on_listen` is
-/// [`parrt_runtime::run`]'s.
+/// output as soon as it is complete (the last when the render returns). With a checkpoint in
+/// `config` (`--checkpoint`, `--resume`) the sequence's checkpoint is opened first
+/// ([`crate::sequence_checkpoint`]) and only the frames it does not hold are rendered.
+/// `on_listen` is [`parrt_runtime::run`]'s; `who` begins the line that says what a resume
+/// found.
 pub fn through_runtime(
+    who: &str,
     config: &parrt_runtime::MasterConfig,
     p: &PreparedRef<'_>,
     progress: Option<&SequenceProgress>,
@@ -487,7 +558,7 @@ pub fn through_runtime(
         std::net::SocketAddr,
     )
         -> Result<Option<std::net::SocketAddr>, parrt_runtime::DistError>,
-) -> anyhow::Result<parrt_runtime::DistResult> {
+) -> anyhow::Result<SequenceDone> {
     let frame_settings: Vec<RenderSettings> = p.settings.iter().map(|(s, _)| s.clone()).collect();
     let write = |k: usize, film: &parrt_render::film::Film| -> anyhow::Result<()> {
         film.save(&p.outputs[k])
@@ -497,18 +568,59 @@ pub fn through_runtime(
         }
         Ok(())
     };
-    let mut frames = super::distributed::SequenceFrames {
-        sequence: &p.loaded.sequence,
-        settings: &frame_settings,
-        write: &write,
+    let mut frames = ResumableFrames::all(&p.loaded.sequence, &frame_settings, p.outputs, &write);
+    let mut before = Resumed::default();
+    let mut config = config.clone();
+    if let Some(at) = config.checkpoint.take() {
+        let secret = config.net.token.as_ref().filter(|_| at.keyed);
+        let opened = frames.with_checkpoint(
+            &at.path,
+            at.resume,
+            secret.map(|t| t.as_bytes()),
+            config.schedule.tile,
+            config.schedule.pixel_format,
+        )?;
+        (frames, before) = opened;
+        if before.resumed {
+            crate::errln!(
+                "{who}: checkpoint {}: {} of {} frames already written, {} assembled from it, \
+                 {} tiles of the others restored, {} bad records dropped",
+                at.path.display(),
+                before.skipped,
+                p.outputs.len(),
+                before.assembled,
+                before.restored_tiles,
+                before.bad_records
+            );
+        }
+    }
+    let mut done = SequenceDone {
+        tiles: before.tiles_before,
+        stats: before.stats_before,
+        trace_s: 0.0,
+        bytes_sent: 0,
+        bytes_received: 0,
+        most_open_frames: 0,
     };
-    let first = p.loaded.sequence.frames()[0].description().into_owned();
+    let (Some(&first), Some(&last)) = (frames.todo().first(), frames.todo().last()) else {
+        frames.close()?;
+        return Ok(done);
+    };
+    let desc = p.loaded.sequence.frames()[first].description().into_owned();
     let job =
-        parrt_runtime::Job::<parrt_runtime::DistError>::ready(first, frame_settings[0].clone());
-    let done = parrt_runtime::run_sequence(config, job, &mut frames, on_listen, None)
+        parrt_runtime::Job::<parrt_runtime::DistError>::ready(desc, frame_settings[first].clone());
+    let r = parrt_runtime::run_sequence(&config, job, &mut frames, on_listen, None)
         .map_err(|e| crate::exit::dist_error(e).context("distributed render failed"))?;
-    write(p.loaded.sequence.len() - 1, &done.result.film)?;
-    Ok(done.result)
+    frames.write_frame(last, &r.result.film)?;
+    frames.close()?;
+    let r = r.result;
+    done.tiles += r.tiles;
+    done.stats += r.stats;
+    done.trace_s = r.trace_s;
+    done.bytes_sent = r.bytes_sent;
+    done.bytes_received = r.bytes_received;
+    done.most_open_frames = r.most_open_frames;
+    Ok(done)
 }
 
 /// Runs `parrt render` of a sequence.
@@ -576,8 +688,29 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         Ok(())
     };
     stop_on_ctrl_c();
-    let result = render_sequence(n, &opts, &build, &write, &|_| progress.tile(), &STOP)?;
+    // With --timeline each tile's span (thread, start, end) is kept, with its frame.
+    let spans = Mutex::new(Vec::new());
+    let keep = args.job.timeline.is_some();
+    let on_tile = |t: parrt_render::sequence_smp::SequenceTile<'_>| {
+        progress.tile();
+        if keep {
+            let mut s = spans.lock().unwrap_or_else(|e| e.into_inner());
+            s.push((t.frame, t.tile.id, t.span));
+        }
+    };
+    let result = render_sequence(n, &opts, &build, &write, &on_tile, &STOP)?;
     progress.finish();
+    if let Some(path) = &args.job.timeline {
+        let p = PreparedRef {
+            loaded: &loaded,
+            settings: &settings,
+            outputs: &outputs,
+        };
+        let spans = spans.into_inner().unwrap_or_else(|e| e.into_inner());
+        let job = sequence_job(&p, args.tile);
+        crate::timeline::Timeline::from_smp_sequence(&job, threads, &spans, result.wall_s)
+            .write(path)?;
+    }
     if result.stopped {
         crate::errln!(
             "parrt: stopped by Ctrl-C; {} of {n} frames written, each complete",

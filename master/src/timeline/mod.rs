@@ -92,6 +92,9 @@ pub struct TileRecord {
     pub end_s: f64,
     /// How this copy came about.
     pub attempt: Attempt,
+    /// The tile's frame in a sequence (none for a render of one frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame: Option<u32>,
 }
 
 /// What happened besides tiles.
@@ -187,6 +190,9 @@ pub struct Row {
 
 /// The header of the CSV form.
 pub const CSV_HEADER: &str = "record,tile,worker,thread,assigned_s,start_s,end_s,attempt,detail";
+/// The header of the CSV form of a sequence: a tile's frame in one more column.
+pub const CSV_HEADER_FRAMES: &str =
+    "record,tile,worker,thread,assigned_s,start_s,end_s,attempt,detail,frame";
 
 /// Where the render ran: what the titles of plots name.
 pub struct Job<'a> {
@@ -219,6 +225,7 @@ impl Timeline {
                 start_s: s.start_s,
                 end_s: s.end_s,
                 attempt: Attempt::First,
+                frame: None,
             })
             .collect();
         tiles.sort_by(|a, b| a.end_s.total_cmp(&b.end_s));
@@ -235,6 +242,32 @@ impl Timeline {
             trace_s,
             ..Timeline::header(job)
         }
+    }
+
+    /// The timeline of an SMP sequence from its tiles (frame, tile id, span), in any order;
+    /// `job` is frame 0's.
+    pub fn from_smp_sequence(
+        job: &Job<'_>,
+        threads: usize,
+        spans: &[(usize, u32, parrt_render::smp::TileSpan)],
+        trace_s: f64,
+    ) -> Self {
+        let mut t = Timeline::from_smp(job, threads, &[], trace_s);
+        t.tiles = spans
+            .iter()
+            .map(|&(frame, tile, s)| TileRecord {
+                tile,
+                worker: format!("thread {}", s.thread),
+                thread: Some(s.thread),
+                assigned_s: None,
+                start_s: s.start_s,
+                end_s: s.end_s,
+                attempt: Attempt::First,
+                frame: u32::try_from(frame).ok(),
+            })
+            .collect();
+        t.tiles.sort_by(|a, b| a.end_s.total_cmp(&b.end_s));
+        t
     }
 
     /// An empty timeline of `job` on this machine.
@@ -301,11 +334,19 @@ impl Timeline {
             out += &format!("# row={} threads={}\n", one_line(&r.worker), r.threads);
         }
         let mut w = csv::Writer::from_writer(Vec::new());
-        w.write_record(CSV_HEADER.split(','))?;
+        // A sequence's timeline has one more column, a tile's frame; one frame's keeps the
+        // columns it always had.
+        let frames = self.tiles.iter().any(|t| t.frame.is_some());
+        let header = if frames {
+            CSV_HEADER_FRAMES
+        } else {
+            CSV_HEADER
+        };
+        w.write_record(header.split(','))?;
         let opt = |v: Option<f64>| v.map(|v| format!("{v:.6}")).unwrap_or_default();
         let id = |v: Option<u32>| v.map(|v| v.to_string()).unwrap_or_default();
         for t in &self.tiles {
-            w.write_record([
+            let fields = [
                 "tile",
                 &t.tile.to_string(),
                 &one_line(&t.worker),
@@ -315,11 +356,13 @@ impl Timeline {
                 &format!("{:.6}", t.end_s),
                 t.attempt.name(),
                 "",
-            ])?;
+                &id(t.frame),
+            ];
+            w.write_record(&fields[..if frames { 10 } else { 9 }])?;
         }
         for e in &self.events {
             let t = format!("{:.6}", e.t_s);
-            w.write_record([
+            let fields = [
                 e.kind.name(),
                 &id(e.tile),
                 &one_line(e.worker.as_deref().unwrap_or("")),
@@ -329,7 +372,9 @@ impl Timeline {
                 &t,
                 "",
                 &one_line(&e.detail),
-            ])?;
+                "",
+            ];
+            w.write_record(&fields[..if frames { 10 } else { 9 }])?;
         }
         out += &String::from_utf8(w.into_inner()?)?;
         Ok(out)
@@ -360,15 +405,17 @@ impl Timeline {
         let header = reader
             .headers()
             .map_err(|e| anyhow::anyhow!("line {}: {e}", line_of(e.position())))?;
-        if header.iter().ne(CSV_HEADER.split(',')) {
+        let frames = header.iter().eq(CSV_HEADER_FRAMES.split(','));
+        if header.iter().ne(CSV_HEADER.split(',')) && !frames {
             anyhow::bail!("line {}: not the `{CSV_HEADER}` line", skipped + 1);
         }
+        let fields = if frames { 10 } else { 9 };
         for record in reader.records() {
             let f = record.map_err(|e| anyhow::anyhow!("line {}: {e}", line_of(e.position())))?;
             let n = line_of(f.position());
             let bad = |what: &str| anyhow::anyhow!("line {n}: {what}");
-            if f.len() != 9 {
-                return Err(bad("expected 9 fields"));
+            if f.len() != fields {
+                return Err(bad(&format!("expected {fields} fields")));
             }
             let num = |s: &str| -> anyhow::Result<Option<f64>> {
                 if s.is_empty() {
@@ -396,6 +443,10 @@ impl Timeline {
                     start_s: start,
                     end_s: num(&f[6])?.ok_or_else(|| bad("missing end_s"))?,
                     attempt: Attempt::parse(&f[7]).ok_or_else(|| bad("unknown attempt"))?,
+                    frame: match f.get(9) {
+                        Some(v) if !v.is_empty() => Some(v.parse().map_err(|_| bad("bad frame"))?),
+                        _ => None,
+                    },
                 });
             } else {
                 tl.events.push(TimelineEvent {
@@ -488,6 +539,7 @@ mod tests {
                 start_s: 0.5,
                 end_s: 0.75,
                 attempt: Attempt::Backup,
+                frame: None,
             }],
             events: vec![TimelineEvent {
                 t_s: -0.5,
@@ -514,6 +566,25 @@ mod tests {
             ),
             "{text}"
         );
+    }
+
+    /// A sequence's timeline: one more column, the tile's frame, in CSV and in JSON.
+    #[test]
+    fn a_sequences_frames_round_trip_in_csv_and_json() {
+        let mut t = sample();
+        t.tiles[0].frame = Some(2);
+        let text = t.to_csv().expect("writes");
+        assert!(text.contains(CSV_HEADER_FRAMES), "{text}");
+        assert!(
+            text.contains("\ntile,3,\"w,1\",,0.250000,0.500000,0.750000,backup,,2\n"),
+            "{text}"
+        );
+        assert_eq!(Timeline::from_csv(&text).expect("parses"), t);
+        let json = serde_json::to_string(&t).unwrap();
+        assert!(json.contains("\"frame\":2"), "{json}");
+        assert_eq!(serde_json::from_str::<Timeline>(&json).unwrap(), t);
+        // One frame's JSON has no frame at all.
+        assert!(!serde_json::to_string(&sample()).unwrap().contains("frame"));
     }
 
     #[test]

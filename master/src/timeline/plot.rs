@@ -1,7 +1,8 @@
 //! The timeline plot: a row per render thread (SMP) or per worker thread (distributed), a bar
 //! per tile from its start to its end, so idle gaps and the tail of a render show; requeued,
-//! backup and ignored duplicate copies in their own colours, faults as red marks. SVG and PNG
-//! with plotters, titled with the scene, size and machine.
+//! backup and ignored duplicate copies in their own colours, faults as red marks, and in a
+//! sequence a line where each frame was complete, labelled with the frame. SVG and PNG with
+//! plotters, titled with the scene, size and machine.
 
 use super::{Attempt, Timeline};
 use anyhow::Context;
@@ -224,6 +225,7 @@ where
     .map_err(err)?;
     draw_tiles(&mut ctx, t, &lanes, text)?;
     draw_faults(&mut ctx, t, &lanes, text)?;
+    draw_frames(&mut ctx, t, &lanes, text)?;
     if text {
         ctx.configure_series_labels()
             .background_style(WHITE.mix(0.9))
@@ -310,6 +312,53 @@ where
     Ok(())
 }
 
+/// When each frame of a sequence was complete: its last tile in the image, by frame.
+pub fn frame_ends(t: &Timeline) -> Vec<(u32, f64)> {
+    let mut ends = std::collections::BTreeMap::new();
+    for r in t
+        .tiles
+        .iter()
+        .filter(|r| r.attempt != Attempt::DuplicateIgnored)
+    {
+        if let Some(f) = r.frame {
+            let e = ends.entry(f).or_insert(r.end_s);
+            *e = r.end_s.max(*e);
+        }
+    }
+    ends.into_iter().collect()
+}
+
+/// A sequence's frames: a dark line over every lane where each frame was complete, labelled
+/// with the frame (tiles of frame k+1 to the left of frame k's line filled its tail).
+fn draw_frames<DB: DrawingBackend>(
+    ctx: &mut Chart<'_, DB>,
+    t: &Timeline,
+    lanes: &Lanes,
+    text: bool,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let ends = frame_ends(t);
+    let top = lanes.lanes as f64;
+    let anno = ctx
+        .draw_series(ends.iter().map(|&(_, x)| {
+            PathElement::new(vec![(x, 0.0), (x, top)], BLACK.mix(0.7).stroke_width(2))
+        }))
+        .map_err(err)?;
+    if text && !ends.is_empty() {
+        anno.label("frame complete").legend(|(x, y)| {
+            PathElement::new(vec![(x + 7, y - 6), (x + 7, y + 6)], BLACK.stroke_width(2))
+        });
+        ctx.draw_series(
+            ends.iter()
+                .map(|&(f, x)| Text::new(format!(" {f}"), (x, top - 0.02), ("sans-serif", 12))),
+        )
+        .map_err(err)?;
+    }
+    Ok(())
+}
+
 /// The plot's size: wide, and tall enough for its lanes.
 fn size(t: &Timeline) -> (u32, u32) {
     let lanes = layout(t).lanes as u32;
@@ -371,6 +420,7 @@ mod tests {
             start_s: start,
             end_s: end,
             attempt: Attempt::First,
+            frame: None,
         }
     }
 

@@ -13,6 +13,7 @@ use tokio::time::Instant;
 
 /// A tile result as it came, with raw instants.
 struct RawTile {
+    frame: usize,
     tile: u32,
     worker: WorkerId,
     assigned: Option<Instant>,
@@ -34,8 +35,8 @@ struct Inner {
     origin: Option<Instant>,
     /// Unique labels of workers by id, in joining order.
     workers: Vec<(WorkerId, String, u32)>,
-    /// Live assignments: (worker, tile) → (when, attempt, backup).
-    assigned: HashMap<(WorkerId, u32), (Instant, u32, bool)>,
+    /// Live assignments: (worker, frame, tile) → (when, attempt, backup).
+    assigned: HashMap<(WorkerId, usize, u32), (Instant, u32, bool)>,
     tiles: Vec<RawTile>,
     events: Vec<RawEvent>,
 }
@@ -44,6 +45,8 @@ struct Inner {
 #[derive(Default)]
 pub struct Recorder {
     inner: Mutex<Inner>,
+    /// Whether the render is a sequence: each tile's frame is then recorded.
+    sequence: bool,
 }
 
 /// Signed seconds from `origin` to `t`.
@@ -59,6 +62,14 @@ impl Recorder {
     /// A recorder with nothing recorded.
     pub fn new() -> Self {
         Recorder::default()
+    }
+
+    /// A recorder of a sequence: each tile record says its frame.
+    pub fn for_sequence() -> Self {
+        Recorder {
+            sequence: true,
+            ..Recorder::default()
+        }
     }
 
     fn with<R>(&self, f: impl FnOnce(&mut Inner) -> R) -> R {
@@ -109,6 +120,7 @@ impl Recorder {
                             start_s,
                             end_s,
                             attempt: t.attempt,
+                            frame: self.sequence.then(|| u32::try_from(t.frame).ok()).flatten(),
                         }
                     })
                     .collect(),
@@ -164,13 +176,39 @@ impl Observer for Recorder {
     }
 
     fn assigned(&self, id: WorkerId, tile: &Tile, attempt: u32, backup: bool, now: Instant) {
+        self.assigned_in(0, id, tile, attempt, backup, now);
+    }
+
+    fn assigned_in(
+        &self,
+        frame: usize,
+        id: WorkerId,
+        tile: &Tile,
+        attempt: u32,
+        backup: bool,
+        now: Instant,
+    ) {
         self.with(|i| {
-            i.assigned.insert((id, tile.id), (now, attempt, backup));
+            i.assigned
+                .insert((id, frame, tile.id), (now, attempt, backup));
         });
     }
 
     fn result(
         &self,
+        id: WorkerId,
+        tile: &Tile,
+        pixels: &[Rgb],
+        stats: &RayStats,
+        seconds: f64,
+        accepted: bool,
+    ) {
+        self.result_in(0, id, tile, pixels, stats, seconds, accepted);
+    }
+
+    fn result_in(
+        &self,
+        frame: usize,
         id: WorkerId,
         tile: &Tile,
         _pixels: &[Rgb],
@@ -180,7 +218,7 @@ impl Observer for Recorder {
     ) {
         let end = Instant::now();
         self.with(|i| {
-            let a = i.assigned.remove(&(id, tile.id));
+            let a = i.assigned.remove(&(id, frame, tile.id));
             let attempt = match a {
                 _ if !accepted => Attempt::DuplicateIgnored,
                 Some((_, _, true)) => Attempt::Backup,
@@ -188,6 +226,7 @@ impl Observer for Recorder {
                 _ => Attempt::First,
             };
             i.tiles.push(RawTile {
+                frame,
                 tile: tile.id,
                 worker: id,
                 assigned: a.map(|a| a.0),

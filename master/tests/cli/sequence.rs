@@ -253,17 +253,9 @@ fn output_patterns_and_sequence_flags_are_checked_before_any_work() {
          several files or --frames-from",
     );
     refused(
-        &[
-            &a,
-            &b,
-            "--workers",
-            "2",
-            "--checkpoint",
-            &format!("{d}/c.ckpt"),
-            "-o",
-            &out,
-        ],
-        "--checkpoint is not available for sequences yet; render the frame alone for it",
+        &[&a, &b, "--checkpoint", &format!("{d}/c.ckpt"), "-o", &out],
+        "--checkpoint records the tiles of a render through workers; add --workers N (a render \
+         on this machine's threads keeps no checkpoint)",
     );
     refused(
         &[&a, &b, "--workers", "0", "-o", &out],

@@ -1,5 +1,6 @@
 //! Distributed rendering, one test binary with a file per subject: the image equals SMP
 //! (`identical`), worker faults (`faults`), the master killed and resumed (`checkpoint`),
+//! a sequence's master killed and resumed (`sequence_checkpoint`),
 //! cluster launchers and the emulated cluster (`cluster_launch`, `cluster_emulated`), the
 //! command lines (`cli`), and hostile or careless peers by what they attack: the token
 //! (`token`), the handshake (`handshake`), frames after it (`frames`) and what a peer can cost
@@ -22,6 +23,7 @@ mod limits;
 mod order;
 mod peers;
 mod relay;
+mod sequence_checkpoint;
 mod squatting;
 mod tiers;
 mod token;

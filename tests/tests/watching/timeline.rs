@@ -142,3 +142,78 @@ fn distributed_timeline_csv_names_the_workers_and_plots() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2), "not a timeline is bad input");
 }
+
+/// The (frame, tile) of every tile record of `v` that is in the image (not an ignored
+/// duplicate), sorted.
+fn frame_tiles(v: &serde_json::Value) -> Vec<(u64, u64)> {
+    let mut got: Vec<(u64, u64)> = v["tiles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|t| t["attempt"] != "duplicate-ignored")
+        .map(|t| {
+            let frame = t["frame"]
+                .as_u64()
+                .unwrap_or_else(|| panic!("no frame: {t}"));
+            (frame, t["tile"].as_u64().unwrap())
+        })
+        .collect();
+    got.sort_unstable();
+    got
+}
+
+/// The timeline of a 3-frame sequence, on this machine's threads and through two workers (in
+/// CSV, read back by `plot-timeline`'s reader): every tile of every frame once, with its
+/// frame; the frames are the same bytes as without a timeline.
+#[test]
+fn a_sequences_timeline_has_every_tile_of_every_frame_once_with_its_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let want: Vec<(u64, u64)> = (0..3).flat_map(|f| (0..24).map(move |t| (f, t))).collect();
+    let seq = |out: &str, extra: &[&str]| {
+        let o = Command::new(EXE)
+            .args([
+                "render", "--scene", "balls:2", "--orbit", "90", "--frames", "3",
+            ])
+            .args([
+                "--width",
+                "96",
+                "--height",
+                "64",
+                "--tile",
+                "16",
+                "--threads",
+                "2",
+            ])
+            .arg("-o")
+            .arg(dir.path().join(out).join("f-%d.png"))
+            .args(extra)
+            .env_remove("PARRT_WORKER_TILE_DELAY_MS")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    seq("plain", &[]);
+    let smp = dir.path().join("smp.json");
+    seq("smp", &["--timeline", smp.to_str().unwrap()]);
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&smp).unwrap()).unwrap();
+    assert_eq!(v["mode"], "smp");
+    assert_eq!(frame_tiles(&v), want);
+    let csv = dir.path().join("dist.csv");
+    seq(
+        "dist",
+        &["--workers", "2", "--timeline", csv.to_str().unwrap()],
+    );
+    let t = parrt_master::timeline::Timeline::read(&csv).unwrap();
+    assert_eq!(t.mode, "distributed");
+    let v = serde_json::to_value(&t).unwrap();
+    assert_eq!(frame_tiles(&v), want);
+    for k in 0..3 {
+        let plain = std::fs::read(dir.path().join(format!("plain/f-{k}.png"))).unwrap();
+        for out in ["smp", "dist"] {
+            let p = dir.path().join(format!("{out}/f-{k}.png"));
+            assert_eq!(std::fs::read(p).unwrap(), plain, "{out} frame {k}");
+        }
+    }
+    // The plot marks where each frame was complete: three frame lines.
+    assert_eq!(parrt_master::timeline::plot::frame_ends(&t).len(), 3);
+}

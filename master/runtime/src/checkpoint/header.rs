@@ -102,29 +102,7 @@ impl JobKey {
         if &h[..8] != MAGIC {
             return Err(BadHeader::NotOne);
         }
-        let body = &h[..HEADER_LEN - CHECK_LEN];
-        let sealed_ok = seal.tag(&[body])[..] == h[HEADER_LEN - CHECK_LEN..];
-        match (h[25], seal) {
-            (0, Seal::Plain) | (1, Seal::Keyed(_)) if sealed_ok => {}
-            (0, Seal::Keyed(_)) if Seal::Plain.tag(&[body])[..] == h[HEADER_LEN - CHECK_LEN..] => {
-                return Err(BadHeader::Seal(
-                    "was written without a token (by `render --workers` or `cluster`), so its                      records cannot be authenticated with this master's token"
-                        .into(),
-                ))
-            }
-            (1, Seal::Plain) => {
-                return Err(BadHeader::Seal(
-                    "was written by a master with a token; give `parrt master` the same token                      to resume it"
-                        .into(),
-                ))
-            }
-            (1, Seal::Keyed(_)) => {
-                return Err(BadHeader::Seal(
-                    "was not written with this master's token (or was altered since)".into(),
-                ))
-            }
-            _ => return Err(BadHeader::NotOne),
-        }
+        check_seal(h, h[25], seal)?;
         let u = |i: usize| u32::from_le_bytes([h[i], h[i + 1], h[i + 2], h[i + 3]]);
         let format = match h[24] {
             0 => PixelFormat::F32,
@@ -181,8 +159,32 @@ impl JobKey {
     }
 }
 
+/// Checks the seal of the header `h` (its last [`CHECK_LEN`] bytes seal the rest), which says
+/// it was sealed as `byte` says (0 plain, 1 keyed), against the seal this run uses.
+pub(super) fn check_seal(h: &[u8], byte: u8, seal: &Seal) -> Result<(), BadHeader> {
+    let (body, check) = h.split_at(h.len() - CHECK_LEN);
+    let sealed_ok = seal.tag(&[body])[..] == check[..];
+    match (byte, seal) {
+        (0, Seal::Plain) | (1, Seal::Keyed(_)) if sealed_ok => Ok(()),
+        (0, Seal::Keyed(_)) if Seal::Plain.tag(&[body])[..] == check[..] => Err(BadHeader::Seal(
+            "was written without a token (by `render --workers` or `cluster`), so its records \
+             cannot be authenticated with this master's token"
+                .into(),
+        )),
+        (1, Seal::Plain) => Err(BadHeader::Seal(
+            "was written by a master with a token; give `parrt master` the same token to \
+             resume it"
+                .into(),
+        )),
+        (1, Seal::Keyed(_)) => Err(BadHeader::Seal(
+            "was not written with this master's token (or was altered since)".into(),
+        )),
+        _ => Err(BadHeader::NotOne),
+    }
+}
+
 /// Feeds what is written into a SHA-256.
-struct HashWriter(Sha256);
+pub(super) struct HashWriter(pub(super) Sha256);
 
 impl Write for HashWriter {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
@@ -194,7 +196,7 @@ impl Write for HashWriter {
     }
 }
 
-fn format_byte(f: PixelFormat) -> u8 {
+pub(super) fn format_byte(f: PixelFormat) -> u8 {
     match f {
         PixelFormat::F32 => 0,
         PixelFormat::Rgb8 => 1,

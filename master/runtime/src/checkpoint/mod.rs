@@ -44,18 +44,29 @@
 //! - `record`: records encoded and scanned back ([`scan_sealed_records`]).
 //! - `file`: the open file taking records ([`Checkpoint`]), and its syncs.
 //! - `open`: creating, locking and resuming a file ([`open()`]).
+//! - `sequence`: the checkpoint of a whole sequence ([`SequenceKey`], [`open_sequence`]), and
+//!   `sequence_record` its records (tiles with their frame, frames written) and open file
+//!   ([`SequenceCheckpoint`]).
 
 mod file;
 mod header;
 mod open;
 mod record;
 mod seal;
+mod sequence;
+mod sequence_record;
 
 pub use file::Checkpoint;
 pub use header::JobKey;
 pub use open::{open, Opened};
 pub use record::{encode_record, encode_sealed_record, scan_records, scan_sealed_records, Scan};
 pub use seal::Seal;
+pub use sequence::{
+    open_sequence, SequenceKey, SequenceOpened, SEQUENCE_HEADER_LEN, SEQUENCE_MAGIC,
+};
+pub use sequence_record::{
+    encode_frame_tile, encode_written, scan_sequence, SequenceCheckpoint, SequenceScan, Written,
+};
 
 use crate::file_guard;
 use std::path::PathBuf;
@@ -87,6 +98,24 @@ pub enum CheckpointError {
          wrote it, or remove it)"
     )]
     OtherScene(PathBuf),
+    /// The file is of another sequence (its frames' scenes differ).
+    #[error(
+        "checkpoint {0} is of another sequence (its frames' scenes differ); it was left \
+         unchanged (resume with the frames that wrote it, or remove it)"
+    )]
+    OtherSequence(PathBuf),
+    /// A one-frame checkpoint given to a sequence.
+    #[error(
+        "checkpoint {0} holds one frame, not a sequence; it was left unchanged (resume it with \
+         the one-frame command that wrote it, or remove it)"
+    )]
+    OneFrameForSequence(PathBuf),
+    /// A sequence's checkpoint given to a render of one frame.
+    #[error(
+        "checkpoint {0} holds a sequence, not one frame; it was left unchanged (resume it with \
+         the sequence that wrote it, or remove it)"
+    )]
+    SequenceForOneFrame(PathBuf),
     /// The file is of the same scene with other settings.
     #[error(
         "checkpoint {path} was written with other settings ({what}); it was left unchanged \
@@ -178,6 +207,7 @@ mod tests {
 
     fn tile_result(t: &Tile, v: u8) -> AcceptedTile {
         AcceptedTile {
+            frame: 0,
             tile_id: t.id,
             pixels: TilePixels {
                 format: PixelFormat::Rgb8,

@@ -6,7 +6,8 @@
 use super::file::{io, sync_parent, Checkpoint};
 use super::header::{BadHeader, JobKey};
 use super::record::{read_full, scan_sealed_records, Scan};
-use super::{CheckpointError, HEADER_LEN, JOB_ID_LEN};
+use super::sequence::SEQUENCE_MAGIC;
+use super::{CheckpointError, HEADER_LEN, JOB_ID_LEN, MAGIC};
 use crate::file_guard::{self, GuardError, Privacy};
 use parrt_render::tile::Tile;
 use std::fs::OpenOptions;
@@ -34,41 +35,7 @@ pub fn open(
     tiles: &[Tile],
     resume: bool,
 ) -> Result<Opened, CheckpointError> {
-    use std::os::unix::fs::OpenOptionsExt;
-    let refused = |refusal| CheckpointError::Refused {
-        path: path.to_path_buf(),
-        refusal,
-    };
-    // O_EXCL never follows a link: a link planted at the path is "already there".
-    let created = OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create_new(true)
-        .mode(0o600)
-        .custom_flags(libc::O_CLOEXEC)
-        .open(path);
-    let (mut file, fresh) = match created {
-        Ok(file) => (file, true),
-        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-            if !resume {
-                return Err(CheckpointError::Exists(path.to_path_buf()));
-            }
-            let file = file_guard::open_existing(path, true, Privacy::OwnerWrites).map_err(
-                |e| match e {
-                    GuardError::Refused(r) => refused(r),
-                    GuardError::Io(e) => io("open", path)(e),
-                },
-            )?;
-            (file, false)
-        }
-        Err(e) => return Err(io("create", path)(e)),
-    };
-    if let Some(holder) = file_guard::try_lock(&file).map_err(io("lock", path))? {
-        return Err(CheckpointError::Locked {
-            path: path.to_path_buf(),
-            holder,
-        });
-    }
+    let (mut file, fresh) = create_or_lock(path, resume)?;
     let file_len = file.metadata().map_err(io("read", path))?.len();
     if fresh || file_len == 0 {
         // New, or a master killed between creating the file and writing its header: nothing
@@ -95,7 +62,12 @@ pub fn open(
     }
     let mut head = [0u8; HEADER_LEN];
     let mut reader = std::io::BufReader::new(&mut file);
-    if !read_full(&mut reader, &mut head).map_err(io("read", path))? {
+    let (magic, rest) = head.split_at_mut(MAGIC.len());
+    let whole = read_full(&mut reader, magic).map_err(io("read", path))?;
+    if whole && magic == SEQUENCE_MAGIC {
+        return Err(CheckpointError::SequenceForOneFrame(path.to_path_buf()));
+    }
+    if !whole || !read_full(&mut reader, rest).map_err(io("read", path))? {
         return Err(CheckpointError::NotACheckpoint(path.to_path_buf()));
     }
     let theirs = match JobKey::parse(&head, &key.seal) {
@@ -132,4 +104,49 @@ pub fn open(
         scan,
         created: false,
     })
+}
+
+/// Creates the checkpoint at `path` (mode 0600, never through a link) or, with `resume`, opens
+/// the file there if it is one this user may trust; either way locked against a second master.
+/// Says whether it was created now. Without `resume` an existing file is refused.
+pub(super) fn create_or_lock(
+    path: &Path,
+    resume: bool,
+) -> Result<(std::fs::File, bool), CheckpointError> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let refused = |refusal| CheckpointError::Refused {
+        path: path.to_path_buf(),
+        refusal,
+    };
+    // O_EXCL never follows a link: a link planted at the path is "already there".
+    let created = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create_new(true)
+        .mode(0o600)
+        .custom_flags(libc::O_CLOEXEC)
+        .open(path);
+    let (file, fresh) = match created {
+        Ok(file) => (file, true),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+            if !resume {
+                return Err(CheckpointError::Exists(path.to_path_buf()));
+            }
+            let file = file_guard::open_existing(path, true, Privacy::OwnerWrites).map_err(
+                |e| match e {
+                    GuardError::Refused(r) => refused(r),
+                    GuardError::Io(e) => io("open", path)(e),
+                },
+            )?;
+            (file, false)
+        }
+        Err(e) => return Err(io("create", path)(e)),
+    };
+    if let Some(holder) = file_guard::try_lock(&file).map_err(io("lock", path))? {
+        return Err(CheckpointError::Locked {
+            path: path.to_path_buf(),
+            holder,
+        });
+    }
+    Ok((file, fresh))
 }

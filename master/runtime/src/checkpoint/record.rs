@@ -26,19 +26,29 @@ pub fn encode_sealed_record(
     let len = (RECORD_FIXED + t.pixels.bytes.len()) as u32;
     let start = out.len();
     out.extend_from_slice(&len.to_le_bytes());
+    encode_payload(t, out);
+    let check = seal.tag(&[header, &out[start..]]);
+    out.extend_from_slice(&check);
+}
+
+/// Appends the payload of `t`'s record to `out`: tile id, render seconds, the ray counters,
+/// the pixels.
+pub(super) fn encode_payload(t: &AcceptedTile, out: &mut Vec<u8>) {
     out.extend_from_slice(&t.tile_id.to_le_bytes());
     out.extend_from_slice(&t.seconds.to_bits().to_le_bytes());
     for v in RayStats::to_array(&t.stats) {
         out.extend_from_slice(&v.to_le_bytes());
     }
     out.extend_from_slice(&t.pixels.bytes);
-    let check = seal.tag(&[header, &out[start..]]);
-    out.extend_from_slice(&check);
 }
 
 /// Decodes a payload whose checksum held; `None` unless it names a tile of `tiles` with that
 /// tile's pixel count in `format`.
-fn decode_payload(p: &[u8], tiles: &[Tile], format: PixelFormat) -> Option<AcceptedTile> {
+pub(super) fn decode_payload(
+    p: &[u8],
+    tiles: &[Tile],
+    format: PixelFormat,
+) -> Option<AcceptedTile> {
     let fixed = p.get(..RECORD_FIXED)?;
     let tile_id = u32::from_le_bytes(fixed[..4].try_into().ok()?);
     let seconds = f64::from_bits(u64::from_le_bytes(fixed[4..12].try_into().ok()?));
@@ -52,6 +62,7 @@ fn decode_payload(p: &[u8], tiles: &[Tile], format: PixelFormat) -> Option<Accep
         return None;
     }
     Some(AcceptedTile {
+        frame: 0,
         tile_id,
         pixels: TilePixels {
             format,

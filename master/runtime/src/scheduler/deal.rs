@@ -212,7 +212,7 @@ impl Scheduler {
         };
         for &(tile, attempt) in &sent {
             self.observers
-                .each(|o| o.assigned(id, &tile, attempt, backup, now));
+                .each(|o| o.assigned_in(f.index, id, &tile, attempt, backup, now));
             let old = w.inflight.insert(
                 (f.index, tile.id),
                 Assignment {

@@ -113,6 +113,43 @@ impl Frame {
     pub(super) fn is_complete(&self) -> bool {
         self.done == self.tiles.len()
     }
+
+    /// [`Scheduler::restore`] into this frame (`decoded`: scratch for the pixels).
+    pub(super) fn restore(
+        &mut self,
+        done: Vec<AcceptedTile>,
+        format: PixelFormat,
+        decoded: &mut Vec<Rgb>,
+    ) -> usize {
+        let mut taken = 0;
+        for t in done {
+            let Some(&tile) = self.tiles.get(t.tile_id as usize) else {
+                continue;
+            };
+            let ok = t
+                .pixels
+                .decode_into(format, tile.pixel_count(), decoded)
+                .is_ok()
+                && t.stats
+                    .check_tile(&tile, &self.settings, self.lights)
+                    .is_ok();
+            let i = tile.id as usize;
+            if ok
+                && self.state[i] == TileState::Queued
+                && self.film.write_tile(&tile, decoded).is_ok()
+            {
+                self.state[i] = TileState::Done;
+                self.stats += t.stats;
+                self.tile_seconds[i] = t.seconds;
+                self.done += 1;
+                taken += 1;
+            }
+        }
+        let state = &self.state;
+        self.queue
+            .retain(|&t| state[t as usize] == TileState::Queued);
+        taken
+    }
 }
 
 /// A frame given to the scheduler but not open yet: no film, no tile state.
@@ -123,6 +160,8 @@ pub(super) struct NextFrame {
     lights: usize,
     tiles: Vec<Tile>,
     job: Encoded,
+    /// Its tiles an earlier run left (a checkpoint), restored when it opens.
+    restored: Vec<AcceptedTile>,
 }
 
 /// The frames of a sequence rendered on the same workers, up to `window` at once.
@@ -206,7 +245,17 @@ impl Scheduler {
                 lights,
                 tiles,
                 job,
+                restored: Vec::new(),
             });
+        }
+    }
+
+    /// Gives the frame last given by [`Self::push_frame`] the tiles `done` an earlier run left
+    /// (a checkpoint's): they are restored as [`Self::restore`] does when it opens, before
+    /// any of its tiles is handed out. The frame must not be complete by them alone.
+    pub fn restore_pending(&mut self, done: Vec<AcceptedTile>) {
+        if let Some(next) = self.frames.as_mut().and_then(|s| s.pending.back_mut()) {
+            next.restored = done;
         }
     }
 
@@ -253,6 +302,7 @@ impl Scheduler {
                 next.tiles,
                 self.opts.pixel_format,
             );
+            f.restore(next.restored, self.opts.pixel_format, &mut self.scratch);
             if s.latest.0 == (next.settings.width, next.settings.height)
                 && s.latest.1.len() == f.tiles.len()
             {

@@ -147,6 +147,8 @@ pub struct SchedOptions {
 /// A tile the scheduler accepted, as it came: what a checkpoint records and gives back.
 #[derive(Clone, Debug)]
 pub struct AcceptedTile {
+    /// The frame's index in a sequence (0 for a render of one frame).
+    pub frame: usize,
     /// The tile's id.
     pub tile_id: u32,
     /// Its pixels in the job's format.
@@ -371,34 +373,12 @@ impl Scheduler {
     /// tile that fails the checks, or is already done, stays to be rendered. Returns how many
     /// were taken.
     pub fn restore(&mut self, done: Vec<AcceptedTile>) -> usize {
-        let mut taken = 0;
         let mut decoded = std::mem::take(&mut self.scratch);
         let format = self.opts.pixel_format;
-        if let Some(f) = self.open.first_mut() {
-            for t in done {
-                let Some(&tile) = f.tiles.get(t.tile_id as usize) else {
-                    continue;
-                };
-                let ok = t
-                    .pixels
-                    .decode_into(format, tile.pixel_count(), &mut decoded)
-                    .is_ok()
-                    && t.stats.check_tile(&tile, &f.settings, f.lights).is_ok();
-                let i = tile.id as usize;
-                if ok
-                    && f.state[i] == TileState::Queued
-                    && f.film.write_tile(&tile, &decoded).is_ok()
-                {
-                    f.state[i] = TileState::Done;
-                    f.stats += t.stats;
-                    f.tile_seconds[i] = t.seconds;
-                    f.done += 1;
-                    taken += 1;
-                }
-            }
-            let state = &f.state;
-            f.queue.retain(|&t| state[t as usize] == TileState::Queued);
-        }
+        let taken = self
+            .open
+            .first_mut()
+            .map_or(0, |f| f.restore(done, format, &mut decoded));
         self.scratch = decoded;
         taken
     }
@@ -725,6 +705,7 @@ mod tests {
             unreachable!()
         };
         AcceptedTile {
+            frame: 0,
             tile_id: tile.id,
             pixels,
             stats,

@@ -83,11 +83,13 @@ impl Scheduler {
             Ok(px) => {
                 let accepted = self.accept(id, p, t, px, stats, seconds);
                 let shown: &[Rgb] = if accepted { &decoded } else { &[] };
+                let frame = self.open[p].index;
                 self.observers
-                    .each(|o| o.result(id, &tile, shown, &stats, seconds, accepted));
+                    .each(|o| o.result_in(frame, id, &tile, shown, &stats, seconds, accepted));
                 if accepted {
                     if let Some(sink) = &mut self.accepted {
                         sink.push(AcceptedTile {
+                            frame,
                             tile_id,
                             pixels: pixels.clone(),
                             stats,
