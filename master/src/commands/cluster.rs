@@ -323,6 +323,8 @@ fn run_master_sequence(
         tile: args.tile,
         output: &args.output,
         stats_json: &None,
+        timeline: args.job.timeline.as_deref(),
+        checkpoint: args.job.checkpoint.as_deref(),
     })?;
     let (token_text, token) = fresh_token()?;
     let mut observers = parrt_runtime::observer::Observers::default();

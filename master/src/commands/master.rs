@@ -275,6 +275,8 @@ fn run_sequence(
         tile: args.tile,
         output: &args.output,
         stats_json: &None,
+        timeline: args.job.timeline.as_deref(),
+        checkpoint: args.job.checkpoint.as_deref(),
     })?;
     let mut observers = parrt_runtime::observer::Observers::default();
     let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());

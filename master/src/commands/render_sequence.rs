@@ -88,6 +88,10 @@ pub struct SequenceInput<'a> {
     pub output: &'a PathBuf,
     /// `--stats-json`, checked against the outputs.
     pub stats_json: &'a Option<PathBuf>,
+    /// `--timeline` and `--checkpoint`, checked against the outputs and the inputs.
+    pub timeline: Option<&'a std::path::Path>,
+    /// See `timeline`.
+    pub checkpoint: Option<&'a std::path::Path>,
 }
 
 impl<'a> SequenceInput<'a> {
@@ -102,6 +106,8 @@ impl<'a> SequenceInput<'a> {
             tile: args.tile,
             output: &args.output,
             stats_json: &args.stats_json,
+            timeline: args.job.timeline.as_deref(),
+            checkpoint: args.job.checkpoint.as_deref(),
         }
     }
 }
@@ -306,6 +312,8 @@ fn frame_outputs(args: &SequenceInput<'_>, loaded: &Loaded) -> anyhow::Result<Ve
         outputs.iter().map(|p| ("-o", Some(p.as_path()))).collect();
     files.extend(loaded.inputs.iter().map(|(f, p)| (*f, Some(p.as_path()))));
     files.push(("--stats-json", args.stats_json.as_deref()));
+    files.push(("--timeline", args.timeline));
+    files.push(("--checkpoint", args.checkpoint));
     check_distinct(&files)?;
     Ok(outputs)
 }

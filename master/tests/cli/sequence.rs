@@ -234,6 +234,19 @@ fn output_patterns_and_sequence_flags_are_checked_before_any_work() {
         bytes(Path::new(&a)),
         "left as it was"
     );
+    // The timeline would overwrite a scene file.
+    refused(
+        &[
+            &b,
+            &input,
+            "--timeline",
+            &input,
+            "-o",
+            &format!("{d}/g-%d.png"),
+        ],
+        &format!("a scene {input} and --timeline {input} are the same file; give each its own"),
+    );
+    assert_eq!(bytes(Path::new(&input)), bytes(Path::new(&a)));
     refused(
         &[&a, "--orbit", "360", "--frames", "0", "-o", &out],
         "a sequence needs at least one frame (--frames 0 renders nothing)",
