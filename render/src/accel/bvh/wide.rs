@@ -72,9 +72,9 @@ impl WideNode {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TooManyReferences(pub usize);
 
-/// Collapses a binary tree into wide nodes of the least summed surface ([`SlotCosts`]): each
-/// wide node takes the descendants of its binary node that cover the subtree in at most eight
-/// slots and leave the fewest and smallest inner nodes below. No nodes for an empty tree; a
+/// Collapses a binary tree into wide nodes of the least summed surface (a dynamic programme over
+/// slot counts): each wide node takes the descendants of its binary node that cover the subtree
+/// in at most eight slots and leave the fewest and smallest inner nodes below. No nodes for an empty tree; a
 /// tree that is a single leaf gets one node with one leaf child.
 ///
 /// Takes the binary nodes (`references` is the length of their primitive order) and frees them
