@@ -2,9 +2,11 @@
 //! number for a render stopped by Ctrl-C (130) or SIGTERM (143), as a process the signal
 //! killed would exit (an SMP render is killed by it; a distributed one stops its workers
 //! first, then exits so). An error is bad input when its chain holds a
-//! [`crate::cli_args::ArgError`] (the command line's own checks) or an [`InputError`] (a
-//! command's wrapping of a library error it knows to be the user's input); everything else
-//! exits 1.
+//! [`crate::cli_args::ArgError`] (the command line's own checks), a
+//! [`parrt_runtime::DistError`] that says it is (a wrong checkpoint, a listen address that does
+//! not resolve, ...) or an [`InputError`] (a command's wrapping of a library error it knows to
+//! be the user's input); everything else exits 1. The libraries' errors travel unchanged up to
+//! here: only this module maps them to codes.
 
 use crate::cli_args::ArgError;
 use std::fmt;
@@ -27,7 +29,8 @@ pub fn input_error(e: impl Into<anyhow::Error>) -> anyhow::Error {
 }
 
 /// The exit status for an error: 128 + the signal's number when a signal interrupted the
-/// render, 2 when any cause in its chain is an [`InputError`] or an [`ArgError`], else 1.
+/// render, 2 when any cause in its chain is an [`InputError`], an [`ArgError`] or a
+/// distributed render's error of bad input, else 1.
 pub fn code_for(e: &anyhow::Error) -> u8 {
     let interrupted = e.chain().any(|c| {
         matches!(
@@ -39,7 +42,11 @@ pub fn code_for(e: &anyhow::Error) -> u8 {
         let signal = parrt_runtime::stopped_by_signal().unwrap_or(libc::SIGINT);
         return u8::try_from(128 + signal).unwrap_or(130);
     }
-    if ArgError::is_in(e) || e.chain().any(|c| c.is::<InputError>()) {
+    let bad_dist = e.chain().any(|c| {
+        c.downcast_ref::<parrt_runtime::DistError>()
+            .is_some_and(parrt_runtime::DistError::is_bad_input)
+    });
+    if bad_dist || ArgError::is_in(e) || e.chain().any(|c| c.is::<InputError>()) {
         2
     } else {
         1
@@ -50,16 +57,6 @@ pub fn code_for(e: &anyhow::Error) -> u8 {
 /// frame boundary on Ctrl-C): 128 + the signal's number, as a process the signal killed.
 pub fn stopped_by(signal: libc::c_int) -> std::process::ExitCode {
     std::process::ExitCode::from(u8::try_from(128 + signal).unwrap_or(130))
-}
-
-/// A distributed render's error for the command line: bad input (a wrong checkpoint, a listen
-/// address that does not resolve, ...) exits 2, anything else 1.
-pub fn dist_error(e: parrt_runtime::DistError) -> anyhow::Error {
-    if e.is_bad_input() {
-        input_error(e)
-    } else {
-        anyhow::Error::new(e)
-    }
 }
 
 /// An error of the worker library (`parrt worker`, a worker rank of `parrt cluster`, the
@@ -89,5 +86,13 @@ mod tests {
             130,
             "Ctrl-C, as no signal was noted here"
         );
+        let tile = parrt_runtime::DistError::TileTooLarge {
+            tile: 4096,
+            max_frame: 1 << 20,
+        };
+        let wrong = anyhow::Error::new(tile).context("distributed render failed");
+        assert_eq!(code_for(&wrong), 2, "a distributed error of bad input");
+        let lost = anyhow::Error::new(parrt_runtime::DistError::AcceptFailed);
+        assert_eq!(code_for(&lost.context("render")), 1);
     }
 }

@@ -100,7 +100,7 @@ impl<'a> ResumableFrames<'a> {
             tile,
             format,
         )
-        .map_err(|e| crate::exit::dist_error(e.into()))?;
+        .map_err(DistError::from)?;
         drop(descs);
         if let Some(s) = secret {
             key = key.sealed_with(s);
@@ -110,8 +110,7 @@ impl<'a> ResumableFrames<'a> {
             .iter()
             .map(|s| tiles(s.width, s.height, tile.max(1)))
             .collect();
-        let opened = open_sequence(path, &key, &frame_tiles, resume)
-            .map_err(|e| crate::exit::dist_error(e.into()))?;
+        let opened = open_sequence(path, &key, &frame_tiles, resume).map_err(DistError::from)?;
         let mut scan = opened.scan;
         let mut info = Resumed {
             resumed: !opened.created,
@@ -164,8 +163,7 @@ impl<'a> ResumableFrames<'a> {
             let out = &self.outputs[k];
             let w = Written::of_file(out)
                 .with_context(|| format!("cannot read back frame {k}, {}", out.display()))?;
-            c.written(k, &w)
-                .map_err(|e| crate::exit::dist_error(e.into()))?;
+            c.written(k, &w).map_err(DistError::from)?;
         }
         Ok(())
     }
@@ -173,7 +171,7 @@ impl<'a> ResumableFrames<'a> {
     /// Makes what is recorded durable (the end of the run).
     pub fn close(&mut self) -> anyhow::Result<()> {
         if let Some(c) = &mut self.checkpoint {
-            c.sync().map_err(|e| crate::exit::dist_error(e.into()))?;
+            c.sync().map_err(DistError::from)?;
         }
         Ok(())
     }

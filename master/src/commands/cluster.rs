@@ -247,10 +247,7 @@ fn run_master(
     );
     // The rendezvous file goes as soon as the render ends, whatever its outcome.
     drop(published);
-    let result = result
-        .map_err(crate::exit::dist_error)
-        .context("distributed render failed")?
-        .result;
+    let result = result.context("distributed render failed")?.result;
     result
         .film
         .save(&args.output)

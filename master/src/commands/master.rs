@@ -231,7 +231,6 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         },
         None,
     )
-    .map_err(crate::exit::dist_error)
     .context("distributed render failed")?
     .result;
     result

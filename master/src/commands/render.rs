@@ -263,7 +263,7 @@ fn render_through_workers(
         Ok(done) => (done.result, done.settings),
         Err(Failed::Job(e)) => return Err(e),
         Err(Failed::Dist(e)) => {
-            return Err(crate::exit::dist_error(e).context("distributed render failed"))
+            return Err(anyhow::Error::new(e).context("distributed render failed"))
         }
     };
     if let Some(c) = &args.job.checkpoint {

@@ -618,7 +618,7 @@ pub fn through_runtime(
     let job =
         parrt_runtime::Job::<parrt_runtime::DistError>::ready(desc, frame_settings[first].clone());
     let r = parrt_runtime::run_sequence(&config, job, &mut frames, on_listen, None)
-        .map_err(|e| crate::exit::dist_error(e).context("distributed render failed"))?;
+        .context("distributed render failed")?;
     frames.write_frame(last, &r.result.film)?;
     frames.close()?;
     let r = r.result;
