@@ -4,7 +4,7 @@
 
 use super::record::encode_sealed_record;
 use super::seal::Seal;
-use super::{CheckpointError, HEADER_LEN, SYNC_INTERVAL};
+use super::{CheckpointError, SYNC_INTERVAL};
 use crate::scheduler::AcceptedTile;
 use std::fs::File;
 use std::io::Write;
@@ -29,7 +29,7 @@ pub struct Checkpoint {
     durable: Arc<AtomicU64>,
     seal: Seal,
     /// The file's header: every record's seal covers it (binds the record to this job).
-    header: [u8; HEADER_LEN],
+    header: Box<[u8]>,
 }
 
 pub(super) fn io(
@@ -58,11 +58,12 @@ pub(super) fn sync_parent(path: &Path) {
 
 impl Checkpoint {
     /// `file` has just been synced, positioned at its end.
-    pub(super) fn new(file: File, path: &Path, seal: Seal, header: [u8; HEADER_LEN]) -> Checkpoint {
+    /// `header` is the file's (of either kind: one frame or a sequence).
+    pub(super) fn new(file: File, path: &Path, seal: Seal, header: &[u8]) -> Checkpoint {
         let len = file.metadata().map_or(0, |m| m.len());
         Checkpoint {
             seal,
-            header,
+            header: header.into(),
             file,
             path: path.to_path_buf(),
             last_sync: Instant::now(),
@@ -88,16 +89,33 @@ impl Checkpoint {
     /// [`SYNC_INTERVAL`] old.
     pub fn append(&mut self, tiles: &[AcceptedTile]) -> Result<(), CheckpointError> {
         if !tiles.is_empty() {
-            self.buf.clear();
-            for t in tiles {
-                encode_sealed_record(t, &self.seal, &self.header, &mut self.buf);
-            }
-            self.file
-                .write_all(&self.buf)
-                .map_err(io("write", &self.path))?;
-            self.written += self.buf.len() as u64;
-            self.unsynced = true;
+            self.write_records(|seal, header, out| {
+                for t in tiles {
+                    encode_sealed_record(t, seal, header, out);
+                }
+            })?;
         }
+        self.sync_if_due()
+    }
+
+    /// Appends in one write the records `encode` puts in its buffer, given the file's seal and
+    /// header (which every record's seal covers).
+    pub(super) fn write_records(
+        &mut self,
+        encode: impl FnOnce(&Seal, &[u8], &mut Vec<u8>),
+    ) -> Result<(), CheckpointError> {
+        self.buf.clear();
+        encode(&self.seal, &self.header, &mut self.buf);
+        self.file
+            .write_all(&self.buf)
+            .map_err(io("write", &self.path))?;
+        self.written += self.buf.len() as u64;
+        self.unsynced = true;
+        Ok(())
+    }
+
+    /// Syncs if something is unsynced and the last sync is [`SYNC_INTERVAL`] old.
+    pub(super) fn sync_if_due(&mut self) -> Result<(), CheckpointError> {
         if self.unsynced && self.last_sync.elapsed() >= SYNC_INTERVAL {
             self.sync()?;
         }

@@ -9,6 +9,7 @@ use parrt_render::description::SceneDescription;
 use parrt_render::settings::RenderSettings;
 use sha2::{Digest, Sha256};
 use std::io::Write;
+use std::path::Path;
 
 /// What pins a checkpoint to one job: the scene, the settings, the tiling and the pixel format.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -76,54 +77,32 @@ impl JobKey {
     }
 
     pub(super) fn header(&self) -> [u8; HEADER_LEN] {
-        let mut h = [0u8; HEADER_LEN];
-        let mut at = 0;
-        let mut put = |b: &[u8]| {
-            h[at..at + b.len()].copy_from_slice(b);
-            at += b.len();
+        let fields = Fields {
+            ints: [self.tile, self.width, self.height, self.tiles],
+            format: self.format,
+            digests: [self.scene, self.settings],
+            job: self.job,
         };
-        put(MAGIC);
-        for v in [self.tile, self.width, self.height, self.tiles] {
-            put(&v.to_le_bytes());
-        }
-        put(&[format_byte(self.format), self.seal.byte()]);
-        put(&self.scene);
-        put(&self.settings);
-        put(&self.job);
-        let check = self.seal.tag(&[&h[..HEADER_LEN - CHECK_LEN]]);
-        h[HEADER_LEN - CHECK_LEN..].copy_from_slice(&check);
-        h
+        fields.write(MAGIC, &self.seal)
     }
 
     /// Parses a header sealed as `seal` seals: not one at all (wrong magic, a plain checksum
     /// that fails, an unknown format), or sealed otherwise (plain where this run has a secret,
     /// keyed where it has none, or a keyed checksum that fails: another token, or altered).
     pub(super) fn parse(h: &[u8; HEADER_LEN], seal: &Seal) -> Result<JobKey, BadHeader> {
-        if &h[..8] != MAGIC {
-            return Err(BadHeader::NotOne);
-        }
-        check_seal(h, h[25], seal)?;
-        let u = |i: usize| u32::from_le_bytes([h[i], h[i + 1], h[i + 2], h[i + 3]]);
-        let format = match h[24] {
-            0 => PixelFormat::F32,
-            1 => PixelFormat::Rgb8,
-            _ => return Err(BadHeader::NotOne),
-        };
-        let bytes = |r: std::ops::Range<usize>| -> Result<[u8; 32], BadHeader> {
-            h[r].try_into().map_err(|_| BadHeader::NotOne)
-        };
+        let f = Fields::parse(h, MAGIC, seal)?;
+        let [tile, width, height, tiles] = f.ints;
+        let [scene, settings] = f.digests;
         Ok(JobKey {
-            tile: u(8),
-            width: u(12),
-            height: u(16),
-            tiles: u(20),
-            format,
-            scene: bytes(26..58)?,
-            settings: bytes(58..90)?,
+            tile,
+            width,
+            height,
+            tiles,
+            format: f.format,
+            scene,
+            settings,
             seal: seal.clone(),
-            job: h[90..90 + JOB_ID_LEN]
-                .try_into()
-                .map_err(|_| BadHeader::NotOne)?,
+            job: f.job,
         })
     }
 
@@ -137,25 +116,113 @@ impl JobKey {
                 file.width, file.height, self.width, self.height
             ));
         }
-        if self.tile != file.tile {
-            d.push(format!(
-                "the file has tile {}, this run {}",
-                file.tile, self.tile
-            ));
-        }
-        if self.format != file.format {
-            d.push(format!(
-                "the file has {:?} pixels, this run {:?}: the output's kind decides (.exr keeps \
-                 f32, .png and .ppm 8-bit)",
-                file.format, self.format
-            ));
-        }
+        tiling_differences(&mut d, (self.tile, self.format), (file.tile, file.format));
         if self.settings != file.settings && d.is_empty() {
             d.push(
                 "render flags such as --spp, --max-depth, --cutoff, --accel or --precision".into(),
             );
         }
         d
+    }
+}
+
+/// Says in `d` how the tile edge and the pixel format of a file (`file`) differ from this
+/// run's (`run`).
+pub(super) fn tiling_differences(
+    d: &mut Vec<String>,
+    run: (u32, PixelFormat),
+    file: (u32, PixelFormat),
+) {
+    if run.0 != file.0 {
+        d.push(format!("the file has tile {}, this run {}", file.0, run.0));
+    }
+    if run.1 != file.1 {
+        d.push(format!(
+            "the file has {:?} pixels, this run {:?}: the output's kind decides (.exr keeps \
+             f32, .png and .ppm 8-bit)",
+            file.1, run.1
+        ));
+    }
+}
+
+/// The fields every checkpoint header holds after its magic, in this order: `INTS` counts
+/// (`u32` each: the tiling and sizes), the pixel format (`u8`), the seal (`u8`), two SHA-256
+/// digests (scene and settings), the file's job identity; then the first [`CHECK_LEN`] bytes of
+/// the seal of everything before.
+pub(super) struct Fields<const INTS: usize> {
+    pub(super) ints: [u32; INTS],
+    pub(super) format: PixelFormat,
+    pub(super) digests: [[u8; 32]; 2],
+    pub(super) job: [u8; JOB_ID_LEN],
+}
+
+impl<const INTS: usize> Fields<INTS> {
+    /// Bytes in a header of these fields.
+    pub(super) const LEN: usize = MAGIC.len() + 4 * INTS + 2 + 2 * 32 + JOB_ID_LEN + CHECK_LEN;
+
+    /// The header `magic` + these fields, sealed with `seal` (`LEN` must be [`Self::LEN`]).
+    pub(super) fn write<const LEN: usize>(&self, magic: &[u8; 8], seal: &Seal) -> [u8; LEN] {
+        const { assert!(LEN == Self::LEN) };
+        let mut h = [0u8; LEN];
+        let mut at = 0;
+        let mut put = |b: &[u8]| {
+            h[at..at + b.len()].copy_from_slice(b);
+            at += b.len();
+        };
+        put(magic);
+        for v in self.ints {
+            put(&v.to_le_bytes());
+        }
+        put(&[format_byte(self.format), seal.byte()]);
+        for d in &self.digests {
+            put(d);
+        }
+        put(&self.job);
+        let check = seal.tag(&[&h[..LEN - CHECK_LEN]]);
+        h[LEN - CHECK_LEN..].copy_from_slice(&check);
+        h
+    }
+
+    /// The fields of the header `h` if it starts with `magic` and is sealed as `seal` seals.
+    pub(super) fn parse(h: &[u8], magic: &[u8; 8], seal: &Seal) -> Result<Self, BadHeader> {
+        if h.len() != Self::LEN || &h[..magic.len()] != magic {
+            return Err(BadHeader::NotOne);
+        }
+        let at = magic.len() + 4 * INTS;
+        check_seal(h, h[at + 1], seal)?;
+        let mut ints = [0u32; INTS];
+        for (i, v) in ints.iter_mut().enumerate() {
+            let b = magic.len() + 4 * i;
+            *v = u32::from_le_bytes([h[b], h[b + 1], h[b + 2], h[b + 3]]);
+        }
+        let format = match h[at] {
+            0 => PixelFormat::F32,
+            1 => PixelFormat::Rgb8,
+            _ => return Err(BadHeader::NotOne),
+        };
+        let bytes = |from: usize| h[from..from + 32].try_into().map_err(|_| BadHeader::NotOne);
+        let d = at + 2;
+        Ok(Fields {
+            ints,
+            format,
+            digests: [bytes(d)?, bytes(d + 32)?],
+            job: h[d + 64..d + 64 + JOB_ID_LEN]
+                .try_into()
+                .map_err(|_| BadHeader::NotOne)?,
+        })
+    }
+}
+
+impl BadHeader {
+    /// The error of opening `path` whose header is this.
+    pub(super) fn at(self, path: &Path) -> CheckpointError {
+        match self {
+            BadHeader::NotOne => CheckpointError::NotACheckpoint(path.to_path_buf()),
+            BadHeader::Seal(why) => CheckpointError::Unauthenticated {
+                path: path.to_path_buf(),
+                why,
+            },
+        }
     }
 }
 

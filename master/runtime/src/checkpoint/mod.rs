@@ -78,7 +78,7 @@ pub const MAGIC: &[u8; 8] = b"PARRTCK3";
 /// Bytes of a checkpoint's job identity.
 pub const JOB_ID_LEN: usize = 16;
 /// Bytes in the header.
-pub const HEADER_LEN: usize = 8 + 4 * 4 + 1 + 1 + 32 + 32 + JOB_ID_LEN + CHECK_LEN;
+pub const HEADER_LEN: usize = header::Fields::<4>::LEN;
 /// Bytes of each checksum (a truncated SHA-256 or HMAC-SHA256).
 pub const CHECK_LEN: usize = 8;
 /// The payload bytes before the pixels: tile id, seconds, 11 counters.

@@ -11,18 +11,13 @@ use std::io::Read;
 
 /// Appends the record of `t`, sealed plain, for the checkpoint whose header is `header`, to
 /// `out`.
-pub fn encode_record(t: &AcceptedTile, header: &[u8; HEADER_LEN], out: &mut Vec<u8>) {
+pub fn encode_record(t: &AcceptedTile, header: &[u8], out: &mut Vec<u8>) {
     encode_sealed_record(t, &Seal::Plain, header, out);
 }
 
 /// Appends the record of `t`, sealed with `seal` and bound to the checkpoint whose header is
 /// `header` (its job), to `out`.
-pub fn encode_sealed_record(
-    t: &AcceptedTile,
-    seal: &Seal,
-    header: &[u8; HEADER_LEN],
-    out: &mut Vec<u8>,
-) {
+pub fn encode_sealed_record(t: &AcceptedTile, seal: &Seal, header: &[u8], out: &mut Vec<u8>) {
     let len = (RECORD_FIXED + t.pixels.bytes.len()) as u32;
     let start = out.len();
     out.extend_from_slice(&len.to_le_bytes());
@@ -95,7 +90,7 @@ pub fn scan_records(
     file_len: u64,
     tiles: &[Tile],
     format: PixelFormat,
-    header: &[u8; HEADER_LEN],
+    header: &[u8],
 ) -> std::io::Result<Scan> {
     scan_sealed_records(r, file_len, tiles, format, &Seal::Plain, header)
 }
@@ -110,7 +105,7 @@ pub fn scan_sealed_records(
     tiles: &[Tile],
     format: PixelFormat,
     seal: &Seal,
-    header: &[u8; HEADER_LEN],
+    header: &[u8],
 ) -> std::io::Result<Scan> {
     let max_pixels = tiles.iter().map(|t| t.pixel_count()).max().unwrap_or(0);
     let max_payload = RECORD_FIXED + max_pixels * format.bytes_per_pixel();
@@ -119,33 +114,29 @@ pub fn scan_sealed_records(
     let mut pos = HEADER_LEN as u64;
     scan.good_len = pos;
     let mut buf = Vec::new();
+    let len_ok = |n: usize| (RECORD_FIXED..=max_payload).contains(&n);
     loop {
-        let mut len = [0u8; 4];
-        if !read_full(r, &mut len)? {
-            break; // The end, or a torn length.
-        }
-        let n = u32::from_le_bytes(len) as usize;
-        if !(RECORD_FIXED..=max_payload).contains(&n) {
-            break; // Not a length this job's records can have: the framing is lost.
-        }
-        buf.resize(n + CHECK_LEN, 0);
-        if !read_full(r, &mut buf)? {
-            if crate::mutation::is(crate::mutation::Mutation::TrustTornRecord) {
-                if let Some(t) = decode_payload(&buf[..n], tiles, format) {
-                    if !std::mem::replace(&mut seen[t.tile_id as usize], true) {
-                        scan.tiles.push(t);
+        let n = match read_sealed(r, &mut buf, len_ok, seal, header)? {
+            Sealed::End => break,
+            Sealed::Torn(n) => {
+                if crate::mutation::is(crate::mutation::Mutation::TrustTornRecord) {
+                    if let Some(t) = decode_payload(&buf[..n], tiles, format) {
+                        if !std::mem::replace(&mut seen[t.tile_id as usize], true) {
+                            scan.tiles.push(t);
+                        }
                     }
                 }
+                break;
             }
-            break; // Torn.
-        }
+            Sealed::Forged(n) => {
+                pos += (4 + n + CHECK_LEN) as u64;
+                scan.bad_records += 1;
+                continue;
+            }
+            Sealed::Good(n) => n,
+        };
         pos += (4 + n + CHECK_LEN) as u64;
-        let (payload, check) = buf.split_at(n);
-        if seal.tag(&[header, &len, payload])[..] != check[..] {
-            scan.bad_records += 1;
-            continue;
-        }
-        match decode_payload(payload, tiles, format) {
+        match decode_payload(&buf[..n], tiles, format) {
             None => scan.bad_records += 1,
             Some(t) => {
                 let first = !std::mem::replace(&mut seen[t.tile_id as usize], true);
@@ -158,6 +149,47 @@ pub fn scan_sealed_records(
     }
     scan.cut_bytes = file_len.saturating_sub(scan.good_len);
     Ok(scan)
+}
+
+/// The next record of a checkpoint as [`read_sealed`] read it (`n`: its payload's length).
+pub(super) enum Sealed {
+    /// The end of the file, a torn length, or a length no record of the file can have (the
+    /// framing is lost): nothing after it can be trusted.
+    End,
+    /// A length, then fewer bytes than it says: the payload as far as it was read.
+    Torn(usize),
+    /// A whole record whose seal fails.
+    Forged(usize),
+    /// A whole record whose seal holds: its payload is the buffer's first `n` bytes.
+    Good(usize),
+}
+
+/// Reads the next record (its length, payload and check) from `r` into `buf`, and checks its
+/// seal against `seal` and the file's `header`; a length `len_ok` refuses ends the reading.
+pub(super) fn read_sealed(
+    r: &mut impl Read,
+    buf: &mut Vec<u8>,
+    len_ok: impl Fn(usize) -> bool,
+    seal: &Seal,
+    header: &[u8],
+) -> std::io::Result<Sealed> {
+    let mut len = [0u8; 4];
+    if !read_full(r, &mut len)? {
+        return Ok(Sealed::End);
+    }
+    let n = u32::from_le_bytes(len) as usize;
+    if !len_ok(n) {
+        return Ok(Sealed::End);
+    }
+    buf.resize(n + CHECK_LEN, 0);
+    if !read_full(r, buf)? {
+        return Ok(Sealed::Torn(n));
+    }
+    let (payload, check) = buf.split_at(n);
+    if seal.tag(&[header, &len, payload])[..] != check[..] {
+        return Ok(Sealed::Forged(n));
+    }
+    Ok(Sealed::Good(n))
 }
 
 /// Fills `buf` from `r`: `false` if the input ended first (having read any part of it).

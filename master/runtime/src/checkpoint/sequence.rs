@@ -11,25 +11,22 @@
 //! job identity (16 random bytes); the first 8 bytes of the seal of everything before them.
 //! The records are in `sequence_record`.
 
-use super::file::{io, sync_parent};
-use super::header::{check_seal, format_byte, BadHeader, JobKey};
-use super::open::create_or_lock;
-use super::record::read_full;
+use super::header::{tiling_differences, BadHeader, Fields, JobKey};
+use super::open::{scan_and_cut, start, Started};
 use super::seal::Seal;
 use super::sequence_record::{scan_sequence, SequenceCheckpoint, SequenceScan};
-use super::{CheckpointError, CHECK_LEN, JOB_ID_LEN, MAGIC};
+use super::{CheckpointError, JOB_ID_LEN, MAGIC};
 use parrt_protocol::PixelFormat;
 use parrt_render::description::SceneDescription;
 use parrt_render::settings::RenderSettings;
 use parrt_render::tile::Tile;
 use sha2::{Digest, Sha256};
-use std::io::{Seek, SeekFrom, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The first bytes of a sequence's checkpoint (the digit is the format's version).
 pub const SEQUENCE_MAGIC: &[u8; 8] = b"PARRTSQ1";
 /// Bytes in a sequence checkpoint's header.
-pub const SEQUENCE_HEADER_LEN: usize = 8 + 3 * 4 + 1 + 1 + 32 + 32 + JOB_ID_LEN + CHECK_LEN;
+pub const SEQUENCE_HEADER_LEN: usize = Fields::<3>::LEN;
 
 /// What pins a checkpoint to one sequence.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -88,50 +85,28 @@ impl SequenceKey {
     }
 
     pub(super) fn header(&self) -> [u8; SEQUENCE_HEADER_LEN] {
-        let mut h = [0u8; SEQUENCE_HEADER_LEN];
-        let mut at = 0;
-        let mut put = |b: &[u8]| {
-            h[at..at + b.len()].copy_from_slice(b);
-            at += b.len();
+        let fields = Fields {
+            ints: [self.tile, self.frames, self.tiles],
+            format: self.format,
+            digests: [self.scenes, self.settings],
+            job: self.job,
         };
-        put(SEQUENCE_MAGIC);
-        for v in [self.tile, self.frames, self.tiles] {
-            put(&v.to_le_bytes());
-        }
-        put(&[format_byte(self.format), self.seal.byte()]);
-        put(&self.scenes);
-        put(&self.settings);
-        put(&self.job);
-        let check = self.seal.tag(&[&h[..SEQUENCE_HEADER_LEN - CHECK_LEN]]);
-        h[SEQUENCE_HEADER_LEN - CHECK_LEN..].copy_from_slice(&check);
-        h
+        fields.write(SEQUENCE_MAGIC, &self.seal)
     }
 
     fn parse(h: &[u8; SEQUENCE_HEADER_LEN], seal: &Seal) -> Result<SequenceKey, BadHeader> {
-        if &h[..8] != SEQUENCE_MAGIC {
-            return Err(BadHeader::NotOne);
-        }
-        check_seal(h, h[21], seal)?;
-        let u = |i: usize| u32::from_le_bytes([h[i], h[i + 1], h[i + 2], h[i + 3]]);
-        let format = match h[20] {
-            0 => PixelFormat::F32,
-            1 => PixelFormat::Rgb8,
-            _ => return Err(BadHeader::NotOne),
-        };
-        let bytes = |r: std::ops::Range<usize>| -> Result<[u8; 32], BadHeader> {
-            h[r].try_into().map_err(|_| BadHeader::NotOne)
-        };
+        let f = Fields::parse(h, SEQUENCE_MAGIC, seal)?;
+        let [tile, frames, tiles] = f.ints;
+        let [scenes, settings] = f.digests;
         Ok(SequenceKey {
-            tile: u(8),
-            frames: u(12),
-            tiles: u(16),
-            format,
-            scenes: bytes(22..54)?,
-            settings: bytes(54..86)?,
+            tile,
+            frames,
+            tiles,
+            format: f.format,
+            scenes,
+            settings,
             seal: seal.clone(),
-            job: h[86..86 + JOB_ID_LEN]
-                .try_into()
-                .map_err(|_| BadHeader::NotOne)?,
+            job: f.job,
         })
     }
 
@@ -145,19 +120,7 @@ impl SequenceKey {
                 file.frames, self.frames
             ));
         }
-        if self.tile != file.tile {
-            d.push(format!(
-                "the file has tile {}, this run {}",
-                file.tile, self.tile
-            ));
-        }
-        if self.format != file.format {
-            d.push(format!(
-                "the file has {:?} pixels, this run {:?}: the output's kind decides (.exr keeps \
-                 f32, .png and .ppm 8-bit)",
-                file.format, self.format
-            ));
-        }
+        tiling_differences(&mut d, (self.tile, self.format), (file.tile, file.format));
         if self.settings != file.settings && d.is_empty() {
             d.push(
                 "image size or render flags such as --spp, --max-depth, --cutoff, --accel or \
@@ -191,49 +154,30 @@ pub fn open_sequence(
     frame_tiles: &[Vec<Tile>],
     resume: bool,
 ) -> Result<SequenceOpened, CheckpointError> {
-    let (mut file, fresh) = create_or_lock(path, resume)?;
-    let file_len = file.metadata().map_err(io("read", path))?.len();
-    let empty = || SequenceScan::new(frame_tiles.len());
-    if fresh || file_len == 0 {
+    let fresh = |job| {
         let mut key = key.clone();
         if key.job == [0; JOB_ID_LEN] {
-            key.job = rand::random();
+            key.job = job;
         }
-        let header = key.header();
-        file.write_all(&header)
-            .and_then(|()| file.sync_all())
-            .map_err(io("write", path))?;
-        if fresh {
-            sync_parent(path);
-        }
-        let mut scan = empty();
-        scan.good_len = SEQUENCE_HEADER_LEN as u64;
-        return Ok(SequenceOpened {
-            checkpoint: SequenceCheckpoint::new(file, path, key.seal.clone(), header),
-            scan,
-            created: true,
-        });
-    }
-    let mut head = [0u8; SEQUENCE_HEADER_LEN];
-    let mut reader = std::io::BufReader::new(&mut file);
-    let (magic, rest) = head.split_at_mut(MAGIC.len());
-    let whole = read_full(&mut reader, magic).map_err(io("read", path))?;
-    if whole && magic == MAGIC {
-        return Err(CheckpointError::OneFrameForSequence(path.to_path_buf()));
-    }
-    if !whole || !read_full(&mut reader, rest).map_err(io("read", path))? {
-        return Err(CheckpointError::NotACheckpoint(path.to_path_buf()));
-    }
-    let theirs = match SequenceKey::parse(&head, &key.seal) {
-        Ok(k) => k,
-        Err(BadHeader::NotOne) => return Err(CheckpointError::NotACheckpoint(path.to_path_buf())),
-        Err(BadHeader::Seal(why)) => {
-            return Err(CheckpointError::Unauthenticated {
-                path: path.to_path_buf(),
-                why,
-            })
-        }
+        key.header()
     };
+    let (mut file, head, file_len) = match start(path, resume, fresh, OTHER_KIND)? {
+        Started::Created { file, header } => {
+            let mut scan = SequenceScan::new(frame_tiles.len());
+            scan.good_len = SEQUENCE_HEADER_LEN as u64;
+            return Ok(SequenceOpened {
+                checkpoint: SequenceCheckpoint::new(file, path, key.seal.clone(), &header),
+                scan,
+                created: true,
+            });
+        }
+        Started::Existing {
+            file,
+            head,
+            file_len,
+        } => (file, head, file_len),
+    };
+    let theirs = SequenceKey::parse(&head, &key.seal).map_err(|e| e.at(path))?;
     let diff = key.differences(&theirs);
     if theirs.scenes != key.scenes && theirs.frames == key.frames {
         return Err(CheckpointError::OtherSequence(path.to_path_buf()));
@@ -244,33 +188,25 @@ pub fn open_sequence(
             what: diff.join("; "),
         });
     }
-    let scan = scan_sequence(
-        &mut reader,
-        file_len,
-        frame_tiles,
-        key.format,
-        &key.seal,
-        &head,
-    )
-    .map_err(io("read", path))?;
-    drop(reader);
-    if scan.cut_bytes > 0 {
-        file.set_len(scan.good_len)
-            .and_then(|()| file.sync_all())
-            .map_err(io("truncate", path))?;
-    }
-    file.seek(SeekFrom::End(0)).map_err(io("seek", path))?;
+    let scan = scan_and_cut(&mut file, path, |r| {
+        let scan = scan_sequence(r, file_len, frame_tiles, key.format, &key.seal, &head)?;
+        Ok((scan.good_len, scan.cut_bytes, scan))
+    })?;
     Ok(SequenceOpened {
-        checkpoint: SequenceCheckpoint::new(file, path, key.seal.clone(), head),
+        checkpoint: SequenceCheckpoint::new(file, path, key.seal.clone(), &head),
         scan,
         created: false,
     })
 }
 
+/// A one-frame checkpoint given where a sequence's is expected.
+const OTHER_KIND: (&[u8; 8], fn(PathBuf) -> CheckpointError) =
+    (MAGIC, CheckpointError::OneFrameForSequence);
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::checkpoint::{Written, RECORD_FIXED};
+    use crate::checkpoint::{Written, CHECK_LEN, RECORD_FIXED};
     use crate::scheduler::AcceptedTile;
     use parrt_protocol::TilePixels;
     use parrt_render::stats::RayStats;

@@ -10,18 +10,17 @@
 //! Tiles are appended with one `write` a batch and synced at least every
 //! [`super::SYNC_INTERVAL`]; a frame written is synced at once.
 
-use super::file::io;
-use super::record::{decode_payload, encode_payload, read_full};
+use super::file::Checkpoint;
+use super::record::{decode_payload, encode_payload, read_sealed, Sealed};
 use super::seal::Seal;
 use super::sequence::SEQUENCE_HEADER_LEN;
-use super::{CheckpointError, CHECK_LEN, RECORD_FIXED, SYNC_INTERVAL};
+use super::{CheckpointError, CHECK_LEN, RECORD_FIXED};
 use crate::scheduler::AcceptedTile;
 use parrt_protocol::PixelFormat;
 use parrt_render::tile::Tile;
 use std::fs::File;
-use std::io::{Read, Write};
-use std::path::{Path, PathBuf};
-use tokio::time::Instant;
+use std::io::Read;
+use std::path::Path;
 
 /// Bytes before a record's kind-specific part: the frame index and the kind.
 const FRAME_FIXED: usize = 4 + 1;
@@ -142,25 +141,20 @@ pub fn scan_sequence(
     let mut pos = SEQUENCE_HEADER_LEN as u64;
     scan.good_len = pos;
     let mut buf = Vec::new();
+    let len_ok =
+        |n: usize| n == WRITTEN_LEN || (FRAME_FIXED + RECORD_FIXED..=max_payload).contains(&n);
     loop {
-        let mut len = [0u8; 4];
-        if !read_full(r, &mut len)? {
-            break;
-        }
-        let n = u32::from_le_bytes(len) as usize;
-        if n != WRITTEN_LEN && !(FRAME_FIXED + RECORD_FIXED..=max_payload).contains(&n) {
-            break; // Not a length this sequence's records can have: the framing is lost.
-        }
-        buf.resize(n + CHECK_LEN, 0);
-        if !read_full(r, &mut buf)? {
-            break; // Torn.
-        }
+        let n = match read_sealed(r, &mut buf, len_ok, seal, header)? {
+            Sealed::End | Sealed::Torn(_) => break,
+            Sealed::Forged(n) => {
+                pos += (4 + n + CHECK_LEN) as u64;
+                scan.bad_records += 1;
+                continue;
+            }
+            Sealed::Good(n) => n,
+        };
         pos += (4 + n + CHECK_LEN) as u64;
-        let (payload, check) = buf.split_at(n);
-        if seal.tag(&[header, &len, payload])[..] != check[..] {
-            scan.bad_records += 1;
-            continue;
-        }
+        let payload = &buf[..n];
         let frame = u32::from_le_bytes([payload[0], payload[1], payload[2], payload[3]]) as usize;
         let Some(tiles) = frame_tiles.get(frame) else {
             scan.bad_records += 1;
@@ -195,80 +189,48 @@ pub fn scan_sequence(
     Ok(scan)
 }
 
-/// An open sequence checkpoint, positioned at its end, taking records.
+/// An open sequence checkpoint, positioned at its end, taking records: written and synced
+/// as a one-frame checkpoint's file is, with records of its own kinds.
 #[derive(Debug)]
 pub struct SequenceCheckpoint {
-    file: File,
-    path: PathBuf,
-    last_sync: Instant,
-    unsynced: bool,
-    buf: Vec<u8>,
-    seal: Seal,
-    /// The file's header: every record's seal covers it.
-    header: [u8; SEQUENCE_HEADER_LEN],
+    records: Checkpoint,
 }
 
 impl SequenceCheckpoint {
     /// `file` has just been synced, positioned at its end.
-    pub(super) fn new(
-        file: File,
-        path: &Path,
-        seal: Seal,
-        header: [u8; SEQUENCE_HEADER_LEN],
-    ) -> SequenceCheckpoint {
+    pub(super) fn new(file: File, path: &Path, seal: Seal, header: &[u8]) -> SequenceCheckpoint {
         SequenceCheckpoint {
-            file,
-            path: path.to_path_buf(),
-            last_sync: Instant::now(),
-            unsynced: false,
-            buf: Vec::new(),
-            seal,
-            header,
+            records: Checkpoint::new(file, path, seal, header),
         }
     }
 
     /// The file's path.
     pub fn path(&self) -> &Path {
-        &self.path
+        self.records.path()
     }
 
     /// Appends the records of `tiles` (each of its frame) in one write, and syncs if the last
-    /// sync is [`SYNC_INTERVAL`] old.
+    /// sync is [`super::SYNC_INTERVAL`] old.
     pub fn append(&mut self, tiles: &[AcceptedTile]) -> Result<(), CheckpointError> {
         if !tiles.is_empty() {
-            self.buf.clear();
-            for t in tiles {
-                encode_frame_tile(t, &self.seal, &self.header, &mut self.buf);
-            }
-            self.write_buf()?;
+            self.records.write_records(|seal, header, out| {
+                for t in tiles {
+                    encode_frame_tile(t, seal, header, out);
+                }
+            })?;
         }
-        if self.unsynced && self.last_sync.elapsed() >= SYNC_INTERVAL {
-            self.sync()?;
-        }
-        Ok(())
+        self.records.sync_if_due()
     }
 
     /// Records that frame `frame`'s file was written (renamed into place) as `w`, and syncs.
     pub fn written(&mut self, frame: usize, w: &Written) -> Result<(), CheckpointError> {
-        self.buf.clear();
-        encode_written(frame, w, &self.seal, &self.header, &mut self.buf);
-        self.write_buf()?;
+        self.records
+            .write_records(|seal, header, out| encode_written(frame, w, seal, header, out))?;
         self.sync()
-    }
-
-    fn write_buf(&mut self) -> Result<(), CheckpointError> {
-        self.file
-            .write_all(&self.buf)
-            .map_err(io("write", &self.path))?;
-        self.unsynced = true;
-        Ok(())
     }
 
     /// Syncs what was written to the disk.
     pub fn sync(&mut self) -> Result<(), CheckpointError> {
-        self.file.sync_data().map_err(io("sync", &self.path))?;
-        self.unsynced = false;
-        self.last_sync = Instant::now();
-        Ok(())
+        self.records.sync()
     }
 }
