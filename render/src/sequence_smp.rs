@@ -62,6 +62,8 @@ pub struct SequenceTile<'a> {
     pub frame: usize,
     /// The tile.
     pub tile: &'a Tile,
+    /// Its pixels, row by row.
+    pub pixels: &'a [Rgb],
     /// Its ray statistics.
     pub stats: &'a RayStats,
     /// When (from the start of the sequence) and on which thread it was rendered.
@@ -232,6 +234,7 @@ pub fn render_sequence<E: Send>(
                     on_tile(SequenceTile {
                         frame: k,
                         tile: &tile,
+                        pixels: &buf,
                         stats: &stats,
                         span,
                     });

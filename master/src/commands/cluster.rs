@@ -303,13 +303,10 @@ fn run_master_sequence(
     timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
     use super::render_sequence::{
-        prepare, refuse_for_sequences, report_frames, sequence_recorder, through_runtime,
-        write_sequence_timeline, SequenceInput,
+        prepare, refuse_for_sequences, report_frames, sequence_live, sequence_recorder,
+        through_runtime, write_sequence_timeline, SequenceInput,
     };
-    refuse_for_sequences(&[
-        ("--http", args.job.live.http.is_some()),
-        ("--costly-first", args.order.costly_first.is_some()),
-    ])?;
+    refuse_for_sequences(&[("--costly-first", args.order.costly_first.is_some())])?;
     let wait_workers = check_master_flags(args, job, timeout)?;
     let p = prepare(&SequenceInput {
         files: &args.files,
@@ -326,6 +323,16 @@ fn run_master_sequence(
     let (token_text, token) = fresh_token()?;
     let mut observers = parrt_runtime::observer::Observers::default();
     let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
+    let live = sequence_live(
+        &args.job.live,
+        Some(token.as_bytes()),
+        &p.as_ref(),
+        args.tile,
+        "distributed",
+    )?;
+    if let Some(l) = &live {
+        observers.0.push(l.observer());
+    }
     let mut config = master_config(MasterSetup {
         observers,
         job: &args.job,
@@ -368,6 +375,9 @@ fn run_master_sequence(
         args.tile,
         r.trace_s,
     )?;
+    if let Some(l) = live {
+        l.end(true);
+    }
     report_frames("parrt cluster", &p.outputs, &r);
     Ok(ExitCode::SUCCESS)
 }

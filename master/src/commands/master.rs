@@ -256,11 +256,10 @@ fn run_sequence(
     heartbeat_timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
     use super::render_sequence::{
-        prepare, refuse_for_sequences, report_frames, sequence_recorder, through_runtime,
-        write_sequence_timeline, SequenceInput,
+        prepare, refuse_for_sequences, report_frames, sequence_live, sequence_recorder,
+        through_runtime, write_sequence_timeline, SequenceInput,
     };
     refuse_for_sequences(&[
-        ("--http", args.job.live.http.is_some()),
         ("--scene-json", args.scene_json.is_some()),
         ("--report-json", args.report_json.is_some()),
     ])?;
@@ -279,6 +278,16 @@ fn run_sequence(
     })?;
     let mut observers = parrt_runtime::observer::Observers::default();
     let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
+    let live = sequence_live(
+        &args.job.live,
+        Some(token.as_bytes()),
+        &p.as_ref(),
+        args.tile,
+        "distributed",
+    )?;
+    if let Some(l) = &live {
+        observers.0.push(l.observer());
+    }
     let mut config = master_config(MasterSetup {
         observers,
         job: &args.job,
@@ -313,6 +322,9 @@ fn run_sequence(
         args.tile,
         r.trace_s,
     )?;
+    if let Some(l) = live {
+        l.end(true);
+    }
     report_frames("parrt master", &p.outputs, &r);
     Ok(ExitCode::SUCCESS)
 }

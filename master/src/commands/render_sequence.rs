@@ -6,9 +6,10 @@
 //! that stay connected for the whole sequence ([`parrt_runtime::run_sequence`]), with
 //! `--checkpoint`/`--resume` if asked ([`crate::sequence_checkpoint`]; on this machine's threads
 //! a sequence keeps no checkpoint, as one frame keeps none), and with `--timeline FILE` its
-//! tiles' timeline, each tile marked with its frame. The flags that describe one frame's
-//! render (`--tile-costs`, the live view) are refused. Every frame is
-//! checked (its scene read, its settings and size) before the first is rendered.
+//! tiles' timeline, each tile marked with its frame, and with `--http ADDR` a live view of the
+//! newest frame being assembled with the frames done and in flight ([`crate::live::frames`]).
+//! `--tile-costs` (one frame's measured costs) is refused. Every frame is checked (its scene
+//! read, its settings and size) before the first is rendered.
 
 use super::render::RenderArgs;
 use super::report::RenderReport;
@@ -185,15 +186,11 @@ fn refuse_unsupported(args: &RenderArgs) -> anyhow::Result<()> {
     if args.workers == Some(0) {
         return Err(ArgError::Value("--workers must be at least 1".into()).into());
     }
-    for (flag, given) in [
-        ("--tile-costs", args.tile_costs.is_some()),
-        ("--http", args.job.live.http.is_some()),
-    ] {
-        if given {
-            return conflict(&format!(
-                "{flag} is not available for sequences yet; render the frame alone for it"
-            ));
-        }
+    if args.tile_costs.is_some() {
+        return conflict(
+            "--tile-costs is not available for sequences: each frame after the first is \
+             handed out costliest first by the frames before it",
+        );
     }
     if args.threads == Some(0) {
         return Err(ArgError::Value("--threads must be at least 1".into()).into());
@@ -399,6 +396,7 @@ fn render_through_workers(
     outputs: &[PathBuf],
     n: usize,
     progress: &std::sync::Arc<SequenceProgress>,
+    live: Option<&crate::live::Live>,
 ) -> anyhow::Result<(SequenceResult, usize)> {
     use parrt_runtime::observer::{Observer, Observers};
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
@@ -409,6 +407,9 @@ fn render_through_workers(
         Observers::default()
     };
     let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
+    if let Some(l) = live {
+        observers.0.push(l.observer());
+    }
     let mut config = super::distributed::master_config(super::distributed::MasterSetup {
         observers,
         job: &args.job,
@@ -444,6 +445,32 @@ fn render_through_workers(
         stopped: false,
     };
     Ok((result, threads))
+}
+
+/// The live view of a sequence when `--http` asked for one, told each frame's label and size.
+/// `token`: the workers' lasting secret the view key derives from (`parrt master`), if any.
+pub fn sequence_live(
+    args: &crate::cli_args::live::LiveArgs,
+    token: Option<&[u8]>,
+    p: &PreparedRef<'_>,
+    tile: u32,
+    mode: &'static str,
+) -> anyhow::Result<Option<crate::live::Live>> {
+    let live = super::watch::start_live(args, token)?;
+    if let Some(l) = &live {
+        let jobs = p.settings.iter().zip(&p.loaded.labels);
+        l.set_sequence(
+            jobs.map(|((s, _), label)| crate::live::state::JobInfo {
+                scene: label.clone(),
+                mode,
+                width: s.width,
+                height: s.height,
+                tile_size: tile,
+            })
+            .collect(),
+        );
+    }
+    Ok(live)
 }
 
 /// A timeline recorder of a sequence's tiles, each with its frame, added to `observers` when
@@ -663,10 +690,31 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .map(|(s, _)| parrt_render::tile::tiles(s.width, s.height, args.tile).len())
         .sum();
     let progress = std::sync::Arc::new(SequenceProgress::new(total_tiles, n));
+    let prepared = PreparedRef {
+        loaded: &loaded,
+        settings: &settings,
+        outputs: &outputs,
+    };
+    let mode = if args.workers.is_some() {
+        "distributed"
+    } else {
+        "smp"
+    };
+    let live = sequence_live(&args.job.live, None, &prepared, args.tile, mode)?;
     if let Some(workers) = args.workers {
-        let (result, threads) =
-            render_through_workers(args, &loaded, &settings, &outputs, workers, &progress)?;
+        let (result, threads) = render_through_workers(
+            args,
+            &loaded,
+            &settings,
+            &outputs,
+            workers,
+            &progress,
+            live.as_ref(),
+        )?;
         progress.finish();
+        if let Some(l) = live {
+            l.end(true);
+        }
         let opts = SequenceOptions {
             threads: workers * threads,
             ..opts
@@ -699,8 +747,25 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     // With --timeline each tile's span (thread, start, end) is kept, with its frame.
     let spans = Mutex::new(Vec::new());
     let keep = args.job.timeline.is_some();
+    // The live view sees the render threads as its workers, as for one frame.
+    let watcher = live.as_ref().map(|l| l.observer());
+    let origin = tokio::time::Instant::now();
+    if let Some(o) = &watcher {
+        for t in 0..threads {
+            let id = t as parrt_runtime::scheduler::WorkerId;
+            o.joined(id, &format!("thread {t}"), 1, origin);
+            o.ready(id, origin);
+        }
+        o.started(origin);
+    }
     let on_tile = |t: parrt_render::sequence_smp::SequenceTile<'_>| {
         progress.tile();
+        if let Some(o) = &watcher {
+            let id = parrt_runtime::scheduler::WorkerId::from(t.span.thread);
+            let seconds = (t.span.end_s - t.span.start_s).max(0.0);
+            o.assigned_in(t.frame, id, t.tile, 1, false, origin);
+            o.result_in(t.frame, id, t.tile, t.pixels, t.stats, seconds, true);
+        }
         if keep {
             let mut s = spans.lock().unwrap_or_else(|e| e.into_inner());
             s.push((t.frame, t.tile.id, t.span));
@@ -708,14 +773,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     };
     let result = render_sequence(n, &opts, &build, &write, &on_tile, &STOP)?;
     progress.finish();
+    if let Some(l) = live {
+        l.end(!result.stopped);
+    }
     if let Some(path) = &args.job.timeline {
-        let p = PreparedRef {
-            loaded: &loaded,
-            settings: &settings,
-            outputs: &outputs,
-        };
         let spans = spans.into_inner().unwrap_or_else(|e| e.into_inner());
-        let job = sequence_job(&p, args.tile);
+        let job = sequence_job(&prepared, args.tile);
         crate::timeline::Timeline::from_smp_sequence(&job, threads, &spans, result.wall_s)
             .write(path)?;
     }

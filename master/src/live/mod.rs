@@ -6,6 +6,7 @@
 //! - [`state`]: what the render reports, as an observer (never waiting: a mutex held for a
 //!   copy that notes which tile landed, a few counters) and what the server reads. Its flags
 //!   are `crate::cli_args::live`'s; it never decides an exit code.
+//! - [`status`]: what `/status` returns (the state keeps it up to date).
 //! - [`server`]: the HTTP server (axum) on a thread and runtime of its own, so a slow or stuck
 //!   browser can never hold the render up.
 //! - [`batcher`]: the server's task that encodes the tiles landed, once per 100 ms for every
@@ -14,6 +15,7 @@
 //! - [`auth`]: who may see it: anyone on loopback (through a `Host` naming it), only holders of
 //!   the view key elsewhere (derived one way from the workers' token, never the token itself).
 //! - [`gate`]: which connections and event streams stay open when there are too many.
+//! - [`frames`]: a sequence's frames: which the page shows, how many are done and in flight.
 //! - [`snapshot`]: the one copy of the frame `/frame` and `/image.png` serve.
 //! - [`announce`]: where the page's address is told (the key only to a terminal or a 0600
 //!   file, never to a log).
@@ -26,12 +28,14 @@ pub mod announce;
 pub mod auth;
 pub mod batcher;
 pub mod encode;
+pub mod frames;
 pub mod gate;
 pub mod head_limit;
 pub mod limits;
 pub mod server;
 pub mod snapshot;
 pub mod state;
+pub mod status;
 
 pub use server::LiveView;
 pub use state::LiveState;
@@ -94,6 +98,12 @@ impl Live {
     /// Tells the page what is rendered (before the render starts).
     pub fn set_job(&self, job: state::JobInfo) {
         self.state.set_job(job);
+    }
+
+    /// Tells the page the frames of a sequence (before the render starts): frame k is
+    /// `jobs[k]`.
+    pub fn set_sequence(&self, jobs: Vec<state::JobInfo>) {
+        self.state.set_sequence(jobs);
     }
 
     /// The state as an observer of the render.

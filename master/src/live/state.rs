@@ -8,13 +8,14 @@
 //! waits for one band at most) and [`LiveState::take_landed`] (the tiles landed since, which
 //! the batcher encodes once and sends to every page on [`LiveState::subscribe`]'s channel).
 
+use super::frames::FrameCounts;
 use super::limits::{EVENT_BACKLOG, KEPT_DEPARTED, KEPT_FAULTS, SNAPSHOT_BAND};
+pub use super::status::{Fault, Phase, Status, WorkerState, WorkerStatus};
 use parrt_render::film::{to_u8_into, Rgb};
 use parrt_render::stats::RayStats;
 use parrt_render::tile::Tile;
 use parrt_runtime::observer::Observer;
 use parrt_runtime::scheduler::WorkerId;
-use serde::Serialize;
 use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -32,6 +33,8 @@ struct Frame {
     landed: Vec<Tile>,
     /// More tiles landed than `landed` had room for: the pages reload the image instead.
     overflow: bool,
+    /// The frame of a sequence this image is (0 for one frame).
+    shown: usize,
 }
 
 /// The tiles landed since the last call of [`LiveState::take_landed`] (their pixels go to the
@@ -43,120 +46,6 @@ pub struct Landed {
     pub overflow: bool,
 }
 
-/// A worker's (or render thread's) state.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum WorkerState {
-    /// Connected, building the scene.
-    Building,
-    /// Taking tiles.
-    Rendering,
-    /// Missed a deadline: its tiles were given to others (it may still deliver).
-    Requeued,
-    /// Left or was dropped.
-    Lost,
-    /// The render is over.
-    Done,
-}
-
-/// One row of the page.
-#[derive(Clone, Debug, Serialize)]
-pub struct WorkerStatus {
-    /// Its name (`thread N` for an SMP render thread).
-    pub name: String,
-    /// Its render threads.
-    pub threads: u32,
-    /// Its state.
-    pub state: WorkerState,
-    /// Tiles it delivered that are in the image.
-    pub tiles: u64,
-    /// Rays it traced for those tiles.
-    pub rays: u64,
-    /// Its rays per second (millions) since it was ready.
-    pub mrays_per_s: f64,
-    /// Why it left, if it did.
-    pub left: Option<String>,
-    #[serde(skip)]
-    id: u64,
-    #[serde(skip)]
-    ready_at: Option<Instant>,
-    #[serde(skip)]
-    end_at: Option<Instant>,
-}
-
-/// A fault the page lists.
-#[derive(Clone, Debug, Serialize)]
-pub struct Fault {
-    /// Seconds since the live view began.
-    pub t_s: f64,
-    /// `worker-lost` or `tile-requeued`.
-    pub kind: &'static str,
-    /// The worker, if one.
-    pub worker: Option<String>,
-    /// The tile, if one.
-    pub tile: Option<u32>,
-    /// Why.
-    pub detail: String,
-}
-
-/// The render's phase.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Phase {
-    /// Waiting for workers or building.
-    Starting,
-    /// Tracing.
-    Rendering,
-    /// Every tile is in the image.
-    Done,
-    /// Ended without every tile.
-    Failed,
-}
-
-/// Everything `/status` returns (keys documented in `docs/live-view.md`).
-#[derive(Clone, Debug, Serialize)]
-pub struct Status {
-    /// The scene's label.
-    pub scene: String,
-    /// `smp` or `distributed`.
-    pub mode: &'static str,
-    /// Image width.
-    pub width: u32,
-    /// Image height.
-    pub height: u32,
-    /// Tile edge.
-    pub tile_size: u32,
-    /// The phase.
-    pub state: Phase,
-    /// Tiles in the image.
-    pub tiles_total: usize,
-    /// Tiles done.
-    pub tiles_done: usize,
-    /// Seconds since the trace began (0 before).
-    pub elapsed_s: f64,
-    /// Seconds left at the rate so far (`null` until a tile is done, 0 when done).
-    pub eta_s: Option<f64>,
-    /// Rays traced for the tiles done.
-    pub rays: u64,
-    /// Millions of rays per second since the trace began.
-    pub mrays_per_s: f64,
-    /// A row per worker (or render thread).
-    pub workers: Vec<WorkerStatus>,
-    /// The newest faults (at most 100).
-    pub faults: Vec<Fault>,
-    /// Faults in all.
-    pub faults_total: u64,
-    /// Tiles put back in the queue.
-    pub requeued: u64,
-    /// Workers lost.
-    pub lost: u64,
-    /// Departed workers no longer listed in `workers` (only the newest
-    /// [`KEPT_DEPARTED`] departures are; `lost` counts them all).
-    pub departed_folded: u64,
-    /// Changes so far (a page polls this to see whether anything moved).
-    pub version: u64,
-}
-
 struct Inner {
     status: Status,
     created: Instant,
@@ -165,6 +54,8 @@ struct Inner {
     /// Which worker holds each tile in flight (distributed).
     holder: HashMap<u32, u64>,
     faults: VecDeque<Fault>,
+    /// A sequence's frames (`None` for one frame).
+    sequence: Option<FrameCounts>,
 }
 
 /// The shared state of one render's live view.
@@ -238,18 +129,24 @@ impl LiveState {
                     lost: 0,
                     departed_folded: 0,
                     version: 0,
+                    frame: None,
+                    frames_total: None,
+                    frames_done: None,
+                    frames_in_flight: None,
                 },
                 created: Instant::now(),
                 started: None,
                 finished: None,
                 holder: HashMap::new(),
                 faults: VecDeque::new(),
+                sequence: None,
             }),
             frame: Mutex::new(Frame {
                 width: 0,
                 rgb: Vec::new(),
                 landed: Vec::new(),
                 overflow: false,
+                shown: 0,
             }),
             version: AtomicU64::new(0),
             events: broadcast::channel(EVENT_BACKLOG).0,
@@ -271,6 +168,7 @@ impl LiveState {
             rgb: vec![0; pixels],
             landed: Vec::with_capacity(tiles_total),
             overflow: false,
+            shown: 0,
         };
         self.with(|i| {
             let s = &mut i.status;
@@ -281,6 +179,54 @@ impl LiveState {
             s.tile_size = job.tile_size;
             s.tiles_total = tiles_total;
         });
+    }
+
+    /// Sets a sequence's frames (before its first tile): frame k is `jobs[k]`. The page shows
+    /// frame 0 first, then each newer frame from its first tile landed (see [`FrameCounts`]).
+    pub fn set_sequence(&self, jobs: Vec<JobInfo>) {
+        if let Some(first) = jobs.first() {
+            self.set_job(first.clone());
+        }
+        self.with(|i| {
+            let counts = FrameCounts::new(jobs);
+            Self::count_frames(&mut i.status, &counts, 0);
+            i.sequence = Some(counts);
+        });
+    }
+
+    /// The status's frame fields: `shown` of `counts`.
+    fn count_frames(s: &mut Status, counts: &FrameCounts, shown: usize) {
+        s.frame = Some(shown);
+        s.frames_total = Some(counts.total());
+        s.frames_done = Some(counts.done());
+        s.frames_in_flight = Some(counts.in_flight());
+    }
+
+    /// Shows frame `k` of the sequence `counts` in `f` from now on: an empty image of its size
+    /// (the pages reload it), its tiles none of them in yet.
+    fn show_frame(&self, f: &mut Frame, s: &mut Status, counts: &FrameCounts, k: usize) {
+        let Some(job) = counts.job(k) else {
+            return;
+        };
+        let tiles_total =
+            parrt_render::tile::tiles(job.width, job.height, job.tile_size.max(1)).len();
+        let pixels = (job.width as usize)
+            .saturating_mul(job.height as usize)
+            .saturating_mul(3);
+        f.shown = k;
+        f.width = job.width as usize;
+        f.rgb.clear();
+        f.rgb.resize(pixels, 0);
+        f.landed.clear();
+        f.landed.reserve(tiles_total);
+        f.overflow = true;
+        s.scene.clone_from(&job.scene);
+        s.width = job.width;
+        s.height = job.height;
+        s.tile_size = job.tile_size;
+        s.tiles_total = tiles_total;
+        s.tiles_done = 0;
+        self.reloading();
     }
 
     fn with<R>(&self, f: impl FnOnce(&mut Inner) -> R) -> R {
@@ -450,11 +396,26 @@ impl LiveState {
         i.status.workers.iter_mut().find(|w| w.id == id)
     }
 
-    /// A tile landed in the image, rendered by `id`.
-    fn tile_done(&self, id: u64, tile: &Tile, pixels: &[Rgb], rays: u64) {
-        {
-            let mut guard = self.frame.lock().unwrap_or_else(|e| e.into_inner());
-            let f = &mut *guard;
+    /// A tile of frame `frame` (0 for one frame) landed, rendered by `id`: drawn when the
+    /// image is of its frame (a newer frame of a sequence is shown from its first tile on).
+    /// The frame's lock is held throughout, so a tile is drawn and counted in the same image.
+    fn tile_done(&self, frame: usize, id: u64, tile: &Tile, pixels: &[Rgb], rays: u64) {
+        let mut guard = self.frame.lock().unwrap_or_else(|e| e.into_inner());
+        let f = &mut *guard;
+        let drawn = self.with(|i| {
+            let Inner {
+                status, sequence, ..
+            } = i;
+            if let Some(counts) = sequence {
+                counts.accepted(frame);
+                if frame > f.shown {
+                    self.show_frame(f, status, counts, frame);
+                }
+                Self::count_frames(status, counts, f.shown);
+            }
+            frame == f.shown
+        });
+        if drawn {
             let w = tile.w as usize;
             for y in 0..tile.h as usize {
                 let at = ((tile.y as usize + y) * f.width + tile.x as usize) * 3;
@@ -476,9 +437,11 @@ impl LiveState {
             }
         }
         self.with(|i| {
-            i.status.tiles_done += 1;
-            i.status.rays += rays;
+            if drawn {
+                i.status.tiles_done += 1;
+            }
             i.holder.remove(&tile.id);
+            i.status.rays += rays;
             if let Some(w) = Self::worker(i, id) {
                 w.tiles += 1;
                 w.rays += rays;
@@ -567,11 +530,43 @@ impl Observer for LiveState {
         tile: &Tile,
         pixels: &[Rgb],
         stats: &RayStats,
+        seconds: f64,
+        accepted: bool,
+    ) {
+        self.result_in(0, id, tile, pixels, stats, seconds, accepted);
+    }
+
+    fn assigned_in(
+        &self,
+        frame: usize,
+        id: WorkerId,
+        tile: &Tile,
+        attempt: u32,
+        backup: bool,
+        now: tokio::time::Instant,
+    ) {
+        self.with(|i| {
+            if let Some(counts) = &mut i.sequence {
+                counts.open(frame);
+                let shown = i.status.frame.unwrap_or(0);
+                Self::count_frames(&mut i.status, counts, shown);
+            }
+        });
+        self.assigned(id, tile, attempt, backup, now);
+    }
+
+    fn result_in(
+        &self,
+        frame: usize,
+        id: WorkerId,
+        tile: &Tile,
+        pixels: &[Rgb],
+        stats: &RayStats,
         _seconds: f64,
         accepted: bool,
     ) {
         if accepted {
-            self.tile_done(id, tile, pixels, stats.total_rays());
+            self.tile_done(frame, id, tile, pixels, stats.total_rays());
         }
     }
 
@@ -648,6 +643,56 @@ pub(crate) mod tests {
             ..RayStats::default()
         };
         s.result(id, tile, pixels, &stats, 0.0, true);
+    }
+
+    /// A sequence's newest frame begun is shown from its first tile: the image emptied (the
+    /// pages reload it), the tile counts its own; an older frame's tiles are counted, not drawn.
+    #[test]
+    fn a_sequence_shows_its_newest_frame_and_counts_frames_done_and_in_flight() {
+        let s = LiveState::empty();
+        s.set_sequence(vec![job(), job()]);
+        let tiles = parrt_render::tile::tiles(4, 2, 2);
+        let (red, blue) = ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        let land_in = |frame: usize, t: &Tile, rgb: Rgb| {
+            let stats = RayStats {
+                eye_rays: 4,
+                ..RayStats::default()
+            };
+            s.assigned_in(frame, 0, t, 1, false, tokio::time::Instant::now());
+            s.result_in(frame, 0, t, &[rgb; 4], &stats, 0.0, true);
+        };
+        let counts = |s: &LiveState| {
+            let v = s.status();
+            (
+                v.frame,
+                v.frames_total,
+                v.frames_done,
+                v.frames_in_flight,
+                v.tiles_done,
+            )
+        };
+        assert_eq!(counts(&s), (Some(0), Some(2), Some(0), Some(0), 0));
+        land_in(0, &tiles[0], red);
+        assert_eq!(counts(&s), (Some(0), Some(2), Some(0), Some(1), 1));
+        let reloads = s.reloads();
+        land_in(1, &tiles[1], blue);
+        assert_eq!(counts(&s), (Some(1), Some(2), Some(0), Some(2), 1));
+        assert!(s.reloads() > reloads, "the pages reload the emptied image");
+        let blue_tile = [0, 0, 0, 0, 0, 255, 0, 0, 255];
+        let row = |y: usize| s.frame()[y * 12..y * 12 + 12].to_vec();
+        assert_eq!(
+            row(0)[..6],
+            [0; 6],
+            "frame 0's tile is not in frame 1's image"
+        );
+        assert_eq!(row(0)[6..], blue_tile[3..]);
+        // Frame 0's last tile: counted done, not drawn over frame 1.
+        land_in(0, &tiles[1], red);
+        assert_eq!(counts(&s), (Some(1), Some(2), Some(1), Some(1), 1));
+        assert_eq!(row(1)[6..], blue_tile[3..]);
+        land_in(1, &tiles[0], blue);
+        assert_eq!(counts(&s), (Some(1), Some(2), Some(2), Some(0), 2));
+        assert_eq!(s.status().rays, 16, "every frame's rays count");
     }
 
     fn job() -> JobInfo {

@@ -333,6 +333,66 @@ fn distributed_render_shows_a_row_per_worker() {
     assert_eq!(frame, png.into_raw());
 }
 
+/// A 3-frame orbit through the live view, on this machine's threads and through 2 workers: the
+/// page ends on the last frame, every frame counted done, its tile counts the frame's own, its
+/// image the last frame written; the rows are the render threads or the workers.
+#[test]
+fn a_sequence_shows_its_newest_frame_and_counts_the_frames() {
+    for (mode, extra) in [
+        ("smp", &["--threads", "2"][..]),
+        ("distributed", &["--workers", "2"]),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut cmd = Command::new(EXE);
+        cmd.arg("render")
+            .args(SMALL)
+            .args(["--orbit", "90", "--frames", "3", "--http", "127.0.0.1:0"])
+            .args(["--http-linger", "60", "-o"])
+            .arg(dir.path().join("f-%d.png"))
+            .args(extra);
+        let r = start_command(cmd, None);
+        let v = status_when_done(&r.dial, None);
+        assert_eq!(v["state"], "done", "{mode}: {v}");
+        assert_eq!(v["mode"], mode);
+        assert_eq!(
+            (
+                &v["frame"],
+                &v["frames_total"],
+                &v["frames_done"],
+                &v["frames_in_flight"]
+            ),
+            (&2.into(), &3.into(), &3.into(), &0.into()),
+            "{mode}: {v}"
+        );
+        assert_eq!(
+            (&v["tiles_done"], &v["tiles_total"]),
+            (&16.into(), &16.into())
+        );
+        assert!(
+            v["scene"].as_str().unwrap().starts_with("frame 2 of "),
+            "{v}"
+        );
+        let rows = v["workers"].as_array().expect("workers");
+        assert_eq!(rows.len(), 2, "{mode}: {v}");
+        let tiles: u64 = rows.iter().map(|w| w["tiles"].as_u64().unwrap()).sum();
+        assert_eq!(
+            tiles,
+            3 * 16,
+            "{mode}: every frame's tiles, by thread or worker"
+        );
+        let (code, _, frame) = get(&r.dial, "/frame", None);
+        assert_eq!(code, 200);
+        let last = image::open(dir.path().join("f-2.png")).unwrap().to_rgb8();
+        assert_eq!(
+            frame,
+            last.into_raw(),
+            "{mode}: the image is the last frame"
+        );
+        let first = image::open(dir.path().join("f-0.png")).unwrap().to_rgb8();
+        assert_ne!(frame, first.into_raw(), "{mode}: the orbit turned");
+    }
+}
+
 #[test]
 fn bad_http_flags_are_usage_errors() {
     for args in [
