@@ -52,6 +52,8 @@ pub struct EfficiencyTable {
     pub cells: Vec<Vec<Option<Cell>>>,
     /// Rows whose thread count exceeds the cores (marked as oversubscribed).
     pub cores: usize,
+    /// Frames each measured run rendered (1, or a sequence's frames as one job).
+    pub frames: usize,
 }
 
 impl EfficiencyTable {
@@ -69,7 +71,14 @@ impl EfficiencyTable {
             tiles,
             cells,
             cores,
+            frames: 1,
         }
+    }
+
+    /// This table with each run rendering `frames` frames as one job.
+    pub fn with_frames(mut self, frames: usize) -> Self {
+        self.frames = frames;
+        self
     }
 
     /// Fills the cell for `n` threads and tile size `tile`, given the one-thread time `t1`.
@@ -140,6 +149,7 @@ impl EfficiencyTable {
                         format!("{:.6}", cell.cost),
                         format!("{:.6}", cell.efficiency),
                         (*n > self.cores).to_string(),
+                        self.frames.to_string(),
                     ])?;
                 }
             }
@@ -149,7 +159,7 @@ impl EfficiencyTable {
 }
 
 /// The columns of an efficiency table's CSV ([`EfficiencyTable::write_csv`]).
-pub const CSV_HEADER: [&str; 7] = [
+pub const CSV_HEADER: [&str; 8] = [
     "table",
     "threads",
     "tile",
@@ -157,6 +167,7 @@ pub const CSV_HEADER: [&str; 7] = [
     "cost_s",
     "efficiency",
     "oversubscribed",
+    "frames",
 ];
 
 /// The columns of a per-tile cost file.
@@ -275,17 +286,19 @@ mod tests {
         t.write_csv(&mut w).expect("in memory");
         let csv = String::from_utf8(w.into_inner().expect("in memory")).expect("UTF-8");
         assert_eq!(csv.lines().count(), 4); // header + 3 cells
-        assert!(csv.starts_with("table,threads,tile,tn_s,cost_s,efficiency,oversubscribed\n"));
-        assert!(csv.contains("\nmount bvh smp,4,64,5.000000,20.000000,0.500000,true\n"));
+        assert!(
+            csv.starts_with("table,threads,tile,tn_s,cost_s,efficiency,oversubscribed,frames\n")
+        );
+        assert!(csv.contains("\nmount bvh smp,4,64,5.000000,20.000000,0.500000,true,1\n"));
         // A title with a comma or a quote is quoted, and reads back as one field.
-        let mut q = EfficiencyTable::new("a, \"b\"", vec![1], vec![8], 2);
+        let mut q = EfficiencyTable::new("a, \"b\"", vec![1], vec![8], 2).with_frames(24);
         q.set(1, 8, 1.0, 1.0);
         let mut w = csv::Writer::from_writer(Vec::new());
         q.write_csv(&mut w).expect("in memory");
         let text = w.into_inner().expect("in memory");
         assert_eq!(
             text,
-            b"\"a, \"\"b\"\"\",1,8,1.000000,1.000000,1.000000,false\n"
+            b"\"a, \"\"b\"\"\",1,8,1.000000,1.000000,1.000000,false,24\n"
         );
     }
 

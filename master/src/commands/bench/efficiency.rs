@@ -2,7 +2,10 @@
 //! of K runs, same build and settings) for every accelerator, executor, tile size and thread
 //! count, and writes the paper-shaped tables (rows threads, columns tile sizes; efficiency of the
 //! tracing phase and of the whole render) as Markdown and CSV, plots like its Figures 2 and 3,
-//! and a check of the schedule simulator against the measured runs.
+//! and a check of the schedule simulator against the measured runs. With `--frames N` every
+//! run renders an orbit of N frames as one job instead ([`sequence`]).
+
+mod sequence;
 
 use crate::cli_args::{AccelArg, ExecutorArg, LimitArgs, SceneSpec};
 use crate::exit::input_error;
@@ -83,6 +86,19 @@ pub struct EfficiencyArgs {
         default_value = "512,1024"
     )]
     pub sizes: Vec<u32>,
+    /// Frames of each run: above 1, every run renders an orbit of the scene in this many frames
+    /// as one job (a sequence: tiles of the next frame fill a frame's tail), and the times are
+    /// the whole sequence's; the CSV's `frames` column says so.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub frames: usize,
+    /// The orbit's degrees over the frames (with `--frames` above 1).
+    #[arg(
+        long,
+        value_name = "DEGREES",
+        default_value_t = 360.0,
+        allow_negative_numbers = true
+    )]
+    pub orbit: f64,
     /// Runs per measurement; the median is used.
     #[arg(long, value_name = "K", default_value_t = 3)]
     pub repeat: usize,
@@ -193,6 +209,8 @@ fn plan(args: &EfficiencyArgs, threads: &[usize]) -> String {
 /// One size and accelerator of the study: what its measurements share, and where they go.
 struct Case<'a> {
     args: &'a EfficiencyArgs,
+    /// The orbit every run renders (`--frames` above 1), else `None`: one frame.
+    sequence: Option<&'a parrt_render::sequence::Sequence>,
     label: String,
     threads: &'a [usize],
     cores: usize,
@@ -205,6 +223,11 @@ struct Case<'a> {
 impl Case<'_> {
     /// The tracing and whole-render tables of one mode, titled `title`.
     fn tables(&self, title: &str) -> (EfficiencyTable, EfficiencyTable) {
+        let frames = self.sequence.map_or(1, |s| s.len());
+        let title = match frames {
+            1 => title.to_string(),
+            n => format!("{title}, {n} frames"),
+        };
         let table = |what: &str| {
             EfficiencyTable::new(
                 format!("{title}: {what}"),
@@ -212,6 +235,7 @@ impl Case<'_> {
                 self.args.tiles.clone(),
                 self.cores,
             )
+            .with_frames(frames)
         };
         (table("tracing"), table("whole render"))
     }
@@ -270,6 +294,9 @@ impl Case<'_> {
         out: &mut Report,
         sim_lines: &mut String,
     ) -> anyhow::Result<Vec<Series>> {
+        if let Some(seq) = self.sequence {
+            return self.smp_sequence(seq, renderer.settings(), ex, out);
+        }
         let (size, accel, repeat) = (self.size, self.accel, self.args.repeat);
         let render = |n: usize, tile: u32| {
             let options = SmpOptions {
@@ -339,6 +366,9 @@ impl Case<'_> {
         settings: &RenderSettings,
         out: &mut Report,
     ) -> anyhow::Result<Vec<Series>> {
+        if let Some(seq) = self.sequence {
+            return self.distributed_sequence(seq, settings, out);
+        }
         let (size, accel) = (self.size, self.accel);
         let title = format!(
             "{} {size}px {accel:?} distributed (n workers × 1 thread, loopback)",
@@ -444,9 +474,10 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
         || args.tiles.contains(&0)
         || args.sizes.contains(&0)
         || args.repeat == 0
+        || args.frames == 0
     {
         return Err(input_error(anyhow::anyhow!(
-            "threads, tiles, sizes and --repeat must be at least 1"
+            "threads, tiles, sizes, --frames and --repeat must be at least 1"
         )));
     }
     // Every image is checked against the pixel limit before the first is rendered, so a bad size
@@ -478,6 +509,10 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
     );
     for &size in &args.sizes {
         let (desc, parse_s) = spec.load(&args.limits.limits())?;
+        let orbit = (args.frames > 1)
+            .then(|| parrt_render::sequence::Sequence::orbit(desc.clone(), args.orbit, args.frames))
+            .transpose()
+            .map_err(|e| input_error(anyhow::anyhow!("--orbit {}: {e}", args.orbit)))?;
         for &accel in &accels {
             let mut settings = RenderSettings::new(size, size);
             settings.accel = accel;
@@ -488,6 +523,7 @@ pub fn run(args: EfficiencyArgs) -> anyhow::Result<ExitCode> {
             );
             let case = Case {
                 args: &args,
+                sequence: orbit.as_ref(),
                 label: spec.label(),
                 threads: &threads,
                 cores,
