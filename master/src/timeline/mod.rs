@@ -206,6 +206,22 @@ pub struct Job<'a> {
     pub tile_size: u32,
 }
 
+impl TileRecord {
+    /// Tile `tile` (of frame `frame` of a sequence) rendered by an SMP thread over `span`.
+    fn on_thread(tile: u32, frame: Option<u32>, span: &parrt_render::smp::TileSpan) -> Self {
+        TileRecord {
+            tile,
+            worker: format!("thread {}", span.thread),
+            thread: Some(span.thread),
+            assigned_s: None,
+            start_s: span.start_s,
+            end_s: span.end_s,
+            attempt: Attempt::First,
+            frame,
+        }
+    }
+}
+
 impl Timeline {
     /// The timeline of an SMP render from its per-tile spans.
     pub fn from_smp(
@@ -217,16 +233,7 @@ impl Timeline {
         let mut tiles: Vec<TileRecord> = spans
             .iter()
             .enumerate()
-            .map(|(id, s)| TileRecord {
-                tile: id as u32,
-                worker: format!("thread {}", s.thread),
-                thread: Some(s.thread),
-                assigned_s: None,
-                start_s: s.start_s,
-                end_s: s.end_s,
-                attempt: Attempt::First,
-                frame: None,
-            })
+            .map(|(id, s)| TileRecord::on_thread(id as u32, None, s))
             .collect();
         tiles.sort_by(|a, b| a.end_s.total_cmp(&b.end_s));
         Timeline {
@@ -255,16 +262,7 @@ impl Timeline {
         let mut t = Timeline::from_smp(job, threads, &[], trace_s);
         t.tiles = spans
             .iter()
-            .map(|&(frame, tile, s)| TileRecord {
-                tile,
-                worker: format!("thread {}", s.thread),
-                thread: Some(s.thread),
-                assigned_s: None,
-                start_s: s.start_s,
-                end_s: s.end_s,
-                attempt: Attempt::First,
-                frame: u32::try_from(frame).ok(),
-            })
+            .map(|(frame, tile, s)| TileRecord::on_thread(*tile, u32::try_from(*frame).ok(), s))
             .collect();
         t.tiles.sort_by(|a, b| a.end_s.total_cmp(&b.end_s));
         t
