@@ -150,6 +150,11 @@ impl<'a> ResumableFrames<'a> {
         Ok((self, info))
     }
 
+    /// How many bytes of the checkpoint are known to be on the disk, when there is one.
+    pub fn durable(&self) -> Option<std::sync::Arc<std::sync::atomic::AtomicU64>> {
+        self.checkpoint.as_ref().map(SequenceCheckpoint::durable)
+    }
+
     /// The sequence's indices of the frames still to render, in order.
     pub fn todo(&self) -> &[usize] {
         &self.todo

@@ -5,6 +5,7 @@
 //! - [`args`]: the `sim` binary's flags and their ranges.
 //! - [`plan`]: the fault menu and a seed's schedule.
 //! - [`world`]: one seed's hosts, the fault driver and the invariants.
+//! - [`frames`]: the sequences some seeds render, and their invariant.
 //! - [`trace`]: the event trace (its hash) and the accepted tiles.
 //! - [`net`]: turmoil's TCP in the runtime's and the worker's network seams.
 //! - [`scale`]: fault-free runs of many workers over a recorded render, in virtual time.
@@ -14,6 +15,7 @@
 //! explores and replays; docs/simulation.md describes the world.
 
 pub mod args;
+pub mod frames;
 pub mod net;
 pub mod plan;
 pub mod scale;

@@ -1,8 +1,10 @@
 //! The fault menu and one seed's schedule drawn from it. A seed fixes everything: how many
 //! workers and threads, what a tile costs each, and which faults strike when — crashes with or
 //! without a restart, late joins, held (stalled) and partitioned links that heal or not,
-//! latency spikes, the master killed and resumed from its checkpoint, and hostile peers.
+//! latency spikes, the master killed and resumed from its checkpoint, and hostile peers; and
+//! whether it renders one frame or a sequence of a few.
 
+use super::frames::MOST_FRAMES;
 use super::world::{HEIGHT, TILE, WIDTH};
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
@@ -66,6 +68,8 @@ pub struct Plan {
     /// The order the tiles are handed out in, when not raster: a shuffle, as an order by
     /// cost would be, which the master deals in rounds.
     pub order: Option<Vec<u32>>,
+    /// Frames rendered as one job: 1, or a sequence of 2 to [`MOST_FRAMES`].
+    pub frames: usize,
 }
 
 impl Plan {
@@ -148,6 +152,13 @@ impl Plan {
             v.shuffle(&mut shuffle);
             v
         });
+        // A fourth stream: one seed in four renders a sequence.
+        let mut sequence = StdRng::seed_from_u64(seed ^ 0x5E0F_4A3E);
+        let frames = if sequence.gen_bool(0.25) {
+            sequence.gen_range(2..=MOST_FRAMES)
+        } else {
+            1
+        };
         Plan {
             seed,
             workers,
@@ -158,6 +169,7 @@ impl Plan {
             faults,
             checkpoint,
             order,
+            frames,
         }
     }
 

@@ -19,8 +19,9 @@ pub struct Trace(Arc<Mutex<TraceState>>);
 struct TraceState {
     hash: Sha256,
     events: u64,
-    /// Tiles accepted by the current master incarnation, in order.
-    accepted: Vec<u32>,
+    /// Tiles accepted by the current master incarnation, in order, with their frame (the
+    /// runtime's index: 0 for one frame).
+    accepted: Vec<(usize, u32)>,
 }
 
 impl Trace {
@@ -57,8 +58,8 @@ impl Trace {
         self.0.lock().unwrap_or_else(|p| p.into_inner()).events
     }
 
-    /// Tiles the current master accepted.
-    pub fn accepted(&self) -> Vec<u32> {
+    /// Tiles the current master accepted, with their frame.
+    pub fn accepted(&self) -> Vec<(usize, u32)> {
         self.0
             .lock()
             .unwrap_or_else(|p| p.into_inner())
@@ -77,11 +78,21 @@ impl Observer for Trace {
     fn ready(&self, id: WorkerId, _now: Instant) {
         self.note(&format!("ready {id}"));
     }
-    fn assigned(&self, id: WorkerId, tile: &Tile, attempt: u32, backup: bool, _now: Instant) {
-        self.note(&format!("assigned {id} {} {attempt} {backup}", tile.id));
-    }
-    fn result(
+    fn assigned_in(
         &self,
+        frame: usize,
+        id: WorkerId,
+        tile: &Tile,
+        attempt: u32,
+        backup: bool,
+        _now: Instant,
+    ) {
+        let t = tile_name(frame, tile);
+        self.note(&format!("assigned {id} {t} {attempt} {backup}"));
+    }
+    fn result_in(
+        &self,
+        frame: usize,
         id: WorkerId,
         tile: &Tile,
         _pixels: &[Rgb],
@@ -89,10 +100,13 @@ impl Observer for Trace {
         _seconds: f64,
         accepted: bool,
     ) {
-        self.note(&format!("result {id} {} {accepted}", tile.id));
+        self.note(&format!(
+            "result {id} {} {accepted}",
+            tile_name(frame, tile)
+        ));
         let mut s = self.0.lock().unwrap_or_else(|p| p.into_inner());
         if accepted {
-            s.accepted.push(tile.id);
+            s.accepted.push((frame, tile.id));
         }
     }
     fn requeued(&self, tile_id: u32) {
@@ -103,5 +117,14 @@ impl Observer for Trace {
     }
     fn finished(&self, complete: bool, _now: Instant) {
         self.note(&format!("finished {complete}"));
+    }
+}
+
+/// A tile in the trace: its id, after its frame for a later frame of a sequence (frame 0's
+/// lines are those of a one-frame render, so one-frame seeds trace as they always did).
+fn tile_name(frame: usize, tile: &Tile) -> String {
+    match frame {
+        0 => tile.id.to_string(),
+        f => format!("{f}:{}", tile.id),
     }
 }

@@ -5,6 +5,7 @@
 //! simulation, plays the seed's faults at their virtual times, and checks the invariants when
 //! the master ends (or when it should have).
 
+use super::frames::{self, MasterEnd};
 use super::net::{SimDial, SimListener};
 use super::plan::{Fault, Hostile, Plan};
 use super::trace::Trace;
@@ -94,7 +95,10 @@ fn count_panics() {
 }
 
 /// How many bytes of the checkpoint the running master has synced (set when it opens it).
-type Durable = Arc<Mutex<Option<Arc<std::sync::atomic::AtomicU64>>>>;
+pub type Durable = Arc<Mutex<Option<Arc<std::sync::atomic::AtomicU64>>>>;
+
+/// How the master host's last life ended, once it did.
+type Ended = Arc<Mutex<Option<MasterEnd>>>;
 
 /// The master host's software: started anew on every (re)start, resuming its checkpoint.
 #[derive(Clone)]
@@ -104,7 +108,12 @@ struct MasterHost {
     /// What the checkpoint has on the disk: a crash tears only what came after.
     durable: Durable,
     trace: Trace,
-    result: Arc<Mutex<Option<Result<DistResult, DistError>>>>,
+    result: Ended,
+    /// Frames of the job (above 1: a sequence, its frames written to `dir`).
+    frames: usize,
+    dir: PathBuf,
+    /// The frames written over every life of the master.
+    written: frames::Written,
 }
 
 impl MasterHost {
@@ -114,6 +123,13 @@ impl MasterHost {
         self.trace.note("master up");
         let listener = turmoil::net::TcpListener::bind(("0.0.0.0", PORT)).await?;
         let mut master = Master::with_listener(SimListener(listener), &self.config, token())?;
+        if self.frames > 1 {
+            let path = self.checkpoint.as_deref();
+            let (dir, written) = (&self.dir, &self.written);
+            let end = frames::render(master, self.frames, path, dir, written, &self.durable).await;
+            self.end(end);
+            return Ok(());
+        }
         if let Some(path) = &self.checkpoint {
             let key = JobKey::new(&r.desc, &r.settings, TILE, PixelFormat::F32)?;
             let list = parrt_render::tile::tiles(WIDTH, HEIGHT, TILE);
@@ -127,18 +143,24 @@ impl MasterHost {
         let out = master
             .render(&r.desc, &r.settings, CancellationToken::new())
             .await;
-        let ended = match &out {
-            Ok(_) => "ok".to_string(),
-            Err(e) => e.to_string(),
+        self.end(MasterEnd::Ran(Box::new(out)));
+        Ok(())
+    }
+
+    /// Traces and keeps how this life ended.
+    fn end(&self, end: MasterEnd) {
+        let ended = match &end {
+            MasterEnd::Ran(r) => match r.as_ref() {
+                Ok(_) => "ok".to_string(),
+                Err(e) => e.to_string(),
+            },
+            MasterEnd::NothingLeft => "nothing left".to_string(),
+            MasterEnd::Broken(why) => why.clone(),
         };
         // The checkpoint's directory is a fresh temporary one each run: kept out of the trace.
-        let ended = match self.checkpoint.as_ref().and_then(|p| p.parent()) {
-            Some(dir) => ended.replace(&dir.display().to_string(), "$CHECKPOINT_DIR"),
-            None => ended,
-        };
+        let ended = ended.replace(&self.dir.display().to_string(), "$CHECKPOINT_DIR");
         self.trace.note(&format!("master ended {ended}"));
-        *self.result.lock().unwrap_or_else(|p| p.into_inner()) = Some(out);
-        Ok(())
+        *self.result.lock().unwrap_or_else(|p| p.into_inner()) = Some(end);
     }
 }
 
@@ -319,7 +341,8 @@ fn run_planted(seed: u64) -> Outcome {
     let trace = Trace::default();
     let mut failures = Vec::new();
     let dir = tempfile::tempdir().expect("a temporary directory");
-    let result: Arc<Mutex<Option<Result<DistResult, DistError>>>> = Arc::default();
+    let result = Ended::default();
+    let written = frames::Written::default();
     let mut config = MasterConfig {
         observers: parrt_runtime::observer::Observers(vec![Arc::new(trace.clone())]),
         seed: Some(seed),
@@ -341,6 +364,9 @@ fn run_planted(seed: u64) -> Outcome {
         durable: durable.clone(),
         trace: trace.clone(),
         result: result.clone(),
+        frames: plan.frames,
+        dir: dir.path().to_path_buf(),
+        written: written.clone(),
     };
     let bound = plan.faults_end() + SLACK;
     let mut sim = turmoil::Builder::new()
@@ -439,35 +465,40 @@ fn run_planted(seed: u64) -> Outcome {
         failures.push(format!("panic: {panics} task(s) panicked"));
     }
     let outcome = result.lock().unwrap_or_else(|p| p.into_inner()).take();
+    let outcome = outcome.map(|end| match end {
+        MasterEnd::Ran(r) => Ok(*r),
+        other => Err(other),
+    });
     let ended = match &outcome {
         None => "no outcome".to_string(),
-        Some(Ok(_)) => "complete".to_string(),
-        Some(Err(e)) => e.to_string(),
+        Some(Ok(Err(e))) => e.to_string(),
+        Some(Err(MasterEnd::Broken(why))) => why.clone(),
+        // A render that ran to its end, or a resume that found every frame done.
+        Some(Ok(Ok(_)) | Err(_)) => "complete".to_string(),
     };
     match outcome {
-        Some(Ok(r)) => {
+        Some(Err(MasterEnd::NothingLeft)) => {
+            frames::check(plan.frames, dir.path(), &written, &mut failures);
+        }
+        Some(Err(MasterEnd::Broken(why))) => failures.push(format!("failed: {why}")),
+        Some(Err(MasterEnd::Ran(_))) => {}
+        Some(Ok(Ok(r))) if plan.frames > 1 => {
+            frames::check(plan.frames, dir.path(), &written, &mut failures);
+            check_queues(&plan, &r, &mut failures);
+            check_accepted_once(&trace, &mut failures);
+        }
+        Some(Ok(Ok(r))) => {
             check_image(&r, &mut failures);
             check_queues(&plan, &r, &mut failures);
-            let accepted = trace.accepted();
-            let mut unique = accepted.clone();
-            unique.sort_unstable();
-            unique.dedup();
-            if unique.len() != accepted.len() {
-                failures.push(format!(
-                    "accepted-once: {} tiles accepted more than once",
-                    accepted.len() - unique.len()
-                ));
-            }
-            if accepted.len() + r.restored_tiles != r.tiles {
+            let accepted = check_accepted_once(&trace, &mut failures);
+            if accepted + r.restored_tiles != r.tiles {
                 failures.push(format!(
                     "accepted-once: {} accepted + {} restored of {} tiles",
-                    accepted.len(),
-                    r.restored_tiles,
-                    r.tiles
+                    accepted, r.restored_tiles, r.tiles
                 ));
             }
         }
-        Some(Err(e)) => {
+        Some(Ok(Err(e))) => {
             // The documented failures, and only when the faults left too few workers.
             let survivors = plan.survivors();
             let documented = match e {
@@ -491,8 +522,25 @@ fn run_planted(seed: u64) -> Outcome {
     }
 }
 
+/// No tile of a frame accepted twice by the master's current life; returns how many it
+/// accepted.
+fn check_accepted_once(trace: &Trace, failures: &mut Vec<String>) -> usize {
+    let accepted = trace.accepted();
+    let mut unique = accepted.clone();
+    unique.sort_unstable();
+    unique.dedup();
+    if unique.len() != accepted.len() {
+        failures.push(format!(
+            "accepted-once: {} tiles accepted more than once",
+            accepted.len() - unique.len()
+        ));
+    }
+    accepted.len()
+}
+
 /// The master's queues stay bounded whatever the faults: an outbox holds at most the
-/// worker's window of assignments and a Shutdown; the events waiting for the scheduler are at
+/// worker's window of assignments and a Shutdown (and for a sequence a Job and a Cancel a
+/// frame of its window); the events waiting for the scheduler are at
 /// most what the connections may have in flight (each worker's window of results, its join
 /// and its departure) plus what hostile peers send before they are refused or dropped.
 fn check_queues(plan: &Plan, r: &DistResult, failures: &mut Vec<String>) {
@@ -500,7 +548,13 @@ fn check_queues(plan: &Plan, r: &DistResult, failures: &mut Vec<String>) {
         eprintln!("seed {} peaks {:?}", plan.seed, r.queue_peaks);
     }
     let most_threads = plan.threads.iter().copied().max().unwrap_or(1);
-    let outbox_bound = 2 * most_threads + 1;
+    // A sequence's outbox also carries, for each frame of the window, its Job (or the
+    // frame's camera) and the Cancel that ends it on the worker.
+    let frames_window = match plan.frames {
+        1 => 0,
+        _ => MasterConfig::default().schedule.frames_window,
+    };
+    let outbox_bound = 2 * most_threads + 1 + 2 * frames_window;
     if r.queue_peaks.outbox > outbox_bound {
         failures.push(format!(
             "queues: an outbox held {} messages (bound {outbox_bound})",

@@ -51,6 +51,35 @@ fn a_seed_replays_to_the_same_trace() {
     assert_ne!(run_seed(1).trace, run_seed(2).trace);
 }
 
+/// One seed in four renders a sequence of 2–5 frames; a sequence whose master is killed
+/// mid-way and started again (resuming the sequence's checkpoint) still writes every frame
+/// exactly once, each its own single-frame image (the seeds' invariant).
+#[test]
+fn sequences_are_explored_and_survive_the_master_killed() {
+    let frames: Vec<usize> = (0..400).map(|s| Plan::draw(s).frames).collect();
+    let sequences = frames.iter().filter(|&&f| f > 1).count();
+    assert!(
+        (60..=140).contains(&sequences),
+        "{sequences} of 400 seeds are sequences"
+    );
+    assert!(frames.iter().all(|&f| (1..=5).contains(&f)));
+    let seeds: Vec<u64> = (0..4_000)
+        .filter(|&s| {
+            let p = Plan::draw(s);
+            p.frames >= 3
+                && p.faults.len() == 1
+                && matches!(p.faults[0], (at, Fault::MasterCrash { .. }) if at.as_millis() > 500)
+        })
+        .take(3)
+        .collect();
+    assert_eq!(seeds.len(), 3);
+    for seed in seeds {
+        let o = run_seed(seed);
+        assert!(o.failures.is_empty(), "seed {seed}: {:?}", o.failures);
+        assert_eq!(o.ended, "complete", "seed {seed}");
+    }
+}
+
 #[test]
 fn a_master_killed_mid_render_resumes_from_its_checkpoint() {
     let seed = (0..2_000)

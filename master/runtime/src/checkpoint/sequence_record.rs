@@ -209,6 +209,12 @@ impl SequenceCheckpoint {
         self.records.path()
     }
 
+    /// How many bytes from the file's start are known to be on the disk (see
+    /// [`Checkpoint::durable`]).
+    pub fn durable(&self) -> std::sync::Arc<std::sync::atomic::AtomicU64> {
+        self.records.durable()
+    }
+
     /// Appends the records of `tiles` (each of its frame) in one write, and syncs if the last
     /// sync is [`super::SYNC_INTERVAL`] old.
     pub fn append(&mut self, tiles: &[AcceptedTile]) -> Result<(), CheckpointError> {
