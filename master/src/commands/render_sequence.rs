@@ -17,6 +17,7 @@ use crate::cli_args::{ArgError, SceneSpec};
 use crate::exit::input_error;
 use crate::sequence_progress::SequenceProgress;
 use anyhow::Context;
+use parrt_render::description::SceneDescription;
 use parrt_render::nff::Limits;
 use parrt_render::precision::Choice;
 use parrt_render::render::Renderer;
@@ -557,12 +558,33 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let build_s = Mutex::new(0.0f64);
+    // The latest frame built from its scene: a later frame of the same scene (an orbit) that
+    // only moves the camera shares its build (Renderer::with_view), the same bits.
+    let latest: Mutex<Option<(std::sync::Arc<SceneDescription>, std::sync::Arc<Renderer>)>> =
+        Mutex::new(None);
     let build = |k: usize| -> anyhow::Result<Renderer> {
         let t = Instant::now();
-        let desc = loaded.sequence.frames()[k].description();
-        let mut r = Renderer::new(&desc, &settings[k].0)
-            .map_err(input_error)
-            .with_context(|| format!("cannot prepare {}", loaded.labels[k]))?;
+        let frame = &loaded.sequence.frames()[k];
+        let base = latest
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .as_ref()
+            .filter(|(scene, _)| std::sync::Arc::ptr_eq(scene, &frame.scene))
+            .map(|(_, r)| r.clone());
+        let mut r = match base.and_then(|b| b.with_view(&frame.view, &settings[k].0).ok()) {
+            Some(r) => r,
+            None => {
+                let r = Renderer::new(&frame.description(), &settings[k].0)
+                    .map_err(input_error)
+                    .with_context(|| format!("cannot prepare {}", loaded.labels[k]))?;
+                let r = std::sync::Arc::new(r);
+                *latest.lock().unwrap_or_else(|e| e.into_inner()) =
+                    Some((frame.scene.clone(), r.clone()));
+                r.with_view(&frame.view, &settings[k].0)
+                    .map_err(input_error)
+                    .with_context(|| format!("cannot prepare {}", loaded.labels[k]))?
+            }
+        };
         r.set_packets(!args.no_packets);
         *build_s.lock().unwrap_or_else(|e| e.into_inner()) += t.elapsed().as_secs_f64();
         Ok(r)
