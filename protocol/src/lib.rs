@@ -38,6 +38,8 @@
 //!   Heartbeat                   →                         (every few seconds, both ways)
 //!                               ← Cancel{job_id} / Shutdown
 //! ```
+//! In a sequence, each later frame is a further Job, or, when it only moves the camera of a
+//! scene the worker holds, a View{job_id, base_job_id, view, settings} answered the same way.
 //! [`message::Message::Hello`] is variant 0 and its `version` field comes first, so a peer of any
 //! version can read the version of another and refuse it with a reason (a Hello of another
 //! version that does not decode as ours is reported as [`ProtocolError::OtherVersion`]).
@@ -57,6 +59,7 @@ pub mod connection;
 pub mod limits;
 pub mod message;
 pub mod pixels;
+pub mod scene_key;
 pub mod seconds;
 
 pub use auth::{AuthError, Token};
@@ -71,12 +74,15 @@ pub const LOG_ENV: &str = "PARRT_LOG";
 pub use codec::{Encoded, MessageCodec, ProtocolError, WireCounters};
 pub use connection::Connection;
 pub use limits::{DEFAULT_MAX_FRAME, HANDSHAKE_MAX_FRAME};
-pub use message::{JobSpec, Message};
+pub use message::{JobSpec, Message, ViewSpec};
 pub use pixels::{PixelError, PixelFormat, TilePixels};
+pub use scene_key::{scene_key, SceneKey};
 
 /// The protocol version spoken by this build; bumped on any incompatible change (2: mutual
 /// authentication, a nonce in Hello and the master's proof in Challenge; pixels as the output
 /// needs them; batches of tiles; 3: every connection inside a Noise channel keyed by the token,
 /// and the worker's instruction-set tier in Hello; 4: a sequence sends a further Job on the same
-/// connection for each frame, which a worker builds in place of the one before).
-pub const PROTOCOL_VERSION: u32 = 4;
+/// connection for each frame, which a worker builds in place of the one before; 5: a frame that
+/// only moves the camera is a View of a scene the worker holds, which a worker of version 4
+/// could not read).
+pub const PROTOCOL_VERSION: u32 = 5;

@@ -2,7 +2,7 @@
 //! (the receiver checks ids, attempts and pixel counts against its own state).
 
 use super::pixels::{PixelFormat, TilePixels};
-use parrt_render::description::SceneDescription;
+use parrt_render::description::{SceneDescription, View};
 use parrt_render::settings::RenderSettings;
 use parrt_render::stats::RayStats;
 use parrt_render::tile::Tile;
@@ -24,6 +24,27 @@ pub struct JobSpec {
     /// Tile edge in pixels (informational: tiles arrive whole in `Assign`).
     pub tile_size: u32,
     /// How results carry their pixels (8-bit when the output keeps no more).
+    pub pixel_format: PixelFormat,
+}
+
+/// A frame of a sequence that only moves the camera: the scene of a job the worker holds, seen
+/// from another view. The worker renders it with the base job's built scene and accelerator
+/// ([`parrt_render::render::Renderer::with_view`]); the master sends it only to a worker it
+/// has sent the base's Job and not yet told to drop it, and only when the base's build is the
+/// one this frame would get ([`crate::scene_key`]), else the frame's whole Job.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ViewSpec {
+    /// The frame's job id, as a Job's.
+    pub job_id: u64,
+    /// The job whose scene this frame shares.
+    pub base_job_id: u64,
+    /// The camera of this frame (its `width` and `height` are not used: the settings' are).
+    pub view: View,
+    /// Settings deciding pixel values: the base's but for the size and samples per pixel.
+    pub settings: RenderSettings,
+    /// Tile edge in pixels (informational, as a Job's).
+    pub tile_size: u32,
+    /// How results carry their pixels.
     pub pixel_format: PixelFormat,
 }
 
@@ -120,6 +141,9 @@ pub enum Message {
         /// The tiles, each with its attempt number.
         tiles: Vec<(Tile, u32)>,
     },
+    /// Master → worker: a frame of a sequence that only moves the camera ([`ViewSpec`]),
+    /// answered as a Job is (Ready, or Error when the base is not held or the view is bad).
+    View(Box<ViewSpec>),
 }
 
 impl Message {
@@ -140,6 +164,7 @@ impl Message {
             Message::Shutdown => "Shutdown",
             Message::Error { .. } => "Error",
             Message::AssignBatch { .. } => "AssignBatch",
+            Message::View(_) => "View",
         }
     }
 }

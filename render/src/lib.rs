@@ -96,6 +96,7 @@ pub mod real;
 pub mod render;
 pub mod scene;
 pub mod sequence;
+pub mod sequence_build;
 pub mod sequence_smp;
 pub mod settings;
 pub mod shade;

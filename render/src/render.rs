@@ -6,7 +6,7 @@
 use crate::accel::bvh::packet::PACKET;
 use crate::accel::{Accel, AccelStats};
 use crate::camera::Camera;
-use crate::description::SceneDescription;
+use crate::description::{Bounds, SceneDescription, View};
 use crate::film::Rgb;
 use crate::real::Real;
 use crate::scene::{Scene, SceneError};
@@ -15,6 +15,7 @@ use crate::shade::{Integrator, RayKind, ShadeOptions};
 use crate::stats::RayStats;
 use crate::tile::Tile;
 use crate::vec3::V3;
+use std::sync::Arc;
 use std::time::Instant;
 use thiserror::Error;
 
@@ -35,6 +36,13 @@ pub enum RenderError {
     /// The scene cannot be rendered.
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// A view asked of a built renderer ([`Renderer::with_view`]) is not a camera.
+    #[error("bad view: {0}")]
+    BadView(String),
+    /// A built renderer cannot serve another view without a build of its own
+    /// ([`Renderer::with_view`]): the build would differ.
+    #[error("the built scene cannot be reused: {0}")]
+    OtherBuild(String),
 }
 
 /// Preprocessing figures of a built renderer.
@@ -53,7 +61,9 @@ pub struct BuildInfo {
 }
 
 struct Core<R> {
-    integrator: Integrator<R>,
+    /// The scene and accelerator: shared by every renderer of the same build that only moves
+    /// the camera ([`Renderer::with_view`]).
+    integrator: Arc<Integrator<R>>,
     camera: Camera<R>,
 }
 
@@ -68,6 +78,9 @@ pub struct Renderer {
     inner: Inner,
     info: BuildInfo,
     packets: bool,
+    /// The sampled bounds the frame's origin was chosen from ([`crate::frame::origin`]): what
+    /// [`Renderer::with_view`] needs to tell whether another eye keeps the origin.
+    bounds: Bounds,
 }
 
 /// Checks settings that come from the command line or the network.
@@ -114,6 +127,47 @@ pub fn validate_job(desc: &SceneDescription, s: &RenderSettings) -> Result<(), R
     match resolved(s.precision, desc) {
         Precision::F64 => drop(Scene::<f64>::build_in(desc, origin)?),
         _ => drop(Scene::<f32>::build_in(desc, origin)?),
+    }
+    Ok(())
+}
+
+/// Checks a view that arrives apart from a scene ([`Renderer::with_view`]) as the reader checks
+/// the `v` block: a camera frame (`from` ≠ `at`, `up` not zero nor parallel to the view), an
+/// angle strictly between 0 and 180 degrees, a hither that is finite and not negative.
+pub fn validate_view(v: &View) -> Result<(), RenderError> {
+    use crate::nff::checks::{camera, CameraProblem};
+    if !(v.from.is_finite() && v.at.is_finite() && v.up.is_finite()) {
+        return Err(RenderError::BadView(
+            "from, at and up must be finite".into(),
+        ));
+    }
+    match camera(v.from, v.at, v.up) {
+        Ok(()) => {}
+        Err(CameraProblem::NoViewDirection) => {
+            return Err(RenderError::BadView(
+                "'from' and 'at' are the same point, so there is no view direction".into(),
+            ))
+        }
+        Err(CameraProblem::ZeroUp) => {
+            return Err(RenderError::BadView("the 'up' vector is zero".into()))
+        }
+        Err(CameraProblem::UpParallel) => {
+            return Err(RenderError::BadView(
+                "'up' is parallel to the view direction".into(),
+            ))
+        }
+    }
+    if !(v.angle > 0.0 && v.angle < 180.0) {
+        return Err(RenderError::BadView(format!(
+            "the view angle {} must lie strictly between 0 and 180 degrees",
+            v.angle
+        )));
+    }
+    if !(v.hither >= 0.0 && v.hither.is_finite()) {
+        return Err(RenderError::BadView(format!(
+            "the hither distance {} must be finite and not negative",
+            v.hither
+        )));
     }
     Ok(())
 }
@@ -167,7 +221,7 @@ fn finish<R: Real>(scene: Scene<R>, camera: Camera<R>, s: &RenderSettings) -> (C
     };
     (
         Core {
-            integrator: Integrator { scene, accel, opts },
+            integrator: Arc::new(Integrator { scene, accel, opts }),
             camera,
         },
         info,
@@ -337,6 +391,7 @@ impl Renderer {
         };
         let mut settings = settings.clone();
         settings.precision = resolved(settings.precision, d);
+        let bounds = crate::frame::sampled_bounds(d);
         let (inner, mut info) = match settings.precision {
             Precision::F64 => {
                 let (c, i) = build_core::<f64>(desc, &settings)?;
@@ -353,6 +408,63 @@ impl Renderer {
             inner,
             info,
             packets: true,
+            bounds,
+        })
+    }
+
+    /// A renderer of this one's built scene and accelerator (shared, not copied) seen from
+    /// `view` with `settings`: the same bits as [`Renderer::new`] of the description with its
+    /// view replaced by `view`, at the cost of a camera. The build must be the one that
+    /// description would get, so this refuses ([`RenderError::OtherBuild`]) when it would not:
+    /// another precision (`settings` must name `F32` or `F64`, resolved for the new view, as a
+    /// master and a sequence do), another accelerator, grid density, depth, cut-off or SPD
+    /// procedure, or an eye that moves the rendering frame's origin ([`crate::frame`]). The
+    /// size and the samples per pixel may differ. A view that is no camera (not finite, `from`
+    /// = `at`, `up` zero or parallel to the view, an angle outside (0, 180), a negative hither)
+    /// is refused ([`RenderError::BadView`]), as the reader refuses it.
+    pub fn with_view(&self, view: &View, settings: &RenderSettings) -> Result<Self, RenderError> {
+        let t0 = Instant::now();
+        validate_settings(settings)?;
+        validate_view(view)?;
+        let mut same = settings.clone();
+        same.width = self.settings.width;
+        same.height = self.settings.height;
+        same.spp = self.settings.spp;
+        if same != self.settings {
+            return Err(RenderError::OtherBuild(format!(
+                "the settings differ in more than the size and samples ({:?} against {:?})",
+                settings, self.settings
+            )));
+        }
+        let origin = crate::frame::origin_for(&self.bounds, view.from).to_array();
+        if origin != self.info.origin {
+            return Err(RenderError::OtherBuild(format!(
+                "the eye {:?} moves the rendering frame's origin from {:?} to {origin:?}",
+                view.from.to_array(),
+                self.info.origin
+            )));
+        }
+        let o = crate::vec3::Vec3d::new(origin[0], origin[1], origin[2]);
+        let (w, h) = (settings.width, settings.height);
+        let inner = match &self.inner {
+            Inner::F32(c) => Inner::F32(Core {
+                integrator: c.integrator.clone(),
+                camera: Camera::in_frame(view, w, h, o),
+            }),
+            Inner::F64(c) => Inner::F64(Core {
+                integrator: c.integrator.clone(),
+                camera: Camera::in_frame(view, w, h, o),
+            }),
+        };
+        let mut info = self.info.clone();
+        info.build_s = t0.elapsed().as_secs_f64();
+        info.accel.build_s = 0.0;
+        Ok(Renderer {
+            settings: settings.clone(),
+            inner,
+            info,
+            packets: self.packets,
+            bounds: self.bounds,
         })
     }
 

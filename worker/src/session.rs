@@ -19,7 +19,7 @@ use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt_protocol::limits;
 use parrt_protocol::message::NONCE_LEN;
 use parrt_protocol::{
-    Connection, JobSpec, Message, ProtocolError, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
+    Connection, JobSpec, Message, ProtocolError, ViewSpec, HANDSHAKE_MAX_FRAME, PROTOCOL_VERSION,
 };
 use parrt_render::tile::Tile;
 use rand::rngs::StdRng;
@@ -64,6 +64,9 @@ struct CurrentJob {
     handle: Option<JobHandle>,
     /// Batches of tiles assigned before the renderer was ready.
     waiting: Vec<Vec<(Tile, u32)>>,
+    /// A frame that only moves the camera, waiting for its base job's build
+    /// ([`Message::View`]): made from the base's renderer as soon as that is built.
+    view_of: Option<Box<ViewSpec>>,
 }
 
 /// Where handshake nonces come from: fresh from the thread's cryptographic generator, or (a
@@ -343,6 +346,20 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                         summary.jobs += 1;
                         jobs.push(start_build(*spec, exec));
                     }
+                    Message::View(spec) if jobs.iter().any(|j| j.spec_id == spec.job_id) => {}
+                    Message::View(spec) => {
+                        // Held as a Job is, beside its base (which a master keeps until it
+                        // sends a frame of another scene): past the most held, the oldest job
+                        // that is not this frame's base goes.
+                        if jobs.len() >= limits::MAX_JOBS_HELD {
+                            if let Some(i) = jobs.iter().position(|j| j.spec_id != spec.base_job_id) {
+                                let oldest = jobs.remove(i);
+                                finish(std::slice::from_ref(&oldest));
+                            }
+                        }
+                        summary.jobs += 1;
+                        view_job(&mut conn, &mut jobs, spec, limit).await?;
+                    }
                     Message::Assign { job_id, tile, attempt } => {
                         let job = jobs.iter_mut().find(|j| j.spec_id == job_id);
                         take_tiles(&mut conn, opts, exec, job, job_id, vec![(tile, attempt)]).await?;
@@ -353,8 +370,17 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                     }
                     Message::Cancel { job_id } => {
                         if let Some(i) = jobs.iter().position(|j| j.spec_id == job_id) {
-                            let gone = jobs.remove(i);
-                            finish(std::slice::from_ref(&gone));
+                            // A base still building that frames of its scene wait for stays
+                            // until they are made (its own tiles are dropped at once).
+                            let waited_on = jobs.iter().any(|d| {
+                                d.view_of.as_ref().is_some_and(|v| v.base_job_id == job_id)
+                            });
+                            if waited_on {
+                                finish(&jobs[i..=i]);
+                            } else {
+                                let gone = jobs.remove(i);
+                                finish(std::slice::from_ref(&gone));
+                            }
                         }
                     }
                     Message::Shutdown => {
@@ -430,15 +456,169 @@ async fn built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                 exec.submit(&handle, batch);
             }
             j.handle = Some(handle);
+            // The frames that only move this job's camera, which waited for its build.
+            let waiting: Vec<u64> = jobs
+                .iter()
+                .filter(|d| d.handle.is_none())
+                .filter(|d| {
+                    d.view_of
+                        .as_ref()
+                        .is_some_and(|v| v.base_job_id == b.job_id)
+                })
+                .map(|d| d.spec_id)
+                .collect();
+            for id in waiting {
+                view_built(conn, exec, jobs, b.job_id, id, limit).await?;
+            }
+            // A base cancelled while it was building goes once its frames are made.
+            jobs.retain(|j| j.spec_id != b.job_id || !j.cancelled.load(Ordering::Relaxed));
         }
         Err(reason) => {
             warn!(job = b.job_id, %reason, "cannot build the job");
             let reason = limits::capped_reason(format!("cannot build job {}: {reason}", b.job_id));
             write_within(conn, &Message::Error { reason }, limit).await?;
             jobs.remove(i);
+            // Frames of its scene cannot be made either.
+            let derived: Vec<u64> = jobs
+                .iter()
+                .filter(|d| {
+                    d.view_of
+                        .as_ref()
+                        .is_some_and(|v| v.base_job_id == b.job_id)
+                })
+                .map(|d| d.spec_id)
+                .collect();
+            for id in derived {
+                let reason = format!("cannot build job {id}: its base job {} failed", b.job_id);
+                write_within(conn, &Message::Error { reason }, limit).await?;
+                jobs.retain(|d| d.spec_id != id);
+            }
         }
     }
     Ok(())
+}
+
+/// A frame that only moves the camera of a job held ([`Message::View`]): made at once from
+/// the base's renderer when that is built (Ready, or Error for a bad view or settings), else
+/// held until it is; a base this worker does not hold is answered with an Error (the frame is
+/// not held, its tiles are refused as a job unknown).
+async fn view_job<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
+    jobs: &mut Vec<CurrentJob>,
+    spec: Box<ViewSpec>,
+    limit: Duration,
+) -> Result<(), WorkerError> {
+    let Some(base) = jobs.iter().find(|j| j.spec_id == spec.base_job_id) else {
+        let reason = format!(
+            "cannot build job {}: it is a view of job {}, which this worker does not hold",
+            spec.job_id, spec.base_job_id
+        );
+        warn!(%reason, "unknown base job");
+        write_within(conn, &Message::Error { reason }, limit).await?;
+        return Ok(());
+    };
+    let base_handle = base.handle.clone();
+    let mut job = CurrentJob {
+        spec_id: spec.job_id,
+        width: spec.settings.width,
+        height: spec.settings.height,
+        cancelled: Arc::new(AtomicBool::new(false)),
+        pixel_format: spec.pixel_format,
+        handle: None,
+        waiting: Vec::new(),
+        view_of: None,
+    };
+    match base_handle {
+        Some(h) => match derive(&h, &spec, &job) {
+            Ok((handle, build_s)) => {
+                job.handle = Some(handle);
+                jobs.push(job);
+                let ready = Message::Ready {
+                    job_id: spec.job_id,
+                    build_s,
+                };
+                write_within(conn, &ready, limit).await?;
+            }
+            Err(reason) => write_within(conn, &Message::Error { reason }, limit).await?,
+        },
+        None => {
+            job.view_of = Some(spec);
+            jobs.push(job);
+        }
+    }
+    Ok(())
+}
+
+/// Job `id`, a view of job `base` whose build just ended, made from it: Ready and its waiting
+/// tiles to the executor, or an Error and the job dropped.
+async fn view_built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
+    conn: &mut Connection<S>,
+    exec: &mut E,
+    jobs: &mut Vec<CurrentJob>,
+    base: u64,
+    id: u64,
+    limit: Duration,
+) -> Result<(), WorkerError> {
+    let Some(h) = jobs
+        .iter()
+        .find(|j| j.spec_id == base)
+        .and_then(|j| j.handle.clone())
+    else {
+        return Ok(());
+    };
+    let Some(i) = jobs.iter().position(|j| j.spec_id == id) else {
+        return Ok(());
+    };
+    let Some(spec) = jobs[i].view_of.take() else {
+        return Ok(());
+    };
+    match derive(&h, &spec, &jobs[i]) {
+        Ok((handle, build_s)) => {
+            let j = &mut jobs[i];
+            for batch in j.waiting.drain(..) {
+                exec.submit(&handle, batch);
+            }
+            j.handle = Some(handle);
+            write_within(
+                conn,
+                &Message::Ready {
+                    job_id: id,
+                    build_s,
+                },
+                limit,
+            )
+            .await?;
+        }
+        Err(reason) => {
+            jobs.remove(i);
+            write_within(conn, &Message::Error { reason }, limit).await?;
+        }
+    }
+    Ok(())
+}
+
+/// The renderer of `spec` from its base's: the same built scene seen from the frame's view
+/// ([`parrt_render::render::Renderer::with_view`]), or why not (a bad view or settings).
+fn derive(base: &JobHandle, spec: &ViewSpec, job: &CurrentJob) -> Result<(JobHandle, f64), String> {
+    let t = std::time::Instant::now();
+    match base.renderer.with_view(&spec.view, &spec.settings) {
+        Ok(r) => Ok((
+            JobHandle {
+                job_id: spec.job_id,
+                renderer: Arc::new(r),
+                cancelled: job.cancelled.clone(),
+                pixel_format: spec.pixel_format,
+            },
+            t.elapsed().as_secs_f64(),
+        )),
+        Err(e) => {
+            warn!(job = spec.job_id, error = %e, "cannot view the base job's scene");
+            Err(limits::capped_reason(format!(
+                "cannot build job {}: {e}",
+                spec.job_id
+            )))
+        }
+    }
 }
 
 /// Checks an assignment of `tiles` for job `job_id` and queues the valid ones as one batch
@@ -524,6 +704,7 @@ fn start_build<E: Execute>(spec: JobSpec, exec: &mut E) -> CurrentJob {
         pixel_format: spec.pixel_format,
         handle: None,
         waiting: Vec::new(),
+        view_of: None,
     };
     exec.build(spec);
     job

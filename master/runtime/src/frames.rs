@@ -7,7 +7,7 @@
 //! sequence did.
 
 use crate::options::MasterConfig;
-use crate::scheduler::{AcceptedTile, FrameFinished, Scheduler};
+use crate::scheduler::{AcceptedTile, FrameCamera, FrameFinished, FrameJob, Scheduler};
 use crate::server::{drive, encode_job, Loop};
 use crate::DistError;
 use parrt_protocol::Encoded;
@@ -76,18 +76,36 @@ pub(crate) struct SequenceSums {
 }
 
 /// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, and its Job encoded
-/// once for every worker (refused if it would not fit a frame).
+/// once for every worker (refused if it would not fit a frame) with its camera-only form.
 fn open_frame<F: FrameSource + ?Sized>(
     src: &mut F,
     k: usize,
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
-) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>, Encoded), DistError> {
+) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>, FrameJob), DistError> {
     let (desc, settings) = src.frame(k)?;
     let job_id = rng.gen::<u64>();
-    let job = encode_job(job_id, &desc, &settings, config)?;
+    let job = frame_job(job_id, &desc, &settings, config)?;
     let list = tiles(settings.width, settings.height, config.schedule.tile);
     Ok((job_id, desc, settings, list, job))
+}
+
+/// A frame's Job: encoded whole, and its scene key and camera, so that a worker holding a Job
+/// of the same key is sent the camera alone.
+fn frame_job(
+    job_id: u64,
+    desc: &SceneDescription,
+    settings: &RenderSettings,
+    config: &MasterConfig,
+) -> Result<FrameJob, DistError> {
+    let job: Encoded = encode_job(job_id, desc, settings, config)?;
+    let camera = parrt_protocol::scene_key(desc, settings).map(|key| FrameCamera {
+        key,
+        view: desc.view.clone(),
+        settings: settings.clone(),
+        tile_size: config.schedule.tile,
+    });
+    Ok(FrameJob { job, camera })
 }
 
 /// Drives frame 0 (`first`: its job id, scene and settings, already the scheduler's) and every
@@ -114,7 +132,7 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
             if count > 1 {
                 l.sched.start_frames(
                     config.schedule.frames_window,
-                    encode_job(job_id, desc, settings, config)?,
+                    frame_job(job_id, desc, settings, config)?,
                 );
             }
             let mut next = 1;

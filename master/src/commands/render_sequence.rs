@@ -25,6 +25,7 @@ use parrt_render::nff::Limits;
 use parrt_render::precision::Choice;
 use parrt_render::render::Renderer;
 use parrt_render::sequence::Sequence;
+use parrt_render::sequence_build::FrameBuilder;
 use parrt_render::sequence_smp::{render_sequence, FrameDone, SequenceOptions, SequenceResult};
 use parrt_render::settings::RenderSettings;
 use serde_json::json;
@@ -725,10 +726,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let build_s = Mutex::new(0.0f64);
+    // A later frame of the same scene (an orbit) that only moves the camera shares its build.
+    let builder = FrameBuilder::new(&loaded.sequence);
     let build = |k: usize| -> anyhow::Result<Renderer> {
         let t = Instant::now();
-        let desc = loaded.sequence.frames()[k].description();
-        let mut r = Renderer::new(&desc, &settings[k].0)
+        let mut r = builder
+            .build(k, &settings[k].0)
             .map_err(input_error)
             .with_context(|| format!("cannot prepare {}", loaded.labels[k]))?;
         r.set_packets(!args.no_packets);

@@ -386,3 +386,60 @@ fn three_slurm_ranks_render_a_sequence_to_the_smp_sequence_bytes() {
     assert!(!dir.path().join("cl-3.exr").exists());
     assert!(rendezvous_files(dir.path()).is_empty());
 }
+
+#[test]
+fn an_orbit_through_cluster_ranks_sends_each_worker_its_scene_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = ["--scene", "balls:3", "--width", "32", "--height", "32"];
+    let desc = parrt_scenes::generate("balls", Some(3)).unwrap();
+    let job = parrt_protocol::Message::Job(Box::new(parrt_protocol::JobSpec {
+        job_id: 1,
+        scene: desc,
+        settings: parrt_render::settings::RenderSettings::new(32, 32),
+        tile_size: 16,
+        pixel_format: Default::default(),
+    }));
+    let job_bytes = parrt_protocol::Encoded::new(&job).unwrap().len() as u64;
+    let children: Vec<_> = (0..3)
+        .map(|r| {
+            let mut c = Command::new(EXE);
+            c.arg("cluster")
+                .args(scene)
+                .args(["--tile", "16", "--listen", "127.0.0.1:0", "--threads", "1"])
+                .args(["--orbit", "120", "--frames", "3", "-o"])
+                .arg(dir.path().join("o-%d.png"))
+                .current_dir(dir.path());
+            for v in LAUNCHER_VARS {
+                c.env_remove(v);
+            }
+            c.env_remove("PARRT_TOKEN");
+            for (k, v) in slurm(r, "5252") {
+                c.env(k, v);
+            }
+            c.stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    let mut sent = None;
+    for (r, c) in children.into_iter().enumerate() {
+        let out = c.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "rank {r}: {err}");
+        if r == 0 {
+            let before = err.split(" bytes out").next().unwrap();
+            let n = before.rsplit(' ').next().unwrap();
+            sent = Some(n.parse::<u64>().unwrap_or_else(|_| panic!("{err}")));
+        }
+    }
+    // Two workers, three frames of one scene: the scene goes to each worker once, the later
+    // frames as their camera (each frame's whole Job would be six scenes).
+    let sent = sent.unwrap();
+    assert!(
+        sent > 2 * job_bytes && sent < 2 * job_bytes + 16 * 1024,
+        "{sent} bytes out for a {job_bytes}-byte Job"
+    );
+    assert!(dir.path().join("o-2.png").exists());
+    assert!(rendezvous_files(dir.path()).is_empty());
+}

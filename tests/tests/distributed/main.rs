@@ -7,10 +7,11 @@
 //! (`limits`), a relay in the middle (`relay`), and
 //! handshake squatters (`squatting`); the handout order from a previous
 //! render's costs (`order`); `peers` holds their raw clients; workers on
-//! different instruction-set tiers (`tiers`). The soak is its own binary
+//! different instruction-set tiers (`tiers`); frames that only move the camera (`camera`). The soak is its own binary
 //! (`distributed_soak.rs`): it measures this process's memory, which tests running beside it
 //! here would disturb.
 
+mod camera;
 mod checkpoint;
 mod cli;
 mod cluster_emulated;

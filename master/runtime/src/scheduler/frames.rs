@@ -4,8 +4,23 @@
 //! opens: its Job goes to every worker and its tiles are dealt at once, so they fill the tail
 //! of the frames before. A frame whose every tile is in closes: the workers are told to drop
 //! its scene (Cancel), and it waits for the driver ([`Scheduler::take_complete`]).
+//!
+//! Each distinct scene goes to a worker once: a frame whose scene key ([`FrameCamera`]) is that
+//! of the latest whole Job a worker was sent (its *base*) goes to it as a View of the base, the
+//! camera alone, which the worker renders with the base's build. The scheduler knows what it
+//! sent each connection, so a worker that joined late, or whose base is another scene, gets
+//! the whole Job; a closed frame that is a worker's base is told to drop only when the worker
+//! is sent another base (or at the end), so a worker holds at most the window's frames and
+//! one base, which is why the window is at most one less than what a worker keeps.
 
 use super::*;
+use parrt_protocol::{SceneKey, ViewSpec};
+use parrt_render::description::View;
+use std::collections::HashMap;
+
+/// The most frames of a sequence open at once: what a worker keeps built
+/// ([`parrt_protocol::limits::MAX_JOBS_HELD`]) less the one base it may also keep.
+pub const MAX_FRAMES_WINDOW: usize = parrt_protocol::limits::MAX_JOBS_HELD - 1;
 
 /// One frame's state: its job, its tiles (queued, in flight, done), the workers holding each,
 /// the film and the statistics of the tiles accepted.
@@ -159,9 +174,75 @@ pub(super) struct NextFrame {
     settings: RenderSettings,
     lights: usize,
     tiles: Vec<Tile>,
-    job: Encoded,
+    job: FrameJob,
     /// Its tiles an earlier run left (a checkpoint), restored when it opens.
     restored: Vec<AcceptedTile>,
+}
+
+/// What a frame's camera-only form needs: the key of its built scene and the view and settings
+/// a View carries.
+#[derive(Clone, Debug)]
+pub struct FrameCamera {
+    /// The frame's scene key ([`parrt_protocol::scene_key`]).
+    pub key: SceneKey,
+    /// Its view.
+    pub view: View,
+    /// Its settings.
+    pub settings: RenderSettings,
+    /// The tile edge a View names.
+    pub tile_size: u32,
+}
+
+/// A frame's Job as workers get it: encoded whole once for every worker, and, when its scene
+/// has a key, the camera alone for a worker whose base has that key.
+#[derive(Clone, Debug)]
+pub struct FrameJob {
+    /// The whole Job.
+    pub job: Encoded,
+    /// The camera-only form's parts; `None`: always the whole Job.
+    pub camera: Option<FrameCamera>,
+}
+
+impl From<Encoded> for FrameJob {
+    fn from(job: Encoded) -> Self {
+        FrameJob { job, camera: None }
+    }
+}
+
+/// Sends frame job `job_id` to worker `id`: a View of its base when the keys match, else the
+/// whole Job, which becomes its base (the previous base, if its frame is closed, is dropped).
+fn send_frame(
+    bases: &mut HashMap<WorkerId, (SceneKey, u64)>,
+    past: &[u64],
+    id: WorkerId,
+    w: &Slot,
+    job_id: u64,
+    fj: &FrameJob,
+    pixel_format: PixelFormat,
+) {
+    let base = bases.get(&id).copied();
+    match (&fj.camera, base) {
+        (Some(c), Some((key, base_job_id))) if key == c.key => {
+            let view = Message::View(Box::new(ViewSpec {
+                job_id,
+                base_job_id,
+                view: c.view.clone(),
+                settings: c.settings.clone(),
+                tile_size: c.tile_size,
+                pixel_format,
+            }));
+            let _ = w.outbox.send(view.into());
+        }
+        _ => {
+            let _ = w.outbox.send(Outgoing::Encoded(fj.job.clone()));
+            if let Some(c) = &fj.camera {
+                bases.insert(id, (c.key, job_id));
+                if let Some((_, old)) = base.filter(|(_, old)| past.contains(old)) {
+                    let _ = w.outbox.send(Message::Cancel { job_id: old }.into());
+                }
+            }
+        }
+    }
 }
 
 /// The frames of a sequence rendered on the same workers, up to `window` at once.
@@ -170,9 +251,14 @@ pub(super) struct Frames {
     pub(super) window: usize,
     /// Frame 0's job id: the Job every connection starts with.
     pub(super) first_job: u64,
-    /// The encoded Job of each frame open, by frame index, one copy for every worker: sent
-    /// to a worker that joins.
-    pub(super) jobs: BTreeMap<usize, Encoded>,
+    /// Frame 0's scene key: every connection's first base.
+    pub(super) first_key: Option<SceneKey>,
+    /// The Job of each frame open, by frame index, with its job id, one copy for every
+    /// worker: sent to a worker that joins.
+    pub(super) jobs: BTreeMap<usize, (u64, FrameJob)>,
+    /// Each worker's base: the key and job id of the latest whole Job it was sent with a key
+    /// and not told to drop.
+    pub(super) bases: HashMap<WorkerId, (SceneKey, u64)>,
     /// Frames given and not open yet, in order.
     pub(super) pending: VecDeque<NextFrame>,
     /// Ids of the frames closed: a late Ready or result naming one is stale, not a fault.
@@ -202,20 +288,31 @@ pub struct FrameFinished {
 }
 
 impl Scheduler {
-    /// Makes this scheduler's job frame 0 of a sequence whose encoded Job is `job`, with up to
-    /// `window` frames open at once (at least 1, at most what a worker keeps built,
-    /// [`parrt_protocol::limits::MAX_JOBS_HELD`]): later frames are given by
-    /// [`Self::push_frame`], complete ones taken by [`Self::take_complete`].
-    pub fn start_frames(&mut self, window: usize, job: Encoded) {
+    /// Makes this scheduler's job frame 0 of a sequence whose Job is `job`, with up to
+    /// `window` frames open at once (at least 1, at most one less than what a worker keeps
+    /// built, [`parrt_protocol::limits::MAX_JOBS_HELD`]: a worker also keeps its base): later
+    /// frames are given by [`Self::push_frame`], complete ones taken by
+    /// [`Self::take_complete`].
+    pub fn start_frames(&mut self, window: usize, job: FrameJob) {
         let Some(f) = self.open.first() else {
             return;
         };
         let size = (f.settings.width, f.settings.height);
         let n = f.tiles.len();
         self.frames = Some(Frames {
-            window: window.clamp(1, parrt_protocol::limits::MAX_JOBS_HELD),
+            window: window.clamp(1, MAX_FRAMES_WINDOW),
             first_job: f.job_id,
-            jobs: BTreeMap::from([(f.index, job)]),
+            first_key: job.camera.as_ref().map(|c| c.key),
+            // Every worker connected has frame 0's Job: its base.
+            bases: match &job.camera {
+                Some(c) => self
+                    .workers
+                    .keys()
+                    .map(|&id| (id, (c.key, f.job_id)))
+                    .collect(),
+                None => HashMap::new(),
+            },
+            jobs: BTreeMap::from([(f.index, (f.job_id, job))]),
             pending: VecDeque::new(),
             past: Vec::new(),
             complete: Vec::new(),
@@ -235,7 +332,7 @@ impl Scheduler {
         settings: &RenderSettings,
         lights: usize,
         tiles: Vec<Tile>,
-        job: Encoded,
+        job: FrameJob,
     ) {
         if let Some(s) = &mut self.frames {
             s.pending.push_back(NextFrame {
@@ -313,10 +410,11 @@ impl Scheduler {
                 order.sort_by(|&a, &b| costs[b as usize].total_cmp(&costs[a as usize]));
                 f.set_order(&order);
             }
-            for w in self.workers.values() {
-                let _ = w.outbox.send(Outgoing::Encoded(next.job.clone()));
+            for (&id, w) in &self.workers {
+                let pf = self.opts.pixel_format;
+                send_frame(&mut s.bases, &s.past, id, w, next.job_id, &next.job, pf);
             }
-            s.jobs.insert(next.index, next.job);
+            s.jobs.insert(next.index, (next.job_id, next.job));
             self.open.push(f);
             s.most_open = s.most_open.max(self.open.len());
         }
@@ -345,9 +443,12 @@ impl Scheduler {
             return;
         }
         let f = self.open.remove(p);
-        for w in self.workers.values_mut() {
+        for (id, w) in self.workers.iter_mut() {
             w.inflight.retain(|&(k, _), _| k != f.index);
-            let _ = w.outbox.send(Message::Cancel { job_id: f.job_id }.into());
+            // A worker's base stays until it is sent another.
+            if s.bases.get(id).map(|b| b.1) != Some(f.job_id) {
+                let _ = w.outbox.send(Message::Cancel { job_id: f.job_id }.into());
+            }
         }
         s.jobs.remove(&f.index);
         s.past.push(f.job_id);
@@ -363,18 +464,24 @@ impl Scheduler {
         ));
     }
 
-    /// A worker joined a sequence: it starts with frame 0's Job (every connection does), so it
-    /// is sent the Jobs of the later frames open, and told to drop frame 0 if that is closed.
+    /// A worker joined a sequence: it starts with frame 0's Job (every connection does, its
+    /// first base), so it is sent the later frames open (a View of frame 0 where they share
+    /// its scene), and told to drop frame 0 if that is closed and no longer its base.
     pub(super) fn joined_sequence(&mut self, id: WorkerId) {
-        let (Some(s), Some(w)) = (&self.frames, self.workers.get(&id)) else {
+        let (Some(s), Some(w)) = (&mut self.frames, self.workers.get(&id)) else {
             return;
         };
-        for (&k, job) in &s.jobs {
+        if let Some(key) = s.first_key {
+            s.bases.insert(id, (key, s.first_job));
+        }
+        for (&k, (job_id, job)) in &s.jobs {
             if k != 0 {
-                let _ = w.outbox.send(Outgoing::Encoded(job.clone()));
+                let pf = self.opts.pixel_format;
+                send_frame(&mut s.bases, &s.past, id, w, *job_id, job, pf);
             }
         }
-        if !s.jobs.contains_key(&0) {
+        let base = s.bases.get(&id).map(|b| b.1);
+        if !s.jobs.contains_key(&0) && base != Some(s.first_job) {
             let _ = w.outbox.send(
                 Message::Cancel {
                     job_id: s.first_job,

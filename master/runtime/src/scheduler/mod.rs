@@ -40,8 +40,8 @@ use tokio::time::Instant;
 use tracing::{debug, info, warn};
 
 pub use crate::batch::BATCH_SECONDS;
-pub use frames::FrameFinished;
 use frames::{Frame, Frames};
+pub use frames::{FrameCamera, FrameFinished, FrameJob, MAX_FRAMES_WINDOW};
 
 mod deal;
 mod frames;
@@ -793,14 +793,14 @@ mod tests {
     /// and `NEXT`) with `window` frames open at most.
     fn two_frames(max_failures: u32, window: usize) -> Scheduler {
         let mut s = sched(max_failures);
-        s.start_frames(window, job_of(0));
+        s.start_frames(window, job_of(0).into());
         s.push_frame(
             1,
             NEXT,
             &RenderSettings::new(16, 8),
             1,
             tiles(16, 8, 4),
-            job_of(1),
+            job_of(1).into(),
         );
         s
     }

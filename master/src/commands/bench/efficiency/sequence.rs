@@ -12,6 +12,7 @@ use crate::studies::efficiency::{median, EfficiencyTable};
 use anyhow::Context;
 use parrt_render::render::Renderer;
 use parrt_render::sequence::Sequence;
+use parrt_render::sequence_build::FrameBuilder;
 use parrt_render::sequence_smp::{render_sequence, FrameDone, SequenceOptions};
 use parrt_render::settings::RenderSettings;
 use parrt_render::smp::Executor;
@@ -89,8 +90,9 @@ impl Case<'_> {
     }
 }
 
-/// Seconds of one SMP render of `seq` (every frame's build included, as they overlap the
-/// tracing of the frames before), its films dropped.
+/// Seconds of one SMP render of `seq` as `parrt render` of a sequence makes it (a frame that
+/// only moves the camera shares the scene's build; the builds overlap the tracing of the
+/// frames before), its films dropped.
 fn smp_once(
     seq: &Sequence,
     settings: &RenderSettings,
@@ -105,9 +107,9 @@ fn smp_once(
         window: DEFAULT_WINDOW,
         rgb8: true,
     };
-    let build = |k: usize| -> anyhow::Result<Renderer> {
-        Renderer::new(&seq.frames()[k].description(), settings).map_err(input_error)
-    };
+    let builder = FrameBuilder::new(seq);
+    let build =
+        |k: usize| -> anyhow::Result<Renderer> { builder.build(k, settings).map_err(input_error) };
     let write = |_: FrameDone| -> anyhow::Result<()> { Ok(()) };
     let r = render_sequence(
         seq.len(),
