@@ -248,6 +248,13 @@ impl FrameSource for ResumableFrames<'_> {
         }
     }
 
+    fn make_durable(&mut self) -> Result<(), DistError> {
+        match &mut self.checkpoint {
+            Some(c) => c.sync().map_err(DistError::from),
+            None => Ok(()),
+        }
+    }
+
     fn accepted(&mut self, mut tiles: Vec<AcceptedTile>) -> Result<(), DistError> {
         for t in &mut tiles {
             t.frame = self.global(t.frame)?;

@@ -43,6 +43,12 @@ pub trait FrameSource {
     fn accepted(&mut self, _tiles: Vec<AcceptedTile>) -> Result<(), DistError> {
         Ok(())
     }
+    /// Every tile is in: make what the source recorded durable now, before any worker is told
+    /// to go (a machine that crashes after the goodbye must leave a record that needs no worker
+    /// to finish, as a one-frame checkpoint is closed before it).
+    fn make_durable(&mut self) -> Result<(), DistError> {
+        Ok(())
+    }
 }
 
 /// No later frames: the type of a render of one frame.
@@ -161,7 +167,11 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
             };
             hook(l.sched)?;
             let frame_tiles = l.sched.progress().1;
-            drive(l, frame_tiles, &mut hook).await
+            let mut driven = drive(l, frame_tiles, &mut hook).await;
+            if keeps && driven.outcome.is_ok() && l.sched.is_done() {
+                driven.outcome = src.make_durable();
+            }
+            driven
         }
         _ => {
             let frame_tiles = l.sched.progress().1;
