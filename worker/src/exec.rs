@@ -11,7 +11,7 @@ mod inline;
 mod pool;
 mod replay;
 
-pub use inline::{CostFn, InlineExec, PixelFn};
+pub use inline::{CostFn, InlineExec, JobCostFn, JobPixelFn, PixelFn};
 pub use pool::RayonExec;
 pub use replay::ReplayExec;
 

@@ -108,6 +108,8 @@ fn small_config(work_s: f64, dilation: Option<f64>) -> Config {
         dilation,
         costly_first: false,
         hosts: None,
+        frames: 1,
+        orbit_deg: 360.0,
     }
 }
 
