@@ -123,6 +123,9 @@ pub struct Row {
     /// The model's time for one frame alone on the same cluster (what a frame's latency
     /// compares with).
     pub single_frame_predicted_s: f64,
+    /// A sequence's frames as they finished (empty for one frame).
+    #[serde(skip)]
+    pub seen: Vec<FrameSeen>,
     /// Real seconds the simulation took.
     pub wall_s: f64,
     /// What the run's event trace says binds it.
@@ -405,8 +408,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         single.clone()
     };
     let predicted = model.efficiency;
+    let seen = seen.lock().unwrap_or_else(|p| p.into_inner()).clone();
     let (identical, latency_mean_s, latency_max_s) = if frame_count > 1 {
-        let seen = seen.lock().unwrap_or_else(|p| p.into_inner()).clone();
         let mut once = vec![0usize; frame_count];
         for f in &seen {
             if let Some(n) = once.get_mut(f.index) {
@@ -439,6 +442,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         latency_mean_s,
         latency_max_s,
         single_frame_predicted_s: single.makespan,
+        seen,
         wall_s,
         // The trace's clock is dilated: so are the costs it is read with.
         trace: tail.tail(n, &costs.iter().map(|c| c * k).collect::<Vec<_>>()),

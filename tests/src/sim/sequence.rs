@@ -271,3 +271,47 @@ pub fn panned_equal(film: &Film, want: &[u8], tiles: &[Tile], orbit: &Orbit, k: 
         })
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_pan_whole_full_columns_and_keep_a_narrow_last_one() {
+        // 10 pixels in tiles of 4: columns 0 and 1 full, column 2 two pixels wide.
+        let o = Orbit::new(4, 360.0, 10, 4);
+        assert_eq!((0..4).map(|k| o.shift(k)).collect::<Vec<_>>(), [0, 1, 1, 0]);
+        // Row 1 (ids 3, 4, 5) of frame 1: the full columns swap, the narrow one stays.
+        assert_eq!(
+            (3..6).map(|i| o.source(1, i)).collect::<Vec<_>>(),
+            [4, 3, 5]
+        );
+        assert_eq!(o.costs(1, &[1.0, 2.0, 3.0]), [2.0, 1.0, 3.0]);
+    }
+
+    #[test]
+    fn a_frame_is_checked_against_its_own_pan() {
+        let list = parrt_render::tile::tiles(8, 4, 4);
+        let mut recorded = Film::new(8, 4);
+        for (i, p) in recorded.pixels.iter_mut().enumerate() {
+            *p = [(i % 8) as f32 / 8.0, 0.5, 0.25];
+        }
+        let want = recorded.to_rgb8();
+        let o = Orbit::new(2, 360.0, 8, 4);
+        let mut panned = Film::new(8, 4);
+        for t in &list {
+            let src = &list[o.source(1, t.id as usize)];
+            let px: Vec<Rgb> = (0..4)
+                .flat_map(|y| (0..4).map(move |x| (x, y)))
+                .map(|(x, y)| recorded.get(src.x + x, y))
+                .collect();
+            panned.write_tile(t, &px).unwrap();
+        }
+        assert!(panned_equal(&panned, &want, &list, &o, 1));
+        assert!(
+            !panned_equal(&panned, &want, &list, &o, 0),
+            "frame 1 is not frame 0"
+        );
+        assert!(panned_equal(&recorded, &want, &list, &o, 0));
+    }
+}
