@@ -11,7 +11,7 @@ mod inline;
 mod pool;
 mod replay;
 
-pub use inline::{CostFn, InlineExec, PixelFn};
+pub use inline::{CostFn, InlineExec, JobCostFn, JobPixelFn, PixelFn};
 pub use pool::RayonExec;
 pub use replay::ReplayExec;
 
@@ -50,6 +50,11 @@ pub trait Execute: Send {
 
     /// Starts building the renderer of `spec`; the outcome comes from [`Execute::next`].
     fn build(&mut self, spec: JobSpec);
+
+    /// A job that is another view of a job built here ([`parrt_protocol::Message::View`]): the
+    /// session makes its renderer from the base's without a build. An executor that tells jobs
+    /// apart by what they show learns the new one here; others need do nothing.
+    fn viewed(&mut self, _spec: &parrt_protocol::ViewSpec) {}
 
     /// Queues a batch of tiles (each with its attempt) of `job`. Tiles still queued when the
     /// job's cancel flag is set are skipped; the batch's messages come from [`Execute::next`]

@@ -358,6 +358,7 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                             }
                         }
                         summary.jobs += 1;
+                        exec.viewed(&spec);
                         view_job(&mut conn, &mut jobs, spec, limit).await?;
                     }
                     Message::Assign { job_id, tile, attempt } => {

@@ -123,6 +123,9 @@ pub struct DistResult {
     pub queue_peaks: QueuePeaks,
     /// The most frames of a sequence open at once (1 for one frame).
     pub most_open_frames: usize,
+    /// A sequence's last frame: when its first tile went out and its last came in (the
+    /// earlier frames' go to the [`FrameSource`]); `None` for a render of one frame.
+    pub last_frame_span: Option<(Option<tokio::time::Instant>, tokio::time::Instant)>,
 }
 
 /// High-water marks of the master's in-memory queues (the deterministic simulation checks

@@ -282,13 +282,14 @@ impl<L: Listener> Master<L> {
         drop(events);
         outcome?;
         let mut finished = finished;
+        let last_frame_span = seq.last.as_ref().map(|l| (l.first_out, l.done_at));
         if let Some(last) = seq.last.take() {
             finished.film = last.film;
             finished.tile_seconds = last.tile_seconds;
             finished.stats = last.stats;
         }
         finished.stats += seq.stats;
-        Ok(dist_result(
+        let mut result = dist_result(
             finished,
             Counts {
                 tiles: seq.tiles,
@@ -300,7 +301,9 @@ impl<L: Listener> Master<L> {
             trace_s,
             master_cpu_s,
             &conn_ctx,
-        ))
+        );
+        result.last_frame_span = last_frame_span;
+        Ok(result)
     }
 }
 
@@ -475,6 +478,7 @@ fn dist_result(
                 .load(std::sync::atomic::Ordering::Relaxed),
         },
         most_open_frames: counts.most_open_frames,
+        last_frame_span: None,
     }
 }
 

@@ -45,6 +45,8 @@ fn scale(a: &Scale) -> Result<ExitCode, String> {
                     dilation: None,
                     costly_first: a.costly_first,
                     hosts: None,
+                    frames: a.frames as usize,
+                    orbit_deg: a.orbit,
                 };
                 let row = run(&path, &cfg).map_err(|e| format!("{c}: {e:#}"))?;
                 println!(
@@ -52,6 +54,12 @@ fn scale(a: &Scale) -> Result<ExitCode, String> {
                     row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.dilation, row.trace_s, row.wall_s,
                     row.trace.handout_share * 100.0, row.trace.idle_after_queue * 100.0, row.trace.last_tiles_cost, row.trace.last_results_cost, row.trace.costliest_out
                 );
+                if row.frames > 1 {
+                    println!(
+                        "        {} frames: frame latency mean {:.3} s, worst {:.3} s (one frame alone, model: {:.3} s)",
+                        row.frames, row.latency_mean_s, row.latency_max_s, row.single_frame_predicted_s
+                    );
+                }
                 rows.push(row);
                 // Written after every row: a long sweep keeps what it has measured.
                 let text = serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?;

@@ -20,6 +20,10 @@ pub const GBIT_RANGE: (f64, f64) = (0.001, 10_000.0);
 pub const MAX_MASTER_US: f64 = 1e6;
 /// Longest frame of work, one-core seconds: seven days, as the duration flags elsewhere.
 pub const MAX_WORK_SECONDS: f64 = 7.0 * 86_400.0;
+/// Most frames of one `sim scale` sequence.
+pub const MAX_FRAMES: u64 = 10_000;
+/// Most degrees an orbit turns (ten whole turns).
+pub const MAX_ORBIT: f64 = 3600.0;
 /// Most workers and most threads of one `--configs` entry.
 pub const MAX_WORKERS: usize = 4096;
 /// See [`MAX_WORKERS`].
@@ -121,6 +125,13 @@ pub struct Scale {
     /// Hand the tiles out costliest first.
     #[arg(long)]
     pub costly_first: bool,
+    /// Frames rendered as one sequence through the master's window (each the recording
+    /// panned by its angle of the orbit; 1: one frame).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=MAX_FRAMES))]
+    pub frames: u64,
+    /// Degrees the sequence turns over its frames.
+    #[arg(long, default_value_t = 360.0, value_parser = orbit_degrees)]
+    pub orbit: f64,
     /// Where the recording is kept.
     #[arg(long, default_value = "target/sim-scale")]
     pub replay_dir: std::path::PathBuf,
@@ -191,6 +202,10 @@ fn latency_ms(s: &str) -> Result<f64, String> {
     bounded(s, 0.0, true, MAX_LATENCY_MS, "ms")
 }
 
+fn orbit_degrees(s: &str) -> Result<f64, String> {
+    bounded(s, -MAX_ORBIT, false, MAX_ORBIT, "degrees")
+}
+
 fn master_us(s: &str) -> Result<f64, String> {
     bounded(s, 0.0, true, MAX_MASTER_US, "µs")
 }
@@ -243,6 +258,8 @@ mod tests {
             ("--work-seconds", "0", "out of range"),
             ("--max-batch", "0", "0"),
             ("--configs", "8x0", "not WORKERSxTHREADS"),
+            ("--frames", "0", "0"),
+            ("--orbit", "NaN", "out of range"),
         ] {
             let mut args = base.to_vec();
             args.extend([flag, value]);

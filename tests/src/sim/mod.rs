@@ -9,6 +9,7 @@
 //! - [`trace`]: the event trace (its hash) and the accepted tiles.
 //! - [`net`]: turmoil's TCP in the runtime's and the worker's network seams.
 //! - [`scale`]: fault-free runs of many workers over a recorded render, in virtual time.
+//! - [`sequence`]: a sequence of frames in such a run: each frame the recording panned.
 //! - [`tail`]: what binds such a run, read from its event trace.
 //!
 //! The binary `sim` (`cargo run --release -p parrt-tests --bin sim -- explore --seeds N`)
@@ -19,6 +20,7 @@ pub mod frames;
 pub mod net;
 pub mod plan;
 pub mod scale;
+pub mod sequence;
 pub mod tail;
 pub mod trace;
 pub mod world;

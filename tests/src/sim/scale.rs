@@ -15,6 +15,7 @@
 //! reports times undilated and says the factor.
 
 use super::net::SimDial;
+use super::sequence::{scenes, FrameSeen, Orbit, SeqExec, SimFrames};
 use super::tail::{Tail, TailTrace};
 use parrt_master::studies::simulate::{simulate, SimParams};
 use parrt_protocol::{PixelFormat, Token};
@@ -24,7 +25,6 @@ use parrt_render::render::Renderer;
 use parrt_render::settings::RenderSettings;
 use parrt_render::smp::{render_smp, Executor, SmpOptions};
 use parrt_runtime::{DistResult, Master, MasterConfig};
-use parrt_worker::exec::ReplayExec;
 use parrt_worker::replay::{self, Replay};
 use parrt_worker::WorkerOptions;
 use serde::Serialize;
@@ -77,6 +77,11 @@ pub struct Config {
     /// The most simulated hosts the workers are spread over (`None`: [`MAX_HOSTS`]). A test
     /// sets it to show that sharing hosts changes nothing.
     pub hosts: Option<usize>,
+    /// Frames rendered as one sequence (1: one frame), each the recording panned
+    /// ([`super::sequence`]).
+    pub frames: usize,
+    /// Degrees the sequence turns over its frames.
+    pub orbit_deg: f64,
 }
 
 /// What one configuration gave.
@@ -90,7 +95,10 @@ pub struct Row {
     pub work_s: f64,
     /// Link bandwidth, Gbit/s.
     pub link_gbit: f64,
-    /// Measured in virtual time: t₁ / (n · trace time), t₁ the tiles' costs as simulated.
+    /// Frames in the sequence (1: one frame).
+    pub frames: usize,
+    /// Measured in virtual time: t₁ / (n · trace time), t₁ the tiles' costs as simulated
+    /// (of every frame: a sequence's throughput).
     pub efficiency: f64,
     /// How much tokio's millisecond timers lengthened the frame's work (spent / asked − 1).
     pub rounding: f64,
@@ -107,6 +115,17 @@ pub struct Row {
     pub identical: bool,
     /// Virtual seconds from the first tile handed out to the last result.
     pub trace_s: f64,
+    /// Mean over the frames of the virtual seconds from a frame's first tile handed out to
+    /// its last accepted (for one frame, the trace time).
+    pub latency_mean_s: f64,
+    /// The longest of those.
+    pub latency_max_s: f64,
+    /// The model's time for one frame alone on the same cluster (what a frame's latency
+    /// compares with).
+    pub single_frame_predicted_s: f64,
+    /// A sequence's frames as they finished (empty for one frame).
+    #[serde(skip)]
+    pub seen: Vec<FrameSeen>,
     /// Real seconds the simulation took.
     pub wall_s: f64,
     /// What the run's event trace says binds it.
@@ -210,6 +229,20 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     config.net.handshake_timeout = Duration::from_secs(600);
     config.net.max_connections = c.workers + 16;
     let result: Arc<Mutex<Option<DistResult>>> = Arc::default();
+    // A sequence: every frame is the recording panned by its angle ([`super::sequence`]).
+    let frame_count = c.frames.max(1);
+    let orbit = Orbit::new(frame_count, c.orbit_deg, width, tile);
+    let frame_scenes = scenes(&desc, &orbit);
+    let eyes = Arc::new(frame_scenes.iter().map(|d| d.view.from).collect::<Vec<_>>());
+    let seen: Arc<Mutex<Vec<FrameSeen>>> = Arc::default();
+    let frames = (frame_count > 1).then(|| SimFrames {
+        scenes: frame_scenes.clone(),
+        settings: settings.clone(),
+        orbit: orbit.clone(),
+        want: Arc::new(want.to_rgb8()),
+        tiles: Arc::new(replay.tiles.clone()),
+        seen: seen.clone(),
+    });
     // Dilated: a byte takes k times as long on a link and in the master.
     let link_bytes_per_s = c.link_bps / 8.0;
     let sim_link_bytes_per_s = link_bytes_per_s / k;
@@ -228,6 +261,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     {
         let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
         let (config, token, gate) = (config.clone(), token.clone(), master_gates.clone());
+        let frames = frames.clone();
         let per_byte = PerByte {
             link: 1.0 / sim_link_bytes_per_s,
             cpu: c.master_s_per_byte * k,
@@ -235,6 +269,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         sim.host("master", move || {
             let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
             let (config, token, gate) = (config.clone(), token.clone(), gate.clone());
+            let frames = frames.clone();
             async move {
                 let l = turmoil::net::TcpListener::bind(("0.0.0.0", 7878)).await?;
                 let listener = PacedListener {
@@ -243,7 +278,18 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
                     per_byte,
                 };
                 let m = Master::with_listener(listener, &config, token)?;
-                let r = m.render(&desc, &settings, CancellationToken::new()).await?;
+                let r = match frames {
+                    Some(mut f) => {
+                        let r = m
+                            .render_sequence(&desc, &settings, &mut f, CancellationToken::new())
+                            .await?;
+                        if let Some(span) = r.last_frame_span {
+                            f.note(f.scenes.len() - 1, &r.film, span);
+                        }
+                        r
+                    }
+                    None => m.render(&desc, &settings, CancellationToken::new()).await?,
+                };
                 *result.lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
                 Ok(())
             }
@@ -258,8 +304,10 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     for h in 0..hosts {
         let ids: Vec<usize> = (h * per_host..((h + 1) * per_host).min(c.workers)).collect();
         let (replay, token, threads) = (replay.clone(), token.clone(), c.threads);
+        let (orbit, eyes) = (orbit.clone(), eyes.clone());
         sim.host(format!("h{h}"), move || {
             let (replay, token, ids) = (replay.clone(), token.clone(), ids.clone());
+            let (orbit, eyes) = (orbit.clone(), eyes.clone());
             async move {
                 let session = |i: usize| {
                     let mut o = WorkerOptions::new("master:7878", token.clone());
@@ -273,7 +321,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
                     // dilated ×4 096, 4 096 workers' heartbeats alone would fill a 1 Gbit/s
                     // master link.
                     o.heartbeat = o.heartbeat.mul_f64(k);
-                    let exec = ReplayExec::simulated(replay.clone());
+                    let exec = SeqExec::new(replay.clone(), orbit.clone(), eyes.clone());
                     async move {
                         let _ = parrt_worker::session::run_with(
                             &o,
@@ -314,7 +362,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         .ok_or_else(|| anyhow::anyhow!("no result"))?;
     let n = c.workers * c.threads;
     let trace_s = r.trace_s / k;
-    let efficiency = spent / (n as f64 * trace_s.max(1e-12));
+    let efficiency = spent * frame_count as f64 / (n as f64 * trace_s.max(1e-12));
     let mean = spent / costs.len().max(1) as f64;
     let window = parrt_runtime::window::Window::default().assignments(
         c.threads,
@@ -333,27 +381,68 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         message_bytes: 64.0,
         // The master's default: idle workers take copies of tiles out once the queue is empty.
         backups: config_backups,
-        // An order by cost is dealt in rounds (`Scheduler::fill`).
-        rounds: c.costly_first,
+        // An order by cost is dealt in rounds (`Scheduler::fill`); so is every frame after
+        // a sequence's first.
+        rounds: c.costly_first || frame_count > 1,
         ..SimParams::ideal(c.workers, c.threads)
     };
     let in_order = |v: &[f64]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
     let pixels_in_order: Vec<u64> = order.iter().map(|&i| pixels[i as usize]).collect();
-    let model = simulate(&in_order(&costs), &pixels_in_order, &p);
+    let single = simulate(&in_order(&costs), &pixels_in_order, &p);
+    // A sequence as the model sees it: one stream of tiles, frame after frame, each later
+    // frame costliest first by the previous frame's costs; frame k+1's tiles are behind frame
+    // k's in the queue, so they fill its tail as the master's window of frames does.
+    let model = if frame_count > 1 {
+        let (mut all_costs, mut all_pixels) = (in_order(&costs), pixels_in_order.clone());
+        let mut before = orbit.costs(0, &costs);
+        for f in 1..frame_count {
+            let now = orbit.costs(f, &costs);
+            let mut next: Vec<usize> = (0..now.len()).collect();
+            next.sort_by(|&a, &b| before[b].total_cmp(&before[a]));
+            all_costs.extend(next.iter().map(|&i| now[i]));
+            all_pixels.extend(next.iter().map(|&i| pixels[i]));
+            before = now;
+        }
+        simulate(&all_costs, &all_pixels, &p)
+    } else {
+        single.clone()
+    };
     let predicted = model.efficiency;
+    let seen = seen.lock().unwrap_or_else(|p| p.into_inner()).clone();
+    let (identical, latency_mean_s, latency_max_s) = if frame_count > 1 {
+        let mut once = vec![0usize; frame_count];
+        for f in &seen {
+            if let Some(n) = once.get_mut(f.index) {
+                *n += 1;
+            }
+        }
+        let lat: Vec<f64> = seen.iter().map(|f| f.latency_s / k).collect();
+        (
+            once.iter().all(|&n| n == 1) && seen.iter().all(|f| f.identical),
+            lat.iter().sum::<f64>() / lat.len().max(1) as f64,
+            lat.iter().copied().fold(0.0, f64::max),
+        )
+    } else {
+        (same_bytes(&r.film, &want), trace_s, trace_s)
+    };
     Ok(Row {
         workers: c.workers,
         threads: c.threads,
         work_s: c.work_s,
         link_gbit: c.link_bps / 1e9,
+        frames: frame_count,
         efficiency,
         rounding: spent / c.work_s - 1.0,
         dilation: k,
         predicted,
         model_tail: model.tail_idle_s / (n as f64 * model.makespan.max(1e-12)),
         model_master: model.master_utilisation,
-        identical: same_bytes(&r.film, &want),
+        identical,
         trace_s,
+        latency_mean_s,
+        latency_max_s,
+        single_frame_predicted_s: single.makespan,
+        seen,
         wall_s,
         // The trace's clock is dilated: so are the costs it is read with.
         trace: tail.tail(n, &costs.iter().map(|c| c * k).collect::<Vec<_>>()),

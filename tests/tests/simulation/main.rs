@@ -142,6 +142,8 @@ fn small_config(work_s: f64, dilation: Option<f64>) -> Config {
         dilation,
         costly_first: false,
         hosts: None,
+        frames: 1,
+        orbit_deg: 360.0,
     }
 }
 
@@ -160,6 +162,46 @@ fn a_frame_of_microsecond_tiles_runs_dilated_with_its_image() {
     );
     assert!(
         (0.0..=1.0).contains(&row.efficiency) && (row.efficiency - row.predicted).abs() < 0.1,
+        "efficiency {:.3}, model {:.3}",
+        row.efficiency,
+        row.predicted
+    );
+}
+
+#[test]
+fn a_sequence_of_three_frames_gives_each_frame_once_as_recorded_and_panned() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    let row = run(
+        &path,
+        &Config {
+            frames: 3,
+            orbit_deg: 360.0,
+            ..small_config(15.36, None)
+        },
+    )
+    .expect("the sequence");
+    assert_eq!(row.frames, 3);
+    let mut frames: Vec<usize> = row.seen.iter().map(|f| f.index).collect();
+    frames.sort_unstable();
+    assert_eq!(frames, [0, 1, 2], "each frame finished once");
+    for f in &row.seen {
+        assert!(f.identical, "frame {} is the recording panned", f.index);
+        assert!(f.latency_s > 0.0, "frame {} has its span", f.index);
+    }
+    assert!(row.identical);
+    assert!(
+        row.latency_mean_s > 0.0
+            && row.latency_mean_s <= row.latency_max_s
+            && row.latency_max_s <= row.trace_s,
+        "latency mean {} max {} trace {}",
+        row.latency_mean_s,
+        row.latency_max_s,
+        row.trace_s
+    );
+    // Three frames' work over eight threads: the frames fill each other's tails.
+    assert!(
+        (row.efficiency - row.predicted).abs() < 0.05 && row.efficiency > 0.8,
         "efficiency {:.3}, model {:.3}",
         row.efficiency,
         row.predicted

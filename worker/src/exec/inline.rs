@@ -28,13 +28,21 @@ pub type CostFn = Arc<dyn Fn(&Tile) -> Duration + Send + Sync>;
 /// error is answered with an Error message, as a replaying worker does.
 pub type PixelFn = Arc<dyn Fn(&Tile, &mut Vec<Rgb>) -> Result<(), String> + Send + Sync>;
 
+/// The simulated cost of one tile of a given job: a simulated sequence's frames are jobs whose
+/// tiles cost (and show) what that frame recorded.
+pub type JobCostFn = Arc<dyn Fn(&JobHandle, &Tile) -> Duration + Send + Sync>;
+
+/// A tile's pixels of a given job without tracing (see [`JobCostFn`]).
+pub type JobPixelFn =
+    Arc<dyn Fn(&JobHandle, &Tile, &mut Vec<Rgb>) -> Result<(), String> + Send + Sync>;
+
 /// A cost too large to add to an instant stands for this long (never in practice).
 const FAR: Duration = Duration::from_secs(100 * 365 * 24 * 3600);
 
 /// Renders inline and spends simulated time; see the module doc.
 pub struct InlineExec {
-    cost: CostFn,
-    pixels: Option<PixelFn>,
+    cost: JobCostFn,
+    pixels: Option<JobPixelFn>,
     build_cost: Duration,
     /// The simulated threads: the tile each one is busy with.
     lanes: Vec<Option<Running>>,
@@ -75,6 +83,11 @@ struct Batch {
 impl InlineExec {
     /// Traces with the job's renderer; each tile costs `cost(tile)` of simulated time.
     pub fn new(cost: impl Fn(&Tile) -> Duration + Send + Sync + 'static) -> Self {
+        InlineExec::per_job(move |_, t| cost(t))
+    }
+
+    /// Traces with the job's renderer; each tile costs `cost(job, tile)` of simulated time.
+    pub fn per_job(cost: impl Fn(&JobHandle, &Tile) -> Duration + Send + Sync + 'static) -> Self {
         InlineExec {
             cost: Arc::new(cost),
             pixels: None,
@@ -97,6 +110,17 @@ impl InlineExec {
     pub fn with_pixels(
         mut self,
         pixels: impl Fn(&Tile, &mut Vec<Rgb>) -> Result<(), String> + Send + Sync + 'static,
+    ) -> Self {
+        self.pixels = Some(Arc::new(
+            move |_: &JobHandle, t: &Tile, out: &mut Vec<Rgb>| pixels(t, out),
+        ));
+        self
+    }
+
+    /// Takes tiles' pixels from `pixels(job, tile, out)` instead of tracing them.
+    pub fn with_job_pixels(
+        mut self,
+        pixels: impl Fn(&JobHandle, &Tile, &mut Vec<Rgb>) -> Result<(), String> + Send + Sync + 'static,
     ) -> Self {
         self.pixels = Some(Arc::new(pixels));
         self
@@ -137,10 +161,13 @@ impl InlineExec {
                 continue;
             }
             let traced = std::panic::catch_unwind(AssertUnwindSafe(|| match &self.pixels {
-                Some(f) => trace(&q.job, &q.tile, Source::Given(&**f)),
+                Some(f) => {
+                    let given = |t: &Tile, out: &mut Vec<Rgb>| f(&q.job, t, out);
+                    trace(&q.job, &q.tile, Source::Given(&given))
+                }
                 None => trace(&q.job, &q.tile, Source::Render),
             }));
-            let cost = (self.cost)(&q.tile);
+            let cost = (self.cost)(&q.job, &q.tile);
             let msg = result_message(&q.job, &q.tile, q.attempt, traced, || cost.as_secs_f64());
             self.lanes[lane] = Some(Running {
                 until: later(at, cost),
