@@ -34,8 +34,7 @@ pub struct SequenceArgs {
 }
 
 /// The sequence flags of `parrt master`, whose `--window` is already a worker's window of
-/// tiles in flight: the frames, without a window of frames (through workers the frames render
-/// one after another).
+/// tiles in flight: the frames, and the window of frames as `--frames-window`.
 #[derive(Debug, Clone, Args)]
 #[command(next_help_heading = "Sequences (several scene files, --frames-from or --orbit)")]
 pub struct FrameArgs {
@@ -50,16 +49,35 @@ pub struct FrameArgs {
     /// With --orbit: the number of frames.
     #[arg(long, value_name = "N")]
     pub frames: Option<usize>,
+    /// Most frames open at once on the workers (as `parrt render --window` of a sequence): the
+    /// next frame's tiles fill one frame's tail; each worker holds a built scene per frame
+    /// open. Default 2 (at most 16, what a worker holds); a sequence's flag only.
+    #[arg(long, value_name = "W")]
+    pub frames_window: Option<usize>,
 }
 
 impl FrameArgs {
-    /// The same flags as [`SequenceArgs`] (no window of frames).
+    /// The same flags as [`SequenceArgs`] (`--frames-window` as its window).
     pub fn sequence(&self) -> SequenceArgs {
         SequenceArgs {
             frames_from: self.frames_from.clone(),
             orbit: self.orbit,
             frames: self.frames,
-            window: None,
+            window: self.frames_window,
+        }
+    }
+
+    /// Refuses `--frames-window` below 1, or given for a render of one frame (`sequence`:
+    /// whether this is a sequence).
+    pub fn check(&self, sequence: bool) -> Result<(), ArgError> {
+        match self.frames_window {
+            Some(0) => Err(ArgError::Value("--frames-window must be at least 1".into())),
+            Some(_) if !sequence => Err(ArgError::Conflict(
+                "--frames-window is a sequence's flag (several scene files, --frames-from or \
+                 --orbit); a render of one frame has no frames to overlap"
+                    .into(),
+            )),
+            _ => Ok(()),
         }
     }
 }

@@ -343,6 +343,7 @@ fn run_master_sequence(
     });
     config.schedule.wait_workers = wait_workers;
     config.schedule.await_all_workers = true;
+    config.schedule.frames_window = args.sequence.window();
     config.net.listen = args.listen.clone();
     config.net.token = Some(token);
     let n = p.outputs.len();

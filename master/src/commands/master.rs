@@ -174,7 +174,9 @@ pub fn run(args: MasterArgs) -> anyhow::Result<ExitCode> {
         ("--token-file", args.token.token_file.as_deref()),
     ])?;
     check_listen(&args.listen)?;
-    if args.files.len() > 1 || args.frames.sequence().asked() {
+    let sequence = args.files.len() > 1 || args.frames.sequence().asked();
+    args.frames.check(sequence)?;
+    if sequence {
         return run_sequence(&args, token, wait_workers, tile_deadline, heartbeat_timeout);
     }
     let (desc, label) = load_scene(&args)?;
@@ -301,6 +303,7 @@ fn run_sequence(
     s.tile_deadline = tile_deadline;
     s.window = args.window;
     s.max_batch = args.max_batch.max(1);
+    s.frames_window = sequence.window();
     s.backups = !args.no_backups;
     config.net.listen = args.listen.clone();
     config.net.token = Some(token);

@@ -369,3 +369,27 @@ fn listen_addresses_typos_are_bad_input_and_a_busy_port_is_not() {
         )
     );
 }
+
+/// `parrt master --frames-window`: at least 1, and a sequence's flag only; both refused before
+/// listening (exit 2).
+#[test]
+fn a_window_of_frames_is_refused_below_one_or_for_one_frame() {
+    refused_master(
+        &[
+            "--scene",
+            "balls:1",
+            "--orbit",
+            "90",
+            "--frames",
+            "3",
+            "--frames-window",
+            "0",
+        ],
+        "--frames-window must be at least 1",
+    );
+    refused_master(
+        &["--scene", "balls:1", "--frames-window", "3"],
+        "--frames-window is a sequence's flag (several scene files, --frames-from or --orbit); \
+         a render of one frame has no frames to overlap",
+    );
+}
