@@ -31,7 +31,7 @@ pub struct JobSpec {
 /// from another view. The worker renders it with the base job's built scene and accelerator
 /// ([`parrt_render::render::Renderer::with_view`]); the master sends it only to a worker it
 /// has sent the base's Job and not yet told to drop it, and only when the base's build is the
-/// one this frame would get ([`crate::scene_key`]), else the frame's whole Job.
+/// one this frame would get ([`crate::scene_key()`]), else the frame's whole Job.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ViewSpec {
     /// The frame's job id, as a Job's.

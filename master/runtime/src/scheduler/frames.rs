@@ -183,7 +183,7 @@ pub(super) struct NextFrame {
 /// a View carries.
 #[derive(Clone, Debug)]
 pub struct FrameCamera {
-    /// The frame's scene key ([`parrt_protocol::scene_key`]).
+    /// The frame's scene key ([`parrt_protocol::scene_key()`]).
     pub key: SceneKey,
     /// Its view.
     pub view: View,

@@ -3,7 +3,7 @@
 //! count, and writes the paper-shaped tables (rows threads, columns tile sizes; efficiency of the
 //! tracing phase and of the whole render) as Markdown and CSV, plots like its Figures 2 and 3,
 //! and a check of the schedule simulator against the measured runs. With `--frames N` every
-//! run renders an orbit of N frames as one job instead ([`sequence`]).
+//! run renders an orbit of N frames as one job instead (its `sequence` module).
 
 mod sequence;
 
