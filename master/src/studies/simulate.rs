@@ -61,6 +61,21 @@ pub struct SimParams {
     /// each worker a round, as the master deals an order given by cost; otherwise (raster
     /// order) each worker's window is filled in turn, as the master does.
     pub rounds: bool,
+    /// The tiles are a sequence's frames one after another, dealt through the master's window
+    /// of frames ([`FrameWindow`]); `None`: the tiles are one frame.
+    pub frames: Option<FrameWindow>,
+}
+
+/// A sequence as the master renders it: the frames' tiles one after another in the queue,
+/// each frame `tiles` long, at most `window` frames open at once. A frame's tiles are dealt
+/// only once every frame `window` before it is whole, so the costliest tile of one frame holds
+/// up the frame `window` after it (what a window too narrow for a cluster's tail costs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameWindow {
+    /// Tiles of each frame (the last may have fewer).
+    pub tiles: usize,
+    /// Frames open at once (at least 1).
+    pub window: usize,
 }
 
 impl SimParams {
@@ -84,6 +99,7 @@ impl SimParams {
             message_bytes: 0.0,
             backups: false,
             rounds: false,
+            frames: None,
         }
     }
 }
@@ -157,6 +173,13 @@ struct Sim<'a> {
     /// Every batch handed out: its tiles (consecutive in the queue), how many are not
     /// done yet, and whether it is a backup copy.
     batches: Vec<(Range<usize>, usize, bool)>,
+    /// Per batch: the master has dropped it, its frame being whole (a sequence closes a frame
+    /// and forgets every copy still out; the worker skips its queued tiles and sends
+    /// nothing), or taken its results. Neither is still out.
+    dropped: Vec<bool>,
+    answered: Vec<bool>,
+    /// Per batch: the worker it went to.
+    owner: Vec<usize>,
     /// Per tile (queue index): live copies out, and whether its first result is in.
     holders: Vec<u32>,
     accepted: Vec<bool>,
@@ -184,6 +207,8 @@ struct Sim<'a> {
     /// Tiles with a first result, and when the last of them was accepted.
     done: usize,
     makespan: f64,
+    /// In a sequence, each frame's tiles without a first result yet.
+    frame_left: Vec<usize>,
 }
 
 impl Sim<'_> {
@@ -261,13 +286,15 @@ impl Sim<'_> {
     /// whether it did.
     fn deal(&mut self, worker: usize, at: f64) -> bool {
         let p = self.p;
-        if self.next >= self.costs.len() {
+        let Some(end) = self.dealable_end() else {
             return false;
-        }
+        };
         let mean = (self.seen.1 > 0).then(|| self.seen.0 / self.seen.1 as f64);
+        // As the master sizes a batch: by the tiles queued in the frames open, which is what
+        // is left of the frame being dealt (a frame opens once those before are dealt).
         let size = parrt_runtime::batch::batch_size(
             p.max_batch,
-            self.costs.len() - self.next,
+            end - self.next,
             p.workers.max(1) * p.threads.max(1),
             mean,
             p.batch_seconds,
@@ -277,7 +304,8 @@ impl Sim<'_> {
         if free == 0 || (free < size && held > 0) {
             return false;
         }
-        let take = size.min(free).min(self.costs.len() - self.next);
+        // A batch is of one frame.
+        let take = size.min(free).min(end - self.next);
         for t in self.next..self.next + take {
             self.holders[t] = 1;
             if p.backups {
@@ -291,10 +319,29 @@ impl Sim<'_> {
         true
     }
 
-    /// Once the queue is empty, a worker with nothing of its own takes backups.
+    /// Where the frame of the next tile to deal ends, if a tile may be dealt now: the queue
+    /// has one, and (in a sequence) its frame is open, every frame the window before it whole.
+    fn dealable_end(&self) -> Option<usize> {
+        if self.next >= self.costs.len() {
+            return None;
+        }
+        let Some(f) = self.p.frames else {
+            return Some(self.costs.len());
+        };
+        let tiles = f.tiles.max(1);
+        let frame = self.next / tiles;
+        let window = f.window.max(1);
+        if frame >= window && self.frame_left[frame - window] > 0 {
+            return None;
+        }
+        Some(((frame + 1) * tiles).min(self.costs.len()))
+    }
+
+    /// Once no tile may be dealt (the queue is empty, or the next frame waits for the window),
+    /// a worker with nothing of its own takes backups.
     fn take_backups(&mut self, worker: usize, at: f64) {
         let p = self.p;
-        if !p.backups || self.next < self.costs.len() || self.primaries[worker] > 0 {
+        if !p.backups || self.dealable_end().is_some() || self.primaries[worker] > 0 {
             return;
         }
         while self.backups_out[worker] < p.threads.max(1) {
@@ -311,6 +358,9 @@ impl Sim<'_> {
     fn assign(&mut self, worker: usize, tiles: Range<usize>, backup: bool, at: f64) {
         let take = tiles.len();
         self.batches.push((tiles, take, backup));
+        self.dropped.push(false);
+        self.answered.push(false);
+        self.owner.push(worker);
         self.bytes += self.p.message_bytes;
         let batch = self.batches.len() - 1;
         let arrive = self.host(at, 0.5 * self.p.host_per_tile_s * take as f64);
@@ -354,6 +404,9 @@ impl<'a> Sim<'a> {
             heap: BinaryHeap::new(),
             seq: 0,
             batches: Vec::new(),
+            dropped: Vec::new(),
+            answered: Vec::new(),
+            owner: Vec::new(),
             holders: vec![0; costs.len()],
             accepted: vec![false; costs.len()],
             primaries: vec![0; workers],
@@ -373,6 +426,13 @@ impl<'a> Sim<'a> {
             master_busy: 0.0,
             done: 0,
             makespan: 0.0,
+            frame_left: match p.frames {
+                Some(f) => (0..costs.len())
+                    .step_by(f.tiles.max(1))
+                    .map(|s| f.tiles.max(1).min(costs.len() - s))
+                    .collect(),
+                None => Vec::new(),
+            },
         }
     }
 
@@ -385,20 +445,27 @@ impl<'a> Sim<'a> {
         let job = p.scene_bytes + p.message_bytes;
         self.bytes += job * workers as f64;
         let startup = p.latency_s + self.transfer(job) + p.build_s;
-        if p.rounds {
+        self.deal_all(startup);
+        startup
+    }
+
+    /// Fills every worker's window, arriving at `at`: in turn or, for an order by cost, dealt
+    /// in rounds ([`SimParams::rounds`]).
+    fn deal_all(&mut self, at: f64) {
+        let workers = self.p.workers.max(1);
+        if self.p.rounds {
             let mut open: Vec<usize> = (0..workers).collect();
             while !open.is_empty() {
-                open.retain(|&w| self.deal(w, startup));
+                open.retain(|&w| self.deal(w, at));
             }
             for w in 0..workers {
-                self.take_backups(w, startup);
+                self.take_backups(w, at);
             }
         } else {
             for w in 0..workers {
-                self.fill(w, startup);
+                self.fill(w, at);
             }
         }
-        startup
     }
 
     /// Runs one event; says whether the image is whole.
@@ -406,11 +473,12 @@ impl<'a> Sim<'a> {
         let p = self.p;
         let now = ev.time;
         match ev.kind {
-            Kind::Assign { worker, batch } => {
+            Kind::Assign { worker, batch } if !self.dropped[batch] => {
                 let tiles = self.batches[batch].0.clone();
                 self.queue[worker].extend(tiles.map(|tile| (tile, batch)));
                 self.start(worker, now);
             }
+            Kind::Assign { .. } => {}
             Kind::Done { worker, batch } => self.tile_done(worker, batch, now),
             Kind::AtMaster { worker, batch } => {
                 let bytes = self.result_bytes(batch);
@@ -439,7 +507,7 @@ impl<'a> Sim<'a> {
         self.idle[worker] += 1;
         self.start(worker, now);
         self.batches[batch].1 -= 1;
-        if self.batches[batch].1 == 0 {
+        if self.batches[batch].1 == 0 && !self.dropped[batch] {
             let bytes = self.result_bytes(batch);
             self.bytes += bytes;
             let sent = self.link_free[worker].max(now) + self.transfer(bytes);
@@ -459,16 +527,31 @@ impl<'a> Sim<'a> {
     /// filled again. Says whether the image is whole.
     fn result(&mut self, worker: usize, batch: usize, now: f64) -> bool {
         let p = self.p;
+        if self.dropped[batch] {
+            // Of a frame already whole: ignored, as the master ignores it.
+            return false;
+        }
+        self.answered[batch] = true;
         let (tiles, _, backup) = self.batches[batch].clone();
         let per = p.master_per_tile_s * tiles.len() as f64;
         self.master_free = self.master_free.max(now) + per;
         self.master_busy += per;
         let mut first = 0;
+        let waiting = self.next < self.costs.len() && self.dealable_end().is_none();
         for t in tiles.clone() {
             self.holders[t] -= 1;
             if !std::mem::replace(&mut self.accepted[t], true) {
                 first += 1;
                 self.seen.0 += self.costs[t];
+                if let Some(f) = p.frames {
+                    let frame = t / f.tiles.max(1);
+                    if let Some(left) = self.frame_left.get_mut(frame) {
+                        *left -= 1;
+                        if *left == 0 {
+                            self.close_frame(frame, f.tiles.max(1));
+                        }
+                    }
+                }
             }
         }
         self.done += first;
@@ -485,8 +568,42 @@ impl<'a> Sim<'a> {
             return true;
         }
         let arrive = self.master_free + p.latency_s + self.transfer(p.message_bytes);
-        self.fill(worker, arrive);
+        if waiting && self.dealable_end().is_some() {
+            // A frame is whole and the next opens: every worker with room is dealt its tiles
+            // (in rounds when the order is by cost), not only the one that answered.
+            self.deal_all(arrive);
+        } else {
+            self.fill(worker, arrive);
+        }
         false
+    }
+
+    /// Frame `frame` is whole: the master forgets every copy of its tiles still out (they no
+    /// longer hold a place in any window), and each worker skips those it has not started.
+    fn close_frame(&mut self, frame: usize, tiles: usize) {
+        let span = frame * tiles..((frame + 1) * tiles).min(self.costs.len());
+        for b in 0..self.batches.len() {
+            let (range, _, backup) = self.batches[b].clone();
+            if self.answered[b] || self.dropped[b] || !span.contains(&range.start) {
+                continue;
+            }
+            self.dropped[b] = true;
+            let worker = self.owner[b];
+            let before = self.queue[worker].len();
+            self.queue[worker].retain(|&(_, x)| x != b);
+            self.batches[b].1 -= before - self.queue[worker].len();
+            self.release(b, backup, range.len());
+        }
+    }
+
+    /// The window place of batch `b` (a backup or `len` tiles of its worker's own) is free.
+    fn release(&mut self, b: usize, backup: bool, len: usize) {
+        let w = self.owner[b];
+        if backup {
+            self.backups_out[w] -= 1;
+        } else {
+            self.primaries[w] -= len;
+        }
     }
 
     /// The run's figures, once the image is whole.
@@ -548,6 +665,67 @@ mod tests {
         assert_eq!(plain.makespan, 6.0);
         assert_eq!(copied.makespan, 4.0);
         assert_eq!(copied.work, plain.work, "a copy's work is not the frame's");
+    }
+
+    #[test]
+    fn a_frame_waits_for_the_frame_the_window_before_it() {
+        // Two frames of two tiles on two one-thread workers, one tile each at a time. Frame
+        // 0's 4 s tile is still out at 1 s, when worker 1 is free. With one frame open, frame
+        // 1 waits for it (and worker 1 idles 3 s): 4 + 1 = 5 s. With two open, worker 1
+        // renders frame 1 meanwhile: 4 s, as one stream of tiles would take.
+        let costs = [4.0, 1.0, 1.0, 1.0];
+        let px = [1; 4];
+        let p = |window| SimParams {
+            window: 1,
+            frames: Some(FrameWindow { tiles: 2, window }),
+            ..SimParams::ideal(2, 1)
+        };
+        let stream = simulate(
+            &costs,
+            &px,
+            &SimParams {
+                window: 1,
+                ..SimParams::ideal(2, 1)
+            },
+        );
+        assert_eq!(simulate(&costs, &px, &p(1)).makespan, 5.0);
+        assert_eq!(simulate(&costs, &px, &p(2)).makespan, 4.0);
+        assert_eq!(stream.makespan, 4.0);
+        // With backups, worker 1 copies the 4 s tile at 1 s. The frame is whole at 4 s and the
+        // copy forgotten, so worker 1's window takes frame 1's second tile at once, but its
+        // thread is still in the copy (a tile is not stopped mid-trace) until 5 s: 6 s.
+        let copies = SimParams {
+            backups: true,
+            ..p(1)
+        };
+        assert_eq!(simulate(&costs, &px, &copies).makespan, 6.0);
+    }
+
+    #[test]
+    fn a_window_as_wide_as_the_sequence_is_one_stream() {
+        let costs: Vec<f64> = (0..60).map(|i| 0.1 + (i * 37 % 11) as f64).collect();
+        let px = vec![1024; 60];
+        let stream = SimParams {
+            latency_s: 0.001,
+            backups: true,
+            ..SimParams::ideal(3, 2)
+        };
+        let seq = SimParams {
+            frames: Some(FrameWindow {
+                tiles: 12,
+                window: 5,
+            }),
+            ..stream.clone()
+        };
+        assert_eq!(simulate(&costs, &px, &seq), simulate(&costs, &px, &stream));
+        let narrow = SimParams {
+            frames: Some(FrameWindow {
+                tiles: 12,
+                window: 1,
+            }),
+            ..stream.clone()
+        };
+        assert!(simulate(&costs, &px, &narrow).makespan > simulate(&costs, &px, &stream).makespan);
     }
 
     #[test]

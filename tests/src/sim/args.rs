@@ -132,6 +132,10 @@ pub struct Scale {
     /// Degrees the sequence turns over its frames.
     #[arg(long, default_value_t = 360.0, value_parser = orbit_degrees)]
     pub orbit: f64,
+    /// Frames the master keeps open at once in a sequence, comma-separated (a row each; 1 to
+    /// the most a worker keeps built less one). Ignored for one frame.
+    #[arg(long, default_value = "2", value_delimiter = ',', value_parser = frames_window)]
+    pub frames_window: Vec<usize>,
     /// Where the recording is kept.
     #[arg(long, default_value = "target/sim-scale")]
     pub replay_dir: std::path::PathBuf,
@@ -202,6 +206,15 @@ fn latency_ms(s: &str) -> Result<f64, String> {
     bounded(s, 0.0, true, MAX_LATENCY_MS, "ms")
 }
 
+fn frames_window(s: &str) -> Result<usize, String> {
+    let most = parrt_runtime::scheduler::MAX_FRAMES_WINDOW;
+    s.trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|w| (1..=most).contains(w))
+        .ok_or_else(|| format!("{s:?} is not a window of frames (1 to {most})"))
+}
+
 fn orbit_degrees(s: &str) -> Result<f64, String> {
     bounded(s, -MAX_ORBIT, false, MAX_ORBIT, "degrees")
 }
@@ -260,6 +273,12 @@ mod tests {
             ("--configs", "8x0", "not WORKERSxTHREADS"),
             ("--frames", "0", "0"),
             ("--orbit", "NaN", "out of range"),
+            ("--frames-window", "0", "not a window of frames (1 to 15)"),
+            (
+                "--frames-window",
+                "4,16",
+                "not a window of frames (1 to 15)",
+            ),
         ] {
             let mut args = base.to_vec();
             args.extend([flag, value]);

@@ -17,7 +17,7 @@
 use super::net::SimDial;
 use super::sequence::{scenes, FrameSeen, Orbit, SeqExec, SimFrames};
 use super::tail::{Tail, TailTrace};
-use parrt_master::studies::simulate::{simulate, SimParams};
+use parrt_master::studies::simulate::{simulate, FrameWindow, SimParams};
 use parrt_protocol::{PixelFormat, Token};
 use parrt_render::description::SceneDescription;
 use parrt_render::film::Film;
@@ -82,6 +82,8 @@ pub struct Config {
     pub frames: usize,
     /// Degrees the sequence turns over its frames.
     pub orbit_deg: f64,
+    /// Frames the master keeps open at once (a sequence's window).
+    pub frames_window: usize,
 }
 
 /// What one configuration gave.
@@ -97,6 +99,8 @@ pub struct Row {
     pub link_gbit: f64,
     /// Frames in the sequence (1: one frame).
     pub frames: usize,
+    /// Frames the master kept open at once (1 for one frame).
+    pub frames_window: usize,
     /// Measured in virtual time: t₁ / (n · trace time), t₁ the tiles' costs as simulated
     /// (of every frame: a sequence's throughput).
     pub efficiency: f64,
@@ -220,6 +224,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         config.schedule.order = Some(order.clone());
     }
     config.schedule.pixel_format = PixelFormat::Rgb8;
+    config.schedule.frames_window = c.frames_window;
     let config_backups = config.schedule.backups;
     config.schedule.wait_workers = Duration::from_secs(3_600);
     config.schedule.tile_deadline = Duration::from_secs(86_400);
@@ -386,12 +391,20 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         rounds: c.costly_first || frame_count > 1,
         ..SimParams::ideal(c.workers, c.threads)
     };
+    // The model of a sequence: its frames' tiles one after another, through the same window.
+    let p_seq = SimParams {
+        frames: Some(FrameWindow {
+            tiles: costs.len(),
+            window: c.frames_window,
+        }),
+        ..p.clone()
+    };
     let in_order = |v: &[f64]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
     let pixels_in_order: Vec<u64> = order.iter().map(|&i| pixels[i as usize]).collect();
     let single = simulate(&in_order(&costs), &pixels_in_order, &p);
-    // A sequence as the model sees it: one stream of tiles, frame after frame, each later
-    // frame costliest first by the previous frame's costs; frame k+1's tiles are behind frame
-    // k's in the queue, so they fill its tail as the master's window of frames does.
+    // A sequence as the model sees it: a stream of tiles, frame after frame, each later frame
+    // costliest first by the previous frame's costs; frame k+1's tiles are behind frame k's
+    // in the queue, so they fill its tail, up to the master's window of frames.
     let model = if frame_count > 1 {
         let (mut all_costs, mut all_pixels) = (in_order(&costs), pixels_in_order.clone());
         let mut before = orbit.costs(0, &costs);
@@ -403,7 +416,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
             all_pixels.extend(next.iter().map(|&i| pixels[i]));
             before = now;
         }
-        simulate(&all_costs, &all_pixels, &p)
+        simulate(&all_costs, &all_pixels, &p_seq)
     } else {
         single.clone()
     };
@@ -431,6 +444,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         work_s: c.work_s,
         link_gbit: c.link_bps / 1e9,
         frames: frame_count,
+        frames_window: if frame_count > 1 { c.frames_window } else { 1 },
         efficiency,
         rounding: spent / c.work_s - 1.0,
         dilation: k,

@@ -144,6 +144,7 @@ fn small_config(work_s: f64, dilation: Option<f64>) -> Config {
         hosts: None,
         frames: 1,
         orbit_deg: 360.0,
+        frames_window: 2,
     }
 }
 
@@ -205,6 +206,55 @@ fn a_sequence_of_three_frames_gives_each_frame_once_as_recorded_and_panned() {
         "efficiency {:.3}, model {:.3}",
         row.efficiency,
         row.predicted
+    );
+}
+
+#[test]
+fn a_wider_window_of_frames_fills_the_tails_and_the_model_follows_it() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let path = small_recording(dir.path());
+    // Sixteen threads over 256 tiles a frame: with one frame open, every frame ends in a tail
+    // of idle threads; with four open, the next frames fill it.
+    let rows: Vec<_> = [1, 4]
+        .into_iter()
+        .map(|frames_window| {
+            run(
+                &path,
+                &Config {
+                    workers: 8,
+                    frames: 4,
+                    frames_window,
+                    ..small_config(15.36, None)
+                },
+            )
+            .expect("the sequence")
+        })
+        .collect();
+    for r in &rows {
+        assert!(
+            r.identical,
+            "window {}: every frame as recorded",
+            r.frames_window
+        );
+        assert!(
+            (r.efficiency - r.predicted).abs() < 0.03,
+            "window {}: efficiency {:.3}, model {:.3}",
+            r.frames_window,
+            r.efficiency,
+            r.predicted
+        );
+    }
+    assert!(
+        rows[1].efficiency > rows[0].efficiency + 0.02,
+        "window 1: {:.3}, window 4: {:.3}",
+        rows[0].efficiency,
+        rows[1].efficiency
+    );
+    assert!(
+        rows[1].predicted > rows[0].predicted + 0.02,
+        "the model: window 1 {:.3}, window 4 {:.3}",
+        rows[0].predicted,
+        rows[1].predicted
     );
 }
 

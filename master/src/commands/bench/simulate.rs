@@ -158,6 +158,8 @@ fn sim_params(args: &SimulateArgs, workers: usize) -> SimParams {
         // The model of tile size and window alone: no backup copies.
         backups: false,
         message_bytes: 64.0,
+        // One frame.
+        frames: None,
     }
 }
 

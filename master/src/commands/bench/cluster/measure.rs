@@ -188,6 +188,8 @@ impl Setup<'_> {
             message_bytes: 0.0,
             // The master's default: idle workers take copies of tiles out once the queue is empty.
             backups: true,
+            // One frame.
+            frames: None,
         }
     }
 }
