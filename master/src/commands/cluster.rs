@@ -303,9 +303,9 @@ fn run_master_sequence(
     timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
     use super::render_sequence::{
-        prepare, refuse_for_sequences, report_frames, sequence_live, sequence_recorder,
-        through_runtime, write_sequence_timeline, SequenceInput,
+        prepare, refuse_for_sequences, through_runtime, SequenceInput,
     };
+    use super::sequence_watch::SequenceWatch;
     refuse_for_sequences(&[("--costly-first", args.order.costly_first.is_some())])?;
     let wait_workers = check_master_flags(args, job, timeout)?;
     let p = prepare(&SequenceInput {
@@ -321,20 +321,9 @@ fn run_master_sequence(
         checkpoint: args.job.checkpoint.as_deref(),
     })?;
     let (token_text, token) = fresh_token()?;
-    let mut observers = parrt_runtime::observer::Observers::default();
-    let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
-    let live = sequence_live(
-        &args.job.live,
-        Some(token.as_bytes()),
-        &p.as_ref(),
-        args.tile,
-        "distributed",
-    )?;
-    if let Some(l) = &live {
-        observers.0.push(l.observer());
-    }
+    let mut watch = SequenceWatch::start(&args.job, token.as_bytes(), &p.as_ref(), args.tile)?;
     let mut config = master_config(MasterSetup {
-        observers,
+        observers: watch.observers(),
         job: &args.job,
         keyed: false,
         tile: args.tile,
@@ -369,17 +358,7 @@ fn run_master_sequence(
     });
     drop(published);
     let r = result?;
-    write_sequence_timeline(
-        recorder.as_deref(),
-        args.job.timeline.as_deref(),
-        &p.as_ref(),
-        args.tile,
-        r.trace_s,
-    )?;
-    if let Some(l) = live {
-        l.end(true);
-    }
-    report_frames("parrt cluster", &p.outputs, &r);
+    watch.finish("parrt cluster", &args.job, &p.as_ref(), args.tile, &r)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -258,9 +258,9 @@ fn run_sequence(
     heartbeat_timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
     use super::render_sequence::{
-        prepare, refuse_for_sequences, report_frames, sequence_live, sequence_recorder,
-        through_runtime, write_sequence_timeline, SequenceInput,
+        prepare, refuse_for_sequences, through_runtime, SequenceInput,
     };
+    use super::sequence_watch::SequenceWatch;
     refuse_for_sequences(&[
         ("--scene-json", args.scene_json.is_some()),
         ("--report-json", args.report_json.is_some()),
@@ -278,20 +278,9 @@ fn run_sequence(
         timeline: args.job.timeline.as_deref(),
         checkpoint: args.job.checkpoint.as_deref(),
     })?;
-    let mut observers = parrt_runtime::observer::Observers::default();
-    let recorder = sequence_recorder(&mut observers, args.job.timeline.is_some());
-    let live = sequence_live(
-        &args.job.live,
-        Some(token.as_bytes()),
-        &p.as_ref(),
-        args.tile,
-        "distributed",
-    )?;
-    if let Some(l) = &live {
-        observers.0.push(l.observer());
-    }
+    let mut watch = SequenceWatch::start(&args.job, token.as_bytes(), &p.as_ref(), args.tile)?;
     let mut config = master_config(MasterSetup {
-        observers,
+        observers: watch.observers(),
         job: &args.job,
         keyed: true,
         tile: args.tile,
@@ -318,16 +307,6 @@ fn run_sequence(
         crate::errln!("parrt master: {waiting}");
         Ok(None)
     })?;
-    write_sequence_timeline(
-        recorder.as_deref(),
-        args.job.timeline.as_deref(),
-        &p.as_ref(),
-        args.tile,
-        r.trace_s,
-    )?;
-    if let Some(l) = live {
-        l.end(true);
-    }
-    report_frames("parrt master", &p.outputs, &r);
+    watch.finish("parrt master", &args.job, &p.as_ref(), args.tile, &r)?;
     Ok(ExitCode::SUCCESS)
 }

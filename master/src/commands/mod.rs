@@ -16,5 +16,6 @@ pub mod render;
 pub mod render_sequence;
 pub mod report;
 pub mod scene;
+pub mod sequence_watch;
 pub mod watch;
 pub mod worker;
