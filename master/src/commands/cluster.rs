@@ -302,9 +302,7 @@ fn run_master_sequence(
     job: &str,
     timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
-    use super::render_sequence::{
-        prepare, refuse_for_sequences, through_runtime, SequenceInput,
-    };
+    use super::render_sequence::{prepare, refuse_for_sequences, through_runtime, SequenceInput};
     use super::sequence_watch::SequenceWatch;
     refuse_for_sequences(&[("--costly-first", args.order.costly_first.is_some())])?;
     let wait_workers = check_master_flags(args, job, timeout)?;

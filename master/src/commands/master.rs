@@ -257,9 +257,7 @@ fn run_sequence(
     tile_deadline: Duration,
     heartbeat_timeout: Duration,
 ) -> anyhow::Result<ExitCode> {
-    use super::render_sequence::{
-        prepare, refuse_for_sequences, through_runtime, SequenceInput,
-    };
+    use super::render_sequence::{prepare, refuse_for_sequences, through_runtime, SequenceInput};
     use super::sequence_watch::SequenceWatch;
     refuse_for_sequences(&[
         ("--scene-json", args.scene_json.is_some()),
