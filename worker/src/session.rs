@@ -373,9 +373,7 @@ async fn serve<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                         if let Some(i) = jobs.iter().position(|j| j.spec_id == job_id) {
                             // A base still building that frames of its scene wait for stays
                             // until they are made (its own tiles are dropped at once).
-                            let waited_on = jobs.iter().any(|d| {
-                                d.view_of.as_ref().is_some_and(|v| v.base_job_id == job_id)
-                            });
+                            let waited_on = views_of(&jobs, job_id).next().is_some();
                             if waited_on {
                                 finish(&jobs[i..=i]);
                             } else {
@@ -458,14 +456,8 @@ async fn built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
             }
             j.handle = Some(handle);
             // The frames that only move this job's camera, which waited for its build.
-            let waiting: Vec<u64> = jobs
-                .iter()
+            let waiting: Vec<u64> = views_of(jobs, b.job_id)
                 .filter(|d| d.handle.is_none())
-                .filter(|d| {
-                    d.view_of
-                        .as_ref()
-                        .is_some_and(|v| v.base_job_id == b.job_id)
-                })
                 .map(|d| d.spec_id)
                 .collect();
             for id in waiting {
@@ -480,15 +472,7 @@ async fn built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
             write_within(conn, &Message::Error { reason }, limit).await?;
             jobs.remove(i);
             // Frames of its scene cannot be made either.
-            let derived: Vec<u64> = jobs
-                .iter()
-                .filter(|d| {
-                    d.view_of
-                        .as_ref()
-                        .is_some_and(|v| v.base_job_id == b.job_id)
-                })
-                .map(|d| d.spec_id)
-                .collect();
+            let derived: Vec<u64> = views_of(jobs, b.job_id).map(|d| d.spec_id).collect();
             for id in derived {
                 let reason = format!("cannot build job {id}: its base job {} failed", b.job_id);
                 write_within(conn, &Message::Error { reason }, limit).await?;
@@ -497,6 +481,12 @@ async fn built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
         }
     }
     Ok(())
+}
+
+/// The jobs that are Views of job `base`: frames made, or to be made, from its build.
+fn views_of(jobs: &[CurrentJob], base: u64) -> impl Iterator<Item = &CurrentJob> {
+    jobs.iter()
+        .filter(move |d| d.view_of.as_ref().is_some_and(|v| v.base_job_id == base))
 }
 
 /// A frame that only moves the camera of a job held ([`Message::View`]): made at once from

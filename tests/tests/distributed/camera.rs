@@ -3,13 +3,12 @@
 //! or with a view that is no camera, is answered with an Error (never a panic), and the worker
 //! goes on. Through `parrt cluster`, an orbit sends each worker its scene once.
 
-use crate::peers::{job, welcome_one};
+use crate::peers::{job, worker_holding_job};
 use parrt_protocol::{Message, ViewSpec};
 use parrt_render::sequence::turned;
 use parrt_render::tile::Tile;
 use parrt_tests::*;
 use std::time::Duration;
-use tokio::net::TcpListener;
 use tokio::time::timeout;
 
 /// The next message past heartbeats.
@@ -47,14 +46,7 @@ fn view_of(job_id: u64, base_job_id: u64, view: parrt_render::description::View)
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_view_of_a_held_job_renders_the_turned_scene_s_pixels() {
-    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let worker = start_worker(worker_options(listener.local_addr().unwrap(), 1, "w"));
-    let mut c = welcome_one(&listener).await;
-    c.write(&job(16, 16, 16)).await.unwrap();
-    assert!(matches!(
-        next(&mut c).await,
-        Message::Ready { job_id: 7, .. }
-    ));
+    let (_listener, worker, mut c) = worker_holding_job(16).await;
     let desc = test_scene(16, 16);
     let view = turned(&desc.view, 0.7);
     // Job 8: the camera alone; job 9: the turned scene's whole Job, built on its own.
@@ -116,14 +108,7 @@ async fn a_view_of_a_held_job_renders_the_turned_scene_s_pixels() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_view_of_an_unknown_job_or_of_no_camera_is_an_error_and_the_worker_goes_on() {
-    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let worker = start_worker(worker_options(listener.local_addr().unwrap(), 1, "w"));
-    let mut c = welcome_one(&listener).await;
-    c.write(&job(16, 16, 16)).await.unwrap();
-    assert!(matches!(
-        next(&mut c).await,
-        Message::Ready { job_id: 7, .. }
-    ));
+    let (_listener, worker, mut c) = worker_holding_job(16).await;
     let desc = test_scene(16, 16);
     c.write(&view_of(9, 99, desc.view.clone())).await.unwrap();
     match next(&mut c).await {

@@ -4,7 +4,7 @@
 //! message, but above the floor rate, is taken, a stalled one is not; a master that stops
 //! reading cannot hang a worker.
 
-use crate::peers::{authenticate, job, welcome_one};
+use crate::peers::{authenticate, job, next_ready, welcome_one, worker_holding_job};
 use bytes::BytesMut;
 use parrt_protocol::codec::MessageCodec;
 use parrt_protocol::limits;
@@ -53,30 +53,13 @@ async fn oversized_frames_after_welcome_are_refused_at_once() {
     assert!(err.to_string().contains("larger than the limit"), "{err}");
 }
 
-/// The Ready a worker sends next, past heartbeats.
-async fn next_ready(
-    c: &mut parrt_protocol::Connection<parrt_protocol::SecureStream<tokio::net::TcpStream>>,
-) -> u64 {
-    loop {
-        match timeout(Duration::from_secs(10), c.read()).await {
-            Ok(Ok(Some(Message::Ready { job_id, .. }))) => return job_id,
-            Ok(Ok(Some(Message::Heartbeat))) => {}
-            other => panic!("no Ready: {other:?}"),
-        }
-    }
-}
-
 /// A sequence's next frame: a second Job on the same connection, larger than any other
 /// message, is built in place of the first and answered with its Ready; the same job sent
 /// again changes nothing (no second build, no second Ready); both jobs are held until the
 /// master cancels one.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_worker_builds_each_frame_of_a_sequence_on_one_connection() {
-    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let worker = start_worker(worker_options(listener.local_addr().unwrap(), 1, "w"));
-    let mut c = welcome_one(&listener).await;
-    c.write(&job(16, 16, 8)).await.unwrap();
-    assert_eq!(next_ready(&mut c).await, 7);
+    let (_listener, worker, mut c) = worker_holding_job(8).await;
     let Message::Job(mut next) = big_job(2 * limits::MASTER_FRAME_AFTER_JOB) else {
         unreachable!()
     };

@@ -93,3 +93,33 @@ pub fn job(width: u32, height: u32, tile: u32) -> Message {
         pixel_format: Default::default(),
     }))
 }
+
+/// A one-thread worker, welcomed by a raw fake master and sent job 7 (`job(16, 16, tile)`),
+/// once it has answered Ready: the listener it dialled, its task and the master's end.
+pub async fn worker_holding_job(
+    tile: u32,
+) -> (
+    TcpListener,
+    tokio::task::JoinHandle<
+        Result<parrt_worker::session::SessionSummary, parrt_worker::WorkerError>,
+    >,
+    Connection<SecureStream<TcpStream>>,
+) {
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let worker = start_worker(worker_options(listener.local_addr().unwrap(), 1, "w"));
+    let mut c = welcome_one(&listener).await;
+    c.write(&job(16, 16, tile)).await.unwrap();
+    assert_eq!(next_ready(&mut c).await, 7);
+    (listener, worker, c)
+}
+
+/// The Ready a worker sends next, past heartbeats: its job id.
+pub async fn next_ready(c: &mut Connection<SecureStream<TcpStream>>) -> u64 {
+    loop {
+        match tokio::time::timeout(std::time::Duration::from_secs(10), c.read()).await {
+            Ok(Ok(Some(Message::Ready { job_id, .. }))) => return job_id,
+            Ok(Ok(Some(Message::Heartbeat))) => {}
+            other => panic!("no Ready: {other:?}"),
+        }
+    }
+}
