@@ -164,22 +164,38 @@ impl Ord for Event {
     }
 }
 
+/// One assignment handed out.
+struct Batch {
+    /// Its tiles, consecutive in the queue.
+    tiles: Range<usize>,
+    /// How many are not done yet.
+    left: usize,
+    /// A backup copy (else the worker's own tiles).
+    backup: bool,
+    /// The worker it went to.
+    worker: usize,
+    /// Still out; once not, it holds no place in the worker's window.
+    state: BatchState,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum BatchState {
+    Out,
+    /// The master took its results.
+    Answered,
+    /// Its frame was whole first: a sequence closes a frame and forgets every copy still out;
+    /// the worker skips its tiles not started and sends nothing.
+    Dropped,
+}
+
 struct Sim<'a> {
     p: &'a SimParams,
     costs: &'a [f64],
     pixels: &'a [u64],
     heap: BinaryHeap<Event>,
     seq: u64,
-    /// Every batch handed out: its tiles (consecutive in the queue), how many are not
-    /// done yet, and whether it is a backup copy.
-    batches: Vec<(Range<usize>, usize, bool)>,
-    /// Per batch: the master has dropped it, its frame being whole (a sequence closes a frame
-    /// and forgets every copy still out; the worker skips its queued tiles and sends
-    /// nothing), or taken its results. Neither is still out.
-    dropped: Vec<bool>,
-    answered: Vec<bool>,
-    /// Per batch: the worker it went to.
-    owner: Vec<usize>,
+    /// Every batch handed out.
+    batches: Vec<Batch>,
     /// Per tile (queue index): live copies out, and whether its first result is in.
     holders: Vec<u32>,
     accepted: Vec<bool>,
@@ -250,7 +266,7 @@ impl Sim<'_> {
 
     /// The bytes of `batch`'s results message.
     fn result_bytes(&self, batch: usize) -> f64 {
-        let px: u64 = self.pixels[self.batches[batch].0.clone()].iter().sum();
+        let px: u64 = self.pixels[self.batches[batch].tiles.clone()].iter().sum();
         self.p.message_bytes + self.p.result_bytes_per_pixel * px as f64
     }
 
@@ -357,10 +373,13 @@ impl Sim<'_> {
     /// Sends `tiles` to `worker` as one message leaving the master at `at`.
     fn assign(&mut self, worker: usize, tiles: Range<usize>, backup: bool, at: f64) {
         let take = tiles.len();
-        self.batches.push((tiles, take, backup));
-        self.dropped.push(false);
-        self.answered.push(false);
-        self.owner.push(worker);
+        self.batches.push(Batch {
+            tiles,
+            left: take,
+            backup,
+            worker,
+            state: BatchState::Out,
+        });
         self.bytes += self.p.message_bytes;
         let batch = self.batches.len() - 1;
         let arrive = self.host(at, 0.5 * self.p.host_per_tile_s * take as f64);
@@ -404,9 +423,6 @@ impl<'a> Sim<'a> {
             heap: BinaryHeap::new(),
             seq: 0,
             batches: Vec::new(),
-            dropped: Vec::new(),
-            answered: Vec::new(),
-            owner: Vec::new(),
             holders: vec![0; costs.len()],
             accepted: vec![false; costs.len()],
             primaries: vec![0; workers],
@@ -473,8 +489,8 @@ impl<'a> Sim<'a> {
         let p = self.p;
         let now = ev.time;
         match ev.kind {
-            Kind::Assign { worker, batch } if !self.dropped[batch] => {
-                let tiles = self.batches[batch].0.clone();
+            Kind::Assign { worker, batch } if self.batches[batch].state == BatchState::Out => {
+                let tiles = self.batches[batch].tiles.clone();
                 self.queue[worker].extend(tiles.map(|tile| (tile, batch)));
                 self.start(worker, now);
             }
@@ -486,7 +502,7 @@ impl<'a> Sim<'a> {
                 self.serve_master_link(now);
             }
             Kind::Received { worker, batch } => {
-                let count = self.batches[batch].0.len() as f64;
+                let count = self.batches[batch].tiles.len() as f64;
                 let sent = self.host(now, 0.5 * p.host_per_tile_s * count);
                 self.push(sent + p.latency_s, Kind::Result { worker, batch });
                 if p.master_link_bps.is_finite() && p.master_link_bps > 0.0 {
@@ -506,8 +522,9 @@ impl<'a> Sim<'a> {
         let p = self.p;
         self.idle[worker] += 1;
         self.start(worker, now);
-        self.batches[batch].1 -= 1;
-        if self.batches[batch].1 == 0 && !self.dropped[batch] {
+        let b = &mut self.batches[batch];
+        b.left -= 1;
+        if b.left == 0 && b.state != BatchState::Dropped {
             let bytes = self.result_bytes(batch);
             self.bytes += bytes;
             let sent = self.link_free[worker].max(now) + self.transfer(bytes);
@@ -527,12 +544,12 @@ impl<'a> Sim<'a> {
     /// filled again. Says whether the image is whole.
     fn result(&mut self, worker: usize, batch: usize, now: f64) -> bool {
         let p = self.p;
-        if self.dropped[batch] {
+        if self.batches[batch].state == BatchState::Dropped {
             // Of a frame already whole: ignored, as the master ignores it.
             return false;
         }
-        self.answered[batch] = true;
-        let (tiles, _, backup) = self.batches[batch].clone();
+        self.batches[batch].state = BatchState::Answered;
+        let tiles = self.batches[batch].tiles.clone();
         let per = p.master_per_tile_s * tiles.len() as f64;
         self.master_free = self.master_free.max(now) + per;
         self.master_busy += per;
@@ -556,11 +573,7 @@ impl<'a> Sim<'a> {
         }
         self.done += first;
         self.seen.1 += first;
-        if backup {
-            self.backups_out[worker] -= 1;
-        } else {
-            self.primaries[worker] -= tiles.len();
-        }
+        self.release(batch);
         if first > 0 {
             self.makespan = self.makespan.max(self.master_free);
         }
@@ -583,26 +596,27 @@ impl<'a> Sim<'a> {
     fn close_frame(&mut self, frame: usize, tiles: usize) {
         let span = frame * tiles..((frame + 1) * tiles).min(self.costs.len());
         for b in 0..self.batches.len() {
-            let (range, _, backup) = self.batches[b].clone();
-            if self.answered[b] || self.dropped[b] || !span.contains(&range.start) {
+            let batch = &mut self.batches[b];
+            if batch.state != BatchState::Out || !span.contains(&batch.tiles.start) {
                 continue;
             }
-            self.dropped[b] = true;
-            let worker = self.owner[b];
-            let before = self.queue[worker].len();
-            self.queue[worker].retain(|&(_, x)| x != b);
-            self.batches[b].1 -= before - self.queue[worker].len();
-            self.release(b, backup, range.len());
+            batch.state = BatchState::Dropped;
+            let queue = &mut self.queue[batch.worker];
+            let before = queue.len();
+            queue.retain(|&(_, x)| x != b);
+            batch.left -= before - queue.len();
+            self.release(b);
         }
     }
 
-    /// The window place of batch `b` (a backup or `len` tiles of its worker's own) is free.
-    fn release(&mut self, b: usize, backup: bool, len: usize) {
-        let w = self.owner[b];
-        if backup {
-            self.backups_out[w] -= 1;
+    /// Batch `b` holds no place in its worker's window any more (a backup copy, or so many of
+    /// the worker's own tiles).
+    fn release(&mut self, b: usize) {
+        let batch = &self.batches[b];
+        if batch.backup {
+            self.backups_out[batch.worker] -= 1;
         } else {
-            self.primaries[w] -= len;
+            self.primaries[batch.worker] -= batch.tiles.len();
         }
     }
 
