@@ -29,21 +29,20 @@ fn scale(a: &Scale) -> Result<ExitCode, String> {
     let us = a.master_us_per_tile;
     let max_batch = a.max_batch as usize;
     let json = &a.json;
-    let mut rows = Vec::new();
-    for &(w, t) in &a.configs {
-        let c = format!("{w}x{t}");
+    // A window of frames matters only to a sequence: one frame runs the first alone.
+    let windows = if a.frames > 1 {
+        &a.frames_window[..]
+    } else {
+        &a.frames_window[..1]
+    };
+    let mut configs = Vec::new();
+    for &(workers, threads) in &a.configs {
         for &work_s in &a.work_seconds {
             for &gbit in &a.gbit {
-                // A window of frames matters only to a sequence.
-                let windows = if a.frames > 1 {
-                    &a.frames_window[..]
-                } else {
-                    &a.frames_window[..1]
-                };
                 for &frames_window in windows {
-                    let cfg = Config {
-                        workers: w,
-                        threads: t,
+                    configs.push(Config {
+                        workers,
+                        threads,
                         work_s,
                         link_bps: gbit * 1e9,
                         latency: std::time::Duration::from_secs_f64(latency),
@@ -55,33 +54,41 @@ fn scale(a: &Scale) -> Result<ExitCode, String> {
                         frames: a.frames as usize,
                         orbit_deg: a.orbit,
                         frames_window,
-                    };
-                    let row = run(&path, &cfg).map_err(|e| format!("{c}: {e:#}"))?;
-                    println!(
-                    "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, dilated ×{}, {:.3} virtual s, {:.1} s wall); trace: queue empty at {:.0} %, then {:.1} % of thread time idle, last 1 % handed out {:.1}× the mean tile, last 1 % in {:.1}×, costliest still out {:.1}×",
-                    row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.dilation, row.trace_s, row.wall_s,
-                    row.trace.handout_share * 100.0, row.trace.idle_after_queue * 100.0, row.trace.last_tiles_cost, row.trace.last_results_cost, row.trace.costliest_out
-                );
-                    if row.frames > 1 {
-                        println!(
-                        "        {} frames, window {}: frame latency mean {:.3} s, worst {:.3} s (one frame alone, model: {:.3} s)",
-                        row.frames, row.frames_window, row.latency_mean_s, row.latency_max_s, row.single_frame_predicted_s
-                    );
-                    }
-                    rows.push(row);
-                    // Written after every row: a long sweep keeps what it has measured.
-                    let text = serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?;
-                    std::fs::write(json, text)
-                        .map_err(|e| format!("cannot write {}: {e}", json.display()))?;
+                    });
                 }
             }
         }
+    }
+    let mut rows = Vec::new();
+    for cfg in &configs {
+        let row = run(&path, cfg).map_err(|e| format!("{}x{}: {e:#}", cfg.workers, cfg.threads))?;
+        print_row(&row);
+        rows.push(row);
+        // Written after every row: a long sweep keeps what it has measured.
+        let text = serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?;
+        std::fs::write(json, text).map_err(|e| format!("cannot write {}: {e}", json.display()))?;
     }
     Ok(if rows.iter().all(|r| r.identical) {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// One row of `sim scale`, as a line (and a second for a sequence's frames).
+fn print_row(row: &parrt_tests::sim::scale::Row) {
+    let (w, t, work_s, gbit) = (row.workers, row.threads, row.work_s, row.link_gbit);
+    println!(
+        "{w:>5} × {t:<3} work {work_s:>8.1} s  {gbit:>4} Gbit/s  efficiency {:.3}  predicted {:.3} (tail {:.3}, master busy {:.2})  identical {}  (+{:.1} % rounding, dilated ×{}, {:.3} virtual s, {:.1} s wall); trace: queue empty at {:.0} %, then {:.1} % of thread time idle, last 1 % handed out {:.1}× the mean tile, last 1 % in {:.1}×, costliest still out {:.1}×",
+        row.efficiency, row.predicted, row.model_tail, row.model_master, row.identical, row.rounding * 100.0, row.dilation, row.trace_s, row.wall_s,
+        row.trace.handout_share * 100.0, row.trace.idle_after_queue * 100.0, row.trace.last_tiles_cost, row.trace.last_results_cost, row.trace.costliest_out
+    );
+    if row.frames > 1 {
+        println!(
+            "        {} frames, window {}: frame latency mean {:.3} s, worst {:.3} s (one frame alone, model: {:.3} s)",
+            row.frames, row.frames_window, row.latency_mean_s, row.latency_max_s, row.single_frame_predicted_s
+        );
+    }
 }
 
 fn explore(e: &Explore) -> Result<ExitCode, String> {
