@@ -75,7 +75,7 @@ pub use codec::{Encoded, MessageCodec, ProtocolError, WireCounters};
 pub use connection::Connection;
 pub use limits::{DEFAULT_MAX_FRAME, HANDSHAKE_MAX_FRAME};
 pub use message::{JobSpec, Message, ViewSpec};
-pub use pixels::{PixelError, PixelFormat, TilePixels};
+pub use pixels::{Packing, PixelError, PixelFormat, TilePixels};
 pub use scene_key::{scene_key, SceneKey};
 
 /// The protocol version spoken by this build; bumped on any incompatible change (2: mutual
@@ -84,5 +84,5 @@ pub use scene_key::{scene_key, SceneKey};
 /// and the worker's instruction-set tier in Hello; 4: a sequence sends a further Job on the same
 /// connection for each frame, which a worker builds in place of the one before; 5: a frame that
 /// only moves the camera is a View of a scene the worker holds, which a worker of version 4
-/// could not read).
-pub const PROTOCOL_VERSION: u32 = 5;
+/// could not read; 6: a result's pixels say how they are packed, LZ4 when that is smaller).
+pub const PROTOCOL_VERSION: u32 = 6;

@@ -4,6 +4,13 @@
 //! bytes as an SMP render's; a float output (EXR) and the library API get the exact f32 bits
 //! (12 bytes a pixel). Either way the pixels are one byte blob, copied in and out without a
 //! per-value encoding step.
+//!
+//! On the wire the blob is packed with LZ4 whenever that makes it smaller ([`TilePixels::pack`]):
+//! rendered tiles repeat (a background, a flat-shaded facet, a shadow), so a 32² tile of mount-8
+//! at 4096² travels in a tenth of its bytes for about 3 µs of a worker's CPU and 3 µs of the
+//! master's. That is what keeps a 1 Gbit/s master link from binding a thousand cores. The
+//! receiver unpacks ([`TilePixels::unpack`]) into exactly the tile's byte count, never more,
+//! before any other check.
 
 use parrt_render::film::{to_u8_into, unit, Rgb};
 use serde::{Deserialize, Serialize};
@@ -30,11 +37,23 @@ impl PixelFormat {
     }
 }
 
+/// How a tile's byte blob is packed on the wire.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Packing {
+    /// The bytes as [`PixelFormat`] lays them out.
+    #[default]
+    Raw,
+    /// Those bytes as one LZ4 block (no size prefix: the receiver knows the tile's size).
+    Lz4,
+}
+
 /// A tile's pixels as they travel: row-major within the tile.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TilePixels {
-    /// The encoding of `bytes`.
+    /// The encoding of the unpacked bytes.
     pub format: PixelFormat,
+    /// How `bytes` are packed.
+    pub packing: Packing,
     /// The encoded pixels.
     #[serde(with = "serde_bytes")]
     pub bytes: Vec<u8>,
@@ -61,6 +80,15 @@ pub enum PixelError {
         /// Pixels in the tile.
         pixels: usize,
     },
+    /// Packed bytes that do not unpack to the tile's byte count.
+    #[error("packed pixels do not unpack to the {want} bytes of the tile")]
+    Unpack {
+        /// Bytes a tile of this size holds.
+        want: usize,
+    },
+    /// Packed bytes given to a step that needs them unpacked (a receiver's bug, not a peer's).
+    #[error("pixels still packed")]
+    Packed,
     /// An f32 value is NaN or infinite (no render produces one; the film must never hold one).
     #[error("pixel {index} has a non-finite value ({value})")]
     NonFinite {
@@ -89,7 +117,47 @@ impl TilePixels {
                 to_u8_into(&mut bytes, pixels.as_flattened());
             }
         }
-        TilePixels { format, bytes }
+        TilePixels {
+            format,
+            packing: Packing::Raw,
+            bytes,
+        }
+    }
+
+    /// Packs raw bytes with LZ4 when that makes them smaller; otherwise (or when already
+    /// packed) returns them as they are.
+    pub fn pack(self) -> Self {
+        if self.packing != Packing::Raw {
+            return self;
+        }
+        let packed = lz4_flex::block::compress(&self.bytes);
+        if packed.len() >= self.bytes.len() {
+            return self;
+        }
+        TilePixels {
+            packing: Packing::Lz4,
+            bytes: packed,
+            ..self
+        }
+    }
+
+    /// The raw bytes of a tile of `count` pixels: as they are when sent raw, unpacked when
+    /// packed, refused when they do not unpack to exactly `count` pixels in their format
+    /// (a bomb cannot make it write more: the output is allocated at the tile's size).
+    pub fn unpack(self, count: usize) -> Result<Self, PixelError> {
+        if self.packing == Packing::Raw {
+            return Ok(self);
+        }
+        let want = count.saturating_mul(self.format.bytes_per_pixel());
+        let mut bytes = vec![0; want];
+        match lz4_flex::block::decompress_into(&self.bytes, &mut bytes) {
+            Ok(n) if n == want => Ok(TilePixels {
+                format: self.format,
+                packing: Packing::Raw,
+                bytes,
+            }),
+            _ => Err(PixelError::Unpack { want }),
+        }
     }
 
     /// The 8-bit bytes of a tile of `count` pixels sent for a job that asked for `want`, after
@@ -107,6 +175,9 @@ impl TilePixels {
 
     /// Checks the format against `want` and the byte count against `count` pixels.
     fn check(&self, want: PixelFormat, count: usize) -> Result<(), PixelError> {
+        if self.packing != Packing::Raw {
+            return Err(PixelError::Packed);
+        }
         if self.format != want {
             return Err(PixelError::Format {
                 got: self.format,
@@ -184,6 +255,7 @@ mod tests {
         for b in 0..=255u8 {
             let t = TilePixels {
                 format: PixelFormat::Rgb8,
+                packing: Packing::Raw,
                 bytes: vec![b; 3],
             };
             let mut out = Vec::new();
@@ -233,5 +305,62 @@ mod tests {
                 Err(PixelError::NonFinite { index: 1, .. })
             ));
         }
+    }
+
+    #[test]
+    fn packing_round_trips_shrinks_repeats_and_refuses_what_does_not_unpack_to_the_tile() {
+        // A tile with a flat background and a gradient: packs, and comes back bit for bit.
+        let px: Vec<Rgb> = (0..1024)
+            .map(|i| {
+                if i < 600 {
+                    [0.1, 0.3, 0.7]
+                } else {
+                    [i as f32 * 1e-3, 0.5, -0.0]
+                }
+            })
+            .collect();
+        for format in [PixelFormat::Rgb8, PixelFormat::F32] {
+            let raw = TilePixels::encode(&px, format);
+            let packed = raw.clone().pack();
+            assert_eq!(packed.packing, Packing::Lz4);
+            assert!(packed.bytes.len() * 3 < raw.bytes.len(), "{format:?}");
+            // Unpacking is only for the tile it was packed for.
+            assert_eq!(
+                packed.clone().unpack(1023),
+                Err(PixelError::Unpack {
+                    want: 1023 * format.bytes_per_pixel()
+                })
+            );
+            assert_eq!(
+                packed.clone().unpack(1025),
+                Err(PixelError::Unpack {
+                    want: 1025 * format.bytes_per_pixel()
+                })
+            );
+            let mut out = Vec::new();
+            assert_eq!(
+                packed.decode_into(format, 1024, &mut out),
+                Err(PixelError::Packed)
+            );
+            assert_eq!(packed.unpack(1024).as_ref(), Ok(&raw));
+        }
+        // Bytes that do not pack smaller travel raw.
+        let mut x = 0x9e37_79b9u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x >> 8) as f32 / 16_777_216.0
+        };
+        let noise: Vec<Rgb> = (0..64).map(|_| [next(), next(), next()]).collect();
+        let raw = TilePixels::encode(&noise, PixelFormat::F32);
+        assert_eq!(raw.clone().pack(), raw);
+        // Garbage claiming to be packed is refused, never a panic.
+        let junk = TilePixels {
+            format: PixelFormat::Rgb8,
+            packing: Packing::Lz4,
+            bytes: vec![0xff; 40],
+        };
+        assert_eq!(junk.unpack(16), Err(PixelError::Unpack { want: 48 }));
     }
 }

@@ -135,7 +135,7 @@ pub(crate) fn trace(job: &JobHandle, tile: &Tile, source: Source<'_>) -> Traced 
 }
 
 /// The message answering one tile: its result, or an Error when tracing failed or panicked.
-/// `seconds` is asked for once the pixels are encoded (the time the tile took, as reported).
+/// `seconds` is asked for once the pixels are encoded and packed (the time the tile took, as reported).
 pub(crate) fn result_message(
     job: &JobHandle,
     tile: &Tile,
@@ -149,7 +149,7 @@ pub(crate) fn result_message(
             job_id: job.job_id,
             tile_id: tile.id,
             attempt,
-            pixels: TilePixels::encode(&pixels, job.pixel_format),
+            pixels: TilePixels::encode(&pixels, job.pixel_format).pack(),
             stats,
             seconds: seconds(),
         },

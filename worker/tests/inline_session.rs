@@ -139,7 +139,8 @@ fn check_results(msgs: &[Message], batch: &[(Tile, u32)]) -> Vec<f64> {
         };
         assert_eq!((*job_id, *tile_id, *a), (JOB, tile.id, *attempt));
         let (want_px, want_stats) = expected(tile);
-        assert_eq!(*pixels, want_px, "tile {} pixels differ", tile.id);
+        let got = pixels.clone().unpack(tile.pixel_count()).unwrap();
+        assert_eq!(got, want_px, "tile {} pixels differ", tile.id);
         assert_eq!(*stats, want_stats, "tile {} statistics differ", tile.id);
         seconds.push(*s);
     }
@@ -248,7 +249,10 @@ async fn inline_session_given_pixels_and_early_tiles() {
     let want: Vec<[f32; 3]> = (0..list[3].pixel_count())
         .map(|i| [3.0, i as f32, 0.5])
         .collect();
-    assert_eq!(pixels, TilePixels::encode(&want, PixelFormat::F32));
+    // Sent packed (the pattern repeats), unpacked the same bits.
+    assert_eq!(pixels.packing, parrt_protocol::Packing::Lz4);
+    let got = pixels.unpack(list[3].pixel_count()).unwrap();
+    assert_eq!(got, TilePixels::encode(&want, PixelFormat::F32));
     let settings = RenderSettings::new(SIZE, SIZE);
     assert_eq!(
         stats.eye_rays,

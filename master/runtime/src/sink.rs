@@ -152,7 +152,7 @@ impl Drop for BackgroundWriter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parrt_protocol::{PixelFormat, TilePixels};
+    use parrt_protocol::{Packing, PixelFormat, TilePixels};
     use parrt_render::stats::RayStats;
     use std::time::{Duration, Instant};
 
@@ -162,6 +162,7 @@ mod tests {
             tile_id: id,
             pixels: TilePixels {
                 format: PixelFormat::Rgb8,
+                packing: Packing::Raw,
                 bytes: vec![id as u8; 3],
             },
             stats: RayStats::default(),

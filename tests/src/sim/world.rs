@@ -10,7 +10,9 @@ use super::net::{SimDial, SimListener};
 use super::plan::{Fault, Hostile, Plan};
 use super::trace::Trace;
 use crate::dist::{test_scene, token};
-use parrt_protocol::{Connection, Message, PixelFormat, TilePixels, Token, PROTOCOL_VERSION};
+use parrt_protocol::{
+    Connection, Message, Packing, PixelFormat, TilePixels, Token, PROTOCOL_VERSION,
+};
 use parrt_render::description::SceneDescription;
 use parrt_render::film::Film;
 use parrt_render::settings::RenderSettings;
@@ -306,6 +308,7 @@ async fn impossible_results(addr: String, seed: u64) -> turmoil::Result {
                     attempt: 999,
                     pixels: TilePixels {
                         format: PixelFormat::F32,
+                        packing: Packing::Raw,
                         bytes: vec![0xff; 12],
                     },
                     stats: Default::default(),

@@ -78,12 +78,18 @@ async fn worker_processes_from_the_cli_executable_match_smp() {
     assert_same_bits(&r.film, &reference, "2 worker processes");
     assert_eq!(r.stats, ref_stats);
     assert_eq!(r.per_worker.len(), 2);
-    // Protocol overhead: pixels are 12 bytes each; each result adds a small header (tile id,
-    // attempt, ray statistics) and a handful of heartbeats and handshake frames come along.
-    // Backup copies that lost the race are whole extra results (at most 13×13 pixels each).
+    // Protocol overhead: pixels are 12 bytes each, packed where that is smaller; each result
+    // adds a small header (tile id, attempt, ray statistics) and a handful of heartbeats and
+    // handshake frames come along. Backup copies that lost the race are whole extra results
+    // (at most 13×13 pixels each).
     let dups = r.faults.duplicate_results;
-    let pixel_bytes = 96 * 80 * 12;
-    let overhead = r.bytes_received - pixel_bytes;
+    let pixel_bytes = packed_pixel_bytes(&reference, 13, parrt_protocol::PixelFormat::F32);
+    let overhead = r.bytes_received.saturating_sub(pixel_bytes);
+    assert!(
+        r.bytes_received >= pixel_bytes,
+        "{} bytes received",
+        r.bytes_received
+    );
     assert!(
         overhead < (r.tiles as u64 + dups) * 80 + dups * 13 * 13 * 12 + 2048,
         "{overhead} bytes of overhead for {} tiles and {dups} duplicates",
@@ -212,11 +218,35 @@ pub fn read_listen_addr(r: &mut impl std::io::BufRead) -> std::net::SocketAddr {
     }
 }
 
-/// For an 8-bit output the workers send 3 bytes a pixel instead of 12, quantized by
-/// the film's own 8-bit rule, so the written image is the SMP image's bytes; and the pixel
-/// traffic is a quarter of the f32 run's.
+/// The bytes of `film`'s pixels as workers send them in tiles of `tile`: in `format`, each
+/// tile packed where that makes it smaller.
+fn packed_pixel_bytes(
+    film: &parrt_render::film::Film,
+    tile: u32,
+    format: parrt_protocol::PixelFormat,
+) -> u64 {
+    let (w, h) = (film.width, film.height);
+    parrt_render::tile::tiles(w, h, tile)
+        .iter()
+        .map(|t| {
+            let px: Vec<_> = (t.y..t.y + t.h)
+                .flat_map(|y| (t.x..t.x + t.w).map(move |x| (x, y)))
+                .map(|(x, y)| film.get(x, y))
+                .collect();
+            parrt_protocol::TilePixels::encode(&px, format)
+                .pack()
+                .bytes
+                .len() as u64
+        })
+        .sum()
+}
+
+/// For an 8-bit output the workers send 3 bytes a pixel instead of 12, quantized by the
+/// film's own 8-bit rule, so the written image is the SMP image's bytes; and every result's
+/// pixels travel packed where that is smaller: what the master receives is exactly the
+/// packed tiles' bytes plus the messages' headers.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn rgb8_pixels_write_the_smp_png_with_a_quarter_of_the_bytes() {
+async fn rgb8_pixels_write_the_smp_png_and_travel_packed() {
     use parrt_protocol::PixelFormat;
     let desc = test_scene(96, 64);
     let settings = settings_for(&desc);
@@ -238,13 +268,24 @@ async fn rgb8_pixels_write_the_smp_png_with_a_quarter_of_the_bytes() {
             "{format:?}: 8-bit image"
         );
         assert_eq!(r.stats, ref_stats, "{format:?}");
-        received.push(r.bytes_received);
+        let packed = packed_pixel_bytes(&reference, 16, format);
+        let headers = r.bytes_received.checked_sub(packed);
+        assert!(
+            headers.is_some_and(|b| b < r.tiles as u64 * 80 + 2048),
+            "{format:?}: {} bytes received for {packed} bytes of packed pixels in {} tiles",
+            r.bytes_received,
+            r.tiles
+        );
+        received.push((packed, r.bytes_received));
     }
+    // Packed, the 8-bit pixels are still fewer bytes than the f32 ones, and both are fewer
+    // than raw.
     let pixels = 96 * 64;
-    // F32: 12 bytes a pixel plus headers; Rgb8: 3 bytes a pixel plus the same headers.
-    assert!(received[0] >= pixels * 12, "{received:?}");
-    assert!(received[1] < received[0] - pixels * 9 + 64, "{received:?}");
-    assert!(received[1] >= pixels * 3, "{received:?}");
+    assert!(received[1].0 < received[0].0, "{received:?}");
+    assert!(
+        received[0].0 < pixels * 12 && received[1].0 < pixels * 3,
+        "{received:?}"
+    );
 }
 
 #[test]

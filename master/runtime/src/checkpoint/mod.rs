@@ -190,7 +190,7 @@ impl CheckpointError {
 mod tests {
     use super::*;
     use crate::scheduler::AcceptedTile;
-    use parrt_protocol::{PixelFormat, TilePixels};
+    use parrt_protocol::{Packing, PixelFormat, TilePixels};
     use parrt_render::settings::RenderSettings;
     use parrt_render::stats::RayStats;
     use parrt_render::tile::Tile;
@@ -211,6 +211,7 @@ mod tests {
             tile_id: t.id,
             pixels: TilePixels {
                 format: PixelFormat::Rgb8,
+                packing: Packing::Raw,
                 bytes: vec![v; t.pixel_count() * 3],
             },
             stats: RayStats {

@@ -4,7 +4,7 @@
 use super::seal::Seal;
 use super::{CHECK_LEN, HEADER_LEN, RECORD_FIXED};
 use crate::scheduler::AcceptedTile;
-use parrt_protocol::{PixelFormat, TilePixels};
+use parrt_protocol::{Packing, PixelFormat, TilePixels};
 use parrt_render::stats::RayStats;
 use parrt_render::tile::Tile;
 use std::io::Read;
@@ -61,6 +61,7 @@ pub(super) fn decode_payload(
         tile_id,
         pixels: TilePixels {
             format,
+            packing: Packing::Raw,
             bytes: bytes.to_vec(),
         },
         stats: RayStats::from_array(v),

@@ -208,7 +208,7 @@ mod tests {
     use super::*;
     use crate::checkpoint::{Written, CHECK_LEN, RECORD_FIXED};
     use crate::scheduler::AcceptedTile;
-    use parrt_protocol::TilePixels;
+    use parrt_protocol::{Packing, TilePixels};
     use parrt_render::stats::RayStats;
 
     /// Two frames of 20x12 in tiles of 8 (6 tiles each), 8-bit.
@@ -227,6 +227,7 @@ mod tests {
             tile_id: t.id,
             pixels: TilePixels {
                 format: PixelFormat::Rgb8,
+                packing: Packing::Raw,
                 bytes: vec![frame as u8 + 1; t.pixel_count() * 3],
             },
             stats: RayStats {

@@ -151,7 +151,7 @@ pub struct AcceptedTile {
     pub frame: usize,
     /// The tile's id.
     pub tile_id: u32,
-    /// Its pixels in the job's format.
+    /// Its pixels in the job's format, unpacked (as a checkpoint keeps them).
     pub pixels: TilePixels,
     /// Its ray statistics.
     pub stats: RayStats,
@@ -506,7 +506,7 @@ impl Scheduler {
                 pixels,
                 stats,
                 seconds,
-            } => self.result(id, job_id, tile_id, attempt, &pixels, stats, seconds, now),
+            } => self.result(id, job_id, tile_id, attempt, pixels, stats, seconds, now),
             Event::WorkerError { id, reason } => {
                 let ready = self.workers.get(&id).is_some_and(|w| w.ready_at.is_some());
                 warn!(worker = id, %reason, "worker reported an error");

@@ -12,7 +12,7 @@ impl Scheduler {
         job_id: u64,
         tile_id: u32,
         attempt: u32,
-        pixels: &TilePixels,
+        pixels: TilePixels,
         stats: RayStats,
         seconds: f64,
         now: Instant,
@@ -60,15 +60,19 @@ impl Scheduler {
         let f = &self.open[p];
         let tile = f.tiles[t];
         let mut decoded = std::mem::take(&mut self.scratch);
-        // 8-bit pixels go into an 8-bit film as they came, decoded only for observers.
+        // Unpacked first, into the tile's byte count and no more; then 8-bit pixels go into an
+        // 8-bit film as they came, decoded only for observers.
         let (format, count) = (self.opts.pixel_format, tile.pixel_count());
-        let checked = if f.film.is_rgb8() && self.observers.is_empty() {
-            decoded.clear();
-            pixels.rgb8(format, count).map(Checked::Rgb8)
-        } else {
-            pixels
+        let unpacked = pixels.unpack(count);
+        let checked = match &unpacked {
+            Err(e) => Err(e.clone()),
+            Ok(pixels) if f.film.is_rgb8() && self.observers.is_empty() => {
+                decoded.clear();
+                pixels.rgb8(format, count).map(Checked::Rgb8)
+            }
+            Ok(pixels) => pixels
                 .decode_into(format, count, &mut decoded)
-                .map(|()| Checked::Linear(&decoded))
+                .map(|()| Checked::Linear(&decoded)),
         };
         let checked = checked.map_err(|e| e.to_string()).and_then(|px| {
             let valid = stats.check_tile(&tile, &f.settings, f.lights);
@@ -87,11 +91,11 @@ impl Scheduler {
                 self.observers
                     .each(|o| o.result_in(frame, id, &tile, shown, &stats, seconds, accepted));
                 if accepted {
-                    if let Some(sink) = &mut self.accepted {
+                    if let (Some(sink), Ok(pixels)) = (&mut self.accepted, unpacked) {
                         sink.push(AcceptedTile {
                             frame,
                             tile_id,
-                            pixels: pixels.clone(),
+                            pixels,
                             stats,
                             seconds,
                         });
