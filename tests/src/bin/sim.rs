@@ -46,7 +46,7 @@ fn scale(a: &Scale) -> Result<ExitCode, String> {
                         work_s,
                         link_bps: gbit * 1e9,
                         latency: std::time::Duration::from_secs_f64(latency),
-                        master_s_per_byte: us * 1e-6 / (3.0 * (tile * tile) as f64),
+                        master_s_per_tile: us * 1e-6,
                         max_batch,
                         dilation: None,
                         costly_first: a.costly_first,

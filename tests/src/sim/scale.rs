@@ -3,8 +3,9 @@
 //! work, and its recorded pixels) with no faults, so a 512-core cluster runs on one core of
 //! this machine. What a network and a master cost is charged in virtual time where the bytes
 //! arrive at the master ([`Paced`]): each worker's link and the master's link at their
-//! bandwidth, then the master's CPU per byte received (measured on real runs), one byte after
-//! another as a single-threaded master handles them. Beside each run, the analytic simulator
+//! bandwidth, then the master's CPU per result received (charged by the byte, one byte after
+//! another as a single-threaded master handles them). The bytes are the workers' own: 8-bit
+//! pixels packed as the protocol packs them. Beside each run, the analytic simulator
 //! (`parrt_master::studies::simulate`) predicts the same configuration.
 //!
 //! tokio's timers run in whole milliseconds, so a frame whose tiles last microseconds (a
@@ -18,7 +19,7 @@ use super::net::SimDial;
 use super::sequence::{scenes, FrameSeen, Orbit, SeqExec, SimFrames};
 use super::tail::{Tail, TailTrace};
 use parrt_master::studies::simulate::{simulate, FrameWindow, SimParams};
-use parrt_protocol::{PixelFormat, Token};
+use parrt_protocol::{PixelFormat, TilePixels, Token};
 use parrt_render::description::SceneDescription;
 use parrt_render::film::Film;
 use parrt_render::render::Renderer;
@@ -64,8 +65,9 @@ pub struct Config {
     pub link_bps: f64,
     /// One-way latency.
     pub latency: Duration,
-    /// The master's CPU per byte received, seconds.
-    pub master_s_per_byte: f64,
+    /// The master's CPU per result received, seconds (charged by the byte: this over the
+    /// mean bytes of a packed result).
+    pub master_s_per_tile: f64,
     /// Most tiles in one assignment.
     pub max_batch: usize,
     /// Stretch every duration by this factor (`None`: only as much as the frame needs,
@@ -170,6 +172,21 @@ pub fn record(
     Ok(())
 }
 
+/// The mean bytes of a result's pixels as the workers send them: 8-bit, packed
+/// ([`TilePixels::pack`]).
+pub fn packed_result_bytes(replay: &Replay) -> anyhow::Result<f64> {
+    let mut px = Vec::new();
+    let mut total = 0usize;
+    for t in &replay.tiles {
+        replay.pixels(t, &mut px)?;
+        total += TilePixels::encode(&px, PixelFormat::Rgb8)
+            .pack()
+            .bytes
+            .len();
+    }
+    Ok(total as f64 / replay.tiles.len().max(1) as f64)
+}
+
 /// Runs `c` over the recording at `path` in virtual time.
 pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let probe = Replay::open(path, 1.0)?;
@@ -197,6 +214,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         .map(|x| (x * scale * 1e3).ceil() / 1e3 / k)
         .collect();
     let spent: f64 = costs.iter().sum();
+    let result_bytes = packed_result_bytes(&replay)?;
     let latency = c.latency.mul_f64(k);
     let pixels: Vec<u64> = replay
         .tiles
@@ -269,7 +287,7 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         let frames = frames.clone();
         let per_byte = PerByte {
             link: 1.0 / sim_link_bytes_per_s,
-            cpu: c.master_s_per_byte * k,
+            cpu: c.master_s_per_tile / result_bytes * k,
         };
         sim.host("master", move || {
             let (result, desc, settings) = (result.clone(), desc.clone(), settings.clone());
@@ -381,8 +399,8 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         latency_s: c.latency.as_secs_f64(),
         bandwidth_bps: link_bytes_per_s,
         master_link_bps: link_bytes_per_s,
-        master_per_tile_s: c.master_s_per_byte * 3.0 * (tile * tile) as f64,
-        result_bytes_per_pixel: 3.0,
+        master_per_tile_s: c.master_s_per_tile,
+        result_bytes_per_pixel: result_bytes / (tile * tile) as f64,
         message_bytes: 64.0,
         // The master's default: idle workers take copies of tiles out once the queue is empty.
         backups: config_backups,

@@ -9,7 +9,7 @@ mod sim_cli;
 
 use parrt_tests::sim::plan::{Fault, Plan};
 use parrt_tests::sim::run_seed;
-use parrt_tests::sim::scale::{run, Config};
+use parrt_tests::sim::scale::{packed_result_bytes, run, Config};
 use std::time::Duration;
 
 #[test]
@@ -137,7 +137,7 @@ fn small_config(work_s: f64, dilation: Option<f64>) -> Config {
         work_s,
         link_bps: 1e9,
         latency: Duration::from_micros(200),
-        master_s_per_byte: 7e-6 / (3.0 * 16.0),
+        master_s_per_tile: 7e-6,
         max_batch: 8,
         dilation,
         costly_first: false,
@@ -313,13 +313,16 @@ fn the_masters_link_and_cpu_work_side_by_side() {
     let link_bps = 240e3;
     let link_only = Config {
         link_bps,
-        master_s_per_byte: 0.0,
+        master_s_per_tile: 0.0,
         ..small_config(2.56, None)
     };
-    // The master's CPU then takes as long per byte as its link: the card receives the next
-    // message while the CPU handles the last, so the link still binds, not their sum.
+    // The master's CPU then takes as long per byte as its link (the CPU is charged per
+    // result, spread over a packed result's mean bytes): the card receives the next message
+    // while the CPU handles the last, so the link still binds, not their sum.
+    let replay = parrt_worker::replay::Replay::open(&path, 1.0).expect("the recording");
+    let result_bytes = packed_result_bytes(&replay).expect("the recording's pixels");
     let both = Config {
-        master_s_per_byte: 8.0 / link_bps,
+        master_s_per_tile: result_bytes * 8.0 / link_bps,
         ..link_only.clone()
     };
     let a = run(&path, &link_only).expect("the run with a free master");
@@ -348,7 +351,7 @@ fn a_dilated_frame_stretches_the_workers_heartbeats_too() {
     // send 13 times as many and take the link from the results.
     let slow = Config {
         link_bps: 240e3,
-        master_s_per_byte: 0.0,
+        master_s_per_tile: 0.0,
         ..small_config(2.56, None)
     };
     let plain = run(&path, &slow).expect("the plain run");
