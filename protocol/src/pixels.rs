@@ -363,4 +363,22 @@ mod tests {
         };
         assert_eq!(junk.unpack(16), Err(PixelError::Unpack { want: 48 }));
     }
+
+    proptest::proptest! {
+        /// Whatever a peer sends as packed pixels, unpacking ends in the tile's exact byte
+        /// count or in an error, never a panic or a larger buffer.
+        #[test]
+        fn any_packed_bytes_unpack_to_the_tile_or_are_refused(
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..300),
+            count in 0usize..200,
+            f32s in proptest::prelude::any::<bool>(),
+        ) {
+            let format = if f32s { PixelFormat::F32 } else { PixelFormat::Rgb8 };
+            let t = TilePixels { format, packing: Packing::Lz4, bytes };
+            if let Ok(raw) = t.unpack(count) {
+                proptest::prop_assert_eq!(raw.packing, Packing::Raw);
+                proptest::prop_assert_eq!(raw.bytes.len(), count * format.bytes_per_pixel());
+            }
+        }
+    }
 }
