@@ -249,10 +249,8 @@ async fn inline_session_given_pixels_and_early_tiles() {
     let want: Vec<[f32; 3]> = (0..list[3].pixel_count())
         .map(|i| [3.0, i as f32, 0.5])
         .collect();
-    // Sent packed (the pattern repeats), unpacked the same bits.
-    assert_eq!(pixels.packing, parrt_protocol::Packing::Lz4);
-    let got = pixels.unpack(list[3].pixel_count()).unwrap();
-    assert_eq!(got, TilePixels::encode(&want, PixelFormat::F32));
+    // f32 pixels travel raw (only 8-bit ones are packed).
+    assert_eq!(pixels, TilePixels::encode(&want, PixelFormat::F32));
     let settings = RenderSettings::new(SIZE, SIZE);
     assert_eq!(
         stats.eye_rays,

@@ -78,7 +78,7 @@ async fn worker_processes_from_the_cli_executable_match_smp() {
     assert_same_bits(&r.film, &reference, "2 worker processes");
     assert_eq!(r.stats, ref_stats);
     assert_eq!(r.per_worker.len(), 2);
-    // Protocol overhead: pixels are 12 bytes each, packed where that is smaller; each result
+    // Protocol overhead: pixels are 12 bytes each (f32 pixels travel raw); each result
     // adds a small header (tile id, attempt, ray statistics) and a handful of heartbeats and
     // handshake frames come along. Backup copies that lost the race are whole extra results
     // (at most 13×13 pixels each).
@@ -243,8 +243,8 @@ fn packed_pixel_bytes(
 
 /// For an 8-bit output the workers send 3 bytes a pixel instead of 12, quantized by the
 /// film's own 8-bit rule, so the written image is the SMP image's bytes; and every result's
-/// pixels travel packed where that is smaller: what the master receives is exactly the
-/// packed tiles' bytes plus the messages' headers.
+/// pixels travel packed where that is smaller (8-bit ones): what the master receives is
+/// exactly the tiles' bytes as sent plus the messages' headers.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn rgb8_pixels_write_the_smp_png_and_travel_packed() {
     use parrt_protocol::PixelFormat;
@@ -278,14 +278,10 @@ async fn rgb8_pixels_write_the_smp_png_and_travel_packed() {
         );
         received.push((packed, r.bytes_received));
     }
-    // Packed, the 8-bit pixels are still fewer bytes than the f32 ones, and both are fewer
-    // than raw.
+    // f32 pixels travel raw, 8-bit ones packed: fewer than their raw 3 bytes a pixel.
     let pixels = 96 * 64;
-    assert!(received[1].0 < received[0].0, "{received:?}");
-    assert!(
-        received[0].0 < pixels * 12 && received[1].0 < pixels * 3,
-        "{received:?}"
-    );
+    assert_eq!(received[0].0, pixels * 12, "{received:?}");
+    assert!(received[1].0 < pixels * 3, "{received:?}");
 }
 
 #[test]
