@@ -397,6 +397,7 @@ mod tests {
                 settings: RenderSettings::new(8, 8),
                 tile_size: 8,
                 pixel_format: crate::PixelFormat::Rgb8,
+                pack_pixels: true,
             })),
             Message::Ready {
                 job_id: 5,

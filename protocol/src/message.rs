@@ -25,6 +25,9 @@ pub struct JobSpec {
     pub tile_size: u32,
     /// How results carry their pixels (8-bit when the output keeps no more).
     pub pixel_format: PixelFormat,
+    /// Whether 8-bit results are packed ([`TilePixels::pack`]): over a network, where fewer
+    /// bytes pay; not for workers on the master's own machine, where packing only costs CPU.
+    pub pack_pixels: bool,
 }
 
 /// A frame of a sequence that only moves the camera: the scene of a job the worker holds, seen
@@ -46,6 +49,8 @@ pub struct ViewSpec {
     pub tile_size: u32,
     /// How results carry their pixels.
     pub pixel_format: PixelFormat,
+    /// Whether 8-bit results are packed, as a Job's.
+    pub pack_pixels: bool,
 }
 
 /// A protocol message. Variant order is part of the wire format: never reorder, only append.

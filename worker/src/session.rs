@@ -61,6 +61,7 @@ struct CurrentJob {
     height: u32,
     cancelled: Arc<AtomicBool>,
     pixel_format: parrt_protocol::PixelFormat,
+    pack_pixels: bool,
     handle: Option<JobHandle>,
     /// Batches of tiles assigned before the renderer was ready.
     waiting: Vec<Vec<(Tile, u32)>>,
@@ -445,6 +446,7 @@ async fn built<S: AsyncRead + AsyncWrite + Unpin, E: Execute>(
                 renderer: Arc::new(r),
                 cancelled: j.cancelled.clone(),
                 pixel_format: j.pixel_format,
+                pack_pixels: j.pack_pixels,
             };
             let ready = Message::Ready {
                 job_id: b.job_id,
@@ -515,6 +517,7 @@ async fn view_job<S: AsyncRead + AsyncWrite + Unpin>(
         height: spec.settings.height,
         cancelled: Arc::new(AtomicBool::new(false)),
         pixel_format: spec.pixel_format,
+        pack_pixels: spec.pack_pixels,
         handle: None,
         waiting: Vec::new(),
         view_of: None,
@@ -599,6 +602,7 @@ fn derive(base: &JobHandle, spec: &ViewSpec, job: &CurrentJob) -> Result<(JobHan
                 renderer: Arc::new(r),
                 cancelled: job.cancelled.clone(),
                 pixel_format: spec.pixel_format,
+                pack_pixels: spec.pack_pixels,
             },
             t.elapsed().as_secs_f64(),
         )),
@@ -693,6 +697,7 @@ fn start_build<E: Execute>(spec: JobSpec, exec: &mut E) -> CurrentJob {
         height: spec.settings.height,
         cancelled: Arc::new(AtomicBool::new(false)),
         pixel_format: spec.pixel_format,
+        pack_pixels: spec.pack_pixels,
         handle: None,
         waiting: Vec::new(),
         view_of: None,

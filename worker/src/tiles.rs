@@ -31,6 +31,8 @@ pub struct JobHandle {
     pub cancelled: Arc<AtomicBool>,
     /// How the job wants pixels sent.
     pub pixel_format: PixelFormat,
+    /// Whether 8-bit pixels are sent packed.
+    pub pack_pixels: bool,
 }
 
 /// Renders tiles on a rayon pool and sends the results of each batch (or errors) to `out`
@@ -149,7 +151,10 @@ pub(crate) fn result_message(
             job_id: job.job_id,
             tile_id: tile.id,
             attempt,
-            pixels: TilePixels::encode(&pixels, job.pixel_format).pack(),
+            pixels: match TilePixels::encode(&pixels, job.pixel_format) {
+                p if job.pack_pixels => p.pack(),
+                p => p,
+            },
             stats,
             seconds: seconds(),
         },
@@ -195,6 +200,7 @@ mod tests {
             renderer: Arc::new(renderer()),
             cancelled: Arc::new(AtomicBool::new(false)),
             pixel_format: PixelFormat::Rgb8,
+            pack_pixels: true,
         };
         let tile = Tile {
             id: 0,

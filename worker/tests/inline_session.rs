@@ -39,6 +39,7 @@ fn job() -> JobSpec {
         settings: RenderSettings::new(SIZE, SIZE),
         tile_size: TILE,
         pixel_format: PixelFormat::F32,
+        pack_pixels: true,
     }
 }
 

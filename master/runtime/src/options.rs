@@ -64,6 +64,11 @@ pub struct Schedule {
     /// written (a quarter of the bytes; the written image is the same), `F32` for the exact
     /// film (the default).
     pub pixel_format: PixelFormat,
+    /// Whether workers pack 8-bit pixels ([`parrt_protocol::TilePixels::pack`]): yes (the
+    /// default) for workers across a network, where a tenth of the bytes lets a 1 Gbit/s link
+    /// keep up with thousands of cores; no for workers on this machine, whose loopback costs
+    /// nothing to cross while packing and unpacking cost CPU the render threads want.
+    pub pack_pixels: bool,
     /// Workers that must be ready before tiles are handed out.
     pub min_workers: usize,
     /// How long to wait for `min_workers` (and, mid-job, for any worker when all have left).
@@ -90,6 +95,7 @@ impl Default for Schedule {
             max_failures: 3,
             backups: true,
             pixel_format: PixelFormat::F32,
+            pack_pixels: true,
             min_workers: 1,
             wait_workers: Duration::from_secs(60),
             frames_window: 2,

@@ -510,6 +510,7 @@ fn new_scheduler(
                 .clamp(1, parrt_protocol::limits::MAX_BATCH),
             batch_seconds: sched_opts.batch_seconds,
             pixel_format: sched_opts.pixel_format,
+            pack_pixels: sched_opts.pack_pixels,
             rules: super::lifecycle::Rules {
                 min_workers: sched_opts.min_workers,
                 wait_workers: sched_opts.wait_workers,
@@ -538,6 +539,7 @@ pub(crate) fn job_message(
         settings: settings.clone(),
         tile_size: config.schedule.tile,
         pixel_format: config.schedule.pixel_format,
+        pack_pixels: config.schedule.pack_pixels,
     }))
 }
 

@@ -421,6 +421,9 @@ fn render_through_workers(
     });
     config.spawn.count = n;
     config.spawn.threads = threads;
+    // The workers are this machine's: the loopback costs nothing to cross, packing would
+    // only take CPU from the render threads.
+    config.schedule.pack_pixels = false;
     config.schedule.frames_window = args.sequence.window();
     let prepared = PreparedRef {
         loaded,

@@ -348,6 +348,7 @@ mod tests {
                 max_batch: 1,
                 batch_seconds: parrt_runtime::batch::BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
+                pack_pixels: true,
                 rules: Default::default(),
             },
         );

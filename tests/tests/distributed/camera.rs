@@ -41,6 +41,7 @@ fn view_of(job_id: u64, base_job_id: u64, view: parrt_render::description::View)
         settings: settings_for(&desc),
         tile_size: 16,
         pixel_format: Default::default(),
+        pack_pixels: true,
     }))
 }
 

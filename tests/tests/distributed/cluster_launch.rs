@@ -398,6 +398,7 @@ fn an_orbit_through_cluster_ranks_sends_each_worker_its_scene_once() {
         settings: parrt_render::settings::RenderSettings::new(32, 32),
         tile_size: 16,
         pixel_format: Default::default(),
+        pack_pixels: true,
     }));
     let job_bytes = parrt_protocol::Encoded::new(&job).unwrap().len() as u64;
     let children: Vec<_> = (0..3)

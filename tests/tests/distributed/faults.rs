@@ -180,6 +180,7 @@ async fn worker_reports_a_job_it_cannot_build() {
         settings: parrt_render::settings::RenderSettings::new(0, 8),
         tile_size: 8,
         pixel_format: Default::default(),
+        pack_pixels: true,
     })))
     .await
     .unwrap();

@@ -207,6 +207,7 @@ fn big_job(bytes: usize) -> Message {
         settings: settings_for(&desc),
         tile_size: 8,
         pixel_format: Default::default(),
+        pack_pixels: true,
     })))
     .len()
         < bytes
@@ -222,6 +223,7 @@ fn big_job(bytes: usize) -> Message {
         settings,
         tile_size: 8,
         pixel_format: Default::default(),
+        pack_pixels: true,
     }))
 }
 

@@ -91,6 +91,7 @@ pub fn job(width: u32, height: u32, tile: u32) -> Message {
         settings,
         tile_size: tile,
         pixel_format: Default::default(),
+        pack_pixels: true,
     }))
 }
 

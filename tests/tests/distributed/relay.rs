@@ -125,6 +125,7 @@ async fn a_relay_sees_no_plaintext() {
         settings: settings.clone(),
         tile_size: 8,
         pixel_format: Default::default(),
+        pack_pixels: true,
     })))
     .unwrap();
     // The middle of the Job's payload: scene bytes (the job id, which differs, is at its head).

@@ -302,6 +302,7 @@ mod tests {
             renderer: Arc::new(Renderer::new(&desc, &RenderSettings::new(8, 8)).unwrap()),
             cancelled: Arc::new(AtomicBool::new(false)),
             pixel_format: PixelFormat::Rgb8,
+            pack_pixels: true,
         }
     }
 

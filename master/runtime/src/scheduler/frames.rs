@@ -219,6 +219,7 @@ fn send_frame(
     job_id: u64,
     fj: &FrameJob,
     pixel_format: PixelFormat,
+    pack_pixels: bool,
 ) {
     let base = bases.get(&id).copied();
     match (&fj.camera, base) {
@@ -230,6 +231,7 @@ fn send_frame(
                 settings: c.settings.clone(),
                 tile_size: c.tile_size,
                 pixel_format,
+                pack_pixels,
             }));
             let _ = w.outbox.send(view.into());
         }
@@ -411,8 +413,17 @@ impl Scheduler {
                 f.set_order(&order);
             }
             for (&id, w) in &self.workers {
-                let pf = self.opts.pixel_format;
-                send_frame(&mut s.bases, &s.past, id, w, next.job_id, &next.job, pf);
+                let (pf, pack) = (self.opts.pixel_format, self.opts.pack_pixels);
+                send_frame(
+                    &mut s.bases,
+                    &s.past,
+                    id,
+                    w,
+                    next.job_id,
+                    &next.job,
+                    pf,
+                    pack,
+                );
             }
             s.jobs.insert(next.index, (next.job_id, next.job));
             self.open.push(f);
@@ -476,8 +487,8 @@ impl Scheduler {
         }
         for (&k, (job_id, job)) in &s.jobs {
             if k != 0 {
-                let pf = self.opts.pixel_format;
-                send_frame(&mut s.bases, &s.past, id, w, *job_id, job, pf);
+                let (pf, pack) = (self.opts.pixel_format, self.opts.pack_pixels);
+                send_frame(&mut s.bases, &s.past, id, w, *job_id, job, pf, pack);
             }
         }
         let base = s.bases.get(&id).map(|b| b.1);

@@ -140,6 +140,8 @@ pub struct SchedOptions {
     pub batch_seconds: f64,
     /// The pixel format the job asked results to use.
     pub pixel_format: PixelFormat,
+    /// Whether workers pack 8-bit pixels (what a View tells them, as the Job did).
+    pub pack_pixels: bool,
     /// When to stop waiting for workers ([`crate::lifecycle`]).
     pub rules: Rules,
 }
@@ -606,6 +608,7 @@ mod tests {
                 max_batch: 1,
                 batch_seconds: BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
+                pack_pixels: true,
                 rules: Rules::default(),
             },
         )
@@ -1033,6 +1036,7 @@ mod tests {
                 max_batch: 1,
                 batch_seconds: BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
+                pack_pixels: true,
                 rules: Rules::default(),
             },
         );
@@ -1140,6 +1144,7 @@ mod tests {
                 max_batch: 8,
                 batch_seconds: BATCH_SECONDS,
                 pixel_format: PixelFormat::F32,
+                pack_pixels: true,
                 rules: Rules::default(),
             },
         );
