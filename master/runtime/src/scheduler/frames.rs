@@ -218,8 +218,7 @@ fn send_frame(
     w: &Slot,
     job_id: u64,
     fj: &FrameJob,
-    pixel_format: PixelFormat,
-    pack_pixels: bool,
+    opts: &SchedOptions,
 ) {
     let base = bases.get(&id).copied();
     match (&fj.camera, base) {
@@ -230,8 +229,8 @@ fn send_frame(
                 view: c.view.clone(),
                 settings: c.settings.clone(),
                 tile_size: c.tile_size,
-                pixel_format,
-                pack_pixels,
+                pixel_format: opts.pixel_format,
+                pack_pixels: opts.pack_pixels,
             }));
             let _ = w.outbox.send(view.into());
         }
@@ -413,7 +412,6 @@ impl Scheduler {
                 f.set_order(&order);
             }
             for (&id, w) in &self.workers {
-                let (pf, pack) = (self.opts.pixel_format, self.opts.pack_pixels);
                 send_frame(
                     &mut s.bases,
                     &s.past,
@@ -421,8 +419,7 @@ impl Scheduler {
                     w,
                     next.job_id,
                     &next.job,
-                    pf,
-                    pack,
+                    &self.opts,
                 );
             }
             s.jobs.insert(next.index, (next.job_id, next.job));
@@ -487,8 +484,7 @@ impl Scheduler {
         }
         for (&k, (job_id, job)) in &s.jobs {
             if k != 0 {
-                let (pf, pack) = (self.opts.pixel_format, self.opts.pack_pixels);
-                send_frame(&mut s.bases, &s.past, id, w, *job_id, job, pf, pack);
+                send_frame(&mut s.bases, &s.past, id, w, *job_id, job, &self.opts);
             }
         }
         let base = s.bases.get(&id).map(|b| b.1);
