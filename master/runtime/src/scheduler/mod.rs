@@ -1128,6 +1128,41 @@ mod tests {
         assert_eq!(f.faults.rejected_results, 5);
     }
 
+    #[tokio::test(start_paused = true)]
+    async fn packed_pixels_that_do_not_unpack_to_the_tile_are_rejected_and_the_tile_requeued() {
+        let mut s = sched(10);
+        let mut rx = join(&mut s, 1, 1);
+        s.fill(Instant::now());
+        let (held, attempt) = assigned(&mut rx)[0];
+        s.handle(
+            Event::Result {
+                id: 1,
+                job_id: JOB,
+                tile_id: held.id,
+                attempt,
+                pixels: TilePixels {
+                    format: PixelFormat::F32,
+                    packing: parrt_protocol::Packing::Lz4,
+                    bytes: vec![0x1f, 1, 2, 3],
+                },
+                stats: RayStats::default(),
+                seconds: 0.0,
+            },
+            Instant::now(),
+        );
+        assert_eq!(s.progress().0, 0);
+        // The tile is handed out again, as a new attempt.
+        let mut rx2 = join(&mut s, 2, 1);
+        s.fill(Instant::now());
+        let again: Vec<_> = [assigned(&mut rx), assigned(&mut rx2)].concat();
+        assert!(
+            again.iter().any(|&(t, a)| t.id == held.id && a > attempt),
+            "{again:?}"
+        );
+        let f = s.finish();
+        assert_eq!(f.faults.rejected_results, 1);
+    }
+
     /// Runs a one-worker job of 64 tiles whose results report `seconds` each, the worker
     /// answering its oldest assignment message at a time; returns the tiles per message.
     fn batch_sizes(seconds: f64) -> Vec<usize> {
