@@ -697,6 +697,19 @@ mod tests {
         }
     }
 
+    /// A result for `tile_id` carrying `pixels` as they are (of any size or packing).
+    fn result_carrying(id: WorkerId, tile_id: u32, attempt: u32, pixels: TilePixels) -> Event {
+        Event::Result {
+            id,
+            job_id: JOB,
+            tile_id,
+            attempt,
+            pixels,
+            stats: RayStats::default(),
+            seconds: 0.0,
+        }
+    }
+
     fn accepted(tile: &Tile, value: f32) -> AcceptedTile {
         let Event::Result {
             pixels,
@@ -1098,31 +1111,11 @@ mod tests {
             *job_id = 1;
         }
         s.handle(wrong_job, Instant::now());
-        s.handle(
-            Event::Result {
-                id: 1,
-                job_id: JOB,
-                tile_id: held.id,
-                attempt,
-                pixels: TilePixels::encode(&[[0.0; 3]; 3], PixelFormat::F32),
-                stats: RayStats::default(),
-                seconds: 0.0,
-            },
-            Instant::now(),
-        );
+        let three = TilePixels::encode(&[[0.0; 3]; 3], PixelFormat::F32);
+        s.handle(result_carrying(1, held.id, attempt, three), Instant::now());
         // An id past the tile list is rejected too, without panicking.
-        s.handle(
-            Event::Result {
-                id: 1,
-                job_id: JOB,
-                tile_id: u32::MAX,
-                attempt: 1,
-                pixels: TilePixels::encode(&[], PixelFormat::F32),
-                stats: RayStats::default(),
-                seconds: 0.0,
-            },
-            Instant::now(),
-        );
+        let none = TilePixels::encode(&[], PixelFormat::F32);
+        s.handle(result_carrying(1, u32::MAX, 1, none), Instant::now());
         assert_eq!(s.progress().0, 0);
         let f = s.finish();
         assert_eq!(f.faults.rejected_results, 5);
@@ -1134,22 +1127,12 @@ mod tests {
         let mut rx = join(&mut s, 1, 1);
         s.fill(Instant::now());
         let (held, attempt) = assigned(&mut rx)[0];
-        s.handle(
-            Event::Result {
-                id: 1,
-                job_id: JOB,
-                tile_id: held.id,
-                attempt,
-                pixels: TilePixels {
-                    format: PixelFormat::F32,
-                    packing: parrt_protocol::Packing::Lz4,
-                    bytes: vec![0x1f, 1, 2, 3],
-                },
-                stats: RayStats::default(),
-                seconds: 0.0,
-            },
-            Instant::now(),
-        );
+        let junk = TilePixels {
+            format: PixelFormat::F32,
+            packing: parrt_protocol::Packing::Lz4,
+            bytes: vec![0x1f, 1, 2, 3],
+        };
+        s.handle(result_carrying(1, held.id, attempt, junk), Instant::now());
         assert_eq!(s.progress().0, 0);
         // The tile is handed out again, as a new attempt.
         let mut rx2 = join(&mut s, 2, 1);
