@@ -5,12 +5,13 @@
 //! (12 bytes a pixel). Either way the pixels are one byte blob, copied in and out without a
 //! per-value encoding step.
 //!
-//! On the wire an 8-bit blob is packed with LZ4 whenever that makes it smaller ([`TilePixels::pack`]):
-//! rendered tiles repeat (a background, a flat-shaded facet, a shadow), so a 32² tile of mount-8
-//! at 4096² travels in a tenth of its bytes for about 3 µs of a worker's CPU and 3 µs of the
-//! master's. That is what keeps a 1 Gbit/s master link from binding a thousand cores. The
-//! receiver unpacks ([`TilePixels::unpack`]) into exactly the tile's byte count, never more,
-//! before any other check.
+//! On the wire, when the job asks (a master across a network does), an 8-bit blob is packed
+//! with LZ4 whenever that makes it smaller ([`TilePixels::pack`]): rendered tiles repeat (a
+//! background, a flat-shaded facet, a shadow), so a 32² tile of mount-8 at 4096² travels in a
+//! tenth of its bytes for about 3 µs of a worker's CPU and 3 µs of the master's. That is what
+//! keeps a 1 Gbit/s master link from binding a thousand cores. The receiver unpacks
+//! ([`TilePixels::unpack`]) into exactly the tile's byte count, never more, before any other
+//! check.
 
 use parrt_render::film::{to_u8_into, unit, Rgb};
 use serde::{Deserialize, Serialize};
