@@ -137,7 +137,8 @@ pub(crate) fn trace(job: &JobHandle, tile: &Tile, source: Source<'_>) -> Traced 
 }
 
 /// The message answering one tile: its result, or an Error when tracing failed or panicked.
-/// `seconds` is asked for once the pixels are encoded and packed (the time the tile took, as reported).
+/// `seconds` is asked for once the pixels are encoded and packed (the time the tile took, as
+/// reported).
 pub(crate) fn result_message(
     job: &JobHandle,
     tile: &Tile,

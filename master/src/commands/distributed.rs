@@ -42,3 +42,12 @@ pub fn master_config(s: MasterSetup<'_>) -> MasterConfig {
     config.schedule.pixel_format = parrt_runtime::pixel_format_for(s.output);
     config
 }
+
+/// Makes `config` start `count` workers of `threads` threads on this machine. They do not pack
+/// their pixels: the loopback costs nothing to cross, and packing would only take CPU from the
+/// render threads.
+pub fn local_workers(config: &mut MasterConfig, count: usize, threads: usize) {
+    config.spawn.count = count;
+    config.spawn.threads = threads;
+    config.schedule.pack_pixels = false;
+}

@@ -257,11 +257,7 @@ fn render_through_workers(
         min_workers: n,
         output: &args.output,
     });
-    config.spawn.count = n;
-    config.spawn.threads = threads;
-    // The workers are this machine's: the loopback costs nothing to cross, packing would
-    // only take CPU from the render threads.
-    config.schedule.pack_pixels = false;
+    super::distributed::local_workers(&mut config, n, threads);
     let (r, settings) = match parrt_runtime::run(&config, job, &mut |_| Ok(None), None) {
         Ok(done) => (done.result, done.settings),
         Err(Failed::Job(e)) => return Err(e),

@@ -419,11 +419,7 @@ fn render_through_workers(
         min_workers: n,
         output: &outputs[0],
     });
-    config.spawn.count = n;
-    config.spawn.threads = threads;
-    // The workers are this machine's: the loopback costs nothing to cross, packing would
-    // only take CPU from the render threads.
-    config.schedule.pack_pixels = false;
+    super::distributed::local_workers(&mut config, n, threads);
     config.schedule.frames_window = args.sequence.window();
     let prepared = PreparedRef {
         loaded,

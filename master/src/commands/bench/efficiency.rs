@@ -148,8 +148,7 @@ fn run_distributed(
         ),
         ..MasterConfig::default()
     };
-    config.spawn.count = n;
-    config.spawn.threads = 1;
+    crate::commands::distributed::local_workers(&mut config, n, 1);
     config.schedule.tile = tile;
     config.schedule.min_workers = n;
     // As `parrt render --workers N -o out.png` runs: 8-bit pixels on the wire.

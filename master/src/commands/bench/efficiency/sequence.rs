@@ -156,8 +156,7 @@ fn distributed_once(
     tile: u32,
 ) -> anyhow::Result<f64> {
     let mut config = parrt_runtime::MasterConfig::default();
-    config.spawn.count = n;
-    config.spawn.threads = 1;
+    crate::commands::distributed::local_workers(&mut config, n, 1);
     config.schedule.tile = tile;
     config.schedule.min_workers = n;
     config.schedule.frames_window = DEFAULT_WINDOW;
