@@ -138,6 +138,7 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
             if count > 1 {
                 l.sched.start_frames(
                     config.schedule.frames_window,
+                    count,
                     frame_job(job_id, desc, settings, config)?,
                 );
             }

@@ -61,6 +61,7 @@ pub mod net;
 pub mod observer;
 pub mod options;
 pub mod outgoing;
+pub mod prediction;
 pub mod refusals;
 pub mod rendezvous;
 pub mod scheduler;

@@ -70,6 +70,12 @@ pub struct SimParams {
 /// each frame `tiles` long, at most `window` frames open at once. A frame's tiles are dealt
 /// only once every frame `window` before it is whole, so the costliest tile of one frame holds
 /// up the frame `window` after it (what a window too narrow for a cluster's tail costs).
+///
+/// A frame opens once the frames open have no tile left to deal or, the last frame, with each
+/// tile's cost predicted ([`simulate_sequence`]), once what they have left is less work than
+/// every thread running its costliest tile; tiles are dealt from the oldest frame open with
+/// tiles left, except that a later frame's next tile predicted to take as long as all the work
+/// left spread over the threads goes first, as the master's scheduler deals them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameWindow {
     /// Tiles of each frame (the last may have fewer).
@@ -206,8 +212,19 @@ struct Sim<'a> {
     /// Tiles out with one copy, by when and to whom they went (earliest first, ties by
     /// worker then tile, as the master picks them); stale entries are skipped when popped.
     candidates: BinaryHeap<std::cmp::Reverse<(u64, usize, usize)>>,
-    /// Tiles not yet handed out (the next is `next`), and the costs seen by the master.
-    next: usize,
+    /// Each tile's cost as the master predicts it (a sequence's frames after the first): as
+    /// long as it may take, and as expected.
+    predicted: Option<Predicted<'a>>,
+    /// Per frame (one when the tiles are not a sequence): the next tile not yet handed out,
+    /// the predicted cost of those left and the costliest tile predicted.
+    cursor: Vec<usize>,
+    left_cost: Vec<f64>,
+    costliest: Vec<f64>,
+    /// Frames opened (the first `opened`), tiles in them, and tiles handed out.
+    opened: usize,
+    opened_tiles: usize,
+    dealt: usize,
+    /// The costs seen by the master.
     seen: (f64, usize),
     queue: Vec<VecDeque<(usize, usize)>>,
     idle: Vec<usize>,
@@ -302,15 +319,15 @@ impl Sim<'_> {
     /// whether it did.
     fn deal(&mut self, worker: usize, at: f64) -> bool {
         let p = self.p;
-        let Some(end) = self.dealable_end() else {
+        let Some(frame) = self.dealable() else {
             return false;
         };
-        let mean = (self.seen.1 > 0).then(|| self.seen.0 / self.seen.1 as f64);
-        // As the master sizes a batch: by the tiles queued in the frames open, which is what
-        // is left of the frame being dealt (a frame opens once those before are dealt).
+        let (next, end) = (self.cursor[frame], self.frame_span(frame).end);
+        let mean = self.mean();
+        // As the master sizes a batch: by the tiles queued in the frames open.
         let size = parrt_runtime::batch::batch_size(
             p.max_batch,
-            end - self.next,
+            self.opened_tiles - self.dealt,
             p.workers.max(1) * p.threads.max(1),
             mean,
             p.batch_seconds,
@@ -321,43 +338,138 @@ impl Sim<'_> {
             return false;
         }
         // A batch is of one frame.
-        let take = size.min(free).min(end - self.next);
-        for t in self.next..self.next + take {
+        let take = size.min(free).min(end - next);
+        for t in next..next + take {
             self.holders[t] = 1;
             if p.backups {
                 self.candidates
                     .push(std::cmp::Reverse((at.max(0.0).to_bits(), worker, t)));
             }
+            self.left_cost[frame] -= self.expected_cost(t);
         }
-        self.assign(worker, self.next..self.next + take, false, at);
-        self.next += take;
+        self.assign(worker, next..next + take, false, at);
+        self.cursor[frame] += take;
+        self.dealt += take;
         self.primaries[worker] += take;
         true
     }
 
-    /// Where the frame of the next tile to deal ends, if a tile may be dealt now: the queue
-    /// has one, and (in a sequence) its frame is open, every frame the window before it whole.
-    fn dealable_end(&self) -> Option<usize> {
-        if self.next >= self.costs.len() {
-            return None;
+    /// The mean cost of the tiles the master has seen (`None` before the first).
+    fn mean(&self) -> Option<f64> {
+        (self.seen.1 > 0).then(|| self.seen.0 / self.seen.1 as f64)
+    }
+
+    /// Tile `t`'s predicted cost, as long as it may take (0 where nothing predicts it).
+    fn predicted_cost(&self, t: usize) -> f64 {
+        self.predicted
+            .and_then(|c| c.longest.get(t))
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// Tile `t`'s expected cost (0 where nothing predicts it).
+    fn expected_cost(&self, t: usize) -> f64 {
+        self.predicted
+            .and_then(|c| c.expected.get(t))
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// Whether frame `frame`'s costs are predicted (a sequence's frames after the first).
+    fn is_predicted(&self, frame: usize) -> bool {
+        frame > 0 && self.predicted.is_some()
+    }
+
+    /// Frame `frame`'s tiles in the queue.
+    fn frame_span(&self, frame: usize) -> Range<usize> {
+        match self.p.frames {
+            Some(f) => {
+                let tiles = f.tiles.max(1);
+                (frame * tiles).min(self.costs.len())..((frame + 1) * tiles).min(self.costs.len())
+            }
+            None => 0..self.costs.len(),
         }
-        let Some(f) = self.p.frames else {
-            return Some(self.costs.len());
-        };
-        let tiles = f.tiles.max(1);
-        let frame = self.next / tiles;
-        let window = f.window.max(1);
-        if frame >= window && self.frame_left[frame - window] > 0 {
-            return None;
+    }
+
+    /// The frame to deal a tile from now, opening frames first as the master does: the oldest
+    /// frame open with tiles left, unless a later one's next tile is urgent (predicted to take
+    /// at least as long as all the work left spread over every thread; the costliest such);
+    /// `None` when no frame open has a tile left.
+    fn dealable(&mut self) -> Option<usize> {
+        self.open_frames();
+        let threads = (self.p.workers.max(1) * self.p.threads.max(1)) as f64;
+        let left = self.work_left();
+        let mut oldest = None;
+        let mut urgent: Option<(f64, usize)> = None;
+        for frame in 0..self.opened {
+            let next = self.cursor[frame];
+            if next >= self.frame_span(frame).end {
+                continue;
+            }
+            oldest.get_or_insert(frame);
+            if !self.is_predicted(frame) {
+                continue;
+            }
+            let cost = self.predicted_cost(next);
+            if left.is_some_and(|w| cost * threads >= w) && urgent.is_none_or(|(c, _)| cost > c) {
+                urgent = Some((cost, frame));
+            }
         }
-        Some(((frame + 1) * tiles).min(self.costs.len()))
+        urgent.map(|(_, frame)| frame).or(oldest)
+    }
+
+    /// The predicted work of the tiles of the frames open not yet handed out: each tile's
+    /// predicted cost, or for a frame nothing predicts, the mean cost seen for each (`None`
+    /// before one is seen).
+    fn work_left(&self) -> Option<f64> {
+        let mean = self.mean();
+        let mut left = 0.0;
+        for f in 0..self.opened {
+            let n = self.frame_span(f).end - self.cursor[f];
+            left += if n == 0 {
+                0.0
+            } else if self.is_predicted(f) {
+                self.left_cost[f].max(0.0)
+            } else {
+                mean? * n as f64
+            };
+        }
+        Some(left)
+    }
+
+    /// Opens the next frames while the window allows: once every frame the window before is
+    /// whole, and either the frames open have no tile left to deal or, the next frame the
+    /// last and predicted, what they have left is less work than every thread running its
+    /// costliest tile.
+    fn open_frames(&mut self) {
+        let frames = self.cursor.len();
+        let window = self.p.frames.map_or(1, |f| f.window.max(1));
+        let threads = (self.p.workers.max(1) * self.p.threads.max(1)) as f64;
+        while self.opened < frames {
+            let frame = self.opened;
+            if frame >= window && self.frame_left[frame - window] > 0 {
+                return;
+            }
+            if self.dealt < self.opened_tiles {
+                let early = self.is_predicted(frame)
+                    && frame + 1 == frames
+                    && self
+                        .work_left()
+                        .is_some_and(|w| w < threads * self.costliest[frame]);
+                if !early {
+                    return;
+                }
+            }
+            self.opened += 1;
+            self.opened_tiles += self.frame_span(frame).len();
+        }
     }
 
     /// Once no tile may be dealt (the queue is empty, or the next frame waits for the window),
     /// a worker with nothing of its own takes backups.
     fn take_backups(&mut self, worker: usize, at: f64) {
         let p = self.p;
-        if !p.backups || self.dealable_end().is_some() || self.primaries[worker] > 0 {
+        if !p.backups || self.dealable().is_some() || self.primaries[worker] > 0 {
             return;
         }
         while self.backups_out[worker] < p.threads.max(1) {
@@ -400,7 +512,38 @@ impl Sim<'_> {
 
 /// Simulates rendering tiles with the given one-thread `costs` (seconds) and pixel counts.
 pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
-    let mut sim = Sim::new(costs, pixels, p);
+    run(costs, None, pixels, p)
+}
+
+/// A sequence's tile costs as the master predicts them, one per tile (the first frame's are
+/// not used: nothing predicts it), from the costs measured in the frames before.
+#[derive(Clone, Copy, Debug)]
+pub struct Predicted<'a> {
+    /// As long as each may take ([`parrt_runtime::prediction::predict`]): the order of a
+    /// frame's tiles and which are urgent.
+    pub longest: &'a [f64],
+    /// As expected (the latest measured at its place): the work left.
+    pub expected: &'a [f64],
+}
+
+/// Simulates a sequence ([`SimParams::frames`]) whose tiles' costs the master predicts as
+/// `predicted`.
+pub fn simulate_sequence(
+    costs: &[f64],
+    predicted: Predicted<'_>,
+    pixels: &[u64],
+    p: &SimParams,
+) -> SimResult {
+    run(costs, Some(predicted), pixels, p)
+}
+
+fn run(
+    costs: &[f64],
+    predicted: Option<Predicted<'_>>,
+    pixels: &[u64],
+    p: &SimParams,
+) -> SimResult {
+    let mut sim = Sim::new(costs, predicted, pixels, p);
     let startup = sim.send_job();
     while let Some(ev) = sim.heap.pop() {
         if sim.handle(ev) {
@@ -413,9 +556,30 @@ pub fn simulate(costs: &[f64], pixels: &[u64], p: &SimParams) -> SimResult {
 }
 
 impl<'a> Sim<'a> {
-    fn new(costs: &'a [f64], pixels: &'a [u64], p: &'a SimParams) -> Self {
+    fn new(
+        costs: &'a [f64],
+        predicted: Option<Predicted<'a>>,
+        pixels: &'a [u64],
+        p: &'a SimParams,
+    ) -> Self {
         let workers = p.workers.max(1);
         let threads = p.threads.max(1);
+        let predicted = predicted.filter(|c| {
+            c.longest.len() == costs.len() && c.expected.len() == costs.len() && p.frames.is_some()
+        });
+        let spans: Vec<Range<usize>> = match p.frames {
+            Some(f) => (0..costs.len())
+                .step_by(f.tiles.max(1))
+                .map(|s| s..(s + f.tiles.max(1)).min(costs.len()))
+                .collect(),
+            None => std::iter::once(0..costs.len()).collect(),
+        };
+        let sum = |r: &Range<usize>| predicted.map_or(0.0, |c| c.expected[r.clone()].iter().sum());
+        let max = |r: &Range<usize>| {
+            predicted.map_or(0.0, |c| {
+                c.longest[r.clone()].iter().copied().fold(0.0, f64::max)
+            })
+        };
         Sim {
             p,
             costs,
@@ -428,7 +592,13 @@ impl<'a> Sim<'a> {
             primaries: vec![0; workers],
             backups_out: vec![0; workers],
             candidates: BinaryHeap::new(),
-            next: 0,
+            predicted,
+            cursor: spans.iter().map(|r| r.start).collect(),
+            left_cost: spans.iter().map(sum).collect(),
+            costliest: spans.iter().map(max).collect(),
+            opened: 0,
+            opened_tiles: 0,
+            dealt: 0,
             seen: (0.0, 0),
             queue: vec![VecDeque::new(); workers],
             idle: vec![threads; workers],
@@ -535,7 +705,7 @@ impl<'a> Sim<'a> {
                 self.push(sent, Kind::Received { worker, batch });
             }
         }
-        if self.idle[worker] > 0 && self.next >= self.costs.len() {
+        if self.idle[worker] > 0 && self.dealt >= self.costs.len() {
             self.first_idle = self.first_idle.min(now);
         }
     }
@@ -554,7 +724,7 @@ impl<'a> Sim<'a> {
         self.master_free = self.master_free.max(now) + per;
         self.master_busy += per;
         let mut first = 0;
-        let waiting = self.next < self.costs.len() && self.dealable_end().is_none();
+        let waiting = self.dealt < self.costs.len() && self.dealable().is_none();
         for t in tiles.clone() {
             self.holders[t] -= 1;
             if !std::mem::replace(&mut self.accepted[t], true) {
@@ -581,7 +751,7 @@ impl<'a> Sim<'a> {
             return true;
         }
         let arrive = self.master_free + p.latency_s + self.transfer(p.message_bytes);
-        if waiting && self.dealable_end().is_some() {
+        if waiting && self.dealable().is_some() {
             // A frame is whole and the next opens: every worker with room is dealt its tiles
             // (in rounds when the order is by cost), not only the one that answered.
             self.deal_all(arrive);
@@ -713,6 +883,46 @@ mod tests {
             ..p(1)
         };
         assert_eq!(simulate(&costs, &px, &copies).makespan, 6.0);
+    }
+
+    #[test]
+    fn the_last_frame_starts_its_costliest_tile_while_the_frame_before_has_work_left() {
+        // Two one-thread workers, one tile each at a time. Frame 0: twelve 0.5 s tiles;
+        // frame 1, the last: a 3 s tile and two of 0.5 s (10 s in all: 5 s ideal). Opened when
+        // frame 0's queue runs dry, frame 1's 3 s tile starts at 3 s and ends at 6 s while
+        // the other thread idles from 4 s. Predicted, frame 1 opens once frame 0 has less
+        // than 2 × 3 s queued, and its 3 s tile goes before frame 0's last tiles as soon as
+        // all the work left, over both threads, is no longer than it: at 2 s, ending at 5 s.
+        let mut costs = vec![0.5; 12];
+        costs.extend([3.0, 0.5, 0.5]);
+        let px = vec![1; 15];
+        let p = SimParams {
+            window: 1,
+            frames: Some(FrameWindow {
+                tiles: 12,
+                window: 2,
+            }),
+            ..SimParams::ideal(2, 1)
+        };
+        assert_eq!(simulate(&costs, &px, &p).makespan, 6.0);
+        let predicted = Predicted {
+            longest: &costs,
+            expected: &costs,
+        };
+        assert_eq!(simulate_sequence(&costs, predicted, &px, &p).makespan, 5.0);
+        // A frame before the last is not opened early: with a third frame after it, the
+        // same two frames take what they took unpredicted.
+        let mut three = costs.clone();
+        three.extend([0.5; 12]);
+        let px = vec![1; three.len()];
+        let both = Predicted {
+            longest: &three,
+            expected: &three,
+        };
+        assert_eq!(
+            simulate_sequence(&three, both, &px, &p).makespan,
+            simulate(&three, &px, &p).makespan
+        );
     }
 
     #[test]

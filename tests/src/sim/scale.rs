@@ -18,7 +18,9 @@
 use super::net::SimDial;
 use super::sequence::{scenes, FrameSeen, Orbit, SeqExec, SimFrames};
 use super::tail::{Tail, TailTrace};
-use parrt_master::studies::simulate::{simulate, FrameWindow, SimParams};
+use parrt_master::studies::simulate::{
+    simulate, simulate_sequence, FrameWindow, Predicted, SimParams,
+};
 use parrt_protocol::{PixelFormat, TilePixels, Token};
 use parrt_render::description::SceneDescription;
 use parrt_render::film::Film;
@@ -421,20 +423,49 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let pixels_in_order: Vec<u64> = order.iter().map(|&i| pixels[i as usize]).collect();
     let single = simulate(&in_order(&costs), &pixels_in_order, &p);
     // A sequence as the model sees it: a stream of tiles, frame after frame, each later frame
-    // costliest first by the previous frame's costs; frame k+1's tiles are behind frame k's
-    // in the queue, so they fill its tail, up to the master's window of frames.
+    // costliest first by the previous frame's costs, which are its predicted costs; frame
+    // k+1's tiles fill frame k's tail, up to the master's window of frames.
     let model = if frame_count > 1 {
+        use parrt_runtime::prediction::{predict, Grid, Motion, Risk, Track, RADIUS};
         let (mut all_costs, mut all_pixels) = (in_order(&costs), pixels_in_order.clone());
-        let mut before = orbit.costs(0, &costs);
+        let mut longest = vec![0.0; all_costs.len()];
+        let mut expected = longest.clone();
+        let each: Vec<Vec<f64>> = (0..frame_count).map(|f| orbit.costs(f, &costs)).collect();
+        let grid = |g: usize| Grid {
+            costs: &each[g],
+            cols: orbit.cols,
+        };
+        let mut guesses: Vec<Vec<f64>> = vec![Vec::new(); frame_count];
+        let mut risk = Risk::default();
+        let mut track = Track::default();
         for f in 1..frame_count {
-            let now = orbit.costs(f, &costs);
+            // What the master knows as frame f opens: frames up to f − 2 closed (frame f − 1
+            // has its tail out), and before any has closed, frame 0's times as they came.
+            let guess = match f.checked_sub(2) {
+                Some(g) => {
+                    if g >= 1 {
+                        risk.learn(&each[g], &guesses[g]);
+                        track.learn(Motion::between(grid(g - 1), grid(g)));
+                    }
+                    predict(grid(g), track.over(2), &risk, RADIUS)
+                }
+                None => predict(grid(0), Motion::default(), &risk, RADIUS),
+            };
+            let now = &each[f];
+            let before = &each[f - 1];
             let mut next: Vec<usize> = (0..now.len()).collect();
-            next.sort_by(|&a, &b| before[b].total_cmp(&before[a]));
+            next.sort_by(|&a, &b| guess[b].total_cmp(&guess[a]));
             all_costs.extend(next.iter().map(|&i| now[i]));
             all_pixels.extend(next.iter().map(|&i| pixels[i]));
-            before = now;
+            longest.extend(next.iter().map(|&i| guess[i]));
+            expected.extend(next.iter().map(|&i| before[i]));
+            guesses[f] = guess;
         }
-        simulate(&all_costs, &all_pixels, &p_seq)
+        let predicted = Predicted {
+            longest: &longest,
+            expected: &expected,
+        };
+        simulate_sequence(&all_costs, predicted, &all_pixels, &p_seq)
     } else {
         single.clone()
     };

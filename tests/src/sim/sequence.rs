@@ -41,7 +41,7 @@ pub struct Orbit {
     /// Degrees turned over the whole sequence.
     pub degrees: f64,
     /// Tile columns of the image (the last may be narrower).
-    cols: usize,
+    pub cols: usize,
     /// Tile columns of full width: those the pan moves.
     full: usize,
 }

@@ -1,7 +1,7 @@
 //! Handing out tiles: how many a worker is sent at once, which come first (the queues of the
-//! frames open, oldest frame first; then, in a sequence, the next frame's; then backup copies
-//! of tiles still in flight elsewhere once every queue is empty), and the assignment with its
-//! deadline.
+//! frames open, oldest frame first, except a later frame's tile predicted so long that it
+//! must start now; then, in a sequence, the next frame's; then backup copies of tiles still in
+//! flight elsewhere once every queue is empty), and the assignment with its deadline.
 
 use super::*;
 
@@ -53,7 +53,7 @@ impl Scheduler {
         // The backup candidates, built once per fill when the queue runs dry.
         let mut backups = None;
         let threads = self.ready_threads();
-        self.open_next();
+        self.open_next(threads);
         let in_rounds = self
             .open
             .iter_mut()
@@ -79,8 +79,9 @@ impl Scheduler {
         threads: usize,
         backups: &mut Option<(Vec<Candidate>, usize)>,
     ) -> bool {
-        // When no frame open has a tile queued, the next frame of a sequence opens.
-        self.open_next();
+        // When no frame open has a tile queued, or too little work to start the next frame's
+        // costliest tile in time, the next frame of a sequence opens.
+        self.open_next(threads);
         let batch_size = self.batch_size(threads);
         let Some(w) = self.workers.get(&id) else {
             return false;
@@ -100,8 +101,8 @@ impl Scheduler {
         }
         let want = batch_size.min(free);
         // A batch is of one frame: the oldest with a tile queued that this worker does not
-        // already hold (expired).
-        for p in 0..self.open.len() {
+        // already hold (expired), unless a later frame's next tile is urgent.
+        for p in self.deal_order(threads) {
             let mut batch = Vec::with_capacity(want);
             let mut skipped = Vec::new();
             let index = self.open[p].index;
@@ -142,6 +143,32 @@ impl Scheduler {
                 None => return false,
             }
         }
+    }
+
+    /// The frames open with a tile queued, in the order a batch is looked for: first the
+    /// frames whose next tile is *urgent*, costliest first, then the rest oldest first. A
+    /// tile is urgent when it is predicted to take at least as long as the work queued in
+    /// every frame open, spread over the `threads` ready, would: dealt after the frames before
+    /// it, it would end after the rest, and the threads that finish the rest would wait for
+    /// it (the last frames of a sequence, opened early for that, [`Scheduler::open_next`]).
+    /// Longest-first list scheduling across the frames does the same at the end but starves
+    /// the oldest frame's cheap tiles meanwhile, and a frame not closed holds up the window.
+    fn deal_order(&mut self, threads: usize) -> Vec<usize> {
+        let mean = self.mean_cost();
+        let queued: Option<f64> = self.open.iter().map(|f| f.queued_work(mean)).sum();
+        let mut urgent: Vec<(f64, usize)> = Vec::new();
+        let mut rest: Vec<usize> = Vec::with_capacity(self.open.len());
+        for (p, f) in self.open.iter_mut().enumerate() {
+            let Some(cost) = f.front_cost() else {
+                continue;
+            };
+            match queued {
+                Some(q) if cost.is_finite() && cost * threads as f64 >= q => urgent.push((cost, p)),
+                _ => rest.push(p),
+            }
+        }
+        urgent.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        urgent.into_iter().map(|(_, p)| p).chain(rest).collect()
     }
 
     /// The oldest in-flight tile with a single active holder, not held by `id` (the oldest
@@ -204,7 +231,7 @@ impl Scheduler {
         for &tile_id in tiles {
             let t = tile_id as usize;
             f.attempts[t] += 1;
-            f.state[t] = TileState::InFlight;
+            f.set_state(t, TileState::InFlight);
             sent.push((f.tiles[t], f.attempts[t]));
         }
         let Some(w) = self.workers.get_mut(&id) else {

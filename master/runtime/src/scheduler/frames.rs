@@ -5,15 +5,16 @@
 //! of the frames before. A frame whose every tile is in closes: the workers are told to drop
 //! its scene (Cancel), and it waits for the driver ([`Scheduler::take_complete`]).
 //!
-//! Each distinct scene goes to a worker once: a frame whose scene key ([`FrameCamera`]) is that
-//! of the latest whole Job a worker was sent (its *base*) goes to it as a View of the base, the
-//! camera alone, which the worker renders with the base's build. The scheduler knows what it
-//! sent each connection, so a worker that joined late, or whose base is another scene, gets
-//! the whole Job; a closed frame that is a worker's base is told to drop only when the worker
-//! is sent another base (or at the end), so a worker holds at most the window's frames and
-//! one base, which is why the window is at most one less than what a worker keeps.
+//! A frame's tiles are dealt costliest first by their predicted times
+//! ([`crate::prediction`]: the latest frame closed, carried on by the motion between the two
+//! closed last). The sequence's last frame has no frame after it to fill its tail, so it opens
+//! *early*, while the frames before still have tiles queued, once what they have queued is
+//! less work than every ready thread running its costliest tile: a tile that long must start
+//! before the work left runs out, or the threads that finish the rest wait for it. Such a tile
+//! is *urgent* and dealt before the frames before it ([`Scheduler::deal`]).
 
 use super::*;
+use crate::prediction::{predict, Grid, Motion, Risk, Track, RADIUS};
 use parrt_protocol::{SceneKey, ViewSpec};
 use parrt_render::description::View;
 use std::collections::HashMap;
@@ -49,6 +50,18 @@ pub(super) struct Frame {
     pub(super) tile_seconds: Vec<f64>,
     /// When its first tile was handed out.
     pub(super) first_out: Option<Instant>,
+    /// Each tile's predicted seconds, as long as it may take ([`crate::prediction::predict`]):
+    /// the order its tiles are dealt in and whether one is urgent ([`Scheduler::deal`]); empty
+    /// when nothing predicts them (a sequence's first frame).
+    pub(super) predicted: Vec<f64>,
+    /// Each tile's expected seconds (the latest measured at its place), whose sum is the work
+    /// predicted; empty with `predicted`.
+    pub(super) expected: Vec<f64>,
+    /// Tiles in the state [`TileState::Queued`], and the sum of their expected seconds: kept
+    /// as states change ([`Frame::set_state`]), so the work left to hand out costs nothing
+    /// to ask for.
+    pub(super) queued: usize,
+    pub(super) queued_cost: f64,
 }
 
 impl Frame {
@@ -82,7 +95,61 @@ impl Frame {
             stats: RayStats::default(),
             tile_seconds: vec![0.0; n],
             first_out: None,
+            predicted: Vec::new(),
+            expected: Vec::new(),
+            queued: n,
+            queued_cost: 0.0,
         }
+    }
+
+    /// Sets tile `t`'s state, keeping the count and predicted seconds of the tiles queued.
+    pub(super) fn set_state(&mut self, t: usize, state: TileState) {
+        let was = std::mem::replace(&mut self.state[t], state);
+        let cost = self.expected.get(t).copied().unwrap_or(0.0);
+        match (was == TileState::Queued, state == TileState::Queued) {
+            (true, false) => {
+                self.queued -= 1;
+                self.queued_cost -= cost;
+            }
+            (false, true) => {
+                self.queued += 1;
+                self.queued_cost += cost;
+            }
+            _ => {}
+        }
+    }
+
+    /// Predicts each tile's seconds: as long as `predicted` and on average `expected` (one
+    /// each per tile).
+    pub(super) fn predict(&mut self, predicted: Vec<f64>, expected: &[f64]) {
+        self.predicted = predicted;
+        self.expected = expected.to_vec();
+        self.queued_cost = (0..self.tiles.len())
+            .filter(|&t| self.state[t] == TileState::Queued)
+            .map(|t| expected[t])
+            .sum();
+    }
+
+    /// The seconds of work still queued: expected tile by tile, or, with no prediction, the
+    /// mean cost seen so far (`mean`) for each tile; `None` when neither is known.
+    pub(super) fn queued_work(&self, mean: Option<f64>) -> Option<f64> {
+        if self.queued == 0 {
+            Some(0.0)
+        } else if self.predicted.is_empty() {
+            mean.map(|m| m * self.queued as f64)
+        } else {
+            Some(self.queued_cost.max(0.0))
+        }
+    }
+
+    /// The predicted seconds of the next queued tile, infinite for a frame nothing predicts;
+    /// `None` when no tile is queued.
+    pub(super) fn front_cost(&mut self) -> Option<f64> {
+        if !self.has_queued() {
+            return None;
+        }
+        let t = *self.queue.front()? as usize;
+        Some(self.predicted.get(t).copied().unwrap_or(f64::INFINITY))
     }
 
     /// Queues the tiles in `order` (see [`Scheduler::set_order`]).
@@ -153,7 +220,7 @@ impl Frame {
                 && self.state[i] == TileState::Queued
                 && self.film.write_tile(&tile, decoded).is_ok()
             {
-                self.state[i] = TileState::Done;
+                self.set_state(i, TileState::Done);
                 self.stats += t.stats;
                 self.tile_seconds[i] = t.seconds;
                 self.done += 1;
@@ -165,6 +232,12 @@ impl Frame {
             .retain(|&t| state[t as usize] == TileState::Queued);
         taken
     }
+}
+
+/// Tiles a row of `tiles` (in raster order).
+fn columns(tiles: &[Tile]) -> usize {
+    let y0 = tiles.first().map(|t| t.y);
+    tiles.iter().take_while(|t| Some(t.y) == y0).count()
 }
 
 /// A frame given to the scheduler but not open yet: no film, no tile state.
@@ -250,6 +323,8 @@ fn send_frame(
 pub(super) struct Frames {
     /// The most frames open at once.
     pub(super) window: usize,
+    /// Frames in the sequence.
+    pub(super) count: usize,
     /// Frame 0's job id: the Job every connection starts with.
     pub(super) first_job: u64,
     /// Frame 0's scene key: every connection's first base.
@@ -269,6 +344,16 @@ pub(super) struct Frames {
     /// The latest measured seconds of each tile, for images of this size: the order of the
     /// next frame of the same size.
     pub(super) latest: ((u32, u32), Vec<f64>),
+    /// The longest of `latest`'s times, taken again from them as each frame closes and raised
+    /// by each measured time between: the next frame's costliest tile, predicted.
+    pub(super) latest_max: f64,
+    /// Where the predictions of the frames closed fell short, and by how much.
+    pub(super) risk: Risk,
+    /// The latest frame closed (its index, and each tile's seconds; empty before one closes
+    /// or when one of another size does), and the motion of the frames closed one after
+    /// another: what the next frames are predicted from.
+    pub(super) closed: (usize, Vec<f64>),
+    pub(super) motion: Track,
     /// The most frames that were open at once.
     pub(super) most_open: usize,
 }
@@ -289,12 +374,13 @@ pub struct FrameFinished {
 }
 
 impl Scheduler {
-    /// Makes this scheduler's job frame 0 of a sequence whose Job is `job`, with up to
+    /// Makes this scheduler's job frame 0 of a sequence of `count` frames whose Job is `job`,
+    /// with up to
     /// `window` frames open at once (at least 1, at most one less than what a worker keeps
     /// built, [`parrt_protocol::limits::MAX_JOBS_HELD`]: a worker also keeps its base): later
     /// frames are given by [`Self::push_frame`], complete ones taken by
     /// [`Self::take_complete`].
-    pub fn start_frames(&mut self, window: usize, job: FrameJob) {
+    pub fn start_frames(&mut self, window: usize, count: usize, job: FrameJob) {
         let Some(f) = self.open.first() else {
             return;
         };
@@ -302,6 +388,7 @@ impl Scheduler {
         let n = f.tiles.len();
         self.frames = Some(Frames {
             window: window.clamp(1, MAX_FRAMES_WINDOW),
+            count,
             first_job: f.job_id,
             first_key: job.camera.as_ref().map(|c| c.key),
             // Every worker connected has frame 0's Job: its base.
@@ -318,6 +405,10 @@ impl Scheduler {
             past: Vec::new(),
             complete: Vec::new(),
             latest: (size, vec![0.0; n]),
+            latest_max: 0.0,
+            risk: Risk::default(),
+            closed: (0, Vec::new()),
+            motion: Track::default(),
             most_open: 1,
         });
     }
@@ -380,15 +471,33 @@ impl Scheduler {
             .unwrap_or_default()
     }
 
-    /// Opens the frames given while no tile of those open is left to hand out and the window
-    /// has room. A frame of the same size as the latest measured goes out costliest first by
-    /// each tile's latest measured time (ties, and tiles not measured, in the usual order);
-    /// its Job goes to every worker connected.
-    pub(super) fn open_next(&mut self) {
+    /// Opens the frames given while the window has room and either no tile of those open is
+    /// left to hand out or, the next frame the last and predicted, what those open have queued
+    /// is less work than `threads` (the ready render threads) each running its costliest tile
+    /// (a frame before the last needs no such start: the frame after it fills its tail). A frame of
+    /// the same size as the latest measured goes out costliest first by each tile's latest
+    /// measured time (ties, and tiles not measured, in the usual order); its Job goes to every
+    /// worker connected.
+    pub(super) fn open_next(&mut self, threads: usize) {
+        let mean = self.mean_cost();
         let Some(s) = &mut self.frames else {
             return;
         };
-        while self.open.len() < s.window && !self.open.iter_mut().any(|f| f.has_queued()) {
+        while self.open.len() < s.window {
+            let Some(next) = s.pending.front() else {
+                return;
+            };
+            let predicted = s.latest.0 == (next.settings.width, next.settings.height)
+                && s.latest.1.len() == next.tiles.len();
+            if self.open.iter_mut().any(|f| f.has_queued()) {
+                let queued: Option<f64> = self.open.iter().map(|f| f.queued_work(mean)).sum();
+                let early = predicted
+                    && next.index + 1 == s.count
+                    && queued.is_some_and(|w| w < threads as f64 * s.latest_max);
+                if !early {
+                    return;
+                }
+            }
             let Some(next) = s.pending.pop_front() else {
                 return;
             };
@@ -401,15 +510,33 @@ impl Scheduler {
                 self.opts.pixel_format,
             );
             f.restore(next.restored, self.opts.pixel_format, &mut self.scratch);
-            if s.latest.0 == (next.settings.width, next.settings.height)
-                && s.latest.1.len() == f.tiles.len()
-            {
-                let costs = &s.latest.1;
+            if predicted {
+                let cols = columns(&f.tiles);
+                // From the latest frame closed, carried on by the motion; before one has
+                // closed, from the latest time of each tile, where it is.
+                let costs = match &s.closed {
+                    (g, c) if c.len() == f.tiles.len() => predict(
+                        Grid { costs: c, cols },
+                        s.motion.over(next.index.saturating_sub(*g)),
+                        &s.risk,
+                        RADIUS,
+                    ),
+                    _ => predict(
+                        Grid {
+                            costs: &s.latest.1,
+                            cols,
+                        },
+                        Motion::default(),
+                        &s.risk,
+                        RADIUS,
+                    ),
+                };
                 let mut order: Vec<u32> = (0..f.tiles.len() as u32).collect();
                 // Costliest first; ties keep the usual order (a stable sort), so the order is
                 // the same on every run with the same measured times.
                 order.sort_by(|&a, &b| costs[b as usize].total_cmp(&costs[a as usize]));
                 f.set_order(&order);
+                f.predict(costs, &s.latest.1);
             }
             for (&id, w) in &self.workers {
                 send_frame(
@@ -436,8 +563,13 @@ impl Scheduler {
         let size = (f.settings.width, f.settings.height);
         if s.latest.0 != size || s.latest.1.len() != f.tiles.len() {
             s.latest = (size, vec![0.0; f.tiles.len()]);
+            s.latest_max = 0.0;
         }
+        // A worker's clock is its own word: an implausible figure predicts nothing.
+        let plausible = seconds.is_finite() && (0.0..=86_400.0).contains(&seconds);
+        let seconds = if plausible { seconds } else { 0.0 };
         s.latest.1[t] = seconds;
+        s.latest_max = s.latest_max.max(seconds);
     }
 
     /// Closes the open frame at `p` if it is complete and part of a sequence: every worker is
@@ -460,6 +592,28 @@ impl Scheduler {
         }
         s.jobs.remove(&f.index);
         s.past.push(f.job_id);
+        s.latest_max = s.latest.1.iter().copied().fold(0.0, f64::max);
+        let plausible = |&s: &f64| {
+            if (0.0..=86_400.0).contains(&s) {
+                s
+            } else {
+                0.0
+            }
+        };
+        let measured: Vec<f64> = f.tile_seconds.iter().map(plausible).collect();
+        if !f.predicted.is_empty() {
+            s.risk.learn(&measured, &f.predicted);
+        }
+        let cols = columns(&f.tiles);
+        let (g, before) = &s.closed;
+        if *g + 1 == f.index && before.len() == measured.len() {
+            let grid = |costs| Grid { costs, cols };
+            s.motion
+                .learn(Motion::between(grid(before), grid(&measured)));
+        }
+        if f.index >= *g || before.len() != measured.len() {
+            s.closed = (f.index, measured);
+        }
         s.complete.push((
             f.index,
             FrameFinished {

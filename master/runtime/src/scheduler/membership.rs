@@ -65,7 +65,7 @@ impl Scheduler {
             return;
         }
         let f = &mut self.open[p];
-        f.state[t] = TileState::Queued;
+        f.set_state(t, TileState::Queued);
         f.queue.push_front(tile_id);
         self.faults.requeued += 1;
         self.observers.each(|o| o.requeued(tile_id));

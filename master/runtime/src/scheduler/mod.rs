@@ -809,7 +809,7 @@ mod tests {
     /// and `NEXT`) with `window` frames open at most.
     fn two_frames(max_failures: u32, window: usize) -> Scheduler {
         let mut s = sched(max_failures);
-        s.start_frames(window, job_of(0).into());
+        s.start_frames(window, 2, job_of(0).into());
         s.push_frame(
             1,
             NEXT,
@@ -828,7 +828,7 @@ mod tests {
         let mut a = join(&mut s, 1, 4); // a window of 8: every tile at once
         s.fill(Instant::now());
         assert_eq!(assigned(&mut a).len(), 8);
-        let costs = [0.1, 0.5, 0.2, 0.9, 0.3, 0.9, 0.05, 0.4];
+        let costs = [0.1, 0.5, 0.2, 0.3, 0.3, 0.2, 0.05, 0.9];
         for t in &all {
             let mut r = result(1, t, 1, t.id as f32);
             if let Event::Result { seconds, .. } = &mut r {
@@ -850,13 +850,15 @@ mod tests {
         s.handle(result(1, &all[0], 1, 9.0), Instant::now());
         assert_eq!(s.faults.duplicate_results, 1);
         assert_eq!(s.faults.rejected_results, 0);
-        // Frame 1 opens: its Job to the worker, then its tiles costliest first by frame 0's
-        // times (ties in tile order), dealt as an order is, with no new Ready needed.
+        // Frame 1 opens: its Job to the worker, then its tiles costliest first as frame 0's
+        // times predict them (each as the costliest within a tile of it: 0.9 s for the four
+        // beside tile 7, 0.5 s for the four beside tile 1; ties in tile order), dealt as an
+        // order is, with no new Ready needed.
         s.fill(Instant::now());
         let msgs = drain(&mut a);
         assert_eq!(msgs[0], sent_job(1));
         let ids: Vec<u32> = assignments(&msgs).iter().map(|a| a.1).collect();
-        assert_eq!(ids, [3, 5, 1, 7, 4, 2, 0, 6]);
+        assert_eq!(ids, [2, 3, 6, 7, 0, 1, 4, 5]);
         assert!(assignments(&msgs).iter().all(|a| a.0 == NEXT));
         // A worker that joins now built frame 0 (the job every connection starts with): it is
         // sent the frame open and told to drop frame 0, and its Ready for frame 0 is no fault.
@@ -882,14 +884,16 @@ mod tests {
             s.handle(result_of(w, JOB, t, 1, 0.5), Instant::now());
         }
         s.fill(Instant::now());
-        // Frame 0's last tiles go out, and with its queue empty frame 1 opens: its Job goes
-        // to every worker, to build while frame 0's tail renders.
+        // Frame 0's last tiles go out. Once what it has queued (tile 7: 0.1 s, its mean) is
+        // less work than both threads each running frame 1's costliest tile (0.1 s, measured
+        // in frame 0), frame 1 opens: its Job goes to every worker, to build while frame 0's
+        // tail renders. Tile 7 still goes first: frame 0 has no prediction to weigh it by.
         let to_a = drain(&mut a);
         assert_eq!(assignments(&to_a), [(JOB, 4, 1), (JOB, 5, 1)]);
         assert_eq!(to_a.last(), Some(&sent_job(1)));
         let to_b = drain(&mut b);
         assert_eq!(assignments(&to_b), [(JOB, 6, 1), (JOB, 7, 1)]);
-        assert_eq!(to_b.last(), Some(&sent_job(1)));
+        assert_eq!(to_b.get(1), Some(&sent_job(1)), "opened after tile 6 went");
         assert_eq!(s.open_frames(), 2);
         // Tiles 5, 6 and 7 of frame 0 in flight: a's free slot takes frame 1's first tile.
         s.handle(result_of(1, JOB, 4, 1, 0.5), Instant::now());
@@ -899,6 +903,41 @@ mod tests {
         assert_eq!(s.progress(), (5, 16), "frame 0: 5 of 8 in; frame 1: 0 of 8");
         assert!(s.take_complete().is_empty());
         assert_eq!(s.ready_workers(), 2, "no frame boundary to wait at");
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn the_last_frame_opens_early_and_its_costliest_tiles_go_before_the_tail() {
+        let mut s = two_frames(3, 2);
+        let mut a = join(&mut s, 1, 1);
+        let mut b = join(&mut s, 2, 1);
+        s.fill(Instant::now());
+        drain(&mut a);
+        drain(&mut b);
+        // Frame 0's tiles 0–3 take 0.1, 0.1, 0.1 and 1.0 s (a mean of 0.325 s).
+        for (w, t, seconds) in [(1, 0, 0.1), (1, 1, 0.1), (2, 2, 0.1), (2, 3, 1.0)] {
+            let mut r = result_of(w, JOB, t, 1, 0.5);
+            if let Event::Result { seconds: s, .. } = &mut r {
+                *s = seconds;
+            }
+            s.handle(r, Instant::now());
+        }
+        s.fill(Instant::now());
+        // Frame 1 is the last: it opens while frame 0 still has four tiles queued, as those
+        // (4 × 0.325 s) are less work than both threads each running its costliest tile
+        // (1.0 s). Its tiles near tile 3 (2, 3, 6 and 7) are predicted 1.0 s. Frame 0's tiles
+        // 4 and 5 go first; then all that is queued (2 × 0.325 s of frame 0 and frame 1's
+        // 1.3 s measured at the same places) is no more than both threads running 1.0 s, so
+        // frame 1's tiles 2 and 3 are urgent and go before frame 0's 6 and 7.
+        let to_a = drain(&mut a);
+        assert_eq!(
+            to_a.first(),
+            Some(&sent_job(1)),
+            "opened before a was dealt"
+        );
+        assert_eq!(assignments(&to_a), [(JOB, 4, 1), (JOB, 5, 1)]);
+        assert_eq!(assignments(&drain(&mut b)), [(NEXT, 2, 1), (NEXT, 3, 1)]);
+        assert_eq!(s.open_frames(), 2);
+        assert_eq!(s.progress(), (4, 16));
     }
 
     #[tokio::test(start_paused = true)]

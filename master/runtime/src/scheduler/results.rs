@@ -139,7 +139,7 @@ impl Scheduler {
             w.render_s += seconds;
             w.failures = 0;
         }
-        f.state[t] = TileState::Done;
+        f.set_state(t, TileState::Done);
         // A worker's clock is its own word: only a plausible figure enters the mean.
         if seconds.is_finite() && (0.0..=86_400.0).contains(&seconds) {
             self.cost = (self.cost.0 + seconds, self.cost.1.saturating_add(1));
@@ -150,7 +150,7 @@ impl Scheduler {
         if mutation::is(Mutation::MarkNeighbourDone)
             && f.state.get(t + 1) == Some(&TileState::Queued)
         {
-            f.state[t + 1] = TileState::Done;
+            f.set_state(t + 1, TileState::Done);
             f.queue.retain(|&q| q as usize != t + 1);
             f.done += 1;
         }
