@@ -102,6 +102,8 @@ pub fn cast_tile<R: Real>(
     // answer).
     let mut shadow = rays;
     let mut occ = [false; PACKET];
+    // One slot of lanes for every packet of the tile (PacketLeaf).
+    let mut lanes = None;
     for (bx, by, bw, bh) in tile.blocks() {
         let mut n = 0;
         for y in by..by + bh {
@@ -111,7 +113,7 @@ pub fn cast_tile<R: Real>(
             }
         }
         stats.eye_rays += n as u64;
-        integrator.intersect_packet(&rays[..n], &mut hits[..n], stats);
+        integrator.intersect_packet(&rays[..n], &mut hits[..n], &mut lanes, stats);
         for i in 0..n {
             surfaces[i] = hits[i].map(|h| integrator.scene.surface(&rays[i].ray, &h));
         }
@@ -129,7 +131,7 @@ pub fn cast_tile<R: Real>(
                     k += 1;
                 }
             }
-            integrator.occluded_packet(&shadow[..k], &mut occ[..k], stats);
+            integrator.occluded_packet(&shadow[..k], &mut occ[..k], &mut lanes, stats);
             stats.shadow_rays += k as u64;
             stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;
         }

@@ -133,31 +133,47 @@ impl ShearedRays {
 
     /// The lanes of `rays` whatever the CPU (for the portable kernels).
     pub fn lanes(rays: &[PreparedRay<f32>]) -> Self {
-        let mut l = ShearedRays {
-            src: rays.as_ptr() as usize,
-            n: rays.len(),
-            ..Self::empty()
-        };
+        let mut l = Self::empty();
+        l.fill(rays);
+        l
+    }
+
+    /// Makes these lanes the lanes of `rays` (1..=16; lanes past them repeat ray 0), in place:
+    /// a packet's test keeps one set of lanes and refills it for each packet. One pass over the
+    /// rays writes every row of a lane; the permuted origin is a select on the axis masks
+    /// (no indexing by a run-time axis), and the mask bits gather in registers.
+    pub(crate) fn fill(&mut self, rays: &[PreparedRay<f32>]) {
+        let first = &rays[0];
+        self.src = rays.as_ptr() as usize;
+        self.n = rays.len();
+        let (mut k0_bits, mut k1_bits) = ([0u16; 3], [0u16; 3]);
         for i in 0..LANES {
-            let pr = rays.get(i).unwrap_or(&rays[0]);
+            let pr = if i < rays.len() { &rays[i] } else { first };
             let (o, d) = (pr.ray.o.to_array(), pr.ray.d.to_array());
             let s = pr.shear.to_array();
             let k = [pr.kx, pr.ky, pr.kz];
             for a in 0..3 {
-                l.o[a][i] = o[a];
-                l.d[a][i] = d[a];
-                l.ok[a][i] = o[k[a]];
-                l.s[a][i] = s[a];
-                let ones = |on: bool| f32::from_bits(if on { u32::MAX } else { 0 });
-                l.k0[a][i] = ones(k[a] == 0);
-                l.k1[a][i] = ones(k[a] == 1);
-                l.k0_bits[a] |= u16::from(k[a] == 0) << i;
-                l.k1_bits[a] |= u16::from(k[a] == 1) << i;
+                let (is0, is1) = (k[a] == 0, k[a] == 1);
+                self.o[a][i] = o[a];
+                self.d[a][i] = d[a];
+                self.ok[a][i] = if is0 {
+                    o[0]
+                } else if is1 {
+                    o[1]
+                } else {
+                    o[2]
+                };
+                self.s[a][i] = s[a];
+                self.k0[a][i] = ones(is0);
+                self.k1[a][i] = ones(is1);
+                k0_bits[a] |= u16::from(is0) << i;
+                k1_bits[a] |= u16::from(is1) << i;
             }
-            l.t_min[i] = pr.ray.t_min;
-            l.a[i] = pr.ray.d.length_squared();
+            self.t_min[i] = pr.ray.t_min;
+            self.a[i] = pr.ray.d.length_squared();
         }
-        l
+        self.k0_bits = k0_bits;
+        self.k1_bits = k1_bits;
     }
 
     /// Whether these lanes were made from `rays` (the same slice).
@@ -165,6 +181,12 @@ impl ShearedRays {
     pub fn made_from(&self, rays: &[PreparedRay<f32>]) -> bool {
         self.src == rays.as_ptr() as usize && self.n == rays.len()
     }
+}
+
+/// A lane mask's lane: all ones when `on`, else zero.
+#[inline(always)]
+fn ones(on: bool) -> f32 {
+    f32::from_bits(0u32.wrapping_sub(u32::from(on)))
 }
 
 /// Whether the process's tier ([`crate::isa`]) runs the AVX kernels (`avx2`, `avx512`).

@@ -21,26 +21,33 @@ use crate::scene::{Prim, Scene};
 pub const MIN_RAYS: u32 = 3;
 
 /// The primitive test of one packet's rays: make one per packet (it keeps the rays' lanes
-/// between leaves and is moved into the traversal, so it is neither `Clone` nor `Copy`).
+/// between leaves and is moved into the traversal, so it is neither `Clone` nor `Copy`). The
+/// lanes, over a kilobyte, live in a slot of the caller's that several packets may share one
+/// after the other: the test itself is a few pointers, so moving it into the traversal copies
+/// no lanes, and each packet's lanes are written over the last ones in place.
 #[derive(Debug)]
 pub struct PacketLeaf<'a, R> {
     leaf: SceneLeaf<'a, R>,
     /// The scene when it is in `f32` and the CPU runs the ray-per-lane kernels.
     scene: Option<&'a Scene<f32>>,
-    /// The packet's rays in lanes, made when a leaf first needs them.
-    lanes: Option<ShearedRays>,
+    /// Where the packet's rays are put in lanes when a leaf first needs them.
+    lanes: &'a mut Option<ShearedRays>,
+    /// Whether `lanes` holds this packet's rays (a slot shared by packets holds another's).
+    made: bool,
 }
 
 impl<'a, R: Real> PacketLeaf<'a, R> {
-    /// The test of `scene`'s primitives.
+    /// The test of `scene`'s primitives, making the packet's lanes in `lanes` (a local `None`,
+    /// or the slot an earlier packet used).
     #[inline]
-    pub fn new(scene: &'a Scene<R>) -> Self {
+    pub fn new(scene: &'a Scene<R>, lanes: &'a mut Option<ShearedRays>) -> Self {
         PacketLeaf {
             leaf: SceneLeaf::new(scene),
             scene: (scene as &dyn Any)
                 .downcast_ref::<Scene<f32>>()
                 .filter(|_| packet_prims::available()),
-            lanes: None,
+            lanes,
+            made: false,
         }
     }
 
@@ -55,8 +62,15 @@ impl<'a, R: Real> PacketLeaf<'a, R> {
             return None;
         }
         let r = f32_rays(rays)?;
-        if !self.lanes.as_ref().is_some_and(|l| l.made_from(r)) {
-            self.lanes = ShearedRays::new(r);
+        if !(self.made && self.lanes.as_ref().is_some_and(|l| l.made_from(r))) {
+            if r.is_empty() || r.len() > LANES {
+                return None;
+            }
+            match self.lanes {
+                Some(l) => l.fill(r),
+                None => *self.lanes = Some(ShearedRays::lanes(r)),
+            }
+            self.made = true;
         }
         Some((scene, r, self.lanes.as_ref()?))
     }

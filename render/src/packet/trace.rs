@@ -12,6 +12,7 @@ use std::any::Any;
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
+use crate::geometry::packet_prims::ShearedRays;
 use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::{PreparedRay, PrimHit, Ray};
 use crate::packet::leaf::{LanesLeaf, PacketLeaf};
@@ -49,21 +50,30 @@ pub fn directions_close<R: Real>(rays: &[Ray<R>]) -> bool {
 }
 
 impl<R: Real> Integrator<R> {
-    /// Closest hits of up to [`PACKET`] rays, into `out`.
+    /// Closest hits of up to [`PACKET`] rays, into `out`; the rays are put in lanes in
+    /// `lanes` if a leaf needs them (a slot the caller's packets share, [`PacketLeaf`]).
     pub fn intersect_packet(
         &self,
         rays: &[PreparedRay<R>],
         out: &mut [Option<PrimHit<R>>],
+        lanes: &mut Option<ShearedRays>,
         stats: &mut RayStats,
     ) {
-        self.accel
-            .intersect_packet(rays, out, stats, PacketLeaf::new(&self.scene));
+        let test = PacketLeaf::new(&self.scene, lanes);
+        self.accel.intersect_packet(rays, out, stats, test);
     }
 
-    /// Occlusion of up to [`PACKET`] rays, into `out`.
-    pub fn occluded_packet(&self, rays: &[PreparedRay<R>], out: &mut [bool], stats: &mut RayStats) {
-        self.accel
-            .occluded_packet(rays, out, stats, PacketLeaf::new(&self.scene));
+    /// Occlusion of up to [`PACKET`] rays, into `out`; `lanes` as for
+    /// [`Integrator::intersect_packet`].
+    pub fn occluded_packet(
+        &self,
+        rays: &[PreparedRay<R>],
+        out: &mut [bool],
+        lanes: &mut Option<ShearedRays>,
+        stats: &mut RayStats,
+    ) {
+        let test = PacketLeaf::new(&self.scene, lanes);
+        self.accel.occluded_packet(rays, out, stats, test);
     }
 
     /// Radiance along up to [`PACKET`] eye rays, into `out`: the same colours as
@@ -133,7 +143,9 @@ impl<R: Real> Integrator<R> {
             *pr = PreparedRay::new(*r);
         }
         let mut hits = [None; PACKET];
-        self.intersect_packet(&prs[..n], &mut hits[..n], stats);
+        // One slot of lanes for the hits and every light's shadow rays.
+        let mut lanes = None;
+        self.intersect_packet(&prs[..n], &mut hits[..n], &mut lanes, stats);
         let lits = self.lits(rays, &hits[..n], kind, out, stats);
         // Made once for all the lights: every light's packet overwrites what it uses.
         let mut shadow = [prs[0]; PACKET];
@@ -152,7 +164,7 @@ impl<R: Real> Integrator<R> {
                     k += 1;
                 }
             }
-            self.occluded_packet(&shadow[..k], &mut occ[..k], stats);
+            self.occluded_packet(&shadow[..k], &mut occ[..k], &mut lanes, stats);
             self.add_light(rays, &lits, li, &occ[..k], &owner, &toward, out, stats);
         }
         self.trace_secondary(rays, &lits, depth, weights, out, stats);

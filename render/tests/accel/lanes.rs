@@ -47,7 +47,9 @@ fn check(
         &mut lanes_st,
         LanesLeaf::new(scene, &mut buffer),
     );
-    bvh.intersect_packet(&prs, &mut want[..n], &mut slice_st, PacketLeaf::new(scene));
+    let mut slot = None;
+    let test = PacketLeaf::new(scene, &mut slot);
+    bvh.intersect_packet(&prs, &mut want[..n], &mut slice_st, test);
     let (mut occ, mut occ_want) = ([false; PACKET], [false; PACKET]);
     bvh.occluded_lanes(
         l,
@@ -59,7 +61,7 @@ fn check(
         &prs,
         &mut occ_want[..n],
         &mut slice_st,
-        PacketLeaf::new(scene),
+        PacketLeaf::new(scene, &mut slot),
     );
     assert_eq!(
         (lanes_st.box_tests, lanes_st.primitive_tests),

@@ -188,10 +188,11 @@ fn compare_leaf<R: Real>(
             let mut first = [usize::MAX; PACKET];
             let blocked = SceneLeaf::new(scene).any_many(packet, mask, leaf, &mut first);
             let mut lanes = start.clone();
-            PacketLeaf::new(scene).closest_many(packet, mask, leaf, &mut lanes);
+            let mut slot = None;
+            PacketLeaf::new(scene, &mut slot).closest_many(packet, mask, leaf, &mut lanes);
             let mut lanes_first = [usize::MAX; PACKET];
             let lanes_blocked =
-                PacketLeaf::new(scene).any_many(packet, mask, leaf, &mut lanes_first);
+                PacketLeaf::new(scene, &mut slot).any_many(packet, mask, leaf, &mut lanes_first);
             for (i, pr) in packet.iter().enumerate() {
                 let mut want = start[i];
                 let mut want_blocked = None;

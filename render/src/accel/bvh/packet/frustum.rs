@@ -8,6 +8,8 @@ use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::slab::Box8;
 use crate::geometry::PreparedRay;
 use crate::real::Real;
+#[cfg(target_arch = "x86_64")]
+use std::any::{Any, TypeId};
 
 /// Interval bounds of a packet's rays, per axis.
 #[derive(Clone, Copy, Debug)]
@@ -25,6 +27,11 @@ impl<R: Real> Frustum<R> {
     /// signs on an axis, a zero (infinite reciprocal) direction component, or a non-finite
     /// origin or start.
     pub(super) fn new(rays: &[PreparedRay<R>]) -> Option<Self> {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(rays), true) = (f32_rays(rays), crate::isa::current().sse2()) {
+            let f: &dyn Any = &frustum_sse2(rays)?;
+            return f.downcast_ref::<Frustum<R>>().copied();
+        }
         let first = rays.first()?;
         let o = |r: &PreparedRay<R>| [r.ray.o.x, r.ray.o.y, r.ray.o.z];
         let inv = |r: &PreparedRay<R>| [r.inv_d.x, r.inv_d.y, r.inv_d.z];
@@ -37,7 +44,10 @@ impl<R: Real> Frustum<R> {
             t_min: first.ray.t_min,
         };
         // One pass without early exits (a packet is rejected rarely): the bounds, whether
-        // every ray can be bounded, and the shortest ray.
+        // every ray can be bounded, and the shortest ray. The bounds are compare-and-select
+        // (one `minps`/`maxps` each, where `f32::min` adds a NaN test and a blend): a NaN
+        // bound value comes with `ok` false, and a NaN end leaves the shortest as it was, as
+        // `f32::min` does.
         let mut ok = true;
         let mut shortest = R::INFINITY;
         for r in rays {
@@ -45,28 +55,34 @@ impl<R: Real> Frustum<R> {
             let (ro, ri) = (o(r), inv(r));
             for a in 0..3 {
                 ok &= ro[a].is_finite() & ri[a].is_finite();
-                f.o_lo[a] = f.o_lo[a].min(ro[a]);
-                f.o_hi[a] = f.o_hi[a].max(ro[a]);
-                f.inv_lo[a] = f.inv_lo[a].min(ri[a]);
-                f.inv_hi[a] = f.inv_hi[a].max(ri[a]);
+                f.o_lo[a] = lower(f.o_lo[a], ro[a]);
+                f.o_hi[a] = upper(f.o_hi[a], ro[a]);
+                f.inv_lo[a] = lower(f.inv_lo[a], ri[a]);
+                f.inv_hi[a] = upper(f.inv_hi[a], ri[a]);
             }
-            f.t_min = f.t_min.min(r.ray.t_min);
-            shortest = shortest.min(r.ray.t_max);
+            f.t_min = lower(f.t_min, r.ray.t_min);
+            shortest = lower(shortest, r.ray.t_max);
         }
         if !ok {
             return None;
         }
-        // Rays whose origins spread widely compared with their length (shadow rays from both
-        // sides of a silhouette) make loose bounds that let the packet into far more nodes
-        // than any of its rays: those go one by one.
+        f.coherent(shortest)
+    }
+
+    /// `self` when its origins are close enough for its shortest ray, `shortest`. Rays whose
+    /// origins spread widely compared with their length (shadow rays from both sides of a
+    /// silhouette) make loose bounds that let the packet into far more nodes than any of its
+    /// rays: those go one by one.
+    #[inline(always)]
+    fn coherent(self, shortest: R) -> Option<Self> {
         let mut spread = R::ZERO;
         for a in 0..3 {
-            spread = spread.max(f.o_hi[a] - f.o_lo[a]);
+            spread = spread.max(self.o_hi[a] - self.o_lo[a]);
         }
         if spread > R::from_f64(COHERENCE) * shortest {
             return None;
         }
-        Some(f)
+        Some(self)
     }
 
     /// [`Frustum::new`] of a packet in lanes (its lanes past the packet repeat lane 0, so
@@ -148,6 +164,101 @@ impl<R: Real> Frustum<R> {
         }
         (mask, t0)
     }
+}
+
+/// `x` when it is below `acc`, else `acc` (`minps`'s rule, with `x` first: a NaN `x` keeps
+/// `acc`). Where `acc` is not NaN, the value `acc.min(x)` gives (and the bits, as `f32::min`
+/// is compiled for x86-64: `minps` and a NaN blend).
+#[inline(always)]
+fn lower<R: Real>(acc: R, x: R) -> R {
+    if x < acc {
+        x
+    } else {
+        acc
+    }
+}
+
+/// `x` when it is above `acc`, else `acc`: [`lower`]'s mirror image (`maxps`).
+#[inline(always)]
+fn upper<R: Real>(acc: R, x: R) -> R {
+    if x > acc {
+        x
+    } else {
+        acc
+    }
+}
+
+/// `rays` as `f32` rays when `R` is `f32`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn f32_rays<R: Real>(rays: &[PreparedRay<R>]) -> Option<&[PreparedRay<f32>]> {
+    if TypeId::of::<R>() == TypeId::of::<f32>() {
+        // SAFETY: `R` is `f32`, so both slices have the same type.
+        Some(unsafe { &*(rays as *const [PreparedRay<R>] as *const [PreparedRay<f32>]) })
+    } else {
+        None
+    }
+}
+
+/// [`Frustum::new`] of `f32` rays where the tier runs SSE2 (every tier but `scalar`): a ray's
+/// origin with its start, and its reciprocal direction, are one four-lane register each, so a
+/// ray costs one `minps` and one `maxps` per register and one compare per register for
+/// finiteness, where the scalar pass does each axis alone. The same decision, and the same
+/// bounds in the same bits: [`lower`] and [`upper`] are `minps` and `maxps` lane by lane.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn frustum_sse2(rays: &[PreparedRay<f32>]) -> Option<Frustum<f32>> {
+    use crate::lanes::{Lanes, Mask, X4};
+    let first = rays.first()?;
+    let (mut lo, mut hi) = (origin_start(first), origin_start(first));
+    let (mut inv_lo, mut inv_hi) = (inverse(first), inverse(first));
+    let inf = X4::splat(f32::INFINITY);
+    let mut finite = 0b1111;
+    let mut signs = true;
+    let mut shortest = f32::INFINITY;
+    for r in rays {
+        let (o, inv) = (origin_start(r), inverse(r));
+        finite &= o.abs().lt(inf).bits() & inv.abs().lt(inf).bits();
+        signs &= r.neg == first.neg;
+        lo = o.min_or(lo);
+        hi = o.max_or(hi);
+        inv_lo = inv.min_or(inv_lo);
+        inv_hi = inv.max_or(inv_hi);
+        shortest = lower(shortest, r.ray.t_max);
+    }
+    if finite != 0b1111 || !signs {
+        return None;
+    }
+    let mut b = [[0.0; 4]; 4];
+    for (v, out) in [lo, hi, inv_lo, inv_hi].into_iter().zip(&mut b) {
+        v.store(out);
+    }
+    let xyz = |v: [f32; 4]| [v[0], v[1], v[2]];
+    let f = Frustum {
+        o_lo: xyz(b[0]),
+        o_hi: xyz(b[1]),
+        inv_lo: xyz(b[2]),
+        inv_hi: xyz(b[3]),
+        neg: first.neg,
+        t_min: b[0][3],
+    };
+    f.coherent(shortest)
+}
+
+/// A ray's origin and, in the fourth lane, its start.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn origin_start(r: &PreparedRay<f32>) -> crate::lanes::X4 {
+    let o = r.ray.o;
+    crate::lanes::Lanes::load(&[o.x, o.y, o.z, r.ray.t_min])
+}
+
+/// A ray's reciprocal direction, its last component again in the fourth lane.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn inverse(r: &PreparedRay<f32>) -> crate::lanes::X4 {
+    let i = r.inv_d;
+    crate::lanes::Lanes::load(&[i.x, i.y, i.z, i.z])
 }
 
 /// [`Frustum::from_lanes`] for the `avx512` tier: each bound a reduction of one register
