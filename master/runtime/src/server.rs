@@ -167,8 +167,9 @@ impl<L: Listener> Master<L> {
     /// `settings` are frame 0's, `frames` gives the later ones and takes every finished frame
     /// but the last, which is the result's film (its statistics, tiles and tile count are
     /// summed over the whole sequence). A frame opens when no tile of those open is left to
-    /// hand out: its Job goes to every worker and its tiles go out costliest first by each
-    /// tile's latest measured time ([`Scheduler::push_frame`]). A checkpoint holds one frame
+    /// hand out (the last frame earlier, so that its costliest tiles start in time): its Job
+    /// goes to every worker and its tiles go out costliest first as the frames before predict
+    /// them ([`Scheduler::push_frame`], [`crate::prediction`]). A checkpoint holds one frame
     /// only: it is refused with a sequence of more than one.
     pub async fn render_sequence(
         self,

@@ -216,7 +216,7 @@ struct Sim<'a> {
     /// long as it may take, and as expected.
     predicted: Option<Predicted<'a>>,
     /// Per frame (one when the tiles are not a sequence): the next tile not yet handed out,
-    /// the predicted cost of those left and the costliest tile predicted.
+    /// the expected cost of those without a result yet and the costliest tile predicted.
     cursor: Vec<usize>,
     left_cost: Vec<f64>,
     costliest: Vec<f64>,
@@ -345,7 +345,6 @@ impl Sim<'_> {
                 self.candidates
                     .push(std::cmp::Reverse((at.max(0.0).to_bits(), worker, t)));
             }
-            self.left_cost[frame] -= self.expected_cost(t);
         }
         self.assign(worker, next..next + take, false, at);
         self.cursor[frame] += take;
@@ -418,14 +417,17 @@ impl Sim<'_> {
         urgent.map(|(_, frame)| frame).or(oldest)
     }
 
-    /// The predicted work of the tiles of the frames open not yet handed out: each tile's
-    /// predicted cost, or for a frame nothing predicts, the mean cost seen for each (`None`
-    /// before one is seen).
+    /// The expected work of the tiles of the frames open without a result yet (queued or
+    /// out, as the master counts it): each tile's expected cost, or for a frame nothing
+    /// predicts, the mean cost seen for each (`None` before one is seen).
     fn work_left(&self) -> Option<f64> {
         let mean = self.mean();
         let mut left = 0.0;
         for f in 0..self.opened {
-            let n = self.frame_span(f).end - self.cursor[f];
+            let n = match self.p.frames {
+                Some(_) => self.frame_left.get(f).copied().unwrap_or(0),
+                None => self.costs.len() - self.done,
+            };
             left += if n == 0 {
                 0.0
             } else if self.is_predicted(f) {
@@ -439,7 +441,7 @@ impl Sim<'_> {
 
     /// Opens the next frames while the window allows: once every frame the window before is
     /// whole, and either the frames open have no tile left to deal or, the next frame the
-    /// last and predicted, what they have left is less work than every thread running its
+    /// last and predicted, what they have not done is less work than every thread running its
     /// costliest tile.
     fn open_frames(&mut self) {
         let frames = self.cursor.len();
@@ -730,6 +732,11 @@ impl<'a> Sim<'a> {
             if !std::mem::replace(&mut self.accepted[t], true) {
                 first += 1;
                 self.seen.0 += self.costs[t];
+                let expected = self.expected_cost(t);
+                let frame = p.frames.map_or(0, |f| t / f.tiles.max(1));
+                if let Some(c) = self.left_cost.get_mut(frame) {
+                    *c -= expected;
+                }
                 if let Some(f) = p.frames {
                     let frame = t / f.tiles.max(1);
                     if let Some(left) = self.frame_left.get_mut(frame) {

@@ -147,22 +147,23 @@ impl Scheduler {
 
     /// The frames open with a tile queued, in the order a batch is looked for: first the
     /// frames whose next tile is *urgent*, costliest first, then the rest oldest first. A
-    /// tile is urgent when it is predicted to take at least as long as the work queued in
-    /// every frame open, spread over the `threads` ready, would: dealt after the frames before
+    /// tile is urgent when it is predicted to take at least as long as the work not done in
+    /// every frame open (queued or in flight), spread over the `threads` ready, would: dealt
+    /// after the frames before
     /// it, it would end after the rest, and the threads that finish the rest would wait for
     /// it (the last frames of a sequence, opened early for that, [`Scheduler::open_next`]).
     /// Longest-first list scheduling across the frames does the same at the end but starves
     /// the oldest frame's cheap tiles meanwhile, and a frame not closed holds up the window.
     fn deal_order(&mut self, threads: usize) -> Vec<usize> {
         let mean = self.mean_cost();
-        let queued: Option<f64> = self.open.iter().map(|f| f.queued_work(mean)).sum();
+        let left: Option<f64> = self.open.iter().map(|f| f.work_left(mean)).sum();
         let mut urgent: Vec<(f64, usize)> = Vec::new();
         let mut rest: Vec<usize> = Vec::with_capacity(self.open.len());
         for (p, f) in self.open.iter_mut().enumerate() {
             let Some(cost) = f.front_cost() else {
                 continue;
             };
-            match queued {
+            match left {
                 Some(q) if cost.is_finite() && cost * threads as f64 >= q => urgent.push((cost, p)),
                 _ => rest.push(p),
             }

@@ -8,10 +8,11 @@
 //! A frame's tiles are dealt costliest first by their predicted times
 //! ([`crate::prediction`]: the latest frame closed, carried on by the motion between the two
 //! closed last). The sequence's last frame has no frame after it to fill its tail, so it opens
-//! *early*, while the frames before still have tiles queued, once what they have queued is
-//! less work than every ready thread running its costliest tile: a tile that long must start
-//! before the work left runs out, or the threads that finish the rest wait for it. Such a tile
-//! is *urgent* and dealt before the frames before it ([`Scheduler::deal`]).
+//! *early*, while the frames before still have tiles queued, once what they have not done
+//! (queued or in flight) is less work than every ready thread running its costliest tile: a
+//! tile that long must start before the work left runs out, or the threads that finish the
+//! rest wait for it. Such a tile is *urgent* and dealt before the frames before it
+//! ([`Scheduler::deal`]).
 
 use super::*;
 use crate::prediction::{predict, Grid, Motion, Risk, Track, RADIUS};
@@ -57,11 +58,9 @@ pub(super) struct Frame {
     /// Each tile's expected seconds (the latest measured at its place), whose sum is the work
     /// predicted; empty with `predicted`.
     pub(super) expected: Vec<f64>,
-    /// Tiles in the state [`TileState::Queued`], and the sum of their expected seconds: kept
-    /// as states change ([`Frame::set_state`]), so the work left to hand out costs nothing
-    /// to ask for.
-    pub(super) queued: usize,
-    pub(super) queued_cost: f64,
+    /// The expected seconds of the tiles not done (queued or in flight): kept as states
+    /// change ([`Frame::set_state`]), so the work left costs nothing to ask for.
+    pub(super) left_cost: f64,
 }
 
 impl Frame {
@@ -97,24 +96,17 @@ impl Frame {
             first_out: None,
             predicted: Vec::new(),
             expected: Vec::new(),
-            queued: n,
-            queued_cost: 0.0,
+            left_cost: 0.0,
         }
     }
 
-    /// Sets tile `t`'s state, keeping the count and predicted seconds of the tiles queued.
+    /// Sets tile `t`'s state, keeping the expected seconds of the tiles not done.
     pub(super) fn set_state(&mut self, t: usize, state: TileState) {
         let was = std::mem::replace(&mut self.state[t], state);
         let cost = self.expected.get(t).copied().unwrap_or(0.0);
-        match (was == TileState::Queued, state == TileState::Queued) {
-            (true, false) => {
-                self.queued -= 1;
-                self.queued_cost -= cost;
-            }
-            (false, true) => {
-                self.queued += 1;
-                self.queued_cost += cost;
-            }
+        match (was == TileState::Done, state == TileState::Done) {
+            (false, true) => self.left_cost -= cost,
+            (true, false) => self.left_cost += cost,
             _ => {}
         }
     }
@@ -124,21 +116,24 @@ impl Frame {
     pub(super) fn predict(&mut self, predicted: Vec<f64>, expected: &[f64]) {
         self.predicted = predicted;
         self.expected = expected.to_vec();
-        self.queued_cost = (0..self.tiles.len())
-            .filter(|&t| self.state[t] == TileState::Queued)
+        self.left_cost = (0..self.tiles.len())
+            .filter(|&t| self.state[t] != TileState::Done)
             .map(|t| expected[t])
             .sum();
     }
 
-    /// The seconds of work still queued: expected tile by tile, or, with no prediction, the
-    /// mean cost seen so far (`mean`) for each tile; `None` when neither is known.
-    pub(super) fn queued_work(&self, mean: Option<f64>) -> Option<f64> {
-        if self.queued == 0 {
+    /// The seconds of work not done (queued, or handed out and not in: a tile dealt waits
+    /// behind the worker's others, so what is in flight delays a tile as what is queued
+    /// does): expected tile by tile, or, with no prediction, the mean cost seen so far
+    /// (`mean`) for each tile; `None` when neither is known.
+    pub(super) fn work_left(&self, mean: Option<f64>) -> Option<f64> {
+        let left = self.tiles.len().saturating_sub(self.done);
+        if left == 0 {
             Some(0.0)
         } else if self.predicted.is_empty() {
-            mean.map(|m| m * self.queued as f64)
+            mean.map(|m| m * left as f64)
         } else {
-            Some(self.queued_cost.max(0.0))
+            Some(self.left_cost.max(0.0))
         }
     }
 
@@ -472,8 +467,8 @@ impl Scheduler {
     }
 
     /// Opens the frames given while the window has room and either no tile of those open is
-    /// left to hand out or, the next frame the last and predicted, what those open have queued
-    /// is less work than `threads` (the ready render threads) each running its costliest tile
+    /// left to hand out or, the next frame the last and predicted, what those open have not
+    /// done is less work than `threads` (the ready render threads) each running its costliest tile
     /// (a frame before the last needs no such start: the frame after it fills its tail). A frame of
     /// the same size as the latest measured goes out costliest first by each tile's latest
     /// measured time (ties, and tiles not measured, in the usual order); its Job goes to every
@@ -490,10 +485,10 @@ impl Scheduler {
             let predicted = s.latest.0 == (next.settings.width, next.settings.height)
                 && s.latest.1.len() == next.tiles.len();
             if self.open.iter_mut().any(|f| f.has_queued()) {
-                let queued: Option<f64> = self.open.iter().map(|f| f.queued_work(mean)).sum();
+                let left: Option<f64> = self.open.iter().map(|f| f.work_left(mean)).sum();
                 let early = predicted
                     && next.index + 1 == s.count
-                    && queued.is_some_and(|w| w < threads as f64 * s.latest_max);
+                    && left.is_some_and(|w| w < threads as f64 * s.latest_max);
                 if !early {
                     return;
                 }

@@ -884,16 +884,16 @@ mod tests {
             s.handle(result_of(w, JOB, t, 1, 0.5), Instant::now());
         }
         s.fill(Instant::now());
-        // Frame 0's last tiles go out. Once what it has queued (tile 7: 0.1 s, its mean) is
-        // less work than both threads each running frame 1's costliest tile (0.1 s, measured
-        // in frame 0), frame 1 opens: its Job goes to every worker, to build while frame 0's
-        // tail renders. Tile 7 still goes first: frame 0 has no prediction to weigh it by.
+        // Frame 0's last tiles go out, and with its queue empty frame 1 opens: its Job goes
+        // to every worker, to build while frame 0's tail renders. (Frame 1 is the last, but
+        // frame 0's four tiles out, 0.4 s by its mean, are more work than both threads each
+        // running its costliest tile predicted, 0.1 s: it does not open early.)
         let to_a = drain(&mut a);
         assert_eq!(assignments(&to_a), [(JOB, 4, 1), (JOB, 5, 1)]);
         assert_eq!(to_a.last(), Some(&sent_job(1)));
         let to_b = drain(&mut b);
         assert_eq!(assignments(&to_b), [(JOB, 6, 1), (JOB, 7, 1)]);
-        assert_eq!(to_b.get(1), Some(&sent_job(1)), "opened after tile 6 went");
+        assert_eq!(to_b.last(), Some(&sent_job(1)));
         assert_eq!(s.open_frames(), 2);
         // Tiles 5, 6 and 7 of frame 0 in flight: a's free slot takes frame 1's first tile.
         s.handle(result_of(1, JOB, 4, 1, 0.5), Instant::now());
@@ -908,36 +908,42 @@ mod tests {
     #[tokio::test(start_paused = true)]
     async fn the_last_frame_opens_early_and_its_costliest_tiles_go_before_the_tail() {
         let mut s = two_frames(3, 2);
-        let mut a = join(&mut s, 1, 1);
-        let mut b = join(&mut s, 2, 1);
+        let mut w: Vec<_> = (1..=3).map(|id| join(&mut s, id, 1)).collect();
         s.fill(Instant::now());
-        drain(&mut a);
-        drain(&mut b);
-        // Frame 0's tiles 0–3 take 0.1, 0.1, 0.1 and 1.0 s (a mean of 0.325 s).
-        for (w, t, seconds) in [(1, 0, 0.1), (1, 1, 0.1), (2, 2, 0.1), (2, 3, 1.0)] {
-            let mut r = result_of(w, JOB, t, 1, 0.5);
-            if let Event::Result { seconds: s, .. } = &mut r {
-                *s = seconds;
+        // Frame 0's tiles 0–5 take 0.1 s each but tile 5, which takes 1.0 s (a mean of 0.25).
+        for t in 0..6 {
+            let mut r = result_of(1 + t as WorkerId / 2, JOB, t, 1, 0.5);
+            if let Event::Result { seconds, .. } = &mut r {
+                *seconds = if t == 5 { 1.0 } else { 0.1 };
             }
             s.handle(r, Instant::now());
         }
+        for rx in &mut w {
+            drain(rx);
+        }
         s.fill(Instant::now());
-        // Frame 1 is the last: it opens while frame 0 still has four tiles queued, as those
-        // (4 × 0.325 s) are less work than both threads each running its costliest tile
-        // (1.0 s). Its tiles near tile 3 (2, 3, 6 and 7) are predicted 1.0 s. Frame 0's tiles
-        // 4 and 5 go first; then all that is queued (2 × 0.325 s of frame 0 and frame 1's
-        // 1.3 s measured at the same places) is no more than both threads running 1.0 s, so
-        // frame 1's tiles 2 and 3 are urgent and go before frame 0's 6 and 7.
-        let to_a = drain(&mut a);
+        // Frame 1 is the last: it opens while frame 0's tiles 6 and 7 are still queued, as
+        // those (2 × 0.25 s) are less work than the three threads each running its costliest
+        // tile (1.0 s). Its tiles within one of tile 5 (0, 1, 2, 4, 5, 6) are predicted 1.0 s,
+        // and all the work not done (0.5 s of frame 0 and frame 1's 1.5 s measured at the same
+        // places) is less than the three threads running one of them: each is urgent, and goes
+        // before frame 0's last two tiles.
+        let sent: Vec<_> = w.iter_mut().map(drain).collect();
+        for to in &sent {
+            assert_eq!(
+                to.first(),
+                Some(&sent_job(1)),
+                "opened before a tile was dealt"
+            );
+        }
+        let dealt: Vec<_> = sent.iter().flat_map(|to| assignments(to)).collect();
         assert_eq!(
-            to_a.first(),
-            Some(&sent_job(1)),
-            "opened before a was dealt"
+            dealt,
+            [0, 1, 2, 4, 5, 6].map(|t| (NEXT, t, 1)),
+            "frame 1's urgent tiles, costliest first"
         );
-        assert_eq!(assignments(&to_a), [(JOB, 4, 1), (JOB, 5, 1)]);
-        assert_eq!(assignments(&drain(&mut b)), [(NEXT, 2, 1), (NEXT, 3, 1)]);
         assert_eq!(s.open_frames(), 2);
-        assert_eq!(s.progress(), (4, 16));
+        assert_eq!(s.progress(), (6, 16));
     }
 
     #[tokio::test(start_paused = true)]
