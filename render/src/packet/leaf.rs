@@ -81,7 +81,7 @@ type Lanes<'a, 'b> = (&'a Scene<f32>, &'b [PreparedRay<f32>], &'b ShearedRays);
 
 /// `rays` as `f32` rays when `R` is `f32`.
 #[inline(always)]
-fn f32_rays<R: Real>(rays: &[PreparedRay<R>]) -> Option<&[PreparedRay<f32>]> {
+pub(crate) fn f32_rays<R: Real>(rays: &[PreparedRay<R>]) -> Option<&[PreparedRay<f32>]> {
     if TypeId::of::<R>() == TypeId::of::<f32>() {
         // SAFETY: `R` is `f32`, so both slices have the same type.
         Some(unsafe { &*(rays as *const [PreparedRay<R>] as *const [PreparedRay<f32>]) })

@@ -7,9 +7,11 @@ use crate::accel::bvh::wide::WIDTH;
 use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::slab::Box8;
 use crate::geometry::PreparedRay;
+#[cfg(target_arch = "x86_64")]
+use crate::packet::leaf::f32_rays;
 use crate::real::Real;
 #[cfg(target_arch = "x86_64")]
-use std::any::{Any, TypeId};
+use std::any::Any;
 
 /// Interval bounds of a packet's rays, per axis.
 #[derive(Clone, Copy, Debug)]
@@ -185,18 +187,6 @@ fn upper<R: Real>(acc: R, x: R) -> R {
         x
     } else {
         acc
-    }
-}
-
-/// `rays` as `f32` rays when `R` is `f32`.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn f32_rays<R: Real>(rays: &[PreparedRay<R>]) -> Option<&[PreparedRay<f32>]> {
-    if TypeId::of::<R>() == TypeId::of::<f32>() {
-        // SAFETY: `R` is `f32`, so both slices have the same type.
-        Some(unsafe { &*(rays as *const [PreparedRay<R>] as *const [PreparedRay<f32>]) })
-    } else {
-        None
     }
 }
 
