@@ -57,7 +57,8 @@ pub struct Motion {
 impl Motion {
     /// The shift that best carries `before`'s costs onto `after`'s (two frames of the same
     /// grid, one frame apart): the one under which the costliest 1 % of `after`'s tiles
-    /// (at least 16) find the most of their cost at their origin in `before`; the smallest
+    /// (at least 16, at most 256: the search is shifts × those tiles, once a frame, on the
+    /// master's loop) find the most of their cost at their origin in `before`; the smallest
     /// shift of equals, so a still camera reads as no motion.
     pub fn between(before: Grid<'_>, after: Grid<'_>) -> Motion {
         let n = after.costs.len();
@@ -66,7 +67,7 @@ impl Motion {
         }
         let cols = after.cols.max(1);
         let mut top: Vec<usize> = (0..n).collect();
-        let k = (n / 100).max(16).min(n);
+        let k = (n / 100).clamp(16, 256).min(n);
         top.select_nth_unstable_by(k - 1, |&a, &b| after.costs[b].total_cmp(&after.costs[a]));
         top.truncate(k);
         let (mx, my) = (
