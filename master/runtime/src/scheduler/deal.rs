@@ -149,9 +149,9 @@ impl Scheduler {
     /// frames whose next tile is *urgent*, costliest first, then the rest oldest first. A
     /// tile is urgent when it is predicted to take at least as long as the work not done in
     /// every frame open (queued or in flight), spread over the `threads` ready, would: dealt
-    /// after the frames before
-    /// it, it would end after the rest, and the threads that finish the rest would wait for
-    /// it (the last frames of a sequence, opened early for that, [`Scheduler::open_next`]).
+    /// after the frames before it, it would end after the rest, and the threads that finish
+    /// the rest would wait for it (the last frame of a sequence, opened early for that,
+    /// [`Scheduler::open_next`]).
     /// Longest-first list scheduling across the frames does the same at the end but starves
     /// the oldest frame's cheap tiles meanwhile, and a frame not closed holds up the window.
     fn deal_order(&mut self, threads: usize) -> Vec<usize> {

@@ -370,10 +370,9 @@ pub struct FrameFinished {
 
 impl Scheduler {
     /// Makes this scheduler's job frame 0 of a sequence of `count` frames whose Job is `job`,
-    /// with up to
-    /// `window` frames open at once (at least 1, at most one less than what a worker keeps
-    /// built, [`parrt_protocol::limits::MAX_JOBS_HELD`]: a worker also keeps its base): later
-    /// frames are given by [`Self::push_frame`], complete ones taken by
+    /// with up to `window` frames open at once (at least 1, at most one less than what a
+    /// worker keeps built, [`parrt_protocol::limits::MAX_JOBS_HELD`]: a worker also keeps its
+    /// base): later frames are given by [`Self::push_frame`], complete ones taken by
     /// [`Self::take_complete`].
     pub fn start_frames(&mut self, window: usize, count: usize, job: FrameJob) {
         let Some(f) = self.open.first() else {
@@ -468,11 +467,11 @@ impl Scheduler {
 
     /// Opens the frames given while the window has room and either no tile of those open is
     /// left to hand out or, the next frame the last and predicted, what those open have not
-    /// done is less work than `threads` (the ready render threads) each running its costliest tile
-    /// (a frame before the last needs no such start: the frame after it fills its tail). A frame of
-    /// the same size as the latest measured goes out costliest first by each tile's latest
-    /// measured time (ties, and tiles not measured, in the usual order); its Job goes to every
-    /// worker connected.
+    /// done is less work than `threads` (the ready render threads) each running its
+    /// costliest tile (a frame before the last needs no such start: the frame after it fills
+    /// its tail). A frame of the same size as the latest measured goes out costliest first as
+    /// [`crate::prediction::predict`] predicts it (ties in the usual order); its Job goes to
+    /// every worker connected.
     pub(super) fn open_next(&mut self, threads: usize) {
         let mean = self.mean_cost();
         let Some(s) = &mut self.frames else {
