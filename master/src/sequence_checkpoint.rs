@@ -228,6 +228,11 @@ impl FrameSource for ResumableFrames<'_> {
         Ok((frame.description().into_owned(), settings.clone()))
     }
 
+    fn scene(&self, k: usize) -> Option<std::sync::Arc<SceneDescription>> {
+        let g = self.global(k).ok()?;
+        Some(self.sequence.frames().get(g)?.scene.clone())
+    }
+
     fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError> {
         let g = self.global(k)?;
         self.write_frame(g, &frame.film)

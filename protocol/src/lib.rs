@@ -76,7 +76,7 @@ pub use connection::Connection;
 pub use limits::{DEFAULT_MAX_FRAME, HANDSHAKE_MAX_FRAME};
 pub use message::{JobSpec, Message, ViewSpec};
 pub use pixels::{Packing, PixelError, PixelFormat, TilePixels};
-pub use scene_key::{scene_key, SceneKey};
+pub use scene_key::{scene_key, SceneContent, SceneKey};
 
 /// The protocol version spoken by this build; bumped on any incompatible change (2: mutual
 /// authentication, a nonce in Hello and the master's proof in Challenge; pixels as the output

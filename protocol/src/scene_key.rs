@@ -16,23 +16,43 @@ pub type SceneKey = [u8; 32];
 /// The key of `desc` built with `settings` (see the module's documentation); `None` when
 /// the description cannot be encoded (then the frame is always sent whole).
 pub fn scene_key(desc: &SceneDescription, settings: &RenderSettings) -> Option<SceneKey> {
-    let mut h = Sha256::new();
-    let content = (
-        &desc.background,
-        &desc.lights,
-        &desc.materials,
-        &desc.primitives,
-    );
-    h.update(postcard::to_stdvec(&content).ok()?);
-    for c in parrt_render::frame::origin(desc).to_array() {
-        h.update(c.to_bits().to_le_bytes());
+    SceneContent::new(desc)?.key(desc, settings)
+}
+
+/// A scene's content hashed once, for the keys of the frames that show it from different
+/// views: hashing the primitives is most of a key's cost, and a camera path's frames share
+/// them.
+#[derive(Clone)]
+pub struct SceneContent(Sha256);
+
+impl SceneContent {
+    /// The content of `desc` hashed (its view left out); `None` when it cannot be encoded.
+    pub fn new(desc: &SceneDescription) -> Option<Self> {
+        let mut h = Sha256::new();
+        let content = (
+            &desc.background,
+            &desc.lights,
+            &desc.materials,
+            &desc.primitives,
+        );
+        h.update(postcard::to_stdvec(&content).ok()?);
+        Some(SceneContent(h))
     }
-    let mut build = settings.clone();
-    build.width = 0;
-    build.height = 0;
-    build.spp = 0;
-    h.update(postcard::to_stdvec(&build).ok()?);
-    Some(h.finalize().into())
+
+    /// What [`scene_key`] gives for `desc` built with `settings`, `desc` having the content
+    /// this was made from, seen from any view (the content is not hashed again).
+    pub fn key(&self, desc: &SceneDescription, settings: &RenderSettings) -> Option<SceneKey> {
+        let mut h = self.0.clone();
+        for c in parrt_render::frame::origin(desc).to_array() {
+            h.update(c.to_bits().to_le_bytes());
+        }
+        let mut build = settings.clone();
+        build.width = 0;
+        build.height = 0;
+        build.spp = 0;
+        h.update(postcard::to_stdvec(&build).ok()?);
+        Some(h.finalize().into())
+    }
 }
 
 #[cfg(test)]
@@ -62,5 +82,22 @@ mod tests {
         let mut f64s = s.clone();
         f64s.precision = parrt_render::settings::Precision::F64;
         assert_ne!(scene_key(&d, &f64s), Some(k));
+    }
+
+    #[test]
+    fn content_hashed_once_gives_every_view_its_key() {
+        let d = scene();
+        let s = RenderSettings::new(16, 8);
+        let content = SceneContent::new(&d).expect("content");
+        let mut far = d.clone();
+        far.view.from.x = 1e6;
+        let mut f64s = s.clone();
+        f64s.precision = parrt_render::settings::Precision::F64;
+        for v in [&d, &far] {
+            for s in [&s, &f64s] {
+                assert_eq!(content.key(v, s), scene_key(v, s));
+            }
+        }
+        assert_ne!(content.key(&d, &f64s), content.key(&d, &s));
     }
 }

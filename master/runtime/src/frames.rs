@@ -10,12 +10,13 @@ use crate::options::MasterConfig;
 use crate::scheduler::{AcceptedTile, FrameCamera, FrameFinished, FrameJob, Scheduler};
 use crate::server::{drive, encode_job, Loop};
 use crate::DistError;
-use parrt_protocol::Encoded;
+use parrt_protocol::{Encoded, SceneContent, SceneKey};
 use parrt_render::description::SceneDescription;
 use parrt_render::settings::RenderSettings;
 use parrt_render::stats::RayStats;
 use parrt_render::tile::{tiles, Tile};
 use rand::Rng;
+use std::sync::Arc;
 
 /// The later frames of a sequence ([`crate::Master::render_sequence`]): what each is, and where each
 /// finished frame goes.
@@ -25,6 +26,12 @@ pub trait FrameSource {
     /// Frame `k`'s scene and settings (`k` ≥ 1), asked for in order, when frame `k - 1` is
     /// given to the scheduler (before it opens).
     fn frame(&mut self, k: usize) -> Result<(SceneDescription, RenderSettings), DistError>;
+    /// The scene frame `k` shows before its view is set, shared by every frame that shows it
+    /// (a camera path's frames share one), so that the master hashes a scene's content once,
+    /// not once a frame. `None`: not known, and each frame is hashed whole.
+    fn scene(&self, _k: usize) -> Option<Arc<SceneDescription>> {
+        None
+    }
     /// Frame `k` is complete (every frame but the last, which is the render's result), each
     /// once, as soon as it is: frames may complete out of order.
     fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError>;
@@ -88,24 +95,57 @@ fn open_frame<F: FrameSource + ?Sized>(
     k: usize,
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
+    hashes: &mut SceneHashes,
 ) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>, FrameJob), DistError> {
     let (desc, settings) = src.frame(k)?;
     let job_id = rng.gen::<u64>();
-    let job = frame_job(job_id, &desc, &settings, config)?;
+    let key = hashes.key(src.scene(k), &desc, &settings);
+    let job = frame_job(job_id, &desc, &settings, key, config)?;
     let list = tiles(settings.width, settings.height, config.schedule.tile);
     Ok((job_id, desc, settings, list, job))
 }
 
-/// A frame's Job: encoded whole, and its scene key and camera, so that a worker holding a Job
-/// of the same key is sent the camera alone.
+/// The content hash of the scene the latest frame showed, kept while the frames after it
+/// show the same shared scene ([`FrameSource::scene`]).
+#[derive(Default)]
+struct SceneHashes {
+    latest: Option<(Arc<SceneDescription>, Option<SceneContent>)>,
+}
+
+impl SceneHashes {
+    /// The scene key of `desc` built with `settings`, `shared` being the scene it shows before
+    /// its view is set, if the source knows it: its content hashed only when it differs from
+    /// the latest frame's.
+    fn key(
+        &mut self,
+        shared: Option<Arc<SceneDescription>>,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+    ) -> Option<SceneKey> {
+        let Some(scene) = shared else {
+            return parrt_protocol::scene_key(desc, settings);
+        };
+        let known = matches!(&self.latest, Some((s, _)) if Arc::ptr_eq(s, &scene));
+        if !known {
+            let content = SceneContent::new(&scene);
+            self.latest = Some((scene, content));
+        }
+        let (_, content) = self.latest.as_ref()?;
+        content.as_ref()?.key(desc, settings)
+    }
+}
+
+/// A frame's Job: encoded whole, and its scene key (`None`: none) and camera, so that a worker
+/// holding a Job of the same key is sent the camera alone.
 fn frame_job(
     job_id: u64,
     desc: &SceneDescription,
     settings: &RenderSettings,
+    key: Option<SceneKey>,
     config: &MasterConfig,
 ) -> Result<FrameJob, DistError> {
     let job: Encoded = encode_job(job_id, desc, settings, config)?;
-    let camera = parrt_protocol::scene_key(desc, settings).map(|key| FrameCamera {
+    let camera = key.map(|key| FrameCamera {
         key,
         view: desc.view.clone(),
         settings: settings.clone(),
@@ -130,6 +170,7 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
     let driven = match frames {
         Some(src) if count > 1 || src.keeps_tiles() => {
             let (job_id, desc, settings) = first;
+            let mut hashes = SceneHashes::default();
             let keeps = src.keeps_tiles();
             if keeps {
                 l.sched.keep_accepted();
@@ -139,7 +180,13 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
                 l.sched.start_frames(
                     config.schedule.frames_window,
                     count,
-                    frame_job(job_id, desc, settings, config)?,
+                    frame_job(
+                        job_id,
+                        desc,
+                        settings,
+                        hashes.key(src.scene(0), desc, settings),
+                        config,
+                    )?,
                 );
             }
             let mut next = 1;
@@ -156,7 +203,8 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
                     }
                 }
                 if next < count && sched.pending_frames() == 0 {
-                    let (job_id, desc, settings, list, job) = open_frame(src, next, rng, config)?;
+                    let (job_id, desc, settings, list, job) =
+                        open_frame(src, next, rng, config, &mut hashes)?;
                     seq.tiles += list.len();
                     sched.push_frame(next, job_id, &settings, desc.lights.len(), list, job);
                     if keeps {

@@ -142,6 +142,13 @@ impl FrameSource for Frames<'_> {
         Ok((desc, self.settings.clone()))
     }
 
+    fn scene(
+        &self,
+        k: usize,
+    ) -> Option<std::sync::Arc<parrt_render::description::SceneDescription>> {
+        Some(self.seq.frames().get(k)?.scene.clone())
+    }
+
     fn finished(&mut self, _k: usize, _frame: FrameFinished) -> Result<(), DistError> {
         Ok(())
     }
