@@ -6,7 +6,7 @@
 //! with the same key have the same built scene and accelerator, bit for bit: the later may be
 //! sent as a [`crate::ViewSpec`] of the earlier.
 
-use parrt_render::description::SceneDescription;
+use parrt_render::description::{Bounds, SceneDescription};
 use parrt_render::settings::RenderSettings;
 use sha2::{Digest, Sha256};
 
@@ -21,9 +21,12 @@ pub fn scene_key(desc: &SceneDescription, settings: &RenderSettings) -> Option<S
 
 /// A scene's content hashed once, for the keys of the frames that show it from different
 /// views: hashing the primitives is most of a key's cost, and a camera path's frames share
-/// them.
+/// them. The bounds the rendering frame's origin is found from are kept too.
 #[derive(Clone)]
-pub struct SceneContent(Sha256);
+pub struct SceneContent {
+    hash: Sha256,
+    bounds: Bounds,
+}
 
 impl SceneContent {
     /// The content of `desc` hashed (its view left out); `None` when it cannot be encoded.
@@ -36,14 +39,18 @@ impl SceneContent {
             &desc.primitives,
         );
         h.update(postcard::to_stdvec(&content).ok()?);
-        Some(SceneContent(h))
+        Some(SceneContent {
+            hash: h,
+            bounds: parrt_render::frame::sampled_bounds(desc),
+        })
     }
 
     /// What [`scene_key`] gives for `desc` built with `settings`, `desc` having the content
     /// this was made from, seen from any view (the content is not hashed again).
     pub fn key(&self, desc: &SceneDescription, settings: &RenderSettings) -> Option<SceneKey> {
-        let mut h = self.0.clone();
-        for c in parrt_render::frame::origin(desc).to_array() {
+        let mut h = self.hash.clone();
+        let origin = parrt_render::frame::origin_for(&self.bounds, desc.view.from);
+        for c in origin.to_array() {
             h.update(c.to_bits().to_le_bytes());
         }
         let mut build = settings.clone();
