@@ -422,6 +422,9 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
     let in_order = |v: &[f64]| order.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
     let pixels_in_order: Vec<u64> = order.iter().map(|&i| pixels[i as usize]).collect();
     let single = simulate(&in_order(&costs), &pixels_in_order, &p);
+    // Each frame's tile costs, by tile id: frame 0's as recorded, the others as the orbit
+    // carries them.
+    let each: Vec<Vec<f64>> = (0..frame_count).map(|f| orbit.costs(f, &costs)).collect();
     // A sequence as the model sees it: a stream of tiles, frame after frame, each later frame
     // costliest first by the previous frame's costs, which are its predicted costs; frame
     // k+1's tiles fill frame k's tail, up to the master's window of frames.
@@ -430,7 +433,6 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         let (mut all_costs, mut all_pixels) = (in_order(&costs), pixels_in_order.clone());
         let mut longest = vec![0.0; all_costs.len()];
         let mut expected = longest.clone();
-        let each: Vec<Vec<f64>> = (0..frame_count).map(|f| orbit.costs(f, &costs)).collect();
         let grid = |g: usize| Grid {
             costs: &each[g],
             cols: orbit.cols,
@@ -508,7 +510,13 @@ pub fn run(path: &Path, c: &Config) -> anyhow::Result<Row> {
         seen,
         wall_s,
         // The trace's clock is dilated: so are the costs it is read with.
-        trace: tail.tail(n, &costs.iter().map(|c| c * k).collect::<Vec<_>>()),
+        trace: tail.tail(
+            n,
+            &each
+                .iter()
+                .map(|f| f.iter().map(|c| c * k).collect())
+                .collect::<Vec<Vec<f64>>>(),
+        ),
     })
 }
 

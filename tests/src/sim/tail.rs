@@ -1,7 +1,7 @@
 //! What binds a fault-free run, read from its event trace: an [`Observer`] on the real
-//! master that notes when each tile was handed out and when its result came in, and from
-//! them how much thread time was idle once the queue had emptied (the tail) and what the
-//! tiles handed out last cost against the frame's mean.
+//! master that notes when each tile (of which frame) was handed out and when its result came
+//! in, and from them how much thread time was idle once the queue had emptied (the tail) and
+//! what the tiles handed out last cost against the mean of every tile.
 
 use parrt_render::film::Rgb;
 use parrt_render::stats::RayStats;
@@ -21,10 +21,10 @@ struct Seen {
     finished: Option<Instant>,
     /// When the last tile (not a backup copy) was handed out: the queue was empty after it.
     last_handout: Option<Instant>,
-    /// Each first handout: (when, tile id), in order.
-    handouts: Vec<(Instant, u32)>,
-    /// Each accepted result: (when it came in, tile id).
-    results: Vec<(Instant, u32)>,
+    /// Each first handout: (when, frame, tile id), in order.
+    handouts: Vec<(Instant, usize, u32)>,
+    /// Each accepted result: (when it came in, frame, tile id).
+    results: Vec<(Instant, usize, u32)>,
 }
 
 /// What the trace says.
@@ -45,9 +45,9 @@ pub struct Tail {
 }
 
 impl TailTrace {
-    /// Reads the trace of a run on `threads` render threads in all, whose tiles cost `costs`
-    /// seconds of the trace's clock (by tile id).
-    pub fn tail(&self, threads: usize, costs: &[f64]) -> Tail {
+    /// Reads the trace of a run on `threads` render threads in all, whose tiles cost
+    /// `costs[frame][tile id]` seconds of the trace's clock (one frame: `costs` of one).
+    pub fn tail(&self, threads: usize, costs: &[Vec<f64>]) -> Tail {
         let s = self.0.lock().unwrap_or_else(|p| p.into_inner());
         let (Some(t0), Some(end), Some(h)) = (s.started, s.finished, s.last_handout) else {
             return Tail::default();
@@ -56,32 +56,39 @@ impl TailTrace {
         let after = end.duration_since(h).as_secs_f64();
         // Work done after the last handout: of each result that came in later, the part of
         // its cost that fits between the handout and its arrival.
-        let cost = |id: u32| costs.get(id as usize).copied().unwrap_or(0.0);
+        let cost = |frame: usize, id: u32| {
+            costs
+                .get(frame)
+                .and_then(|c| c.get(id as usize))
+                .copied()
+                .unwrap_or(0.0)
+        };
         let busy_after: f64 = s
             .results
             .iter()
-            .filter(|(at, _)| *at > h)
-            .map(|(at, id)| cost(*id).min(at.duration_since(h).as_secs_f64()))
+            .filter(|(at, _, _)| *at > h)
+            .map(|(at, f, id)| cost(*f, *id).min(at.duration_since(h).as_secs_f64()))
             .sum();
         let n = threads.max(1) as f64;
-        let mean = costs.iter().sum::<f64>() / costs.len().max(1) as f64;
+        let all = costs.iter().flatten();
+        let mean = all.clone().sum::<f64>() / all.count().max(1) as f64;
         let k = (s.handouts.len() / 100).max(1);
         let last: Vec<f64> = s.handouts[s.handouts.len().saturating_sub(k)..]
             .iter()
-            .map(|(_, id)| cost(*id))
+            .map(|(_, f, id)| cost(*f, *id))
             .collect();
         let last_mean = last.iter().sum::<f64>() / last.len().max(1) as f64;
         let kr = (s.results.len() / 100).max(1);
         let last_in: Vec<f64> = s.results[s.results.len().saturating_sub(kr)..]
             .iter()
-            .map(|(_, id)| cost(*id))
+            .map(|(_, f, id)| cost(*f, *id))
             .collect();
         let last_in_mean = last_in.iter().sum::<f64>() / last_in.len().max(1) as f64;
         let costliest_out = s
             .results
             .iter()
-            .filter(|(at, _)| *at > h)
-            .map(|(_, id)| cost(*id))
+            .filter(|(at, _, _)| *at > h)
+            .map(|(_, f, id)| cost(*f, *id))
             .fold(0.0, f64::max);
         Tail {
             handout_share: h.duration_since(t0).as_secs_f64() / trace,
@@ -98,16 +105,25 @@ impl Observer for TailTrace {
         self.0.lock().unwrap_or_else(|p| p.into_inner()).started = Some(now);
     }
 
-    fn assigned(&self, _id: WorkerId, tile: &Tile, attempt: u32, backup: bool, now: Instant) {
+    fn assigned_in(
+        &self,
+        frame: usize,
+        _id: WorkerId,
+        tile: &Tile,
+        attempt: u32,
+        backup: bool,
+        now: Instant,
+    ) {
         if !backup && attempt <= 1 {
             let mut s = self.0.lock().unwrap_or_else(|p| p.into_inner());
             s.last_handout = Some(now);
-            s.handouts.push((now, tile.id));
+            s.handouts.push((now, frame, tile.id));
         }
     }
 
-    fn result(
+    fn result_in(
         &self,
+        frame: usize,
         _id: WorkerId,
         tile: &Tile,
         _pixels: &[Rgb],
@@ -118,7 +134,7 @@ impl Observer for TailTrace {
         if accepted {
             let now = Instant::now();
             let mut s = self.0.lock().unwrap_or_else(|p| p.into_inner());
-            s.results.push((now, tile.id));
+            s.results.push((now, frame, tile.id));
         }
     }
 
