@@ -7,10 +7,10 @@
 //! sequence did.
 
 use crate::options::MasterConfig;
-use crate::scheduler::{AcceptedTile, FrameCamera, FrameFinished, FrameJob, Scheduler};
-use crate::server::{drive, encode_job, Loop};
+use crate::scheduler::{AcceptedTile, FrameCamera, FrameFinished, FrameJob, Scheduler, WholeJob};
+use crate::server::{drive, encode_job, job_message, Loop};
 use crate::DistError;
-use parrt_protocol::{Encoded, SceneContent, SceneKey};
+use parrt_protocol::{SceneContent, SceneKey};
 use parrt_render::description::SceneDescription;
 use parrt_render::settings::RenderSettings;
 use parrt_render::stats::RayStats;
@@ -100,16 +100,21 @@ fn open_frame<F: FrameSource + ?Sized>(
     let (desc, settings) = src.frame(k)?;
     let job_id = rng.gen::<u64>();
     let key = hashes.key(src.scene(k), &desc, &settings);
-    let job = frame_job(job_id, &desc, &settings, key, config)?;
+    // The frame before had the same key, so every worker holds a base of this scene or is
+    // sent frame 0's: this frame's whole Job waits until a worker needs it.
+    let defer = key.is_some() && key == hashes.last_key;
+    hashes.last_key = key;
+    let job = frame_job(job_id, &desc, &settings, key, defer, config)?;
     let list = tiles(settings.width, settings.height, config.schedule.tile);
     Ok((job_id, desc, settings, list, job))
 }
 
 /// The content hash of the scene the latest frame showed, kept while the frames after it
-/// show the same shared scene ([`FrameSource::scene`]).
+/// show the same shared scene ([`FrameSource::scene`]), and the latest frame's key.
 #[derive(Default)]
 struct SceneHashes {
     latest: Option<(Arc<SceneDescription>, Option<SceneContent>)>,
+    last_key: Option<SceneKey>,
 }
 
 impl SceneHashes {
@@ -135,16 +140,25 @@ impl SceneHashes {
     }
 }
 
-/// A frame's Job: encoded whole, and its scene key (`None`: none) and camera, so that a worker
-/// holding a Job of the same key is sent the camera alone.
+/// A frame's Job: whole (encoded now, or when first needed if `defer`), and its scene key
+/// (`None`: none) and camera, so that a worker holding a Job of the same key is sent the
+/// camera alone.
 fn frame_job(
     job_id: u64,
     desc: &SceneDescription,
     settings: &RenderSettings,
     key: Option<SceneKey>,
+    defer: bool,
     config: &MasterConfig,
 ) -> Result<FrameJob, DistError> {
-    let job: Encoded = encode_job(job_id, desc, settings, config)?;
+    let job = if defer {
+        WholeJob::deferred(
+            job_message(job_id, desc, settings, config),
+            config.net.max_frame,
+        )
+    } else {
+        WholeJob::Encoded(encode_job(job_id, desc, settings, config)?)
+    };
     let camera = key.map(|key| FrameCamera {
         key,
         view: desc.view.clone(),
@@ -177,17 +191,10 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
                 l.sched.restore(src.restored(0));
             }
             if count > 1 {
-                l.sched.start_frames(
-                    config.schedule.frames_window,
-                    count,
-                    frame_job(
-                        job_id,
-                        desc,
-                        settings,
-                        hashes.key(src.scene(0), desc, settings),
-                        config,
-                    )?,
-                );
+                l.sched.start_frames(config.schedule.frames_window, count, {
+                    hashes.last_key = hashes.key(src.scene(0), desc, settings);
+                    frame_job(job_id, desc, settings, hashes.last_key, false, config)?
+                });
             }
             let mut next = 1;
             let mut hook = |sched: &mut Scheduler| -> Result<(), DistError> {

@@ -266,14 +266,81 @@ pub struct FrameCamera {
 #[derive(Clone, Debug)]
 pub struct FrameJob {
     /// The whole Job.
-    pub job: Encoded,
+    pub job: WholeJob,
     /// The camera-only form's parts; `None`: always the whole Job.
     pub camera: Option<FrameCamera>,
 }
 
 impl From<Encoded> for FrameJob {
     fn from(job: Encoded) -> Self {
-        FrameJob { job, camera: None }
+        FrameJob {
+            job: WholeJob::Encoded(job),
+            camera: None,
+        }
+    }
+}
+
+/// A frame's whole Job: encoded when the frame is given, or, for a frame whose scene key is
+/// the frame before's (a camera path), the first time a worker needs it whole. Workers that
+/// hold that scene are sent the camera alone, so an orbit's later frames are never encoded
+/// whole unless a worker holds another scene.
+#[derive(Clone)]
+pub enum WholeJob {
+    /// Encoded already.
+    Encoded(Encoded),
+    /// The Job message, encoded once when first asked for.
+    Deferred(Arc<DeferredJob>),
+}
+
+/// A Job message and, once asked for, its encoding ([`WholeJob::Deferred`]).
+pub struct DeferredJob {
+    message: Message,
+    max_frame: usize,
+    made: std::sync::OnceLock<Result<Encoded, String>>,
+}
+
+impl WholeJob {
+    /// `message` encoded when first asked for, refused then if it is over `max_frame` bytes.
+    pub fn deferred(message: Message, max_frame: usize) -> Self {
+        WholeJob::Deferred(Arc::new(DeferredJob {
+            message,
+            max_frame,
+            made: std::sync::OnceLock::new(),
+        }))
+    }
+
+    /// The encoded Job, or why it cannot be (it does not encode, or is over the frame limit:
+    /// neither can happen to a Job whose scene an earlier frame's Job sent whole).
+    pub fn encoded(&self) -> Result<Encoded, String> {
+        match self {
+            WholeJob::Encoded(e) => Ok(e.clone()),
+            WholeJob::Deferred(d) => d
+                .made
+                .get_or_init(|| {
+                    let e = Encoded::new(&d.message).map_err(|e| e.to_string())?;
+                    if e.len() > d.max_frame {
+                        return Err(format!(
+                            "the Job is {} bytes, over the {}-byte frame limit",
+                            e.len(),
+                            d.max_frame
+                        ));
+                    }
+                    Ok(e)
+                })
+                .clone(),
+        }
+    }
+}
+
+impl std::fmt::Debug for WholeJob {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WholeJob::Encoded(e) => write!(f, "WholeJob::Encoded({} bytes)", e.len()),
+            WholeJob::Deferred(d) => {
+                let made = d.made.get().map(|r| r.as_ref().map(Encoded::len));
+                write!(f, "WholeJob::Deferred({made:?})")
+            }
+        }
     }
 }
 
@@ -303,7 +370,16 @@ fn send_frame(
             let _ = w.outbox.send(view.into());
         }
         _ => {
-            let _ = w.outbox.send(Outgoing::Encoded(fj.job.clone()));
+            let job = match fj.job.encoded() {
+                Ok(job) => job,
+                Err(reason) => {
+                    // The worker cannot be given this frame; it keeps its base, and a tile of
+                    // the frame it is dealt comes back as a fault.
+                    warn!("frame job {job_id} cannot go to worker {id} whole: {reason}");
+                    return;
+                }
+            };
+            let _ = w.outbox.send(Outgoing::Encoded(job));
             if let Some(c) = &fj.camera {
                 bases.insert(id, (c.key, job_id));
                 if let Some((_, old)) = base.filter(|(_, old)| past.contains(old)) {
@@ -661,5 +737,27 @@ impl Scheduler {
     /// The position among the frames open of frame `index`.
     pub(super) fn frame_at(&self, index: usize) -> Option<usize> {
         self.open.iter().position(|f| f.index == index)
+    }
+}
+
+#[cfg(test)]
+mod whole_job_tests {
+    use super::*;
+
+    #[test]
+    fn a_deferred_job_encodes_as_an_eager_one_once_asked() {
+        let msg = Message::Cancel { job_id: 7 };
+        let eager = Encoded::new(&msg).expect("encodes");
+        let later = WholeJob::deferred(msg, 1 << 20);
+        assert!(format!("{later:?}").contains("Deferred(None)"));
+        assert_eq!(later.encoded(), Ok(eager.clone()));
+        assert_eq!(later.clone().encoded(), Ok(eager));
+    }
+
+    #[test]
+    fn a_deferred_job_over_the_frame_limit_is_refused_with_its_size() {
+        let job = WholeJob::deferred(Message::Cancel { job_id: 7 }, 1);
+        let err = job.encoded().expect_err("over the limit");
+        assert!(err.contains("over the 1-byte frame limit"), "{err}");
     }
 }

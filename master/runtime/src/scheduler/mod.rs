@@ -41,7 +41,7 @@ use tracing::{debug, info, warn};
 
 pub use crate::batch::BATCH_SECONDS;
 use frames::{Frame, Frames};
-pub use frames::{FrameCamera, FrameFinished, FrameJob, MAX_FRAMES_WINDOW};
+pub use frames::{FrameCamera, FrameFinished, FrameJob, WholeJob, MAX_FRAMES_WINDOW};
 
 mod deal;
 mod frames;
