@@ -10,6 +10,11 @@ use parrt_tests::*;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+/// Milliseconds each worker sleeps before a tile: the 64 tiles then take a worker alone at
+/// least 0.6 s, so the other is ready long before they run out even on a loaded machine (a
+/// 6 ms render once went whole to the worker that was ready first).
+const TILE_DELAY_MS: u64 = 10;
+
 /// `EXE worker` dialling `addr` with one thread on `tier`.
 fn worker_on(addr: std::net::SocketAddr, tier: Isa) -> ChildGuard {
     let child = Command::new(EXE)
@@ -17,7 +22,10 @@ fn worker_on(addr: std::net::SocketAddr, tier: Isa) -> ChildGuard {
         .env("PARRT_TOKEN", TEST_TOKEN)
         .env("PARRT_LOG", "warn")
         .env(parrt_render::isa::ENV, tier.name())
-        .env_remove(parrt_worker::options::TILE_DELAY_ENV)
+        .env(
+            parrt_worker::options::TILE_DELAY_ENV,
+            TILE_DELAY_MS.to_string(),
+        )
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .spawn()
