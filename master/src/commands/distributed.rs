@@ -63,7 +63,8 @@ const LOCAL_WINDOW: usize = 4;
 /// Makes `config` start `count` workers of `threads` threads on this machine. They do not pack
 /// their pixels: the loopback costs nothing to cross, and packing would only take CPU from the
 /// render threads. Their batches are larger and their windows deeper than a remote worker's
-/// ([`LOCAL_BATCH_SECONDS`]): a message costs more here, where every process shares the cores.
+/// (20 ms of work, 64 tiles, four to a thread): a message costs more here, where every process
+/// shares the cores.
 pub fn local_workers(config: &mut MasterConfig, count: usize, threads: usize) {
     config.spawn.count = count;
     config.spawn.threads = threads;
