@@ -8,7 +8,7 @@
 //! the `avx512` tier the eye packet and its shadow packets live in lanes
 //! ([`Integrator::trace_eye_block`]).
 
-use std::any::Any;
+use std::any::{Any, TypeId};
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
@@ -147,6 +147,9 @@ impl<R: Real> Integrator<R> {
         let mut lanes = None;
         self.intersect_packet(&prs[..n], &mut hits[..n], &mut lanes, stats);
         let lits = self.lits(rays, &hits[..n], kind, out, stats);
+        if self.lights_in_lanes(rays, &lits, &mut prs, out, stats) {
+            return self.trace_secondary(rays, &lits, depth, weights, out, stats);
+        }
         // Made once for all the lights: every light's packet overwrites what it uses.
         let mut shadow = [prs[0]; PACKET];
         let mut owner = [0usize; PACKET];
@@ -168,6 +171,33 @@ impl<R: Real> Integrator<R> {
             self.add_light(rays, &lits, li, &occ[..k], &owner, &toward, out, stats);
         }
         self.trace_secondary(rays, &lits, depth, weights, out, stats);
+    }
+
+    /// On the `avx2` tier in `f32`, [`Integrator::lights_lanes`] for a packet's lit hits, with
+    /// `buffer` for the rays a leaf takes one by one; `false` (and nothing done) elsewhere.
+    fn lights_in_lanes(
+        &self,
+        rays: &[Ray<R>],
+        lits: &[Option<Lit<R>>; PACKET],
+        buffer: &mut [PreparedRay<R>; PACKET],
+        out: &mut [V3<R>],
+        stats: &mut RayStats,
+    ) -> bool {
+        let tier = crate::isa::current();
+        if !tier.avx() || tier.avx512() {
+            return false;
+        }
+        if let (Some(integrator), Some(rays), Some(lits), Some(buffer), Some(out)) = (
+            (self as &dyn Any).downcast_ref::<Integrator<f32>>(),
+            same_slice::<Ray<R>, Ray<f32>>(rays),
+            (lits as &dyn Any).downcast_ref::<[Option<Lit<f32>>; PACKET]>(),
+            (buffer as &mut dyn Any).downcast_mut::<[PreparedRay<f32>; PACKET]>(),
+            same_slice_mut::<V3<R>, V3<f32>>(out),
+        ) {
+            integrator.lights_lanes(rays, lits, buffer, out, stats);
+            return true;
+        }
+        false
     }
 
     /// The lit hits of a packet's rays (counted in `stats` by `kind`), and each ray's colour
@@ -339,6 +369,26 @@ impl Integrator<f32> {
         self.accel
             .intersect_lanes(&eye, &mut hits[..n], stats, test);
         let lits = self.lits(rays, &hits[..n], RayKind::Eye, out, stats);
+        self.lights_lanes(rays, &lits, &mut prepared, out, stats);
+        let weights = [1.0; PACKET];
+        self.trace_secondary(rays, &lits, 1, &weights, out, stats);
+    }
+
+    /// Every light's term for a packet's lit hits (of `rays`), [`Integrator::add_light`] light
+    /// by light, with each light's shadow rays made in lanes ([`shadow_lanes`]) and answered by
+    /// [`Accel::occluded_lanes`] (rays a leaf takes one by one prepared into `prepared`): the
+    /// same rays, answers, colours and counts as the prepared rays of [`Integrator::trace_packet`].
+    ///
+    /// [`Accel::occluded_lanes`]: crate::accel::Accel::occluded_lanes
+    fn lights_lanes(
+        &self,
+        rays: &[Ray<f32>],
+        lits: &[Option<Lit<f32>>; PACKET],
+        prepared: &mut [PreparedRay<f32>; PACKET],
+        out: &mut [V3<f32>],
+        stats: &mut RayStats,
+    ) {
+        let n = rays.len();
         let mut surfaces = SurfaceLanes::default();
         for (i, lit) in lits[..n].iter().enumerate() {
             if let Some(lit) = lit {
@@ -372,17 +422,37 @@ impl Integrator<f32> {
                 k += 1;
             }
             surfaces.mask = mask;
-            shadow_lanes(&mut shadow, &eye, &surfaces, light.position, false);
+            shadow_lanes(&mut shadow, None, &surfaces, light.position);
             debug_assert_eq!(shadow.len(), k);
             if k > 0 {
-                let test = LanesLeaf::new(&self.scene, &mut prepared);
+                let test = LanesLeaf::new(&self.scene, prepared);
                 self.accel
                     .occluded_lanes(&shadow, &mut occ[..k], stats, test);
             }
-            self.add_light(rays, &lits, li, &occ[..k], &owner, &toward, out, stats);
+            self.add_light(rays, lits, li, &occ[..k], &owner, &toward, out, stats);
         }
-        let weights = [1.0; PACKET];
-        self.trace_secondary(rays, &lits, 1, &weights, out, stats);
+    }
+}
+
+/// `s` as a slice of `U` when `T` is `U`.
+#[inline(always)]
+fn same_slice<T: 'static, U: 'static>(s: &[T]) -> Option<&[U]> {
+    if TypeId::of::<T>() == TypeId::of::<U>() {
+        // SAFETY: `T` is `U`, so both slices have the same type.
+        Some(unsafe { &*(s as *const [T] as *const [U]) })
+    } else {
+        None
+    }
+}
+
+/// `s` as a mutable slice of `U` when `T` is `U`.
+#[inline(always)]
+fn same_slice_mut<T: 'static, U: 'static>(s: &mut [T]) -> Option<&mut [U]> {
+    if TypeId::of::<T>() == TypeId::of::<U>() {
+        // SAFETY: `T` is `U`, so both slices have the same type.
+        Some(unsafe { &mut *(s as *mut [T] as *mut [U]) })
+    } else {
+        None
     }
 }
 

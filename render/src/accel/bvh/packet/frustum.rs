@@ -251,6 +251,80 @@ fn inverse(r: &PreparedRay<f32>) -> crate::lanes::X4 {
     crate::lanes::Lanes::load(&[i.x, i.y, i.z, i.z])
 }
 
+/// [`Frustum::from_lanes`] for the `avx2` tier: the sixteen lanes of a row as two eight-lane
+/// registers, their `vminps`/`vmaxps` and then the eight lanes of that in turn (the bounds of
+/// finite lanes, where the order of the reduction changes at most the sign of a zero bound,
+/// which no comparison of the walk sees), each check a compare and a `movemask` per register.
+/// An end that is NaN counts as +∞ for the shortest ray, as `f32::min` takes it.
+///
+/// # Safety
+/// The CPU must support AVX and AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2")]
+pub(super) unsafe fn frustum_avx2(l: &RayPacket) -> Option<Frustum<f32>> {
+    use crate::lanes::{Lanes, Mask, X8};
+    let s = &l.slab;
+    let inf = X8::splat(f32::INFINITY);
+    let zero = X8::zero();
+    let mut ok = true;
+    let mut f = Frustum {
+        o_lo: [0.0; 3],
+        o_hi: [0.0; 3],
+        inv_lo: [0.0; 3],
+        inv_hi: [0.0; 3],
+        neg: s.neg,
+        t_min: 0.0,
+    };
+    for a in 0..3 {
+        let (o, inv) = (halves(&s.o[a]), halves(&s.inv[a]));
+        let neg = if s.neg[a] { 0xff } else { 0 };
+        for h in 0..2 {
+            let finite = o[h].abs().lt(inf).bits() & inv[h].abs().lt(inf).bits();
+            ok &= (finite == 0xff) & (inv[h].lt(zero).bits() == neg);
+        }
+        f.o_lo[a] = least(o[0].min_or(o[1]));
+        f.o_hi[a] = greatest(o[0].max_or(o[1]));
+        f.inv_lo[a] = least(inv[0].min_or(inv[1]));
+        f.inv_hi[a] = greatest(inv[0].max_or(inv[1]));
+    }
+    let t_min = halves(&s.t_min);
+    ok &= (t_min[0].abs().lt(inf).bits() & t_min[1].abs().lt(inf).bits()) == 0xff;
+    if !ok {
+        return None;
+    }
+    f.t_min = least(t_min[0].min_or(t_min[1]));
+    // `min_or` keeps the accumulator where a lane is NaN.
+    let t_max = halves(&l.t_max);
+    let shortest = least(t_max[1].min_or(t_max[0].min_or(inf)));
+    f.coherent(shortest)
+}
+
+/// The two halves of a row of sixteen lanes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn halves(a: &[f32; PACKET]) -> [crate::lanes::X8; 2] {
+    use crate::lanes::Lanes;
+    [Lanes::load(&a[..8]), Lanes::load(&a[8..])]
+}
+
+/// The least of eight lanes ([`lower`] in turn: a NaN lane is passed over).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn least(v: crate::lanes::X8) -> f32 {
+    let mut a = [0.0; 8];
+    crate::lanes::Lanes::store(v, &mut a);
+    a.into_iter().fold(f32::INFINITY, lower)
+}
+
+/// The greatest of eight lanes ([`upper`] in turn).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn greatest(v: crate::lanes::X8) -> f32 {
+    let mut a = [0.0; 8];
+    crate::lanes::Lanes::store(v, &mut a);
+    a.into_iter().fold(f32::NEG_INFINITY, upper)
+}
+
 /// [`Frustum::from_lanes`] for the `avx512` tier: each bound a reduction of one register
 /// (`vminps`/`vmaxps`: the bounds of finite lanes, where the order of the reduction changes
 /// at most the sign of a zero bound, which no comparison of the walk sees), each check one
@@ -324,10 +398,10 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2000))]
-        /// The AVX-512 bounds of a packet in lanes are the portable ones: the same decision
-        /// (signs, finiteness, coherence) and the same bound values.
+        /// The AVX-512 and AVX2 bounds of a packet in lanes are the portable ones: the same
+        /// decision (signs, finiteness, coherence) and the same bound values.
         #[test]
-        fn avx512_bounds_are_the_portable_bounds(
+        fn simd_bounds_are_the_portable_bounds(
             base in proptest::array::uniform3(-5.0f32..5.0),
             signs in proptest::array::uniform3(any::<bool>()),
             rays in proptest::collection::vec(
@@ -338,7 +412,7 @@ mod tests {
                 1..=PACKET),
         ) {
             #[cfg(target_arch = "x86_64")]
-            if crate::isa::Isa::Avx512.supported() {
+            {
                 let mut l = RayPacket::new();
                 for &(jitter, d, flip, t_max, t_min) in &rays {
                     let o = V3::from_array([0, 1, 2].map(|a| base[a] + jitter[a]));
@@ -350,14 +424,24 @@ mod tests {
                 }
                 l.prepare();
                 let want = Frustum::<f32>::from_lanes(&l);
-                // SAFETY: this CPU has AVX-512 F.
-                let got = unsafe { frustum_avx512(&l) };
-                prop_assert_eq!(want.is_some(), got.is_some(), "{:?} {:?}", want, got);
-                if let (Some(w), Some(g)) = (want, got) {
-                    // Values, not bits: the sign of a zero bound may differ (see frustum_avx512).
-                    prop_assert!(w.o_lo == g.o_lo && w.o_hi == g.o_hi, "{:?} {:?}", w, g);
-                    prop_assert!(w.inv_lo == g.inv_lo && w.inv_hi == g.inv_hi, "{:?} {:?}", w, g);
-                    prop_assert!(w.neg == g.neg && w.t_min == g.t_min, "{:?} {:?}", w, g);
+                let mut got = Vec::new();
+                if crate::isa::Isa::Avx512.supported() {
+                    // SAFETY: this CPU has AVX-512 F.
+                    got.push(unsafe { frustum_avx512(&l) });
+                }
+                if crate::isa::Isa::Avx2.supported() {
+                    // SAFETY: this CPU has AVX and AVX2.
+                    got.push(unsafe { frustum_avx2(&l) });
+                }
+                for got in got {
+                    prop_assert_eq!(want.is_some(), got.is_some(), "{:?} {:?}", want, got);
+                    if let (Some(w), Some(g)) = (want, got) {
+                        // Values, not bits: the sign of a zero bound may differ (see
+                        // frustum_avx512).
+                        prop_assert!(w.o_lo == g.o_lo && w.o_hi == g.o_hi, "{:?} {:?}", w, g);
+                        prop_assert!(w.inv_lo == g.inv_lo && w.inv_hi == g.inv_hi, "{:?} {:?}", w, g);
+                        prop_assert!(w.neg == g.neg && w.t_min == g.t_min, "{:?} {:?}", w, g);
+                    }
                 }
             }
         }
