@@ -5,8 +5,9 @@
 //! stay as coherent as the eye rays; incoherent ones are traced one by one inside the packet
 //! code). Every ray gets the answer it gets alone, and shading is the same code summed in the
 //! same order, so the colours are the same bits as tracing each eye ray on its own. In `f32` on
-//! the `avx512` tier the eye packet and its shadow packets live in lanes
-//! ([`Integrator::trace_eye_block`]).
+//! the `avx2` and `avx512` tiers the eye packet and its shadow packets live in lanes
+//! ([`Integrator::trace_eye_block`]), and on `avx2` so do the shadow packets of the secondary
+//! rays ([`Integrator::trace_packet`]).
 
 use std::any::{Any, TypeId};
 
@@ -86,10 +87,11 @@ impl<R: Real> Integrator<R> {
     /// Radiance along the eye rays through the centres of the pixels `bx..bx + bw` ×
     /// `by..by + bh` (at most [`PACKET`], row by row), into `out`'s first `bw × bh`: the colours
     /// [`Integrator::trace_eye_packet`] gives `camera.ray(x + 0.5, y + 0.5)`. In `f32` on the
-    /// `avx512` tier the rays are made in lanes and the hits and their shadow rays found in
-    /// lanes ([`RayPacket`], [`crate::packet::shadow`]), as `bench cast` does; the rest (shading,
-    /// secondary rays) is the same code either way. Other tiers and `f64` make the rays one by
-    /// one (the lanes do not pay there, as measured in bench/results/).
+    /// `avx2` and `avx512` tiers the rays are made in lanes and the hits and their shadow rays
+    /// found in lanes ([`RayPacket`], [`crate::packet::shadow`]); the rest (shading, secondary
+    /// rays) is the same code either way. The other tiers and `f64` make the rays one by one
+    /// (the lanes do not pay there, as measured in bench/results/; on `avx2` they pay once
+    /// the shadow rays and the packet's bounds are in eight-lane registers too).
     pub fn trace_eye_block(
         &self,
         camera: &Camera<R>,
@@ -101,7 +103,7 @@ impl<R: Real> Integrator<R> {
             (self as &dyn Any).downcast_ref::<Integrator<f32>>(),
             (camera as &dyn Any).downcast_ref::<Camera<f32>>(),
             (out as &mut dyn Any).downcast_mut::<[V3<f32>; PACKET]>(),
-            crate::isa::current().avx512(),
+            crate::isa::current().avx(),
         ) {
             return integrator.trace_eye_lanes(camera, (bx, by, bw, bh), out, stats);
         }
@@ -121,7 +123,9 @@ impl<R: Real> Integrator<R> {
     /// `weights[i]`, into `out`: the colours [`Integrator::trace`] gives each. The hits'
     /// reflection rays then go on as one packet, and their refraction rays as another, when
     /// there are two or more and their directions are close ([`SECONDARY_SPREAD`]), down to
-    /// [`PACKET_DEPTH`]; otherwise they go one by one.
+    /// [`PACKET_DEPTH`]; otherwise they go one by one. In `f32` on the `avx2` tier each light's
+    /// shadow rays are made and answered in lanes ([`Integrator::lights_lanes`]); the `avx512`
+    /// tier's secondary packets keep prepared shadow rays (lanes there were not measured).
     #[allow(clippy::too_many_arguments)]
     pub fn trace_packet(
         &self,
