@@ -252,9 +252,9 @@ fn inverse(r: &PreparedRay<f32>) -> crate::lanes::X4 {
 }
 
 /// [`Frustum::from_lanes`] for the `avx2` tier: the sixteen lanes of a row as two eight-lane
-/// registers, their `vminps`/`vmaxps` and then the eight lanes of that in turn (the bounds of
+/// registers, their `vminps`/`vmaxps`, and that register reduced by shuffles (the bounds of
 /// finite lanes, where the order of the reduction changes at most the sign of a zero bound,
-/// which no comparison of the walk sees), each check a compare and a `movemask` per register.
+/// which no comparison of the walk sees); each check a compare and a `movemask` per register.
 /// An end that is NaN counts as +∞ for the shortest ray, as `f32::min` takes it.
 ///
 /// # Safety
@@ -262,10 +262,10 @@ fn inverse(r: &PreparedRay<f32>) -> crate::lanes::X4 {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2")]
 pub(super) unsafe fn frustum_avx2(l: &RayPacket) -> Option<Frustum<f32>> {
-    use crate::lanes::{Lanes, Mask, X8};
+    use std::arch::x86_64::*;
     let s = &l.slab;
-    let inf = X8::splat(f32::INFINITY);
-    let zero = X8::zero();
+    let inf = _mm256_set1_ps(f32::INFINITY);
+    let zero = _mm256_setzero_ps();
     let mut ok = true;
     let mut f = Frustum {
         o_lo: [0.0; 3],
@@ -279,50 +279,92 @@ pub(super) unsafe fn frustum_avx2(l: &RayPacket) -> Option<Frustum<f32>> {
         let (o, inv) = (halves(&s.o[a]), halves(&s.inv[a]));
         let neg = if s.neg[a] { 0xff } else { 0 };
         for h in 0..2 {
-            let finite = o[h].abs().lt(inf).bits() & inv[h].abs().lt(inf).bits();
-            ok &= (finite == 0xff) & (inv[h].lt(zero).bits() == neg);
+            let below = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(inv[h], zero));
+            ok &= ((finite(o[h]) & finite(inv[h])) == 0xff) & (below == neg);
         }
-        f.o_lo[a] = least(o[0].min_or(o[1]));
-        f.o_hi[a] = greatest(o[0].max_or(o[1]));
-        f.inv_lo[a] = least(inv[0].min_or(inv[1]));
-        f.inv_hi[a] = greatest(inv[0].max_or(inv[1]));
+        f.o_lo[a] = least(_mm256_min_ps(o[0], o[1]));
+        f.o_hi[a] = greatest(_mm256_max_ps(o[0], o[1]));
+        f.inv_lo[a] = least(_mm256_min_ps(inv[0], inv[1]));
+        f.inv_hi[a] = greatest(_mm256_max_ps(inv[0], inv[1]));
     }
     let t_min = halves(&s.t_min);
-    ok &= (t_min[0].abs().lt(inf).bits() & t_min[1].abs().lt(inf).bits()) == 0xff;
+    ok &= (finite(t_min[0]) & finite(t_min[1])) == 0xff;
     if !ok {
         return None;
     }
-    f.t_min = least(t_min[0].min_or(t_min[1]));
-    // `min_or` keeps the accumulator where a lane is NaN.
+    f.t_min = least(_mm256_min_ps(t_min[0], t_min[1]));
+    // `vminps` answers its second operand where the first is NaN.
     let t_max = halves(&l.t_max);
-    let shortest = least(t_max[1].min_or(t_max[0].min_or(inf)));
+    let shortest = least(_mm256_min_ps(t_max[1], _mm256_min_ps(t_max[0], inf)));
     f.coherent(shortest)
 }
 
 /// The two halves of a row of sixteen lanes.
+///
+/// # Safety
+/// The CPU must support AVX.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn halves(a: &[f32; PACKET]) -> [crate::lanes::X8; 2] {
-    use crate::lanes::Lanes;
-    [Lanes::load(&a[..8]), Lanes::load(&a[8..])]
+unsafe fn halves(a: &[f32; PACKET]) -> [std::arch::x86_64::__m256; 2] {
+    use std::arch::x86_64::*;
+    // SAFETY: each load reads eight `f32` of the sixteen of `a` (unaligned loads).
+    unsafe {
+        [
+            _mm256_loadu_ps(a.as_ptr()),
+            _mm256_loadu_ps(a[8..].as_ptr()),
+        ]
+    }
 }
 
-/// The least of eight lanes ([`lower`] in turn: a NaN lane is passed over).
+/// Bit `i` set where lane `i` of `v` is finite.
+///
+/// # Safety
+/// The CPU must support AVX.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn least(v: crate::lanes::X8) -> f32 {
-    let mut a = [0.0; 8];
-    crate::lanes::Lanes::store(v, &mut a);
-    a.into_iter().fold(f32::INFINITY, lower)
+unsafe fn finite(v: std::arch::x86_64::__m256) -> i32 {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX instructions on registers.
+    unsafe {
+        let abs = _mm256_and_ps(v, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff)));
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(
+            abs,
+            _mm256_set1_ps(f32::INFINITY),
+        ))
+    }
 }
 
-/// The greatest of eight lanes ([`upper`] in turn).
+/// The least of eight lanes (none NaN where it is used): each lane against its partner in the
+/// other half, then in the other pair, then next door, so that every lane holds the least.
+///
+/// # Safety
+/// The CPU must support AVX.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn greatest(v: crate::lanes::X8) -> f32 {
-    let mut a = [0.0; 8];
-    crate::lanes::Lanes::store(v, &mut a);
-    a.into_iter().fold(f32::NEG_INFINITY, upper)
+unsafe fn least(v: std::arch::x86_64::__m256) -> f32 {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX instructions on registers.
+    unsafe {
+        let v = _mm256_min_ps(v, _mm256_permute2f128_ps::<0x01>(v, v));
+        let v = _mm256_min_ps(v, _mm256_permute_ps::<0b01_00_11_10>(v));
+        _mm256_cvtss_f32(_mm256_min_ps(v, _mm256_permute_ps::<0b10_11_00_01>(v)))
+    }
+}
+
+/// The greatest of eight lanes (none NaN where it is used), as [`least`].
+///
+/// # Safety
+/// The CPU must support AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn greatest(v: std::arch::x86_64::__m256) -> f32 {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX instructions on registers.
+    unsafe {
+        let v = _mm256_max_ps(v, _mm256_permute2f128_ps::<0x01>(v, v));
+        let v = _mm256_max_ps(v, _mm256_permute_ps::<0b01_00_11_10>(v));
+        _mm256_cvtss_f32(_mm256_max_ps(v, _mm256_permute_ps::<0b10_11_00_01>(v)))
+    }
 }
 
 /// [`Frustum::from_lanes`] for the `avx512` tier: each bound a reduction of one register
