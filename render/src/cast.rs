@@ -169,7 +169,12 @@ fn cast_tile_lanes(
             }
         }
         for light in &scene.lights {
-            shadow_lanes(&mut shadow, &eye, &surfaces, light.position, cull);
+            shadow_lanes(
+                &mut shadow,
+                cull.then_some(&eye.tri.d),
+                &surfaces,
+                light.position,
+            );
             let k = shadow.len();
             if k == 0 {
                 continue;

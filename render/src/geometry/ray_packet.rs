@@ -265,6 +265,20 @@ fn pick(k: u32, v: [f32; 3]) -> f32 {
     }
 }
 
+/// Bit `i` set where byte `i` of `b` (each 0 or 1) is 1. Eight bytes at a time as one
+/// little-endian word: the product with `0x0102040810204080` (bits `8k + 7 − k`, `k` = 0..7)
+/// copies byte `j`'s bit to bits `8(j + k) + 7 − k`; only `k = 7 − j` lands in the top byte,
+/// at bit `56 + j`, and the copies below it are distinct bits, so nothing carries.
+#[inline(always)]
+fn lane_bits(b: &[u8; LANES]) -> u16 {
+    let gather = |h: usize| {
+        let mut w = [0u8; 8];
+        w.copy_from_slice(&b[8 * h..8 * h + 8]);
+        (u64::from_le_bytes(w).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u16
+    };
+    gather(0) | gather(1) << 8
+}
+
 /// [`PreparedRay::new`] lane by lane, into the box test's and the kernels' lanes.
 // Lane loops index several arrays by lane: the form the compiler vectorises.
 #[allow(clippy::needless_range_loop)]
@@ -281,7 +295,9 @@ fn prepare_lanes(l: &mut RayPacket) {
     }
     let t = &mut l.tri;
     let s = &mut l.slab;
-    let mut k = [[0u32; LANES]; 3];
+    // Per axis and lane, 1 where the permuted axis is x (`is0`) or y (`is1`), else 0: bytes
+    // the lane loop writes side by side, gathered into the mask bits after it.
+    let (mut is0, mut is1) = ([[0u8; LANES]; 3], [[0u8; LANES]; 3]);
     for i in 0..LANES {
         let d = [t.d[0][i], t.d[1][i], t.d[2][i]];
         let o = [t.o[0][i], t.o[1][i], t.o[2][i]];
@@ -310,7 +326,8 @@ fn prepare_lanes(l: &mut RayPacket) {
             s.inv[a][i] = inv[a];
             t.ok[a][i] = pick(ks[a], o);
             t.s[a][i] = shear[a];
-            k[a][i] = ks[a];
+            is0[a][i] = u8::from(ks[a] == 0);
+            is1[a][i] = u8::from(ks[a] == 1);
             let ones = |on: bool| f32::from_bits(if on { u32::MAX } else { 0 });
             t.k0[a][i] = ones(ks[a] == 0);
             t.k1[a][i] = ones(ks[a] == 1);
@@ -319,13 +336,8 @@ fn prepare_lanes(l: &mut RayPacket) {
         t.a[i] = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     }
     for a in 0..3 {
-        let (mut b0, mut b1) = (0u16, 0u16);
-        for i in 0..LANES {
-            b0 |= u16::from(k[a][i] == 0) << i;
-            b1 |= u16::from(k[a][i] == 1) << i;
-        }
-        t.k0_bits[a] = b0;
-        t.k1_bits[a] = b1;
+        t.k0_bits[a] = lane_bits(&is0[a]);
+        t.k1_bits[a] = lane_bits(&is1[a]);
         s.neg[a] = s.inv[a][0] < 0.0;
     }
 }

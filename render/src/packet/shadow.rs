@@ -6,7 +6,8 @@
 //! distance — in the same IEEE operations and order. The rays that exist go into the packet in
 //! lane order. The arithmetic is written once, `shadow_ray`, over the lane types of
 //! [`crate::lanes`]: the `avx512` tier ([`crate::isa::dispatch`]) runs it on the sixteen lanes
-//! in one register per component, the other tiers on each lane hit, one by one.
+//! in one register per component, the `avx2` tier on eight lanes at a time, the other tiers on
+//! each lane hit, one by one.
 
 use crate::geometry::ray_packet::{RayPacket, LANES};
 use crate::geometry::Ray;
@@ -56,23 +57,21 @@ impl SurfaceLanes {
     }
 }
 
-/// The shadow rays from the hits of `s` (made by the rays of `eye`) to the light at `light`,
-/// culled (when `cull`) where the surface faces away from it, into `out` (emptied first, then
-/// prepared).
+/// The shadow rays from the hits of `s` to the light at `light`, into `out` (emptied first,
+/// then prepared). With `cull`, the directions of the rays that made the hits, a lane is culled
+/// where its surface faces away from the light; without, every hit off the light has a ray.
 pub fn shadow_lanes(
     out: &mut RayPacket,
-    eye: &RayPacket,
+    cull: Option<&[[f32; LANES]; 3]>,
     s: &SurfaceLanes,
     light: V3<f32>,
-    cull: bool,
 ) {
     let mut rays = Rays::default();
     crate::isa::dispatch(Shadow {
         r: &mut rays,
-        eye,
+        cull,
         s,
         light,
-        cull,
     });
     pack(out, &rays, s);
 }
@@ -83,18 +82,16 @@ pub fn shadow_lanes(
 fn shadow_lanes_on(
     tier: Isa,
     out: &mut RayPacket,
-    eye: &RayPacket,
+    cull: Option<&[[f32; LANES]; 3]>,
     s: &SurfaceLanes,
     light: V3<f32>,
-    cull: bool,
 ) -> bool {
     let mut rays = Rays::default();
     let k = Shadow {
         r: &mut rays,
-        eye,
+        cull,
         s,
         light,
-        cull,
     };
     let ran = crate::isa::dispatch_on(tier, k).is_some();
     pack(out, &rays, s);
@@ -132,46 +129,62 @@ struct Rays {
 /// The shadow rays of a packet: the kernel [`crate::isa::dispatch`] runs.
 struct Shadow<'a> {
     r: &'a mut Rays,
-    eye: &'a RayPacket,
+    /// The hits' ray directions when culling.
+    cull: Option<&'a [[f32; LANES]; 3]>,
     s: &'a SurfaceLanes,
     light: V3<f32>,
-    cull: bool,
 }
 
 impl Kernel for Shadow<'_> {
     type Output = ();
 
-    /// The sixteen lanes in one register per component on `avx512`; elsewhere the lanes hit,
-    /// one by one (the compiler does not vectorise that loop).
+    /// The sixteen lanes in one register per component on `avx512`, eight at a time on
+    /// `avx2`; elsewhere the lanes hit, one by one (the compiler does not vectorise that loop).
     #[inline(always)]
     fn run<T: Tier>(self) {
         #[cfg(target_arch = "x86_64")]
         if T::ISA.avx512() {
             return rays_wide::<crate::lanes::X16>(self);
         }
+        #[cfg(target_arch = "x86_64")]
+        if T::ISA.avx() {
+            return rays_wide::<crate::lanes::X8>(self);
+        }
         rays_one_by_one(self)
     }
 }
 
-/// The shadow rays of the lanes, computed `L::N` (= [`LANES`]) at a time.
+/// The shadow rays of the lanes, computed `L::N` at a time (a group of lanes without a hit is
+/// skipped).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn rays_wide<L: Lanes<Elem = f32>>(k: Shadow<'_>) {
-    let ld3 = load3::<L>;
-    let ray = shadow_ray(
-        ld3(&k.eye.tri.d),
-        ld3(&k.s.p),
-        ld3(&k.s.p_err),
-        ld3(&k.s.ng),
-        splat3(k.light.to_array()),
-        k.cull,
-    );
-    for a in 0..3 {
-        ray.o[a].store(&mut k.r.o[a]);
-        ray.d[a].store(&mut k.r.d[a]);
+    let mut valid = 0;
+    let group = (1u32 << L::N) - 1;
+    for c in (0..LANES).step_by(L::N) {
+        if (k.s.mask >> c) & group == 0 {
+            continue;
+        }
+        let eye_d = match k.cull {
+            Some(d) => load3::<L>(d, c),
+            None => [L::zero(); 3],
+        };
+        let ray = shadow_ray(
+            eye_d,
+            load3::<L>(&k.s.p, c),
+            load3::<L>(&k.s.p_err, c),
+            load3::<L>(&k.s.ng, c),
+            splat3(k.light.to_array()),
+            k.cull.is_some(),
+        );
+        for a in 0..3 {
+            ray.o[a].store(&mut k.r.o[a][c..]);
+            ray.d[a].store(&mut k.r.d[a][c..]);
+        }
+        ray.len.store(&mut k.r.len[c..]);
+        valid |= (ray.valid & group) << c;
     }
-    ray.len.store(&mut k.r.len);
-    k.r.valid = ray.valid;
+    k.r.valid = valid;
 }
 
 /// The shadow rays of the lanes hit, one lane at a time.
@@ -181,7 +194,8 @@ fn rays_one_by_one(k: Shadow<'_>) {
     for i in crate::bits::SetBits(k.s.mask) {
         let lane = |v: &[[f32; LANES]; 3]| [v[0][i], v[1][i], v[2][i]];
         let (p, p_err, ng) = (lane(&k.s.p), lane(&k.s.p_err), lane(&k.s.ng));
-        let ray = shadow_ray::<f32>(lane(&k.eye.tri.d), p, p_err, ng, k.light.to_array(), k.cull);
+        let eye_d = k.cull.map_or([0.0; 3], lane);
+        let ray = shadow_ray::<f32>(eye_d, p, p_err, ng, k.light.to_array(), k.cull.is_some());
         for a in 0..3 {
             k.r.o[a][i] = ray.o[a];
             k.r.d[a][i] = ray.d[a];
@@ -192,11 +206,15 @@ fn rays_one_by_one(k: Shadow<'_>) {
     k.r.valid = valid;
 }
 
-/// Three rows of lanes.
+/// Three rows of lanes, from lane `c` on.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn load3<L: Lanes<Elem = f32>>(v: &[[f32; LANES]; 3]) -> [L; 3] {
-    [L::load(&v[0]), L::load(&v[1]), L::load(&v[2])]
+fn load3<L: Lanes<Elem = f32>>(v: &[[f32; LANES]; 3], c: usize) -> [L; 3] {
+    [
+        L::load(&v[0][c..]),
+        L::load(&v[1][c..]),
+        L::load(&v[2][c..]),
+    ]
 }
 
 /// `v` negated in the lanes of `m`.
@@ -318,7 +336,8 @@ mod tests {
             }
             for tier in Isa::supported_tiers() {
                 let mut out = RayPacket::new();
-                prop_assert!(shadow_lanes_on(tier, &mut out, &eye, &s, light, cull));
+                let d = cull.then_some(&eye.tri.d);
+                prop_assert!(shadow_lanes_on(tier, &mut out, d, &s, light));
                 prop_assert_eq!(out.len(), want.len(), "{}", tier);
                 for (k, w) in want.iter().enumerate() {
                     prop_assert_eq!(format!("{:?}", out.ray(k)), format!("{:?}", w), "{}", tier);

@@ -5,10 +5,11 @@
 //! stay as coherent as the eye rays; incoherent ones are traced one by one inside the packet
 //! code). Every ray gets the answer it gets alone, and shading is the same code summed in the
 //! same order, so the colours are the same bits as tracing each eye ray on its own. In `f32` on
-//! the `avx512` tier the eye packet and its shadow packets live in lanes
-//! ([`Integrator::trace_eye_block`]).
+//! the `avx2` and `avx512` tiers the eye packet and its shadow packets live in lanes
+//! ([`Integrator::trace_eye_block`]), and on `avx2` so do the shadow packets of the secondary
+//! rays ([`Integrator::trace_packet`]).
 
-use std::any::Any;
+use std::any::{Any, TypeId};
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
@@ -86,10 +87,11 @@ impl<R: Real> Integrator<R> {
     /// Radiance along the eye rays through the centres of the pixels `bx..bx + bw` ×
     /// `by..by + bh` (at most [`PACKET`], row by row), into `out`'s first `bw × bh`: the colours
     /// [`Integrator::trace_eye_packet`] gives `camera.ray(x + 0.5, y + 0.5)`. In `f32` on the
-    /// `avx512` tier the rays are made in lanes and the hits and their shadow rays found in
-    /// lanes ([`RayPacket`], [`crate::packet::shadow`]), as `bench cast` does; the rest (shading,
-    /// secondary rays) is the same code either way. Other tiers and `f64` make the rays one by
-    /// one (the lanes do not pay there, as measured in bench/results/).
+    /// `avx2` and `avx512` tiers the rays are made in lanes and the hits and their shadow rays
+    /// found in lanes ([`RayPacket`], [`crate::packet::shadow`]); the rest (shading, secondary
+    /// rays) is the same code either way. The other tiers and `f64` make the rays one by one
+    /// (the lanes do not pay there, as measured in bench/results/; on `avx2` they pay once
+    /// the shadow rays and the packet's bounds are in eight-lane registers too).
     pub fn trace_eye_block(
         &self,
         camera: &Camera<R>,
@@ -101,7 +103,7 @@ impl<R: Real> Integrator<R> {
             (self as &dyn Any).downcast_ref::<Integrator<f32>>(),
             (camera as &dyn Any).downcast_ref::<Camera<f32>>(),
             (out as &mut dyn Any).downcast_mut::<[V3<f32>; PACKET]>(),
-            crate::isa::current().avx512(),
+            crate::isa::current().avx(),
         ) {
             return integrator.trace_eye_lanes(camera, (bx, by, bw, bh), out, stats);
         }
@@ -121,7 +123,9 @@ impl<R: Real> Integrator<R> {
     /// `weights[i]`, into `out`: the colours [`Integrator::trace`] gives each. The hits'
     /// reflection rays then go on as one packet, and their refraction rays as another, when
     /// there are two or more and their directions are close ([`SECONDARY_SPREAD`]), down to
-    /// [`PACKET_DEPTH`]; otherwise they go one by one.
+    /// [`PACKET_DEPTH`]; otherwise they go one by one. In `f32` on the `avx2` tier each light's
+    /// shadow rays are made and answered in lanes ([`Integrator::lights_lanes`]); the `avx512`
+    /// tier's secondary packets keep prepared shadow rays (lanes there were not measured).
     #[allow(clippy::too_many_arguments)]
     pub fn trace_packet(
         &self,
@@ -147,8 +151,31 @@ impl<R: Real> Integrator<R> {
         let mut lanes = None;
         self.intersect_packet(&prs[..n], &mut hits[..n], &mut lanes, stats);
         let lits = self.lits(rays, &hits[..n], kind, out, stats);
+        if !self.lights_in_lanes(rays, &lits, &mut prs, out, stats) {
+            self.lights_one_by_one(rays, &lits, &prs[0], &mut lanes, out, stats);
+        }
+        self.trace_secondary(rays, &lits, depth, weights, out, stats);
+    }
+
+    /// Every light's term for a packet's lit hits (of `rays`), [`Integrator::add_light`] light
+    /// by light, each light's shadow rays made and prepared one by one and answered together
+    /// (`any` serves as the arrays' filler, `lanes` as [`Integrator::occluded_packet`]'s).
+    // Not inlined into `trace_packet`: there, once that function also held the lanes' branch,
+    // the compiler stopped inlining `offset_ray_origin` into these shadow rays (`sse2`
+    // teapot-6: 1 % more render instructions).
+    #[inline(never)]
+    fn lights_one_by_one(
+        &self,
+        rays: &[Ray<R>],
+        lits: &[Option<Lit<R>>; PACKET],
+        any: &PreparedRay<R>,
+        lanes: &mut Option<ShearedRays>,
+        out: &mut [V3<R>],
+        stats: &mut RayStats,
+    ) {
+        let n = rays.len();
         // Made once for all the lights: every light's packet overwrites what it uses.
-        let mut shadow = [prs[0]; PACKET];
+        let mut shadow = [*any; PACKET];
         let mut owner = [0usize; PACKET];
         let mut toward = [(R::ZERO, R::ZERO); PACKET];
         let mut occ = [false; PACKET];
@@ -164,10 +191,36 @@ impl<R: Real> Integrator<R> {
                     k += 1;
                 }
             }
-            self.occluded_packet(&shadow[..k], &mut occ[..k], &mut lanes, stats);
-            self.add_light(rays, &lits, li, &occ[..k], &owner, &toward, out, stats);
+            self.occluded_packet(&shadow[..k], &mut occ[..k], lanes, stats);
+            self.add_light(rays, lits, li, &occ[..k], &owner, &toward, out, stats);
         }
-        self.trace_secondary(rays, &lits, depth, weights, out, stats);
+    }
+
+    /// On the `avx2` tier in `f32`, [`Integrator::lights_lanes`] for a packet's lit hits, with
+    /// `buffer` for the rays a leaf takes one by one; `false` (and nothing done) elsewhere.
+    fn lights_in_lanes(
+        &self,
+        rays: &[Ray<R>],
+        lits: &[Option<Lit<R>>; PACKET],
+        buffer: &mut [PreparedRay<R>; PACKET],
+        out: &mut [V3<R>],
+        stats: &mut RayStats,
+    ) -> bool {
+        let tier = crate::isa::current();
+        if !tier.avx() || tier.avx512() {
+            return false;
+        }
+        if let (Some(integrator), Some(rays), Some(lits), Some(buffer), Some(out)) = (
+            (self as &dyn Any).downcast_ref::<Integrator<f32>>(),
+            same_slice::<Ray<R>, Ray<f32>>(rays),
+            (lits as &dyn Any).downcast_ref::<[Option<Lit<f32>>; PACKET]>(),
+            (buffer as &mut dyn Any).downcast_mut::<[PreparedRay<f32>; PACKET]>(),
+            same_slice_mut::<V3<R>, V3<f32>>(out),
+        ) {
+            integrator.lights_lanes(rays, lits, buffer, out, stats);
+            return true;
+        }
+        false
     }
 
     /// The lit hits of a packet's rays (counted in `stats` by `kind`), and each ray's colour
@@ -339,6 +392,26 @@ impl Integrator<f32> {
         self.accel
             .intersect_lanes(&eye, &mut hits[..n], stats, test);
         let lits = self.lits(rays, &hits[..n], RayKind::Eye, out, stats);
+        self.lights_lanes(rays, &lits, &mut prepared, out, stats);
+        let weights = [1.0; PACKET];
+        self.trace_secondary(rays, &lits, 1, &weights, out, stats);
+    }
+
+    /// Every light's term for a packet's lit hits (of `rays`), [`Integrator::add_light`] light
+    /// by light, with each light's shadow rays made in lanes ([`shadow_lanes`]) and answered by
+    /// [`Accel::occluded_lanes`] (rays a leaf takes one by one prepared into `prepared`): the
+    /// same rays, answers, colours and counts as the prepared rays of [`Integrator::trace_packet`].
+    ///
+    /// [`Accel::occluded_lanes`]: crate::accel::Accel::occluded_lanes
+    fn lights_lanes(
+        &self,
+        rays: &[Ray<f32>],
+        lits: &[Option<Lit<f32>>; PACKET],
+        prepared: &mut [PreparedRay<f32>; PACKET],
+        out: &mut [V3<f32>],
+        stats: &mut RayStats,
+    ) {
+        let n = rays.len();
         let mut surfaces = SurfaceLanes::default();
         for (i, lit) in lits[..n].iter().enumerate() {
             if let Some(lit) = lit {
@@ -372,17 +445,37 @@ impl Integrator<f32> {
                 k += 1;
             }
             surfaces.mask = mask;
-            shadow_lanes(&mut shadow, &eye, &surfaces, light.position, false);
+            shadow_lanes(&mut shadow, None, &surfaces, light.position);
             debug_assert_eq!(shadow.len(), k);
             if k > 0 {
-                let test = LanesLeaf::new(&self.scene, &mut prepared);
+                let test = LanesLeaf::new(&self.scene, prepared);
                 self.accel
                     .occluded_lanes(&shadow, &mut occ[..k], stats, test);
             }
-            self.add_light(rays, &lits, li, &occ[..k], &owner, &toward, out, stats);
+            self.add_light(rays, lits, li, &occ[..k], &owner, &toward, out, stats);
         }
-        let weights = [1.0; PACKET];
-        self.trace_secondary(rays, &lits, 1, &weights, out, stats);
+    }
+}
+
+/// `s` as a slice of `U` when `T` is `U`.
+#[inline(always)]
+fn same_slice<T: 'static, U: 'static>(s: &[T]) -> Option<&[U]> {
+    if TypeId::of::<T>() == TypeId::of::<U>() {
+        // SAFETY: `T` is `U`, so both slices have the same type.
+        Some(unsafe { &*(s as *const [T] as *const [U]) })
+    } else {
+        None
+    }
+}
+
+/// `s` as a mutable slice of `U` when `T` is `U`.
+#[inline(always)]
+fn same_slice_mut<T: 'static, U: 'static>(s: &mut [T]) -> Option<&mut [U]> {
+    if TypeId::of::<T>() == TypeId::of::<U>() {
+        // SAFETY: `T` is `U`, so both slices have the same type.
+        Some(unsafe { &mut *(s as *mut [T] as *mut [U]) })
+    } else {
+        None
     }
 }
 

@@ -251,6 +251,122 @@ fn inverse(r: &PreparedRay<f32>) -> crate::lanes::X4 {
     crate::lanes::Lanes::load(&[i.x, i.y, i.z, i.z])
 }
 
+/// [`Frustum::from_lanes`] for the `avx2` tier: the sixteen lanes of a row as two eight-lane
+/// registers, their `vminps`/`vmaxps`, and that register reduced by shuffles (the bounds of
+/// finite lanes, where the order of the reduction changes at most the sign of a zero bound,
+/// which no comparison of the walk sees); each check a compare and a `movemask` per register.
+/// An end that is NaN counts as +∞ for the shortest ray, as `f32::min` takes it.
+///
+/// # Safety
+/// The CPU must support AVX and AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2")]
+pub(super) unsafe fn frustum_avx2(l: &RayPacket) -> Option<Frustum<f32>> {
+    use std::arch::x86_64::*;
+    let s = &l.slab;
+    let inf = _mm256_set1_ps(f32::INFINITY);
+    let zero = _mm256_setzero_ps();
+    let mut ok = true;
+    let mut f = Frustum {
+        o_lo: [0.0; 3],
+        o_hi: [0.0; 3],
+        inv_lo: [0.0; 3],
+        inv_hi: [0.0; 3],
+        neg: s.neg,
+        t_min: 0.0,
+    };
+    for a in 0..3 {
+        let (o, inv) = (halves(&s.o[a]), halves(&s.inv[a]));
+        let neg = if s.neg[a] { 0xff } else { 0 };
+        for h in 0..2 {
+            let below = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(inv[h], zero));
+            ok &= ((finite(o[h]) & finite(inv[h])) == 0xff) & (below == neg);
+        }
+        f.o_lo[a] = least(_mm256_min_ps(o[0], o[1]));
+        f.o_hi[a] = greatest(_mm256_max_ps(o[0], o[1]));
+        f.inv_lo[a] = least(_mm256_min_ps(inv[0], inv[1]));
+        f.inv_hi[a] = greatest(_mm256_max_ps(inv[0], inv[1]));
+    }
+    let t_min = halves(&s.t_min);
+    ok &= (finite(t_min[0]) & finite(t_min[1])) == 0xff;
+    if !ok {
+        return None;
+    }
+    f.t_min = least(_mm256_min_ps(t_min[0], t_min[1]));
+    // `vminps` answers its second operand where the first is NaN.
+    let t_max = halves(&l.t_max);
+    let shortest = least(_mm256_min_ps(t_max[1], _mm256_min_ps(t_max[0], inf)));
+    f.coherent(shortest)
+}
+
+/// The two halves of a row of sixteen lanes.
+///
+/// # Safety
+/// The CPU must support AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn halves(a: &[f32; PACKET]) -> [std::arch::x86_64::__m256; 2] {
+    use std::arch::x86_64::*;
+    // SAFETY: each load reads eight `f32` of the sixteen of `a` (unaligned loads).
+    unsafe {
+        [
+            _mm256_loadu_ps(a.as_ptr()),
+            _mm256_loadu_ps(a[8..].as_ptr()),
+        ]
+    }
+}
+
+/// Bit `i` set where lane `i` of `v` is finite.
+///
+/// # Safety
+/// The CPU must support AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn finite(v: std::arch::x86_64::__m256) -> i32 {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX instructions on registers.
+    unsafe {
+        let abs = _mm256_and_ps(v, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff)));
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(
+            abs,
+            _mm256_set1_ps(f32::INFINITY),
+        ))
+    }
+}
+
+/// The least of eight lanes (none NaN where it is used): each lane against its partner in the
+/// other half, then in the other pair, then next door, so that every lane holds the least.
+///
+/// # Safety
+/// The CPU must support AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn least(v: std::arch::x86_64::__m256) -> f32 {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX instructions on registers.
+    unsafe {
+        let v = _mm256_min_ps(v, _mm256_permute2f128_ps::<0x01>(v, v));
+        let v = _mm256_min_ps(v, _mm256_permute_ps::<0b01_00_11_10>(v));
+        _mm256_cvtss_f32(_mm256_min_ps(v, _mm256_permute_ps::<0b10_11_00_01>(v)))
+    }
+}
+
+/// The greatest of eight lanes (none NaN where it is used), as [`least`].
+///
+/// # Safety
+/// The CPU must support AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn greatest(v: std::arch::x86_64::__m256) -> f32 {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX instructions on registers.
+    unsafe {
+        let v = _mm256_max_ps(v, _mm256_permute2f128_ps::<0x01>(v, v));
+        let v = _mm256_max_ps(v, _mm256_permute_ps::<0b01_00_11_10>(v));
+        _mm256_cvtss_f32(_mm256_max_ps(v, _mm256_permute_ps::<0b10_11_00_01>(v)))
+    }
+}
+
 /// [`Frustum::from_lanes`] for the `avx512` tier: each bound a reduction of one register
 /// (`vminps`/`vmaxps`: the bounds of finite lanes, where the order of the reduction changes
 /// at most the sign of a zero bound, which no comparison of the walk sees), each check one
@@ -324,10 +440,10 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2000))]
-        /// The AVX-512 bounds of a packet in lanes are the portable ones: the same decision
-        /// (signs, finiteness, coherence) and the same bound values.
+        /// The AVX-512 and AVX2 bounds of a packet in lanes are the portable ones: the same
+        /// decision (signs, finiteness, coherence) and the same bound values.
         #[test]
-        fn avx512_bounds_are_the_portable_bounds(
+        fn simd_bounds_are_the_portable_bounds(
             base in proptest::array::uniform3(-5.0f32..5.0),
             signs in proptest::array::uniform3(any::<bool>()),
             rays in proptest::collection::vec(
@@ -338,7 +454,7 @@ mod tests {
                 1..=PACKET),
         ) {
             #[cfg(target_arch = "x86_64")]
-            if crate::isa::Isa::Avx512.supported() {
+            {
                 let mut l = RayPacket::new();
                 for &(jitter, d, flip, t_max, t_min) in &rays {
                     let o = V3::from_array([0, 1, 2].map(|a| base[a] + jitter[a]));
@@ -350,14 +466,24 @@ mod tests {
                 }
                 l.prepare();
                 let want = Frustum::<f32>::from_lanes(&l);
-                // SAFETY: this CPU has AVX-512 F.
-                let got = unsafe { frustum_avx512(&l) };
-                prop_assert_eq!(want.is_some(), got.is_some(), "{:?} {:?}", want, got);
-                if let (Some(w), Some(g)) = (want, got) {
-                    // Values, not bits: the sign of a zero bound may differ (see frustum_avx512).
-                    prop_assert!(w.o_lo == g.o_lo && w.o_hi == g.o_hi, "{:?} {:?}", w, g);
-                    prop_assert!(w.inv_lo == g.inv_lo && w.inv_hi == g.inv_hi, "{:?} {:?}", w, g);
-                    prop_assert!(w.neg == g.neg && w.t_min == g.t_min, "{:?} {:?}", w, g);
+                let mut got = Vec::new();
+                if crate::isa::Isa::Avx512.supported() {
+                    // SAFETY: this CPU has AVX-512 F.
+                    got.push(unsafe { frustum_avx512(&l) });
+                }
+                if crate::isa::Isa::Avx2.supported() {
+                    // SAFETY: this CPU has AVX and AVX2.
+                    got.push(unsafe { frustum_avx2(&l) });
+                }
+                for got in got {
+                    prop_assert_eq!(want.is_some(), got.is_some(), "{:?} {:?}", want, got);
+                    if let (Some(w), Some(g)) = (want, got) {
+                        // Values, not bits: the sign of a zero bound may differ (see
+                        // frustum_avx512).
+                        prop_assert!(w.o_lo == g.o_lo && w.o_hi == g.o_hi, "{:?} {:?}", w, g);
+                        prop_assert!(w.inv_lo == g.inv_lo && w.inv_hi == g.inv_hi, "{:?} {:?}", w, g);
+                        prop_assert!(w.neg == g.neg && w.t_min == g.t_min, "{:?} {:?}", w, g);
+                    }
                 }
             }
         }

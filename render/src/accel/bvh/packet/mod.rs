@@ -39,9 +39,9 @@ mod frustum;
 mod query;
 mod rays;
 
-#[cfg(target_arch = "x86_64")]
-use frustum::frustum_avx512;
 use frustum::Frustum;
+#[cfg(target_arch = "x86_64")]
+use frustum::{frustum_avx2, frustum_avx512};
 use query::{AnyHit, Closest, PacketQuery, RayList};
 pub use rays::LanesPrimTest;
 use rays::{PacketRays, Slice};
@@ -91,6 +91,11 @@ impl Bvh {
         if crate::isa::current().avx512() {
             // SAFETY: the avx512 tier is only chosen on a CPU with AVX-512 F, BW, DQ, VL.
             return unsafe { frustum_avx512(rays) };
+        }
+        #[cfg(target_arch = "x86_64")]
+        if crate::isa::current().avx() {
+            // SAFETY: the avx2 and avx512 tiers are only chosen on a CPU with AVX and AVX2.
+            return unsafe { frustum_avx2(rays) };
         }
         Frustum::<f32>::from_lanes(rays)
     }
