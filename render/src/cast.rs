@@ -1,7 +1,7 @@
 //! Casting only, for comparing raw ray throughput with other kernels (Embree's `nffcast`): one eye
 //! ray through each pixel centre and, for every hit, one shadow ray per light — to every light,
 //! or (culling) only to lights in front of the surface. No shading, no secondary rays. The rays
-//! go in 4 × 4 packets like a render's eye rays, or one by one. In `f32` on the `avx512` tier, a
+//! go in 4 × 4 packets like a render's eye rays, or one by one. In `f32` on the `avx2` and `avx512` tiers, a
 //! packet's rays live in lanes ([`RayPacket`]) from the camera through the traversal and the leaf
 //! kernels, and each light's shadow packet is made in lanes from the hits
 //! ([`crate::packet::shadow`]); the other tiers trace prepared rays. Both give the same rays, hits and
@@ -86,12 +86,13 @@ pub fn cast_tile<R: Real>(
         }
         return;
     }
-    // The lanes pay on the `avx512` tier only (measured in BENCHMARKS.md: 1.06–1.61 × there,
-    // 0.95–1.04 on `avx2`, 0.92–0.95 on `scalar`); the other tiers keep the prepared rays.
+    // The lanes pay on the `avx512` and `avx2` tiers (BENCHMARKS.md, *Per instruction-set
+    // tier*); on `scalar` they cost 0.92–0.95 × the rays a second, so below `avx2` the tiers
+    // keep the prepared rays.
     if let (Some(integrator), Some(camera), true) = (
         (integrator as &dyn Any).downcast_ref::<Integrator<f32>>(),
         (camera as &dyn Any).downcast_ref::<Camera<f32>>(),
-        crate::isa::current().avx512(),
+        crate::isa::current().avx(),
     ) {
         return cast_tile_lanes(integrator, camera, tile, cull, stats);
     }

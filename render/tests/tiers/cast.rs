@@ -1,7 +1,7 @@
 //! `parrt bench cast`'s rays (eye rays through pixel centres, one shadow ray per light per hit)
 //! on every SPD file at 48 × 48: in `f32` the packets live in lanes from the camera on
-//! ([`parrt_render::geometry::ray_packet`]) on the `avx512` tier and are prepared rays on the others;
-//! every tier counts the same rays, hits, blockers and box and primitive tests, and the packets
+//! ([`parrt_render::geometry::ray_packet`]) on the `avx2` and `avx512` tiers and are prepared
+//! rays on the others; every tier counts the same rays, hits, blockers and box and primitive tests, and the packets
 //! find the hits and blockers the rays find one by one.
 
 use crate::tiers::on_each_tier;
