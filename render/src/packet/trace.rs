@@ -124,7 +124,7 @@ impl<R: Real> Integrator<R> {
     /// reflection rays then go on as one packet, and their refraction rays as another, when
     /// there are two or more and their directions are close ([`SECONDARY_SPREAD`]), down to
     /// [`PACKET_DEPTH`]; otherwise they go one by one. In `f32` on the `avx2` tier each light's
-    /// shadow rays are made and answered in lanes ([`Integrator::lights_lanes`]); the `avx512`
+    /// shadow rays are made and answered in lanes (as the eye packets' are); the `avx512`
     /// tier's secondary packets keep prepared shadow rays (lanes there were not measured).
     #[allow(clippy::too_many_arguments)]
     pub fn trace_packet(
