@@ -282,20 +282,20 @@ pub(super) unsafe fn frustum_avx2(l: &RayPacket) -> Option<Frustum<f32>> {
             let below = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(inv[h], zero));
             ok &= ((finite(o[h]) & finite(inv[h])) == 0xff) & (below == neg);
         }
-        f.o_lo[a] = least(_mm256_min_ps(o[0], o[1]));
-        f.o_hi[a] = greatest(_mm256_max_ps(o[0], o[1]));
-        f.inv_lo[a] = least(_mm256_min_ps(inv[0], inv[1]));
-        f.inv_hi[a] = greatest(_mm256_max_ps(inv[0], inv[1]));
+        f.o_lo[a] = reduce::<LEAST>(_mm256_min_ps(o[0], o[1]));
+        f.o_hi[a] = reduce::<GREATEST>(_mm256_max_ps(o[0], o[1]));
+        f.inv_lo[a] = reduce::<LEAST>(_mm256_min_ps(inv[0], inv[1]));
+        f.inv_hi[a] = reduce::<GREATEST>(_mm256_max_ps(inv[0], inv[1]));
     }
     let t_min = halves(&s.t_min);
     ok &= (finite(t_min[0]) & finite(t_min[1])) == 0xff;
     if !ok {
         return None;
     }
-    f.t_min = least(_mm256_min_ps(t_min[0], t_min[1]));
+    f.t_min = reduce::<LEAST>(_mm256_min_ps(t_min[0], t_min[1]));
     // `vminps` answers its second operand where the first is NaN.
     let t_max = halves(&l.t_max);
-    let shortest = least(_mm256_min_ps(t_max[1], _mm256_min_ps(t_max[0], inf)));
+    let shortest = reduce::<LEAST>(_mm256_min_ps(t_max[1], _mm256_min_ps(t_max[0], inf)));
     f.coherent(shortest)
 }
 
@@ -334,36 +334,33 @@ unsafe fn finite(v: std::arch::x86_64::__m256) -> i32 {
     }
 }
 
-/// The least of eight lanes (none NaN where it is used): each lane against its partner in the
-/// other half, then in the other pair, then next door, so that every lane holds the least.
-///
-/// # Safety
-/// The CPU must support AVX.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-unsafe fn least(v: std::arch::x86_64::__m256) -> f32 {
-    use std::arch::x86_64::*;
-    // SAFETY: AVX instructions on registers.
-    unsafe {
-        let v = _mm256_min_ps(v, _mm256_permute2f128_ps::<0x01>(v, v));
-        let v = _mm256_min_ps(v, _mm256_permute_ps::<0b01_00_11_10>(v));
-        _mm256_cvtss_f32(_mm256_min_ps(v, _mm256_permute_ps::<0b10_11_00_01>(v)))
-    }
-}
+/// Which of [`reduce`]'s answers: the least of the lanes.
+const LEAST: bool = false;
+/// Which of [`reduce`]'s answers: the greatest of the lanes.
+const GREATEST: bool = true;
 
-/// The greatest of eight lanes (none NaN where it is used), as [`least`].
+/// The least ([`LEAST`]) or the greatest ([`GREATEST`]) of eight lanes (none NaN where it is
+/// used): each lane against its partner in the other half, then in the other pair, then next
+/// door, so that every lane holds the answer.
 ///
 /// # Safety
 /// The CPU must support AVX.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn greatest(v: std::arch::x86_64::__m256) -> f32 {
+unsafe fn reduce<const MAX: bool>(v: std::arch::x86_64::__m256) -> f32 {
     use std::arch::x86_64::*;
     // SAFETY: AVX instructions on registers.
     unsafe {
-        let v = _mm256_max_ps(v, _mm256_permute2f128_ps::<0x01>(v, v));
-        let v = _mm256_max_ps(v, _mm256_permute_ps::<0b01_00_11_10>(v));
-        _mm256_cvtss_f32(_mm256_max_ps(v, _mm256_permute_ps::<0b10_11_00_01>(v)))
+        let pick = |a, b| {
+            if MAX {
+                _mm256_max_ps(a, b)
+            } else {
+                _mm256_min_ps(a, b)
+            }
+        };
+        let v = pick(v, _mm256_permute2f128_ps::<0x01>(v, v));
+        let v = pick(v, _mm256_permute_ps::<0b01_00_11_10>(v));
+        _mm256_cvtss_f32(pick(v, _mm256_permute_ps::<0b10_11_00_01>(v)))
     }
 }
 
