@@ -24,6 +24,22 @@ pub(super) struct Frustum<R> {
     pub(super) t_min: R,
 }
 
+impl Frustum<f32> {
+    /// Bounds of a packet in lanes whose direction signs are `neg`, to be filled in: every
+    /// bound 0, the start `t_min`.
+    #[inline(always)]
+    fn unfilled(neg: [bool; 3], t_min: f32) -> Self {
+        Frustum {
+            o_lo: [0.0; 3],
+            o_hi: [0.0; 3],
+            inv_lo: [0.0; 3],
+            inv_hi: [0.0; 3],
+            neg,
+            t_min,
+        }
+    }
+}
+
 impl<R: Real> Frustum<R> {
     /// The bounds of `rays`, or `None` when they cannot be bounded this way: mixed direction
     /// signs on an axis, a zero (infinite reciprocal) direction component, or a non-finite
@@ -92,14 +108,7 @@ impl<R: Real> Frustum<R> {
     #[inline(always)]
     pub(super) fn from_lanes(l: &RayPacket) -> Option<Frustum<f32>> {
         let s = &l.slab;
-        let mut f = Frustum {
-            o_lo: [0.0; 3],
-            o_hi: [0.0; 3],
-            inv_lo: [0.0; 3],
-            inv_hi: [0.0; 3],
-            neg: s.neg,
-            t_min: s.t_min[0],
-        };
+        let mut f = Frustum::unfilled(s.neg, s.t_min[0]);
         let mut ok = true;
         for a in 0..3 {
             let (o, inv) = (&s.o[a], &s.inv[a]);
@@ -267,14 +276,7 @@ pub(super) unsafe fn frustum_avx2(l: &RayPacket) -> Option<Frustum<f32>> {
     let inf = _mm256_set1_ps(f32::INFINITY);
     let zero = _mm256_setzero_ps();
     let mut ok = true;
-    let mut f = Frustum {
-        o_lo: [0.0; 3],
-        o_hi: [0.0; 3],
-        inv_lo: [0.0; 3],
-        inv_hi: [0.0; 3],
-        neg: s.neg,
-        t_min: 0.0,
-    };
+    let mut f = Frustum::unfilled(s.neg, 0.0);
     for a in 0..3 {
         let (o, inv) = (halves(&s.o[a]), halves(&s.inv[a]));
         let neg = if s.neg[a] { 0xff } else { 0 };
@@ -382,14 +384,7 @@ pub(super) unsafe fn frustum_avx512(l: &RayPacket) -> Option<Frustum<f32>> {
     let finite = |v: __m512| _mm512_cmp_ps_mask::<_CMP_LT_OQ>(_mm512_abs_ps(v), inf);
     let zero = _mm512_setzero_ps();
     let mut ok = 0xffffu16;
-    let mut f = Frustum {
-        o_lo: [0.0; 3],
-        o_hi: [0.0; 3],
-        inv_lo: [0.0; 3],
-        inv_hi: [0.0; 3],
-        neg: s.neg,
-        t_min: 0.0,
-    };
+    let mut f = Frustum::unfilled(s.neg, 0.0);
     for a in 0..3 {
         let (o, inv) = (load(&s.o[a]), load(&s.inv[a]));
         let neg = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(inv, zero);
