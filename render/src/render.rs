@@ -8,6 +8,7 @@ use crate::accel::{Accel, AccelStats};
 use crate::camera::Camera;
 use crate::description::{Bounds, SceneDescription, View};
 use crate::film::Rgb;
+use crate::packet::buffers::PacketBuffers;
 use crate::real::Real;
 use crate::scene::{Scene, SceneError};
 use crate::settings::{Precision, RenderSettings, MAX_GRID_DENSITY};
@@ -299,14 +300,14 @@ impl<R: Real> Core<R> {
         out: &mut Vec<Rgb>,
         stats: &mut RayStats,
     ) {
-        out.clear();
-        out.reserve(tile.pixel_count());
         let finish = |c: V3<R>| -> Rgb {
             let f = c.to_f32();
             let clean = |v: f32| if v.is_finite() { v } else { 0.0 };
             [clean(f.x), clean(f.y), clean(f.z)]
         };
         if s.spd_standard {
+            out.clear();
+            out.reserve(tile.pixel_count());
             // Corner rays: (w+1)×(h+1) per tile; a corner shared with the next tile is traced
             // again there but counted only by the tile that owns it, so totals are exact.
             let cw = tile.w as usize + 1;
@@ -335,11 +336,18 @@ impl<R: Real> Core<R> {
         if packets && s.spp == 1 {
             // The tile's parts of the image's 4 × 4 blocks, a packet each.
             let w = tile.w as usize;
+            // The blocks write every pixel: a buffer already the tile's size is not zeroed.
             out.resize(tile.pixel_count(), [0.0; 3]);
             let mut colors = [V3::zero(); PACKET];
+            let mut buffers = PacketBuffers::new();
             for (bx, by, bw, bh) in tile.blocks() {
-                self.integrator
-                    .trace_eye_block(&self.camera, (bx, by, bw, bh), &mut colors, stats);
+                self.integrator.trace_eye_block(
+                    &self.camera,
+                    (bx, by, bw, bh),
+                    &mut colors,
+                    &mut buffers,
+                    stats,
+                );
                 let mut k = 0;
                 for y in by..by + bh {
                     for x in bx..bx + bw {
@@ -350,6 +358,8 @@ impl<R: Real> Core<R> {
             }
             return;
         }
+        out.clear();
+        out.reserve(tile.pixel_count());
         let inv = R::ONE / R::from_u32(s.spp);
         for y in tile.y..tile.y + tile.h {
             for x in tile.x..tile.x + tile.w {
@@ -491,7 +501,8 @@ impl Renderer {
         self.packets
     }
 
-    /// Renders one tile into `out` (cleared first; row-major within the tile), adding to `stats`.
+    /// Renders one tile into `out` (its old contents replaced; row-major within the tile),
+    /// adding to `stats`.
     pub fn render_tile(&self, tile: &Tile, out: &mut Vec<Rgb>, stats: &mut RayStats) {
         let p = self.packets;
         match &self.inner {

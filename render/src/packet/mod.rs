@@ -4,6 +4,7 @@
 //! ([`shadow`]), and the scene's primitive test as the accelerators call it, one ray against
 //! four primitives at a time or a packet against a leaf ([`scene_leaf`]).
 
+pub mod buffers;
 pub mod leaf;
 pub mod scene_leaf;
 pub mod shadow;

@@ -16,6 +16,7 @@ use crate::camera::Camera;
 use crate::geometry::packet_prims::ShearedRays;
 use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::{PreparedRay, PrimHit, Ray};
+use crate::packet::buffers::PacketBuffers;
 use crate::packet::leaf::{LanesLeaf, PacketLeaf};
 use crate::packet::shadow::{shadow_lanes, SurfaceLanes};
 use crate::real::Real;
@@ -97,6 +98,7 @@ impl<R: Real> Integrator<R> {
         camera: &Camera<R>,
         (bx, by, bw, bh): (u32, u32, u32, u32),
         out: &mut [V3<R>; PACKET],
+        buffers: &mut PacketBuffers,
         stats: &mut RayStats,
     ) {
         if let (Some(integrator), Some(camera), Some(out), true) = (
@@ -105,7 +107,7 @@ impl<R: Real> Integrator<R> {
             (out as &mut dyn Any).downcast_mut::<[V3<f32>; PACKET]>(),
             crate::isa::current().avx(),
         ) {
-            return integrator.trace_eye_lanes(camera, (bx, by, bw, bh), out, stats);
+            return integrator.trace_eye_lanes(camera, (bx, by, bw, bh), out, buffers, stats);
         }
         let mut rays = [camera.ray(R::HALF, R::HALF); PACKET];
         let mut n = 0;
@@ -217,7 +219,8 @@ impl<R: Real> Integrator<R> {
             (buffer as &mut dyn Any).downcast_mut::<[PreparedRay<f32>; PACKET]>(),
             same_slice_mut::<V3<R>, V3<f32>>(out),
         ) {
-            integrator.lights_lanes(rays, lits, buffer, out, stats);
+            let mut shadow = RayPacket::new();
+            integrator.lights_lanes(rays, lits, buffer, &mut shadow, out, stats);
             return true;
         }
         false
@@ -369,9 +372,14 @@ impl Integrator<f32> {
         camera: &Camera<f32>,
         (bx, by, bw, bh): (u32, u32, u32, u32),
         out: &mut [V3<f32>],
+        buffers: &mut PacketBuffers,
         stats: &mut RayStats,
     ) {
-        let mut eye = RayPacket::new();
+        let PacketBuffers {
+            eye,
+            shadow,
+            prepared,
+        } = buffers;
         eye.eye(camera, bx, by, bw, bh);
         let n = eye.len();
         count_rays(RayKind::Eye, n, stats);
@@ -385,14 +393,12 @@ impl Integrator<f32> {
             *r = eye.ray(i);
         }
         let rays = &rays[..n];
-        // Rays a leaf test takes one by one are prepared into this, once per packet.
-        let mut prepared = [PreparedRay::new(rays[0]); PACKET];
         let mut hits = [None; PACKET];
-        let test = LanesLeaf::new(&self.scene, &mut prepared);
-        self.accel
-            .intersect_lanes(&eye, &mut hits[..n], stats, test);
+        // Rays a leaf test takes one by one are prepared into `prepared`, once per packet.
+        let test = LanesLeaf::new(&self.scene, prepared);
+        self.accel.intersect_lanes(eye, &mut hits[..n], stats, test);
         let lits = self.lits(rays, &hits[..n], RayKind::Eye, out, stats);
-        self.lights_lanes(rays, &lits, &mut prepared, out, stats);
+        self.lights_lanes(rays, &lits, prepared, shadow, out, stats);
         let weights = [1.0; PACKET];
         self.trace_secondary(rays, &lits, 1, &weights, out, stats);
     }
@@ -408,6 +414,7 @@ impl Integrator<f32> {
         rays: &[Ray<f32>],
         lits: &[Option<Lit<f32>>; PACKET],
         prepared: &mut [PreparedRay<f32>; PACKET],
+        shadow: &mut RayPacket,
         out: &mut [V3<f32>],
         stats: &mut RayStats,
     ) {
@@ -418,7 +425,6 @@ impl Integrator<f32> {
                 surfaces.set(i, &lit.s);
             }
         }
-        let mut shadow = RayPacket::new();
         let mut owner = [0usize; PACKET];
         let mut toward = [(0.0, 0.0); PACKET];
         let mut occ = [false; PACKET];
@@ -445,12 +451,12 @@ impl Integrator<f32> {
                 k += 1;
             }
             surfaces.mask = mask;
-            shadow_lanes(&mut shadow, None, &surfaces, light.position);
+            shadow_lanes(shadow, None, &surfaces, light.position);
             debug_assert_eq!(shadow.len(), k);
             if k > 0 {
                 let test = LanesLeaf::new(&self.scene, prepared);
                 self.accel
-                    .occluded_lanes(&shadow, &mut occ[..k], stats, test);
+                    .occluded_lanes(shadow, &mut occ[..k], stats, test);
             }
             self.add_light(rays, lits, li, &occ[..k], &owner, &toward, out, stats);
         }
