@@ -301,13 +301,22 @@ impl<R: Real> Integrator<R> {
             return;
         }
         let mut spawned = [None; PACKET];
+        // Whether any hit reflects, and whether any refracts (most packets of most scenes do
+        // neither: then nothing below is set up).
+        let mut kinds = [false; 2];
         for i in 0..n {
             if let Some(lit) = &lits[i] {
-                spawned[i] = Some(self.spawn(&rays[i], lit, depth, weights[i]));
+                let sp = self.spawn(&rays[i], lit, depth, weights[i]);
+                kinds[0] |= sp.reflection.is_some();
+                kinds[1] |= sp.refraction.is_some();
+                spawned[i] = Some(sp);
             }
         }
         // Reflections, then refractions: each colour gets the terms in shade()'s order.
         for refraction in [false, true] {
+            if !kinds[usize::from(refraction)] {
+                continue;
+            }
             let mut next = [first; PACKET];
             let mut next_w = [R::ZERO; PACKET];
             let mut w_of = [R::ZERO; PACKET];
