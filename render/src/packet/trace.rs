@@ -89,8 +89,9 @@ impl<R: Real> Integrator<R> {
     /// `by..by + bh` (at most [`PACKET`], row by row), into `out`'s first `bw × bh`: the colours
     /// [`Integrator::trace_eye_packet`] gives `camera.ray(x + 0.5, y + 0.5)`. In `f32` on the
     /// `avx2` and `avx512` tiers the rays are made in lanes and the hits and their shadow rays
-    /// found in lanes ([`RayPacket`], [`crate::packet::shadow`]); the rest (shading, secondary
-    /// rays) is the same code either way. The other tiers and `f64` make the rays one by one
+    /// found in lanes ([`RayPacket`], [`crate::packet::shadow`]), in `buffers` (one set for all
+    /// of a tile's packets); the rest (shading, secondary rays) is the same code either way.
+    /// The other tiers and `f64` make the rays one by one
     /// (the lanes do not pay there, as measured in bench/results/; on `avx2` they pay once
     /// the shadow rays and the packet's bounds are in eight-lane registers too).
     pub fn trace_eye_block(
