@@ -1,18 +1,19 @@
 //! Casting only, for comparing raw ray throughput with other kernels (Embree's `nffcast`): one eye
 //! ray through each pixel centre and, for every hit, one shadow ray per light — to every light,
 //! or (culling) only to lights in front of the surface. No shading, no secondary rays. The rays
-//! go in 4 × 4 packets like a render's eye rays, or one by one. In `f32` on the `avx2` and `avx512` tiers, a
-//! packet's rays live in lanes ([`RayPacket`]) from the camera through the traversal and the leaf
-//! kernels, and each light's shadow packet is made in lanes from the hits
-//! ([`crate::packet::shadow`]); the other tiers trace prepared rays. Both give the same rays, hits and
-//! counts.
+//! go in 4 × 4 packets like a render's eye rays, or one by one. In `f32` on the `avx2` and
+//! `avx512` tiers, a packet's rays live in lanes
+//! ([`RayPacket`](crate::geometry::ray_packet::RayPacket), one set for a tile's packets,
+//! [`PacketBuffers`]) from the camera through the traversal and the leaf kernels, and each
+//! light's shadow packet is made in lanes from the hits ([`crate::packet::shadow`]); the other
+//! tiers trace prepared rays. Both give the same rays, hits and counts.
 
 use std::any::Any;
 
 use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
-use crate::geometry::ray_packet::RayPacket;
 use crate::geometry::{offset_ray_origin, PreparedRay, Ray};
+use crate::packet::buffers::PacketBuffers;
 use crate::packet::leaf::LanesLeaf;
 use crate::packet::shadow::{shadow_lanes, SurfaceLanes};
 use crate::real::Real;
@@ -150,10 +151,13 @@ fn cast_tile_lanes(
 ) {
     let scene = &integrator.scene;
     let accel = &integrator.accel;
-    let mut eye = RayPacket::new();
-    let mut shadow = RayPacket::new();
-    // Rays a leaf test takes one by one are prepared into this, once per packet.
-    let mut prepared = [PreparedRay::new(camera.ray(0.5, 0.5)); PACKET];
+    // The tile's packets work in one set of lanes, as a render's do; rays a leaf test takes
+    // one by one are prepared into `prepared`, once per packet.
+    let PacketBuffers {
+        eye,
+        shadow,
+        prepared,
+    } = &mut PacketBuffers::new();
     let mut hits = [None; PACKET];
     let mut surfaces = SurfaceLanes::default();
     let mut occ = [false; PACKET];
@@ -161,8 +165,8 @@ fn cast_tile_lanes(
         eye.eye(camera, bx, by, bw, bh);
         let n = eye.len();
         stats.eye_rays += n as u64;
-        let test = LanesLeaf::new(scene, &mut prepared);
-        accel.intersect_lanes(&eye, &mut hits[..n], stats, test);
+        let test = LanesLeaf::new(scene, prepared);
+        accel.intersect_lanes(eye, &mut hits[..n], stats, test);
         surfaces.mask = 0;
         for (i, h) in hits[..n].iter().enumerate() {
             if let Some(h) = h {
@@ -171,7 +175,7 @@ fn cast_tile_lanes(
         }
         for light in &scene.lights {
             shadow_lanes(
-                &mut shadow,
+                shadow,
                 cull.then_some(&eye.tri.d),
                 &surfaces,
                 light.position,
@@ -180,8 +184,8 @@ fn cast_tile_lanes(
             if k == 0 {
                 continue;
             }
-            let test = LanesLeaf::new(scene, &mut prepared);
-            accel.occluded_lanes(&shadow, &mut occ[..k], stats, test);
+            let test = LanesLeaf::new(scene, prepared);
+            accel.occluded_lanes(shadow, &mut occ[..k], stats, test);
             stats.shadow_rays += k as u64;
             stats.shadow_hits += occ[..k].iter().filter(|&&o| o).count() as u64;
         }
