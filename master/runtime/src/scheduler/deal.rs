@@ -18,10 +18,18 @@ impl Scheduler {
     /// Tiles per assignment message now ([`crate::batch::batch_size`]), from the queue, the
     /// ready render threads (`threads`, counted once per fill: a sum over every worker for
     /// every batch made the fill quadratic in workers) and the mean tile cost seen so far.
+    /// The queue counts the tiles of the frame given next in a sequence too: a frame's tail is
+    /// filled by the next frame's tiles, so batches shrink toward the sequence's end only, not
+    /// toward every frame's (at each frame's end a guided shrink to single tiles had cost about
+    /// forty small messages a frame, each waking a worker and the master).
     pub(super) fn batch_size(&self, threads: usize) -> usize {
+        let open: usize = self.open.iter().map(|f| f.queue.len()).sum();
+        let next: usize = self.frames.as_ref().map_or(0, |s| {
+            s.pending.iter().map(frames::NextFrame::to_render).sum()
+        });
         crate::batch::batch_size(
             self.opts.max_batch,
-            self.open.iter().map(|f| f.queue.len()).sum(),
+            open + next,
             threads,
             self.mean_cost(),
             self.opts.batch_seconds,

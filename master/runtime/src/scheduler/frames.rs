@@ -247,6 +247,13 @@ pub(super) struct NextFrame {
     restored: Vec<AcceptedTile>,
 }
 
+impl NextFrame {
+    /// Its tiles still to render: those an earlier run did not leave.
+    pub(super) fn to_render(&self) -> usize {
+        self.tiles.len().saturating_sub(self.restored.len())
+    }
+}
+
 /// What a frame's camera-only form needs: the key of its built scene and the view and settings
 /// a View carries.
 #[derive(Clone, Debug)]

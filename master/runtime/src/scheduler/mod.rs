@@ -871,6 +871,79 @@ mod tests {
         assert_eq!(s.faults.rejected_results, 0);
     }
 
+    /// Each assignment message in `msgs` as its job and its number of tiles, in order.
+    fn batches(msgs: &[Outgoing]) -> Vec<(u64, usize)> {
+        msgs.iter()
+            .filter_map(|m| match m {
+                Outgoing::Message(Message::Assign { job_id, .. }) => Some((*job_id, 1)),
+                Outgoing::Message(Message::AssignBatch { job_id, tiles }) => {
+                    Some((*job_id, tiles.len()))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Renders `s` to the end on worker 1 (`rx`), every result back before the next fill:
+    /// the assignment messages, in order.
+    fn batches_to_the_end(
+        s: &mut Scheduler,
+        rx: &mut UnboundedReceiver<Outgoing>,
+    ) -> Vec<(u64, usize)> {
+        let mut sent = Vec::new();
+        while !s.is_done() && sent.len() < 100 {
+            s.fill(Instant::now());
+            let msgs = drain(rx);
+            sent.extend(batches(&msgs));
+            for (job, tile, attempt) in assignments(&msgs) {
+                let mut r = result_of(1, job, tile, attempt, 0.5);
+                if let Event::Result { seconds, .. } = &mut r {
+                    *seconds = 1e-6;
+                }
+                s.handle(r, Instant::now());
+            }
+            s.take_complete();
+        }
+        sent
+    }
+
+    /// A frame's tail is filled by the next frame's tiles, so the guided shrink (a quarter of
+    /// the queue per thread) counts the frame given next as queued: batches shrink toward the
+    /// sequence's end, not toward every frame's, where single tiles would each wake a worker
+    /// and the master for nothing.
+    #[tokio::test(start_paused = true)]
+    async fn batches_shrink_toward_the_sequences_end_not_every_frames() {
+        let mut s = two_frames(3, 2);
+        s.opts.max_batch = 8;
+        // A mean of 1 µs a tile: batches bound by the queue alone, not by their work.
+        s.cost = (8e-6, 8);
+        let mut a = join(&mut s, 1, 1);
+        let sent = batches_to_the_end(&mut s, &mut a);
+        assert_eq!(
+            sent,
+            [(JOB, 4), (JOB, 3), (JOB, 1), (NEXT, 2), (NEXT, 1), (NEXT, 1), (NEXT, 1), (NEXT, 1), (NEXT, 1), (NEXT, 1)],
+            "frame 0 in three messages, by a quarter of the 16 tiles left; frame 1, the last, in seven"
+        );
+        // One frame alone shrinks as frame 1 does.
+        let mut one = sched(3);
+        one.opts.max_batch = 8;
+        one.cost = (8e-6, 8);
+        let mut b = join(&mut one, 1, 1);
+        let alone = batches_to_the_end(&mut one, &mut b);
+        assert_eq!(
+            alone,
+            [
+                (JOB, 2),
+                (JOB, 1),
+                (JOB, 1),
+                (JOB, 1),
+                (JOB, 1),
+                (JOB, 1),
+                (JOB, 1)
+            ]
+        );
+    }
+
     #[tokio::test(start_paused = true)]
     async fn with_two_frames_open_the_next_frame_fills_the_tail_of_the_one_before() {
         let mut s = two_frames(3, 2);
