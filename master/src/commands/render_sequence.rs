@@ -325,6 +325,7 @@ fn print_report(
     outputs: &[PathBuf],
     opts: &SequenceOptions,
     result: SequenceResult,
+    through: Option<&SequenceDone>,
     parse_s: f64,
     build_s: f64,
 ) -> anyhow::Result<()> {
@@ -360,6 +361,18 @@ fn print_report(
         );
         crate::outln!("tiles             {}", result.tiles);
         report.print();
+        if let Some(d) = through {
+            crate::outln!(
+                "network           {} bytes sent, {} received",
+                d.bytes_sent,
+                d.bytes_received
+            );
+            crate::outln!(
+                "master CPU        {:.4}s ({:.1} µs per tile)",
+                d.master_cpu_s,
+                d.master_cpu_s * 1e6 / result.tiles.max(1) as f64
+            );
+        }
     }
     if let Some(path) = &args.stats_json {
         let extra = json!({
@@ -375,6 +388,12 @@ fn print_report(
             "tiles": result.tiles,
             "precision": precision,
         });
+        let mut extra = extra;
+        if let Some(d) = through {
+            extra["bytes_sent"] = json!(d.bytes_sent);
+            extra["bytes_received"] = json!(d.bytes_received);
+            extra["master_cpu_s"] = json!(d.master_cpu_s);
+        }
         let text = serde_json::to_string_pretty(&report.to_json(extra))?;
         write_whole(path, (text + "\n").as_bytes())?;
     }
@@ -388,8 +407,8 @@ fn print_report(
 }
 
 /// Renders the sequence through `n` local worker processes, frame after frame on the same
-/// workers, each frame written as soon as it is complete. Returns what the sequence did and
-/// the threads of each worker.
+/// workers, each frame written as soon as it is complete. Returns what the sequence did, the
+/// threads of each worker and what the runtime counted (bytes, the master's CPU).
 fn render_through_workers(
     args: &RenderArgs,
     loaded: &Loaded,
@@ -398,7 +417,7 @@ fn render_through_workers(
     n: usize,
     progress: &std::sync::Arc<SequenceProgress>,
     live: Option<&crate::live::Live>,
-) -> anyhow::Result<(SequenceResult, usize)> {
+) -> anyhow::Result<(SequenceResult, usize, SequenceDone)> {
     use parrt_runtime::observer::{Observer, Observers};
     let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
     let threads = args.threads.unwrap_or((cores / n).max(1));
@@ -444,7 +463,7 @@ fn render_through_workers(
         most_alive: done.most_open_frames,
         stopped: false,
     };
-    Ok((result, threads))
+    Ok((result, threads, done))
 }
 
 /// The live view of a sequence when `--http` asked for one, told each frame's label and size.
@@ -575,6 +594,8 @@ pub struct SequenceDone {
     pub bytes_received: u64,
     /// The most frames open at once.
     pub most_open_frames: usize,
+    /// The master's CPU seconds over this run's trace (its process: every thread).
+    pub master_cpu_s: f64,
 }
 
 /// Renders a prepared sequence through the distributed runtime as `config` says (local
@@ -636,6 +657,7 @@ pub fn through_runtime(
         bytes_sent: 0,
         bytes_received: 0,
         most_open_frames: 0,
+        master_cpu_s: 0.0,
     };
     let (Some(&first), Some(&last)) = (frames.todo().first(), frames.todo().last()) else {
         frames.close()?;
@@ -655,6 +677,7 @@ pub fn through_runtime(
     done.bytes_sent = r.bytes_sent;
     done.bytes_received = r.bytes_received;
     done.most_open_frames = r.most_open_frames;
+    done.master_cpu_s = r.master_cpu_s;
     Ok(done)
 }
 
@@ -702,7 +725,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     };
     let live = sequence_live(&args.job.live, None, &prepared, args.tile, mode)?;
     if let Some(workers) = args.workers {
-        let (result, threads) = render_through_workers(
+        let (result, threads, done) = render_through_workers(
             args,
             &loaded,
             &settings,
@@ -720,7 +743,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             ..opts
         };
         print_report(
-            args, &loaded, &settings, &outputs, &opts, result, parse_s, 0.0,
+            args,
+            &loaded,
+            &settings,
+            &outputs,
+            &opts,
+            result,
+            Some(&done),
+            parse_s,
+            0.0,
         )?;
         return Ok(ExitCode::SUCCESS);
     }
@@ -793,7 +824,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     }
     let build_s = build_s.into_inner().unwrap_or_else(|e| e.into_inner());
     print_report(
-        args, &loaded, &settings, &outputs, &opts, result, parse_s, build_s,
+        args, &loaded, &settings, &outputs, &opts, result, None, parse_s, build_s,
     )?;
     Ok(ExitCode::SUCCESS)
 }
