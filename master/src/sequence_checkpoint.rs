@@ -13,6 +13,7 @@ use anyhow::Context;
 use parrt_protocol::PixelFormat;
 use parrt_render::description::SceneDescription;
 use parrt_render::film::Film;
+use parrt_render::sequence::Frame;
 use parrt_render::settings::RenderSettings;
 use parrt_render::stats::RayStats;
 use parrt_render::tile::{tiles, Tile};
@@ -217,7 +218,7 @@ impl FrameSource for ResumableFrames<'_> {
         self.todo.len()
     }
 
-    fn frame(&mut self, k: usize) -> Result<(SceneDescription, RenderSettings), DistError> {
+    fn frame(&mut self, k: usize) -> Result<(Frame, RenderSettings), DistError> {
         let g = self.global(k)?;
         let missing = || DistError::Frame {
             frame: g,
@@ -225,12 +226,7 @@ impl FrameSource for ResumableFrames<'_> {
         };
         let frame = self.sequence.frames().get(g).ok_or_else(missing)?;
         let settings = self.settings.get(g).ok_or_else(missing)?;
-        Ok((frame.description().into_owned(), settings.clone()))
-    }
-
-    fn scene(&self, k: usize) -> Option<std::sync::Arc<SceneDescription>> {
-        let g = self.global(k).ok()?;
-        Some(self.sequence.frames().get(g)?.scene.clone())
+        Ok((frame.clone(), settings.clone()))
     }
 
     fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError> {

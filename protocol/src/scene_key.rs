@@ -6,7 +6,7 @@
 //! with the same key have the same built scene and accelerator, bit for bit: the later may be
 //! sent as a [`crate::ViewSpec`] of the earlier.
 
-use parrt_render::description::{Bounds, SceneDescription};
+use parrt_render::description::{Bounds, SceneDescription, View};
 use parrt_render::settings::RenderSettings;
 use sha2::{Digest, Sha256};
 
@@ -16,7 +16,7 @@ pub type SceneKey = [u8; 32];
 /// The key of `desc` built with `settings` (see the module's documentation); `None` when
 /// the description cannot be encoded (then the frame is always sent whole).
 pub fn scene_key(desc: &SceneDescription, settings: &RenderSettings) -> Option<SceneKey> {
-    SceneContent::new(desc)?.key(desc, settings)
+    SceneContent::new(desc)?.key(&desc.view, settings)
 }
 
 /// A scene's content hashed once, for the keys of the frames that show it from different
@@ -45,11 +45,11 @@ impl SceneContent {
         })
     }
 
-    /// What [`scene_key`] gives for `desc` built with `settings`, `desc` having the content
-    /// this was made from, seen from any view (the content is not hashed again).
-    pub fn key(&self, desc: &SceneDescription, settings: &RenderSettings) -> Option<SceneKey> {
+    /// What [`scene_key`] gives for the content this was made from seen from `view` and built
+    /// with `settings` (the content is not hashed again).
+    pub fn key(&self, view: &View, settings: &RenderSettings) -> Option<SceneKey> {
         let mut h = self.hash.clone();
-        let origin = parrt_render::frame::origin_for(&self.bounds, desc.view.from);
+        let origin = parrt_render::frame::origin_for(&self.bounds, view.from);
         for c in origin.to_array() {
             h.update(c.to_bits().to_le_bytes());
         }
@@ -102,9 +102,9 @@ mod tests {
         f64s.precision = parrt_render::settings::Precision::F64;
         for v in [&d, &far] {
             for s in [&s, &f64s] {
-                assert_eq!(content.key(v, s), scene_key(v, s));
+                assert_eq!(content.key(&v.view, s), scene_key(v, s));
             }
         }
-        assert_ne!(content.key(&d, &f64s), content.key(&d, &s));
+        assert_ne!(content.key(&d.view, &f64s), content.key(&d.view, &s));
     }
 }

@@ -8,10 +8,11 @@
 
 use crate::options::MasterConfig;
 use crate::scheduler::{AcceptedTile, FrameCamera, FrameFinished, FrameJob, Scheduler, WholeJob};
-use crate::server::{drive, encode_job, job_message, Loop};
+use crate::server::{drive, encode_job, JobForm, Loop};
 use crate::DistError;
 use parrt_protocol::{SceneContent, SceneKey};
 use parrt_render::description::SceneDescription;
+use parrt_render::sequence::Frame;
 use parrt_render::settings::RenderSettings;
 use parrt_render::stats::RayStats;
 use parrt_render::tile::{tiles, Tile};
@@ -23,15 +24,12 @@ use std::sync::Arc;
 pub trait FrameSource {
     /// Frames in the sequence, the first included.
     fn count(&self) -> usize;
-    /// Frame `k`'s scene and settings (`k` ≥ 1), asked for in order, when frame `k - 1` is
-    /// given to the scheduler (before it opens).
-    fn frame(&mut self, k: usize) -> Result<(SceneDescription, RenderSettings), DistError>;
-    /// The scene frame `k` shows before its view is set, shared by every frame that shows it
-    /// (a camera path's frames share one), so that the master hashes a scene's content once,
-    /// not once a frame. `None`: not known, and each frame is hashed whole.
-    fn scene(&self, _k: usize) -> Option<Arc<SceneDescription>> {
-        None
-    }
+    /// Frame `k` and its settings: frame 0 once, for its scene key, then each later frame in
+    /// order, when the frame before is given to the scheduler (before it opens). A frame's
+    /// scene is shared ([`Frame::scene`]) by every frame that shows it (a camera path's frames
+    /// share one): the master hashes a scene's content once, not once a frame, and copies it
+    /// only to send it whole.
+    fn frame(&mut self, k: usize) -> Result<(Frame, RenderSettings), DistError>;
     /// Frame `k` is complete (every frame but the last, which is the render's result), each
     /// once, as soon as it is: frames may complete out of order.
     fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError>;
@@ -65,7 +63,7 @@ impl FrameSource for NoFrames {
     fn count(&self) -> usize {
         match *self {}
     }
-    fn frame(&mut self, _: usize) -> Result<(SceneDescription, RenderSettings), DistError> {
+    fn frame(&mut self, _: usize) -> Result<(Frame, RenderSettings), DistError> {
         match *self {}
     }
     fn finished(&mut self, _: usize, _: FrameFinished) -> Result<(), DistError> {
@@ -88,7 +86,16 @@ pub(crate) struct SequenceSums {
     pub(crate) last: Option<FrameFinished>,
 }
 
-/// Frame `k` of `src`: a fresh job id, its scene, settings and tiles, and its Job encoded
+/// A frame as the scheduler is given it ([`Scheduler::push_frame`]).
+struct Opened {
+    job_id: u64,
+    settings: RenderSettings,
+    lights: usize,
+    tiles: Vec<Tile>,
+    job: FrameJob,
+}
+
+/// Frame `k` of `src`: a fresh job id, its settings, lights and tiles, and its Job encoded
 /// once for every worker (refused if it would not fit a frame) with its camera-only form.
 fn open_frame<F: FrameSource + ?Sized>(
     src: &mut F,
@@ -96,17 +103,24 @@ fn open_frame<F: FrameSource + ?Sized>(
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
     hashes: &mut SceneHashes,
-) -> Result<(u64, SceneDescription, RenderSettings, Vec<Tile>, FrameJob), DistError> {
-    let (desc, settings) = src.frame(k)?;
+) -> Result<Opened, DistError> {
+    let (frame, settings) = src.frame(k)?;
     let job_id = rng.gen::<u64>();
-    let key = hashes.key(src.scene(k), &desc, &settings);
+    let key = hashes.key(&frame, &settings);
     // The frame before had the same key, so every worker holds a base of this scene or is
     // sent frame 0's: this frame's whole Job waits until a worker needs it.
     let defer = key.is_some() && key == hashes.last_key;
     hashes.last_key = key;
-    let job = frame_job(job_id, &desc, &settings, key, defer, config)?;
-    let list = tiles(settings.width, settings.height, config.schedule.tile);
-    Ok((job_id, desc, settings, list, job))
+    let lights = frame.scene.lights.len();
+    let job = frame_job(job_id, frame, &settings, key, defer, config)?;
+    let tiles = tiles(settings.width, settings.height, config.schedule.tile);
+    Ok(Opened {
+        job_id,
+        settings,
+        lights,
+        tiles,
+        job,
+    })
 }
 
 /// The content hash of the scene the latest frame showed, kept while the frames after it
@@ -118,63 +132,56 @@ struct SceneHashes {
 }
 
 impl SceneHashes {
-    /// The scene key of `desc` built with `settings`, `shared` being the scene it shows before
-    /// its view is set, if the source knows it: its content hashed only when it differs from
-    /// the latest frame's.
-    fn key(
-        &mut self,
-        shared: Option<Arc<SceneDescription>>,
-        desc: &SceneDescription,
-        settings: &RenderSettings,
-    ) -> Option<SceneKey> {
-        let Some(scene) = shared else {
-            return parrt_protocol::scene_key(desc, settings);
-        };
-        let known = matches!(&self.latest, Some((s, _)) if Arc::ptr_eq(s, &scene));
+    /// The scene key of `frame` built with `settings`: its scene's content hashed only when it
+    /// is not the latest frame's.
+    fn key(&mut self, frame: &Frame, settings: &RenderSettings) -> Option<SceneKey> {
+        let known = matches!(&self.latest, Some((s, _)) if Arc::ptr_eq(s, &frame.scene));
         if !known {
-            let content = SceneContent::new(&scene);
-            self.latest = Some((scene, content));
+            let content = SceneContent::new(&frame.scene);
+            self.latest = Some((frame.scene.clone(), content));
         }
         let (_, content) = self.latest.as_ref()?;
-        content.as_ref()?.key(desc, settings)
+        content.as_ref()?.key(&frame.view, settings)
     }
 }
 
-/// A frame's Job: whole (encoded now, or when first needed if `defer`), and its scene key
-/// (`None`: none) and camera, so that a worker holding a Job of the same key is sent the
-/// camera alone.
+/// A frame's Job: whole (encoded now, or made and encoded when first needed if `defer`: a
+/// camera path's later frames then never copy their scene), and its scene key (`None`: none)
+/// and camera, so that a worker holding a Job of the same key is sent the camera alone.
 fn frame_job(
     job_id: u64,
-    desc: &SceneDescription,
+    frame: Frame,
     settings: &RenderSettings,
     key: Option<SceneKey>,
     defer: bool,
     config: &MasterConfig,
 ) -> Result<FrameJob, DistError> {
+    let view = frame.view.clone();
     let job = if defer {
+        let (form, settings) = (JobForm::of(config), settings.clone());
         WholeJob::deferred(
-            job_message(job_id, desc, settings, config),
+            move || form.message(job_id, &frame.description(), &settings),
             config.net.max_frame,
         )
     } else {
-        WholeJob::Encoded(encode_job(job_id, desc, settings, config)?)
+        WholeJob::Encoded(encode_job(job_id, &frame.description(), settings, config)?)
     };
     let camera = key.map(|key| FrameCamera {
         key,
-        view: desc.view.clone(),
+        view,
         settings: settings.clone(),
         tile_size: config.schedule.tile,
     });
     Ok(FrameJob { job, camera })
 }
 
-/// Drives frame 0 (`first`: its job id, scene and settings, already the scheduler's) and every
+/// Drives frame 0 (`first`: its job id and settings, already the scheduler's) and every
 /// later frame of `frames` on the same workers, up to `window` frames open at once, in one run
 /// of the master's loop; each finished frame but the last goes to `frames`, the last to
 /// `seq.last`. Stops at the first failure.
 pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
     l: &mut Loop<'_>,
-    first: (u64, &SceneDescription, &RenderSettings),
+    first: (u64, &RenderSettings),
     frames: Option<&mut F>,
     rng: &mut rand::rngs::StdRng,
     config: &MasterConfig,
@@ -183,7 +190,7 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
     let count = frames.as_ref().map_or(1, |f| f.count());
     let driven = match frames {
         Some(src) if count > 1 || src.keeps_tiles() => {
-            let (job_id, desc, settings) = first;
+            let (job_id, settings) = first;
             let mut hashes = SceneHashes::default();
             let keeps = src.keeps_tiles();
             if keeps {
@@ -191,10 +198,11 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
                 l.sched.restore(src.restored(0));
             }
             if count > 1 {
-                l.sched.start_frames(config.schedule.frames_window, count, {
-                    hashes.last_key = hashes.key(src.scene(0), desc, settings);
-                    frame_job(job_id, desc, settings, hashes.last_key, false, config)?
-                });
+                let (frame, _) = src.frame(0)?;
+                hashes.last_key = hashes.key(&frame, settings);
+                let job = frame_job(job_id, frame, settings, hashes.last_key, false, config)?;
+                l.sched
+                    .start_frames(config.schedule.frames_window, count, job);
             }
             let mut next = 1;
             let mut hook = |sched: &mut Scheduler| -> Result<(), DistError> {
@@ -210,10 +218,9 @@ pub(crate) async fn drive_frames<F: FrameSource + ?Sized>(
                     }
                 }
                 if next < count && sched.pending_frames() == 0 {
-                    let (job_id, desc, settings, list, job) =
-                        open_frame(src, next, rng, config, &mut hashes)?;
-                    seq.tiles += list.len();
-                    sched.push_frame(next, job_id, &settings, desc.lights.len(), list, job);
+                    let f = open_frame(src, next, rng, config, &mut hashes)?;
+                    seq.tiles += f.tiles.len();
+                    sched.push_frame(next, f.job_id, &f.settings, f.lights, f.tiles, f.job);
                     if keeps {
                         sched.restore_pending(src.restored(next));
                     }

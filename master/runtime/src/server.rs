@@ -250,7 +250,7 @@ impl<L: Listener> Master<L> {
             clock: &clock,
             observers: &observers,
         };
-        let first = (job_id, desc, settings);
+        let first = (job_id, settings);
         let outcome = drive_frames(&mut loop_of, first, frames, &mut rng, &config, &mut seq).await;
         let (cpu_at_start, events_peak) = (seq.cpu_at_start, seq.events_peak);
         let started = sched.started();
@@ -527,21 +527,42 @@ fn new_scheduler(
     sched
 }
 
-/// The Job message of `desc` and `settings` as job `job_id`.
-pub(crate) fn job_message(
-    job_id: u64,
-    desc: &SceneDescription,
-    settings: &RenderSettings,
-    config: &MasterConfig,
-) -> Message {
-    Message::Job(Box::new(JobSpec {
-        job_id,
-        scene: desc.clone(),
-        settings: settings.clone(),
-        tile_size: config.schedule.tile,
-        pixel_format: config.schedule.pixel_format,
-        pack_pixels: config.schedule.pack_pixels,
-    }))
+/// What every Job message of a render says beside its scene and settings: the tile edge and
+/// how pixels travel. Small and `Copy`, so that a Job made later (a deferred frame's) needs no
+/// borrow of the configuration.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct JobForm {
+    tile_size: u32,
+    pixel_format: parrt_protocol::PixelFormat,
+    pack_pixels: bool,
+}
+
+impl JobForm {
+    /// The form `config` gives its Jobs.
+    pub(crate) fn of(config: &MasterConfig) -> Self {
+        JobForm {
+            tile_size: config.schedule.tile,
+            pixel_format: config.schedule.pixel_format,
+            pack_pixels: config.schedule.pack_pixels,
+        }
+    }
+
+    /// The Job message of `desc` and `settings` as job `job_id`.
+    pub(crate) fn message(
+        self,
+        job_id: u64,
+        desc: &SceneDescription,
+        settings: &RenderSettings,
+    ) -> Message {
+        Message::Job(Box::new(JobSpec {
+            job_id,
+            scene: desc.clone(),
+            settings: settings.clone(),
+            tile_size: self.tile_size,
+            pixel_format: self.pixel_format,
+            pack_pixels: self.pack_pixels,
+        }))
+    }
 }
 
 /// The job message, encoded once for every worker, refused if it would not fit a frame.
@@ -552,7 +573,7 @@ pub(crate) fn encode_job(
     config: &MasterConfig,
 ) -> Result<Encoded, DistError> {
     let net = &config.net;
-    let job = job_message(job_id, desc, settings, config);
+    let job = JobForm::of(config).message(job_id, desc, settings);
     // Encoded once, for every worker (and to size the time allowed for sending it).
     let job = Encoded::new(&job).map_err(DistError::EncodeJob)?;
     let job_bytes = job.len();

@@ -19,6 +19,7 @@
 use parrt_protocol::JobSpec;
 use parrt_render::description::SceneDescription;
 use parrt_render::film::{Film, Rgb};
+use parrt_render::sequence::Frame;
 use parrt_render::settings::RenderSettings;
 use parrt_render::tile::Tile;
 use parrt_render::vec3::Vec3d;
@@ -249,12 +250,12 @@ impl FrameSource for SimFrames {
         self.scenes.len()
     }
 
-    fn frame(&mut self, k: usize) -> Result<(SceneDescription, RenderSettings), DistError> {
+    fn frame(&mut self, k: usize) -> Result<(Frame, RenderSettings), DistError> {
         let d = self.scenes.get(k).or(self.scenes.last()).cloned();
-        Ok((
-            d.unwrap_or_else(|| crate::dist::test_scene(1, 1)),
-            self.settings.clone(),
-        ))
+        let d = d.unwrap_or_else(|| crate::dist::test_scene(1, 1));
+        let view = d.view.clone();
+        let scene = std::sync::Arc::new(d);
+        Ok((Frame { scene, view }, self.settings.clone()))
     }
 
     fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError> {

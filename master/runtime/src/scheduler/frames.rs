@@ -299,18 +299,19 @@ pub enum WholeJob {
     Deferred(Arc<DeferredJob>),
 }
 
-/// A Job message and, once asked for, its encoding ([`WholeJob::Deferred`]).
+/// How to make a Job message and, once asked for, its encoding ([`WholeJob::Deferred`]).
 pub struct DeferredJob {
-    message: Message,
+    make: Box<dyn Fn() -> Message + Send + Sync>,
     max_frame: usize,
     made: std::sync::OnceLock<Result<Encoded, String>>,
 }
 
 impl WholeJob {
-    /// `message` encoded when first asked for, refused then if it is over `max_frame` bytes.
-    pub fn deferred(message: Message, max_frame: usize) -> Self {
+    /// The message `make` makes, made and encoded when first asked for (`make` is called at
+    /// most once), refused then if it is over `max_frame` bytes.
+    pub fn deferred(make: impl Fn() -> Message + Send + Sync + 'static, max_frame: usize) -> Self {
         WholeJob::Deferred(Arc::new(DeferredJob {
-            message,
+            make: Box::new(make),
             max_frame,
             made: std::sync::OnceLock::new(),
         }))
@@ -324,7 +325,7 @@ impl WholeJob {
             WholeJob::Deferred(d) => d
                 .made
                 .get_or_init(|| {
-                    let e = Encoded::new(&d.message).map_err(|e| e.to_string())?;
+                    let e = Encoded::new(&(d.make)()).map_err(|e| e.to_string())?;
                     if e.len() > d.max_frame {
                         return Err(format!(
                             "the Job is {} bytes, over the {}-byte frame limit",
@@ -755,15 +756,33 @@ mod whole_job_tests {
     fn a_deferred_job_encodes_as_an_eager_one_once_asked() {
         let msg = Message::Cancel { job_id: 7 };
         let eager = Encoded::new(&msg).expect("encodes");
-        let later = WholeJob::deferred(msg, 1 << 20);
+        let made = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let counted = made.clone();
+        let later = WholeJob::deferred(
+            move || {
+                counted.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                msg.clone()
+            },
+            1 << 20,
+        );
         assert!(format!("{later:?}").contains("Deferred(None)"));
+        assert_eq!(
+            made.load(std::sync::atomic::Ordering::Relaxed),
+            0,
+            "not made yet"
+        );
         assert_eq!(later.encoded(), Ok(eager.clone()));
         assert_eq!(later.clone().encoded(), Ok(eager));
+        assert_eq!(
+            made.load(std::sync::atomic::Ordering::Relaxed),
+            1,
+            "made once"
+        );
     }
 
     #[test]
     fn a_deferred_job_over_the_frame_limit_is_refused_with_its_size() {
-        let job = WholeJob::deferred(Message::Cancel { job_id: 7 }, 1);
+        let job = WholeJob::deferred(|| Message::Cancel { job_id: 7 }, 1);
         let err = job.encoded().expect_err("over the limit");
         assert!(err.contains("over the 1-byte frame limit"), "{err}");
     }

@@ -137,16 +137,12 @@ impl FrameSource for Frames<'_> {
     fn frame(
         &mut self,
         k: usize,
-    ) -> Result<(parrt_render::description::SceneDescription, RenderSettings), DistError> {
-        let desc = self.seq.frames()[k].description().into_owned();
-        Ok((desc, self.settings.clone()))
-    }
-
-    fn scene(
-        &self,
-        k: usize,
-    ) -> Option<std::sync::Arc<parrt_render::description::SceneDescription>> {
-        Some(self.seq.frames().get(k)?.scene.clone())
+    ) -> Result<(parrt_render::sequence::Frame, RenderSettings), DistError> {
+        let frame = self.seq.frames().get(k).ok_or_else(|| DistError::Frame {
+            frame: k,
+            reason: format!("the sequence has {} frames", self.seq.len()),
+        })?;
+        Ok((frame.clone(), self.settings.clone()))
     }
 
     fn finished(&mut self, _k: usize, _frame: FrameFinished) -> Result<(), DistError> {
