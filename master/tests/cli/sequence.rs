@@ -162,10 +162,26 @@ fn a_sequence_through_two_local_workers_is_the_smp_sequence() {
         ("w-o%d.png", &["--workers", "2", "--threads", "1"][..]),
     ] {
         let mut args = orbit.to_vec();
-        let out = d(out);
-        args.extend(["-o", out.as_str()]);
+        let (out, json) = (d(out), d(&format!("{}.json", &out[..1])));
+        args.extend(["-o", out.as_str(), "--stats-json", json.as_str()]);
         args.extend_from_slice(extra);
         render_ok(&args);
+    }
+    // Through workers the report says what crossed the network and what the master spent;
+    // SMP has neither to say.
+    let json = |name: &str| -> serde_json::Value {
+        serde_json::from_slice(&bytes(&dir.path().join(name))).expect("--stats-json is JSON")
+    };
+    let (smp, workers) = (json("s.json"), json("w.json"));
+    let eye_rays = workers["eye_rays"].as_u64().expect("eye_rays");
+    assert_eq!(smp["eye_rays"].as_u64(), Some(eye_rays));
+    // Every pixel of the three frames came back, 3 bytes each, unpacked on this machine.
+    let got = workers["bytes_received"].as_u64().expect("bytes_received");
+    assert!(got >= 3 * eye_rays, "{got} bytes for {eye_rays} pixels");
+    assert!(workers["bytes_sent"].as_u64().is_some_and(|b| b > 0));
+    assert!(workers["master_cpu_s"].as_f64().is_some_and(|s| s > 0.0));
+    for key in ["bytes_sent", "bytes_received", "master_cpu_s"] {
+        assert!(smp.get(key).is_none(), "SMP reports {key}");
     }
     // Two scene files of different scenes (and so different Jobs).
     let (a, b) = (spd("tetra-4.nff"), spd("gears-1.nff"));
