@@ -913,35 +913,25 @@ mod tests {
     /// and the master for nothing.
     #[tokio::test(start_paused = true)]
     async fn batches_shrink_toward_the_sequences_end_not_every_frames() {
-        let mut s = two_frames(3, 2);
-        s.opts.max_batch = 8;
         // A mean of 1 µs a tile: batches bound by the queue alone, not by their work.
-        s.cost = (8e-6, 8);
-        let mut a = join(&mut s, 1, 1);
-        let sent = batches_to_the_end(&mut s, &mut a);
+        let to_the_end = |mut s: Scheduler| {
+            s.opts.max_batch = 8;
+            s.cost = (8e-6, 8);
+            let mut rx = join(&mut s, 1, 1);
+            batches_to_the_end(&mut s, &mut rx)
+        };
+        let (f0, f1) = (
+            [4, 3, 1].map(|n| (JOB, n)),
+            [2, 1, 1, 1, 1, 1, 1].map(|n| (NEXT, n)),
+        );
         assert_eq!(
-            sent,
-            [(JOB, 4), (JOB, 3), (JOB, 1), (NEXT, 2), (NEXT, 1), (NEXT, 1), (NEXT, 1), (NEXT, 1), (NEXT, 1), (NEXT, 1)],
+            to_the_end(two_frames(3, 2)),
+            [&f0[..], &f1[..]].concat(),
             "frame 0 in three messages, by a quarter of the 16 tiles left; frame 1, the last, in seven"
         );
         // One frame alone shrinks as frame 1 does.
-        let mut one = sched(3);
-        one.opts.max_batch = 8;
-        one.cost = (8e-6, 8);
-        let mut b = join(&mut one, 1, 1);
-        let alone = batches_to_the_end(&mut one, &mut b);
-        assert_eq!(
-            alone,
-            [
-                (JOB, 2),
-                (JOB, 1),
-                (JOB, 1),
-                (JOB, 1),
-                (JOB, 1),
-                (JOB, 1),
-                (JOB, 1)
-            ]
-        );
+        let alone = [2, 1, 1, 1, 1, 1, 1].map(|n| (JOB, n));
+        assert_eq!(to_the_end(sched(3)), alone);
     }
 
     #[tokio::test(start_paused = true)]
