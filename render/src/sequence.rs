@@ -51,6 +51,17 @@ pub struct Frame {
     pub view: View,
 }
 
+impl From<SceneDescription> for Frame {
+    /// The frame of a scene seen from its own view.
+    fn from(desc: SceneDescription) -> Self {
+        let view = desc.view.clone();
+        Frame {
+            scene: Arc::new(desc),
+            view,
+        }
+    }
+}
+
 impl Frame {
     /// The description of this frame alone: the scene itself when the view is its own, else a
     /// copy with the view replaced (what rendering this frame on its own would read).
@@ -77,16 +88,7 @@ impl Sequence {
         if scenes.is_empty() {
             return Err(SequenceError::NoFrames);
         }
-        let frames = scenes
-            .into_iter()
-            .map(|d| {
-                let view = d.view.clone();
-                Frame {
-                    scene: Arc::new(d),
-                    view,
-                }
-            })
-            .collect();
+        let frames = scenes.into_iter().map(Frame::from).collect();
         Ok(Sequence { frames })
     }
 

@@ -253,9 +253,7 @@ impl FrameSource for SimFrames {
     fn frame(&mut self, k: usize) -> Result<(Frame, RenderSettings), DistError> {
         let d = self.scenes.get(k).or(self.scenes.last()).cloned();
         let d = d.unwrap_or_else(|| crate::dist::test_scene(1, 1));
-        let view = d.view.clone();
-        let scene = std::sync::Arc::new(d);
-        Ok((Frame { scene, view }, self.settings.clone()))
+        Ok((Frame::from(d), self.settings.clone()))
     }
 
     fn finished(&mut self, k: usize, frame: FrameFinished) -> Result<(), DistError> {
