@@ -375,7 +375,7 @@ fn print_report(
         }
     }
     if let Some(path) = &args.stats_json {
-        let extra = json!({
+        let mut extra = json!({
             "scene": loaded.scene,
             "frames": n,
             "width": s0.width,
@@ -388,7 +388,6 @@ fn print_report(
             "tiles": result.tiles,
             "precision": precision,
         });
-        let mut extra = extra;
         if let Some(d) = through {
             extra["bytes_sent"] = json!(d.bytes_sent);
             extra["bytes_received"] = json!(d.bytes_received);
