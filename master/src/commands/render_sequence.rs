@@ -585,7 +585,8 @@ pub struct SequenceDone {
     pub tiles: usize,
     /// Ray statistics over every frame.
     pub stats: parrt_render::stats::RayStats,
-    /// Wall seconds of this run's trace (0 when nothing was left to render).
+    /// Wall seconds of this run's trace, through the last frame's writing (0 when nothing
+    /// was left to render).
     pub trace_s: f64,
     /// Bytes sent to the workers.
     pub bytes_sent: u64,
@@ -593,7 +594,8 @@ pub struct SequenceDone {
     pub bytes_received: u64,
     /// The most frames open at once.
     pub most_open_frames: usize,
-    /// The master's CPU seconds over this run's trace (its process: every thread).
+    /// The master's CPU seconds over this run's trace, the last frame's writing included (its
+    /// process: every thread).
     pub master_cpu_s: f64,
 }
 
@@ -667,16 +669,25 @@ pub fn through_runtime(
         parrt_runtime::Job::<parrt_runtime::DistError>::ready(desc, frame_settings[first].clone());
     let r = parrt_runtime::run_sequence(&config, job, &mut frames, on_listen, None)
         .context("distributed render failed")?;
+    // The last frame is written here, after the runtime's trace ended: its writing counts in
+    // the trace and the master's CPU, as it does in SMP's trace (which ends when the last
+    // frame is written).
+    let (writing, cpu_before) = (
+        std::time::Instant::now(),
+        parrt_runtime::cpu_time::process_cpu_s(),
+    );
     frames.write_frame(last, &r.result.film)?;
+    let last_write_s = writing.elapsed().as_secs_f64();
+    let last_write_cpu_s = parrt_runtime::cpu_time::process_cpu_s() - cpu_before;
     frames.close()?;
     let r = r.result;
     done.tiles += r.tiles;
     done.stats += r.stats;
-    done.trace_s = r.trace_s;
+    done.trace_s = r.trace_s + last_write_s;
     done.bytes_sent = r.bytes_sent;
     done.bytes_received = r.bytes_received;
     done.most_open_frames = r.most_open_frames;
-    done.master_cpu_s = r.master_cpu_s;
+    done.master_cpu_s = r.master_cpu_s + last_write_cpu_s;
     Ok(done)
 }
 
