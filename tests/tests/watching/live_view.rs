@@ -22,6 +22,9 @@ pub(crate) struct Render {
     pub(crate) printed: Vec<String>,
     /// The lines it prints on stderr, as they come.
     pub(crate) lines: std::sync::mpsc::Receiver<String>,
+    /// Where it writes the file with its key: the render is killed, so it cannot remove that
+    /// file itself, and this directory goes with the test instead of leaving it in /tmp.
+    _key_dir: tempfile::TempDir,
 }
 
 impl Render {
@@ -75,7 +78,9 @@ pub(crate) fn start_render(
 /// Starts `cmd` (a `parrt` with `--http`), reading its stderr until it tells the live view's
 /// address; `tile_delay_ms` slows its workers' tiles.
 pub(crate) fn start_command(mut cmd: Command, tile_delay_ms: Option<u64>) -> Render {
-    cmd.env_remove(TILE_DELAY_ENV)
+    let key_dir = tempfile::tempdir().expect("a directory for the key's file");
+    cmd.env("XDG_RUNTIME_DIR", key_dir.path())
+        .env_remove(TILE_DELAY_ENV)
         .stdout(Stdio::null())
         .stderr(Stdio::piped());
     if let Some(ms) = tile_delay_ms {
@@ -91,6 +96,7 @@ pub(crate) fn start_command(mut cmd: Command, tile_delay_ms: Option<u64>) -> Ren
         dial: String::new(),
         printed: Vec::new(),
         lines: rx,
+        _key_dir: key_dir,
     };
     std::thread::spawn(move || {
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
