@@ -61,6 +61,7 @@ pub mod message;
 pub mod pixels;
 pub mod scene_key;
 pub mod seconds;
+pub mod shared_pixels;
 
 pub use auth::{AuthError, Token};
 pub use channel::{ChannelError, LinkKey, SecureStream};
@@ -77,6 +78,7 @@ pub use limits::{DEFAULT_MAX_FRAME, HANDSHAKE_MAX_FRAME};
 pub use message::{JobSpec, Message, ViewSpec};
 pub use pixels::{Packing, PixelError, PixelFormat, TilePixels};
 pub use scene_key::{scene_key, SceneContent, SceneKey};
+pub use shared_pixels::{SharedError, SharedPixels, SHARED_PIXELS_ENV};
 
 /// The protocol version spoken by this build; bumped on any incompatible change (2: mutual
 /// authentication, a nonce in Hello and the master's proof in Challenge; pixels as the output
@@ -84,5 +86,7 @@ pub use scene_key::{scene_key, SceneContent, SceneKey};
 /// and the worker's instruction-set tier in Hello; 4: a sequence sends a further Job on the same
 /// connection for each frame, which a worker builds in place of the one before; 5: a frame that
 /// only moves the camera is a View of a scene the worker holds, which a worker of version 4
-/// could not read; 6: a result's pixels say how they are packed, LZ4 when that is smaller).
-pub const PROTOCOL_VERSION: u32 = 6;
+/// could not read; 6: a result's pixels say how they are packed, LZ4 when that is smaller; 7: a
+/// worker the master started may leave them in memory the two share, which a master of version
+/// 6 could not read).
+pub const PROTOCOL_VERSION: u32 = 7;

@@ -13,6 +13,7 @@
 //! ([`TilePixels::unpack`]) into exactly the tile's byte count, never more, before any other
 //! check.
 
+use crate::shared_pixels::SharedPixels;
 use parrt_render::film::{to_u8_into, unit, Rgb};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -46,6 +47,17 @@ pub enum Packing {
     Raw,
     /// Those bytes as one LZ4 block (no size prefix: the receiver knows the tile's size).
     Lz4,
+    /// Those bytes in a slot of the memory a master shares with a worker it started
+    /// ([`crate::shared_pixels`]); `bytes` is empty. The master's connection task takes them
+    /// out of the slot, so the scheduler only ever sees them raw.
+    Shared {
+        /// The region's id.
+        region: u64,
+        /// The slot.
+        slot: u32,
+        /// Bytes written in the slot.
+        len: u32,
+    },
 }
 
 /// A tile's pixels as they travel: row-major within the tile.
@@ -90,6 +102,10 @@ pub enum PixelError {
     /// Packed bytes given to a step that needs them unpacked (a receiver's bug, not a peer's).
     #[error("pixels still packed")]
     Packed,
+    /// Pixels said to be in shared memory, reaching a step that cannot read it (a master that
+    /// shares none with this worker takes them out before).
+    #[error("pixels in shared memory this receiver does not hold")]
+    NotShared,
     /// An f32 value is NaN or infinite (no render produces one; the film must never hold one).
     #[error("pixel {index} has a non-finite value ({value})")]
     NonFinite {
@@ -103,26 +119,35 @@ pub enum PixelError {
 impl TilePixels {
     /// Encodes rendered pixels in `format`.
     pub fn encode(pixels: &[Rgb], format: PixelFormat) -> Self {
-        let mut bytes = Vec::with_capacity(pixels.len() * format.bytes_per_pixel());
-        match format {
-            // Sized once and filled in a straight loop (a copy on a little-endian machine),
-            // not grown four bytes at a time.
-            PixelFormat::F32 => {
-                bytes.resize(pixels.len() * 12, 0);
-                for (d, v) in bytes.chunks_exact_mut(4).zip(pixels.as_flattened()) {
-                    d.copy_from_slice(&v.to_le_bytes());
-                }
-            }
-            PixelFormat::Rgb8 => {
-                bytes.resize(pixels.len() * 3, 0);
-                to_u8_into(&mut bytes, pixels.as_flattened());
-            }
-        }
+        // Sized once and filled in a straight loop, not grown four bytes at a time.
+        let mut bytes = vec![0; pixels.len() * format.bytes_per_pixel()];
+        write_bytes(pixels, format, &mut bytes);
         TilePixels {
             format,
             packing: Packing::Raw,
             bytes,
         }
+    }
+
+    /// Encodes rendered pixels in `format` straight into a free slot of `region`, or `None`
+    /// when no slot takes them (the caller encodes them inline).
+    pub fn encode_shared(
+        pixels: &[Rgb],
+        format: PixelFormat,
+        region: &SharedPixels,
+    ) -> Option<Self> {
+        let len = pixels.len() * format.bytes_per_pixel();
+        let len32 = u32::try_from(len).ok()?;
+        let slot = region.put(len, |bytes| write_bytes(pixels, format, bytes))?;
+        Some(TilePixels {
+            format,
+            packing: Packing::Shared {
+                region: region.id(),
+                slot,
+                len: len32,
+            },
+            bytes: Vec::new(),
+        })
     }
 
     /// Packs raw 8-bit pixels with LZ4 when that makes them smaller; otherwise (already
@@ -149,8 +174,10 @@ impl TilePixels {
     /// packed, refused when they do not unpack to exactly `count` pixels in their format
     /// (a bomb cannot make it write more: the output is allocated at the tile's size).
     pub fn unpack(self, count: usize) -> Result<Self, PixelError> {
-        if self.packing == Packing::Raw {
-            return Ok(self);
+        match self.packing {
+            Packing::Raw => return Ok(self),
+            Packing::Shared { .. } => return Err(PixelError::NotShared),
+            Packing::Lz4 => {}
         }
         let want = count.saturating_mul(self.format.bytes_per_pixel());
         let mut bytes = vec![0; want];
@@ -246,6 +273,20 @@ impl TilePixels {
             ),
         }
         Ok(())
+    }
+}
+
+/// Writes `pixels` into `out` (exactly their size) in `format`: little-endian f32 values (a copy
+/// on a little-endian machine), or the 8-bit values the film's writer would store.
+fn write_bytes(pixels: &[Rgb], format: PixelFormat, out: &mut [u8]) {
+    debug_assert_eq!(out.len(), pixels.len() * format.bytes_per_pixel());
+    match format {
+        PixelFormat::F32 => {
+            for (d, v) in out.chunks_exact_mut(4).zip(pixels.as_flattened()) {
+                d.copy_from_slice(&v.to_le_bytes());
+            }
+        }
+        PixelFormat::Rgb8 => to_u8_into(out, pixels.as_flattened()),
     }
 }
 

@@ -158,6 +158,16 @@ impl WorkerArgs {
             opts.name = n.clone();
         }
         opts.dial_timeout = seconds_flag("--dial-timeout", self.dial_timeout, false)?;
+        // Set only by a master that starts its workers itself; a region that cannot be used
+        // costs nothing but speed: the pixels go over the connection.
+        opts.shared_pixels = match parrt_protocol::SharedPixels::from_env() {
+            None => None,
+            Some(Ok(region)) => Some(std::sync::Arc::new(region)),
+            Some(Err(e)) => {
+                tracing::warn!(error = %e, "pixels go over the connection");
+                None
+            }
+        };
         Ok(opts)
     }
 }

@@ -45,6 +45,10 @@ pub struct WorkerOptions {
     /// thread's cryptographic generator; `Some` from a generator seeded with it, so a simulated
     /// run replays exactly. Never set it for a worker on a real network.
     pub nonce_seed: Option<u64>,
+    /// The memory a master that started this worker shares with it for pixels
+    /// ([`parrt_protocol::shared_pixels`]): `None` (the default) sends every tile's pixels
+    /// over the connection.
+    pub shared_pixels: Option<std::sync::Arc<parrt_protocol::SharedPixels>>,
 }
 
 impl WorkerOptions {
@@ -67,6 +71,7 @@ impl WorkerOptions {
             batch_budget: parrt_protocol::limits::MAX_BATCH_RESULT_BYTES,
             tile_delay: tile_delay_from_env(),
             nonce_seed: None,
+            shared_pixels: None,
         }
     }
 

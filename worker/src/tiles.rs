@@ -6,7 +6,7 @@
 //! with the inline executor ([`crate::exec::InlineExec`]).
 
 use crate::exec::PixelFn;
-use parrt_protocol::{Message, PixelFormat, TilePixels};
+use parrt_protocol::{Message, PixelFormat, SharedPixels, TilePixels};
 use parrt_render::film::Rgb;
 use parrt_render::render::Renderer;
 use parrt_render::stats::RayStats;
@@ -42,6 +42,7 @@ pub struct TileRenderer {
     out: Sender<Vec<Message>>,
     delay: Option<Duration>,
     pixels: Option<PixelFn>,
+    shared: Option<Arc<SharedPixels>>,
 }
 
 /// A batch in progress: its finished messages and how many tiles are still to come.
@@ -79,7 +80,15 @@ impl TileRenderer {
             out,
             delay,
             pixels,
+            shared: None,
         }
+    }
+
+    /// Leaves the pixels in `shared` when it has a free slot (a worker its master started on
+    /// the same machine, [`parrt_protocol::shared_pixels`]).
+    pub fn with_shared(mut self, shared: Option<Arc<SharedPixels>>) -> Self {
+        self.shared = shared;
+        self
     }
 
     /// Queues a batch of tiles (each with its attempt) for rendering, spread over the pool's
@@ -93,6 +102,7 @@ impl TileRenderer {
         for (tile, attempt) in tiles {
             let (job, batch, delay) = (job.clone(), batch.clone(), self.delay);
             let pixels = self.pixels.clone();
+            let shared = self.shared.clone();
             self.pool.spawn(move || {
                 if job.cancelled.load(Ordering::Relaxed) {
                     batch.finish_one(None);
@@ -101,7 +111,14 @@ impl TileRenderer {
                 if let Some(d) = delay {
                     std::thread::sleep(d);
                 }
-                batch.finish_one(Some(render_one(&job, tile, attempt, pixels.as_ref())));
+                let shared = shared.as_deref();
+                batch.finish_one(Some(render_one(
+                    &job,
+                    tile,
+                    attempt,
+                    pixels.as_ref(),
+                    shared,
+                )));
             });
         }
     }
@@ -137,13 +154,15 @@ pub(crate) fn trace(job: &JobHandle, tile: &Tile, source: Source<'_>) -> Traced 
 }
 
 /// The message answering one tile: its result, or an Error when tracing failed or panicked.
-/// `seconds` is asked for once the pixels are encoded and packed (the time the tile took, as
-/// reported).
+/// The pixels go into a slot of `shared` when there is one free, else inline (packed if the
+/// job asks). `seconds` is asked for once the pixels are encoded and packed (the time the tile
+/// took, as reported).
 pub(crate) fn result_message(
     job: &JobHandle,
     tile: &Tile,
     attempt: u32,
     traced: std::thread::Result<Traced>,
+    shared: Option<&SharedPixels>,
     seconds: impl FnOnce() -> f64,
 ) -> Message {
     match traced {
@@ -152,9 +171,12 @@ pub(crate) fn result_message(
             job_id: job.job_id,
             tile_id: tile.id,
             attempt,
-            pixels: match TilePixels::encode(&pixels, job.pixel_format) {
-                p if job.pack_pixels => p.pack(),
-                p => p,
+            pixels: match shared
+                .and_then(|r| TilePixels::encode_shared(&pixels, job.pixel_format, r))
+            {
+                Some(p) => p,
+                None if job.pack_pixels => TilePixels::encode(&pixels, job.pixel_format).pack(),
+                None => TilePixels::encode(&pixels, job.pixel_format),
             },
             stats,
             seconds: seconds(),
@@ -166,14 +188,22 @@ pub(crate) fn result_message(
 }
 
 /// Renders one tile into its result message (an Error if rendering panicked), or takes its
-/// pixels from `pixels` when given (a replaying worker).
-fn render_one(job: &JobHandle, tile: Tile, attempt: u32, pixels: Option<&PixelFn>) -> Message {
+/// pixels from `pixels` when given (a replaying worker); the pixels go into `shared` if given.
+fn render_one(
+    job: &JobHandle,
+    tile: Tile,
+    attempt: u32,
+    pixels: Option<&PixelFn>,
+    shared: Option<&SharedPixels>,
+) -> Message {
     let t0 = Instant::now();
     let traced = std::panic::catch_unwind(AssertUnwindSafe(|| match pixels {
         Some(f) => trace(job, &tile, Source::Given(&**f)),
         None => trace(job, &tile, Source::Render),
     }));
-    result_message(job, &tile, attempt, traced, || t0.elapsed().as_secs_f64())
+    result_message(job, &tile, attempt, traced, shared, || {
+        t0.elapsed().as_secs_f64()
+    })
 }
 
 #[cfg(test)]

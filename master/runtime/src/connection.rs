@@ -10,6 +10,7 @@
 
 use super::admission::HandshakeSlot;
 use super::scheduler::{Event, WorkerId};
+use super::shared_regions::{ConnRegion, SharedRegions};
 use crate::outgoing::Outgoing;
 use parrt_protocol::channel::{self, ChannelError, LinkKey, SecureStream};
 use parrt_protocol::limits::{self, MAX_THREADS};
@@ -53,6 +54,9 @@ pub struct ConnContext {
     pub seed: Option<u64>,
     /// The most messages that ever waited in one outbox ([`crate::QueuePeaks::outbox`]).
     pub outbox_peak: std::sync::atomic::AtomicUsize,
+    /// The memory shared with the workers this master started, for their pixels (none made
+    /// when it started none, or was not asked to share).
+    pub shared: Arc<SharedRegions>,
 }
 
 /// Why a handshake did not produce a worker.
@@ -304,6 +308,7 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
         }
     }
     let limit = ctx.heartbeat_timeout;
+    let mut region = ConnRegion::new(ctx.shared.clone());
     let mut beat = interval(ctx.heartbeat);
     beat.set_missed_tick_behavior(MissedTickBehavior::Delay);
     loop {
@@ -367,7 +372,15 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
                         job_to_ready_s: job_sent.elapsed().as_secs_f64(),
                     },
                     Message::TileResult { job_id, tile_id, attempt, pixels, stats, seconds } => {
-                        Event::Result { id, job_id, tile_id, attempt, pixels, stats, seconds }
+                        match region.resolve(pixels) {
+                            Ok(pixels) => Event::Result { id, job_id, tile_id, attempt, pixels, stats, seconds },
+                            Err(reason) => {
+                                let reason = format!("protocol violation: {reason}");
+                                info!(worker = id, %reason, "closing connection");
+                                let _ = timeout(limit, conn.write(&Message::Error { reason: reason.clone() })).await;
+                                return reason;
+                            }
+                        }
                     }
                     Message::Error { reason } => Event::WorkerError { id, reason: limits::capped_reason(reason) },
                     other => {

@@ -66,6 +66,7 @@ pub mod refusals;
 pub mod rendezvous;
 pub mod scheduler;
 pub mod server;
+pub mod shared_regions;
 pub mod sink;
 pub mod spawn;
 pub mod window;
@@ -75,6 +76,7 @@ pub use options::{CheckpointAt, MasterConfig, Net, Schedule, Spawn, WorkerComman
 pub use scheduler::FrameFinished;
 pub use scheduler::{FaultCounts, WorkerReport};
 pub use server::{FrameSource, Master, Writer};
+use shared_regions::SharedRegions;
 pub use spawn::{spawn_workers, LocalWorkers};
 
 pub use crate::window::Window;
@@ -89,6 +91,27 @@ use tokio_util::sync::CancellationToken;
 
 /// The default address of `parrt master`: loopback only; any other must be asked for.
 pub const DEFAULT_LISTEN: &str = "127.0.0.1:7878";
+
+/// The region each started worker gets for its pixels: a slot for every tile it may hold at
+/// once (its window of assignments, each of up to `max_batch` tiles; at most
+/// [`parrt_protocol::shared_pixels::MAX_SLOTS`]), each slot a whole tile in the job's format.
+/// A tile past that (a region full, a slot too small) goes over the connection.
+fn shared_slots<'a>(config: &MasterConfig, regions: &'a SharedRegions) -> spawn::Share<'a> {
+    let (s, threads) = (&config.schedule, config.spawn.threads);
+    let held = s
+        .window
+        .assignments(threads, None, 0.0)
+        .saturating_mul(s.max_batch.max(1));
+    let tile = s.tile as usize;
+    let bytes = tile
+        .saturating_mul(tile)
+        .saturating_mul(s.pixel_format.bytes_per_pixel());
+    spawn::Share {
+        regions,
+        slots: held.clamp(1, parrt_protocol::shared_pixels::MAX_SLOTS as usize) as u32,
+        slot_bytes: bytes.clamp(1, parrt_protocol::shared_pixels::MAX_SLOT_BYTES as usize) as u32,
+    }
+}
 
 /// What a distributed render produced.
 #[derive(Debug)]
@@ -127,6 +150,9 @@ pub struct DistResult {
     /// A sequence's last frame: when its first tile went out and its last came in (the
     /// earlier frames' go to the [`FrameSource`]); `None` for a render of one frame.
     pub last_frame_span: Option<(Option<tokio::time::Instant>, tokio::time::Instant)>,
+    /// Tiles whose pixels came through memory shared with a worker this master started
+    /// (counted when taken, accepted or not).
+    pub tiles_shared: u64,
 }
 
 /// High-water marks of the master's in-memory queues (the deterministic simulation checks
@@ -347,10 +373,13 @@ fn run_frames<E: From<DistError>>(
         });
         let _children = if config.spawn.count > 0 {
             let s = &config.spawn;
-            let started =
-                spawn::spawn_workers_until(&s.command, s.count, s.threads, dial, &token, &cancel)
-                    .await
-                    .map_err(DistError::from)?;
+            let regions = master.shared_regions();
+            let share = s.share_pixels.then(|| shared_slots(config, &regions));
+            let started = spawn::spawn_workers_until(
+                &s.command, s.count, s.threads, dial, &token, share, &cancel,
+            )
+            .await
+            .map_err(DistError::from)?;
             if cancel.is_cancelled() {
                 signal.abort();
                 return Err(DistError::Interrupted.into());

@@ -149,6 +149,11 @@ pub struct Spawn {
     pub threads: usize,
     /// How to start one.
     pub command: WorkerCommand,
+    /// Whether each gets a region of memory shared with the master for its pixels
+    /// ([`parrt_protocol::shared_pixels`]), so that they skip the connection's sealing,
+    /// copies and kernel crossings. Only for workers doing real work on this machine (not an
+    /// emulated cluster, whose network is the point).
+    pub share_pixels: bool,
 }
 
 /// The command line of a local worker: `<exe> <prefix…> --connect ADDR --threads T --name N

@@ -17,6 +17,7 @@ use super::frames::{drive_frames, NoFrames, SequenceSums};
 use super::net::{Listener, TcpListener};
 use super::options::MasterConfig;
 use super::scheduler::{AcceptedTile, Event, SchedOptions, Scheduler, Step, Verdict, WorkerId};
+use super::shared_regions::SharedRegions;
 use super::sink::{BackgroundWriter, TileSink, WRITER_QUEUE};
 use super::{DistError, DistResult};
 use parrt_protocol::limits::{frame_allowance, worker_frame_limit};
@@ -68,6 +69,7 @@ pub struct Master<L: Listener = TcpListener> {
     config: MasterConfig,
     clock: SharedClock,
     sink: Option<SinkState>,
+    shared: Arc<SharedRegions>,
 }
 
 impl Master<TcpListener> {
@@ -101,7 +103,14 @@ impl<L: Listener> Master<L> {
             config: config.clone(),
             clock: super::clock::system(),
             sink: None,
+            shared: Arc::default(),
         })
+    }
+
+    /// The regions of memory this master shares with the workers it starts, for their pixels
+    /// ([`crate::spawn`] makes one per worker when asked to).
+    pub fn shared_regions(&self) -> Arc<SharedRegions> {
+        self.shared.clone()
     }
 
     /// Reads the master's CPU time from `clock` (the clock seam).
@@ -197,6 +206,7 @@ impl<L: Listener> Master<L> {
             config,
             clock,
             sink,
+            shared,
             ..
         } = self;
         let (sched_opts, net) = (&config.schedule, &config.net);
@@ -224,7 +234,7 @@ impl<L: Listener> Master<L> {
             None => (None, false, 0, 0),
         };
         let job = encode_job(job_id, desc, settings, &config)?;
-        let ctx = conn_context(job, token, &config, &mut rng);
+        let ctx = conn_context(job, token, &config, shared, &mut rng);
         let conn_ctx = ctx.clone();
         let (events_tx, mut events) = mpsc::unbounded_channel::<Event>();
         let stop = CancellationToken::new();
@@ -313,6 +323,7 @@ fn conn_context(
     job: Encoded,
     token: Token,
     config: &MasterConfig,
+    shared: Arc<SharedRegions>,
     rng: &mut rand::rngs::StdRng,
 ) -> Arc<ConnContext> {
     let (sched_opts, net) = (&config.schedule, &config.net);
@@ -328,6 +339,7 @@ fn conn_context(
         heartbeat_timeout: net.heartbeat_timeout,
         seed: config.seed.map(|_| rng.gen()),
         outbox_peak: Default::default(),
+        shared,
     })
 }
 
@@ -480,6 +492,7 @@ fn dist_result(
         },
         most_open_frames: counts.most_open_frames,
         last_frame_span: None,
+        tiles_shared: conn_ctx.shared.tiles(),
     }
 }
 

@@ -3,20 +3,40 @@
 //! through [`spawn_workers`] and a [`WorkerCommand`]. The token travels in their environment
 //! (never on the command line, where `ps` would show it). Dropping the handle kills them.
 //!
+//! Workers that render for real on this machine may each get a region of memory shared with the
+//! master for their pixels ([`Share`], [`parrt_protocol::shared_pixels`]): a `memfd` whose
+//! descriptor only that worker inherits, its number in [`SHARED_PIXELS_ENV`]. A region that
+//! cannot be made costs only speed: that worker's pixels go over its connection.
+//!
 //! No orphans: each worker asks the kernel to kill it when the thread that started it ends
 //! (`PR_SET_PDEATHSIG`), so a master that dies any way at all, `SIGKILL` included, takes its
 //! workers with it; and [`spawn_workers_until`] stops starting them as soon as the run is
 //! cancelled (SIGINT, SIGTERM), handing back only those it started, to be killed and reaped.
 
 use crate::options::WorkerCommand;
-use parrt_protocol::{Token, LOG_ENV, TOKEN_ENV};
+use crate::shared_regions::SharedRegions;
+use parrt_protocol::{Token, LOG_ENV, SHARED_PIXELS_ENV, TOKEN_ENV};
 use std::net::SocketAddr;
+use std::os::fd::AsRawFd;
 use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use thiserror::Error;
 use tokio_util::sync::CancellationToken;
+use tracing::warn;
+
+/// Memory to share with each worker started, for its pixels: a region of `slots` slots of
+/// `slot_bytes` bytes each, made in `regions`.
+#[derive(Clone, Copy, Debug)]
+pub struct Share<'a> {
+    /// Where the regions are kept (the master's, for its connections to find).
+    pub regions: &'a SharedRegions,
+    /// Slots of each region: as many tiles as a worker may have rendered and not yet sent.
+    pub slots: u32,
+    /// Bytes of each slot: a whole tile's pixels.
+    pub slot_bytes: u32,
+}
 
 /// Errors starting local workers.
 #[derive(Debug, Error)]
@@ -77,18 +97,20 @@ fn reap(children: &Mutex<Vec<Child>>) {
     }
 }
 
-/// Starts `n` workers of `threads` threads each from `cmd`, dialling `addr`.
+/// Starts `n` workers of `threads` threads each from `cmd`, dialling `addr`, each with a region
+/// of `share` if given.
 pub fn spawn_workers(
     cmd: &WorkerCommand,
     n: usize,
     threads: usize,
     addr: SocketAddr,
     token: &Token,
+    share: Option<Share<'_>>,
 ) -> Result<LocalWorkers, SpawnError> {
     let mut workers = LocalWorkers {
         children: Vec::with_capacity(n),
     };
-    let mut start = starter(cmd, threads, addr, token)?;
+    let mut start = starter(cmd, threads, addr, token, share)?;
     for index in 0..n {
         workers.children.push(start(index)?);
     }
@@ -104,12 +126,13 @@ pub async fn spawn_workers_until(
     threads: usize,
     addr: SocketAddr,
     token: &Token,
+    share: Option<Share<'_>>,
     stop: &CancellationToken,
 ) -> Result<LocalWorkers, SpawnError> {
     let mut workers = LocalWorkers {
         children: Vec::with_capacity(n),
     };
-    let mut start = starter(cmd, threads, addr, token)?;
+    let mut start = starter(cmd, threads, addr, token, share)?;
     for index in 0..n {
         if stop.is_cancelled() {
             break;
@@ -121,13 +144,14 @@ pub async fn spawn_workers_until(
     Ok(workers)
 }
 
-/// What starts worker `index`: the command line, the token in the environment, and the
-/// parent-death signal.
+/// What starts worker `index`: the command line, the token in the environment, its region of
+/// shared memory if any, and the parent-death signal.
 fn starter<'a>(
     cmd: &'a WorkerCommand,
     threads: usize,
     addr: SocketAddr,
     token: &Token,
+    share: Option<Share<'a>>,
 ) -> Result<impl FnMut(usize) -> Result<Child, SpawnError> + 'a, SpawnError> {
     let exe = match &cmd.exe {
         Some(e) => e.clone(),
@@ -152,10 +176,29 @@ fn starter<'a>(
         if std::env::var_os(LOG_ENV).is_none() {
             c.env(LOG_ENV, &cmd.log);
         }
-        // SAFETY: prctl, getppid and _exit are async-signal-safe; the closure touches nothing
-        // of the parent's but a copied pid.
+        // Kept open until the child has started, then closed here (the mappings stay).
+        let region = share.and_then(|s| match s.regions.create(s.slots, s.slot_bytes) {
+            Ok(fd) => Some(fd),
+            Err(e) => {
+                warn!(worker = index, error = %e, "no shared memory: its pixels go over its connection");
+                None
+            }
+        });
+        let inherit = region.as_ref().map(|fd| fd.as_raw_fd());
+        match inherit {
+            Some(fd) => c.env(SHARED_PIXELS_ENV, fd.to_string()),
+            None => c.env_remove(SHARED_PIXELS_ENV),
+        };
+        // SAFETY: prctl, getppid, fcntl and _exit are async-signal-safe; the closure touches
+        // nothing of the parent's but a copied pid and descriptor number.
         unsafe {
             c.pre_exec(move || {
+                // This child alone keeps its region's descriptor across exec.
+                if let Some(fd) = inherit {
+                    if libc::fcntl(fd, libc::F_SETFD, 0) != 0 {
+                        return Err(std::io::Error::last_os_error());
+                    }
+                }
                 if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong) != 0 {
                     return Err(std::io::Error::last_os_error());
                 }
@@ -186,7 +229,7 @@ pub fn spawn_workers_from(
         exe: Some(exe.to_path_buf()),
         ..WorkerCommand::default()
     };
-    spawn_workers(&cmd, n, threads, addr, token)
+    spawn_workers(&cmd, n, threads, addr, token, None)
 }
 
 #[cfg(test)]

@@ -60,14 +60,17 @@ const LOCAL_MAX_BATCH: usize = 64;
 /// rendered has three behind it while results and new batches wait for a core.
 const LOCAL_WINDOW: usize = 4;
 
-/// Makes `config` start `count` workers of `threads` threads on this machine. They do not pack
-/// their pixels: the loopback costs nothing to cross, and packing would only take CPU from the
-/// render threads. Their batches are larger and their windows deeper than a remote worker's
+/// Makes `config` start `count` workers of `threads` threads on this machine. They leave their
+/// pixels in memory shared with the master ([`parrt_protocol::shared_pixels`]) rather than
+/// sealing and sending them through the kernel, where every process shares the cores; and what
+/// goes over the loopback is not packed, which would only take CPU from the render threads.
+/// Their batches are larger and their windows deeper than a remote worker's
 /// (20 ms of work, 64 tiles, four to a thread): a message costs more here, where every process
 /// shares the cores.
 pub fn local_workers(config: &mut MasterConfig, count: usize, threads: usize) {
     config.spawn.count = count;
     config.spawn.threads = threads;
+    config.spawn.share_pixels = true;
     config.schedule.pack_pixels = false;
     config.schedule.batch_seconds = LOCAL_BATCH_SECONDS;
     config.schedule.max_batch = LOCAL_MAX_BATCH;

@@ -291,6 +291,7 @@ fn render_through_workers(
             "checkpoint_bad_records": r.checkpoint_bad_records,
             "bytes_sent": r.bytes_sent,
             "bytes_received": r.bytes_received,
+            "tiles_shared": r.tiles_shared,
             "scene_transfer_s": r.scene_transfer_s,
             "master_cpu_s": r.master_cpu_s,
             "master_cpu_per_tile_us": per_tile_us,
@@ -340,6 +341,12 @@ fn describe_workers(
         "network           {} bytes sent, {} received, scene transfer {:.4}s",
         r.bytes_sent, r.bytes_received, r.scene_transfer_s
     ));
+    if r.tiles_shared > 0 {
+        describe.push(format!(
+            "shared memory     {} tiles' pixels (the rest over the connections)",
+            r.tiles_shared
+        ));
+    }
     let (per_tile_us, per_mb_ms) = (r.master_cpu_per_tile_us(), r.master_cpu_per_mb_ms());
     describe.push(format!(
         "master CPU        {:.4}s ({per_tile_us:.1} µs per tile, {per_mb_ms:.2} ms per MB received)",

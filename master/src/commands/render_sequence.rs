@@ -363,9 +363,10 @@ fn print_report(
         report.print();
         if let Some(d) = through {
             crate::outln!(
-                "network           {} bytes sent, {} received",
+                "network           {} bytes sent, {} received; {} tiles' pixels through shared memory",
                 d.bytes_sent,
-                d.bytes_received
+                d.bytes_received,
+                d.tiles_shared
             );
             crate::outln!(
                 "master CPU        {:.4}s ({:.1} µs per tile)",
@@ -391,6 +392,7 @@ fn print_report(
         if let Some(d) = through {
             extra["bytes_sent"] = json!(d.bytes_sent);
             extra["bytes_received"] = json!(d.bytes_received);
+            extra["tiles_shared"] = json!(d.tiles_shared);
             extra["master_cpu_s"] = json!(d.master_cpu_s);
         }
         let text = serde_json::to_string_pretty(&report.to_json(extra))?;
@@ -592,6 +594,8 @@ pub struct SequenceDone {
     pub bytes_sent: u64,
     /// Bytes received from them.
     pub bytes_received: u64,
+    /// Tiles whose pixels came through memory shared with a worker the master started.
+    pub tiles_shared: u64,
     /// The most frames open at once.
     pub most_open_frames: usize,
     /// The master's CPU seconds over this run's trace, the last frame's writing included (its
@@ -657,6 +661,7 @@ pub fn through_runtime(
         trace_s: 0.0,
         bytes_sent: 0,
         bytes_received: 0,
+        tiles_shared: 0,
         most_open_frames: 0,
         master_cpu_s: 0.0,
     };
@@ -686,6 +691,7 @@ pub fn through_runtime(
     done.trace_s = r.trace_s + last_write_s;
     done.bytes_sent = r.bytes_sent;
     done.bytes_received = r.bytes_received;
+    done.tiles_shared = r.tiles_shared;
     done.most_open_frames = r.most_open_frames;
     done.master_cpu_s = r.master_cpu_s + last_write_cpu_s;
     Ok(done)

@@ -7,7 +7,8 @@
 //! (`limits`), a relay in the middle (`relay`), and
 //! handshake squatters (`squatting`); the handout order from a previous
 //! render's costs (`order`); `peers` holds their raw clients; workers on
-//! different instruction-set tiers (`tiers`); frames that only move the camera (`camera`). The soak is its own binary
+//! different instruction-set tiers (`tiers`); frames that only move the camera (`camera`); pixels
+//! through memory shared with the workers a master starts (`shared_pixels`). The soak is its own binary
 //! (`distributed_soak.rs`): it measures this process's memory, which tests running beside it
 //! here would disturb.
 
@@ -25,6 +26,7 @@ mod order;
 mod peers;
 mod relay;
 mod sequence_checkpoint;
+mod shared_pixels;
 mod squatting;
 mod tiers;
 mod token;

@@ -168,7 +168,9 @@ impl InlineExec {
                 None => trace(&q.job, &q.tile, Source::Render),
             }));
             let cost = (self.cost)(&q.job, &q.tile);
-            let msg = result_message(&q.job, &q.tile, q.attempt, traced, || cost.as_secs_f64());
+            let msg = result_message(&q.job, &q.tile, q.attempt, traced, None, || {
+                cost.as_secs_f64()
+            });
             self.lanes[lane] = Some(Running {
                 until: later(at, cost),
                 batch: q.batch,

@@ -22,6 +22,8 @@ pub struct RayonExec {
     tile_delay: Option<Duration>,
     /// Where tiles' pixels come from instead of tracing (a replaying worker), if anywhere.
     pixels: Option<PixelFn>,
+    /// The region its master shares for pixels, if it started this worker.
+    shared: Option<std::sync::Arc<parrt_protocol::SharedPixels>>,
     /// The pool, once up.
     tiles: Option<TileRenderer>,
     /// Batches given before the pool was up, in order.
@@ -49,6 +51,7 @@ impl RayonExec {
             threads: 1,
             tile_delay: None,
             pixels: None,
+            shared: None,
             tiles: None,
             early: Vec::new(),
             out_tx: Some(out_tx),
@@ -89,7 +92,8 @@ impl RayonExec {
         let Some(tx) = self.out_tx.take() else {
             return Ok(());
         };
-        let r = TileRenderer::new(pool, tx, self.tile_delay, self.pixels.clone());
+        let r = TileRenderer::new(pool, tx, self.tile_delay, self.pixels.clone())
+            .with_shared(self.shared.clone());
         for (job, batch) in self.early.drain(..) {
             r.submit(&job, batch);
         }
@@ -113,6 +117,7 @@ impl Execute for RayonExec {
         let threads = opts.render_threads();
         self.threads = threads;
         self.tile_delay = opts.tile_delay;
+        self.shared = opts.shared_pixels.clone();
         // Starting thousands of threads takes seconds: never on the runtime's thread, so the
         // loop keeps reading and beating meanwhile.
         self.pool_build = Some(tokio::task::spawn_blocking(move || {

@@ -109,6 +109,8 @@ pub fn run(
     config.spawn = Spawn {
         count: run.workers,
         threads: run.threads,
+        // The emulated network is what is measured: pixels cross it.
+        share_pixels: false,
         command: WorkerCommand {
             exe: Some(run.worker_exe.clone()),
             prefix: run.worker_prefix.clone(),
