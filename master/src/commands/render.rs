@@ -59,7 +59,8 @@ pub struct RenderArgs {
     /// `parrt bench simulate`.
     #[arg(long, value_name = "FILE")]
     pub tile_costs: Option<PathBuf>,
-    /// Render through N local worker processes (master/worker over TCP on 127.0.0.1).
+    /// Render through N local worker processes (master/worker over TCP on 127.0.0.1; their
+    /// pixels come through memory the master shares with them).
     #[arg(long, value_name = "N")]
     pub workers: Option<usize>,
     /// Checkpoint (with --workers), timeline and live view.
@@ -343,7 +344,7 @@ fn describe_workers(
     ));
     if r.tiles_shared > 0 {
         describe.push(format!(
-            "shared memory     {} tiles' pixels (the rest over the connections)",
+            "shared memory     {} tiles' pixels came through it, not over the connections",
             r.tiles_shared
         ));
     }
