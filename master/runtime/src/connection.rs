@@ -284,6 +284,26 @@ async fn drain<S: AsyncRead + AsyncWrite + Unpin>(conn: &mut Connection<S>) {
     .await;
 }
 
+/// Tells the worker what it broke (`what`) before the connection closes; returns the reason
+/// to close it with.
+async fn violation<S: AsyncRead + AsyncWrite + Unpin>(
+    conn: &mut Connection<S>,
+    id: WorkerId,
+    what: String,
+    limit: Duration,
+) -> String {
+    let reason = format!("protocol violation: {what}");
+    info!(worker = id, %reason, "closing connection");
+    let _ = timeout(
+        limit,
+        conn.write(&Message::Error {
+            reason: reason.clone(),
+        }),
+    )
+    .await;
+    reason
+}
+
 /// How long to wait for a worker to close after Shutdown.
 pub const DRAIN_TIMEOUT: Duration = Duration::from_secs(2);
 
@@ -374,20 +394,13 @@ async fn relay<S: AsyncRead + AsyncWrite + Unpin>(
                     Message::TileResult { job_id, tile_id, attempt, pixels, stats, seconds } => {
                         match region.resolve(pixels) {
                             Ok(pixels) => Event::Result { id, job_id, tile_id, attempt, pixels, stats, seconds },
-                            Err(reason) => {
-                                let reason = format!("protocol violation: {reason}");
-                                info!(worker = id, %reason, "closing connection");
-                                let _ = timeout(limit, conn.write(&Message::Error { reason: reason.clone() })).await;
-                                return reason;
-                            }
+                            Err(what) => return violation(conn, id, what, limit).await,
                         }
                     }
                     Message::Error { reason } => Event::WorkerError { id, reason: limits::capped_reason(reason) },
                     other => {
-                        let reason = format!("protocol violation: unexpected {}", other.kind());
-                        info!(worker = id, %reason, "closing connection");
-                        let _ = timeout(limit, conn.write(&Message::Error { reason: reason.clone() })).await;
-                        return reason;
+                        let what = format!("unexpected {}", other.kind());
+                        return violation(conn, id, what, limit).await;
                     }
                 };
                 if events.send(ev).is_err() {
