@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Two parrt builds on the local sequence goal: a 24-frame orbit through two local workers of one
 # thread against the same orbit on two SMP threads. Each round runs SMP (the new build), the old
-# build's workers and the new build's workers back to back, so drifts of the machine's speed
-# cancel. Prints SMP's median trace time (`--stats-json` trace_s) and, for each build, the
-# workers' median, SMP's median over it and the median of each round's SMP/workers ratio; then
-# names any frame that is not the same bytes as SMP's. Numbers only: no assertion.
+# build's workers and the new build's workers back to back, in a random order, so drifts of the
+# machine's speed cancel. Prints SMP's median trace time (`--stats-json` trace_s) and, for each
+# build, the workers' median, SMP's median over it and the median of each round's SMP/workers
+# ratio; then names any frame that is not the same bytes as SMP's. Numbers only: no assertion.
 #
 #   usage: bench/ab_sequence.sh OLD_BINARY NEW_BINARY [ROUNDS]
 #          ROUNDS defaults to 21 (this machine's spread needs 15 or more)
@@ -27,10 +27,17 @@ run() {
         >> "$T/$tag.txt"
 }
 
+# Each round runs the three in a fresh random order: in a fixed order the run after SMP's
+# read a point or two apart from the same build's run in another place, more than the
+# change being measured.
 for _ in $(seq "$ROUNDS"); do
-    run "$NEW" smp --threads 2
-    run "$OLD" old --workers 2 --threads 1
-    run "$NEW" new --workers 2 --threads 1
+    for which in $(printf '%s\n' smp old new | shuf); do
+        case $which in
+        smp) run "$NEW" smp --threads 2 ;;
+        old) run "$OLD" old --workers 2 --threads 1 ;;
+        new) run "$NEW" new --workers 2 --threads 1 ;;
+        esac
+    done
 done
 
 python3 - "$T" <<'EOF'

@@ -407,21 +407,51 @@ fn print_report(
     Ok(())
 }
 
-/// Renders the sequence through `n` local worker processes, frame after frame on the same
-/// workers, each frame written as soon as it is complete. Returns what the sequence did, the
-/// threads of each worker and what the runtime counted (bytes, the master's CPU).
+/// How a sequence is spread over local workers.
+#[derive(Clone, Copy)]
+struct LocalShape {
+    /// Worker processes.
+    workers: usize,
+    /// Render threads in each.
+    threads: usize,
+    /// Most frames alive at once.
+    window: usize,
+}
+
+/// `n` local workers, each of `--threads` threads or else the cores shared out, with at most
+/// `--window` frames alive or else [`super::distributed::local_frames_window`]'s for the
+/// smallest frame of `settings`.
+fn local_shape(args: &RenderArgs, settings: &[(RenderSettings, Choice)], n: usize) -> LocalShape {
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let threads = args.threads.unwrap_or((cores / n).max(1));
+    let window = args.sequence.window.unwrap_or_else(|| {
+        let smallest = settings
+            .iter()
+            .map(|(s, _)| parrt_render::tile::tiles(s.width, s.height, args.tile).len())
+            .min()
+            .unwrap_or(1);
+        super::distributed::local_frames_window(n, threads, smallest)
+    });
+    LocalShape {
+        workers: n,
+        threads,
+        window,
+    }
+}
+
+/// Renders the sequence through local worker processes shaped as `shape`, frame after frame
+/// on the same workers, each frame written as soon as it is complete. Returns what the
+/// sequence did and what the runtime counted (bytes, the master's CPU).
 fn render_through_workers(
     args: &RenderArgs,
     loaded: &Loaded,
     settings: &[(RenderSettings, Choice)],
     outputs: &[PathBuf],
-    n: usize,
+    shape: LocalShape,
     progress: &std::sync::Arc<SequenceProgress>,
     live: Option<&crate::live::Live>,
-) -> anyhow::Result<(SequenceResult, usize, SequenceDone)> {
+) -> anyhow::Result<(SequenceResult, SequenceDone)> {
     use parrt_runtime::observer::{Observer, Observers};
-    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
-    let threads = args.threads.unwrap_or((cores / n).max(1));
     let mut observers = if progress.drawn() {
         Observers(vec![progress.clone() as std::sync::Arc<dyn Observer>])
     } else {
@@ -436,11 +466,11 @@ fn render_through_workers(
         job: &args.job,
         keyed: false,
         tile: args.tile,
-        min_workers: n,
+        min_workers: shape.workers,
         output: &outputs[0],
     });
-    super::distributed::local_workers(&mut config, n, threads);
-    config.schedule.frames_window = args.sequence.window();
+    super::distributed::local_workers(&mut config, shape.workers, shape.threads);
+    config.schedule.frames_window = shape.window;
     let prepared = PreparedRef {
         loaded,
         settings,
@@ -464,7 +494,7 @@ fn render_through_workers(
         most_alive: done.most_open_frames,
         stopped: false,
     };
-    Ok((result, threads, done))
+    Ok((result, done))
 }
 
 /// The live view of a sequence when `--http` asked for one, told each frame's label and size.
@@ -741,12 +771,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     };
     let live = sequence_live(&args.job.live, None, &prepared, args.tile, mode)?;
     if let Some(workers) = args.workers {
-        let (result, threads, done) = render_through_workers(
+        let shape = local_shape(args, &settings, workers);
+        let (result, done) = render_through_workers(
             args,
             &loaded,
             &settings,
             &outputs,
-            workers,
+            shape,
             &progress,
             live.as_ref(),
         )?;
@@ -755,7 +786,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             l.end(true);
         }
         let opts = SequenceOptions {
-            threads: workers * threads,
+            threads: workers * shape.threads,
+            window: shape.window,
             ..opts
         };
         print_report(
