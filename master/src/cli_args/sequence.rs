@@ -28,9 +28,7 @@ pub struct SequenceArgs {
     pub frames: Option<usize>,
     /// Most frames alive at once (opened, rendering or being written): the threads fill one
     /// frame's tail with the next frame's tiles; the images take at most W × width × height ×
-    /// 3 bytes (12 with an EXR output). Default 2; with --workers, two more than the frames the
-    /// workers hold queued at once (4 for two workers of one thread at 512² in tiles of 32; at
-    /// most 8). A sequence's flag only (refused for a render of one frame).
+    /// 3 bytes (12 with an EXR output). Default 2; a sequence's flag only (refused for a render of one frame).
     #[arg(long, value_name = "W")]
     pub window: Option<usize>,
 }

@@ -60,32 +60,6 @@ const LOCAL_MAX_BATCH: usize = 64;
 /// rendered has three behind it while results and new batches wait for a core.
 const LOCAL_WINDOW: usize = 4;
 
-/// The most frames alive at once, by default, for a sequence through `count` local workers of
-/// `threads` threads whose smallest frame has `tiles_per_frame` tiles: the frames their windows
-/// can hold at once (each thread [`LOCAL_WINDOW`] assignments of at most [`LOCAL_MAX_BATCH`]
-/// tiles), rounded up, and two more (a frame being finished and written, and the next to hand
-/// out), at most [`LOCAL_MAX_FRAMES_WINDOW`]. With two frames alive, frame k + 2 could not open
-/// before frame k closed, though frame k + 1 was all in the workers' windows already and the
-/// master had nothing left to hand out: the 24-frame orbit of mount:6 at 512² through two
-/// workers of one thread (windows of 512 tiles, two frames) read 0.93–0.97 of two SMP threads'
-/// speed by interleaved trace times with two frames alive and 0.98–0.99 with four (medians of
-/// each round's ratio over 40–80 rounds in a random order; three frames, which still binds,
-/// read as two).
-pub fn local_frames_window(count: usize, threads: usize, tiles_per_frame: usize) -> usize {
-    let held = count
-        .saturating_mul(threads)
-        .saturating_mul(LOCAL_WINDOW)
-        .saturating_mul(LOCAL_MAX_BATCH);
-    let frames = held.div_ceil(tiles_per_frame.max(1));
-    frames
-        .saturating_add(crate::cli_args::sequence::DEFAULT_WINDOW)
-        .min(LOCAL_MAX_FRAMES_WINDOW)
-}
-
-/// The most frames [`local_frames_window`] keeps alive: each worker keeps a built scene per
-/// frame alive (a sequence of different scenes holds that many scenes in every worker).
-pub const LOCAL_MAX_FRAMES_WINDOW: usize = 8;
-
 /// Makes `config` start `count` workers of `threads` threads on this machine. They leave their
 /// pixels in memory shared with the master ([`parrt_protocol::shared_pixels`]) rather than
 /// sealing and sending them through the kernel, where every process shares the cores; and what
@@ -101,21 +75,4 @@ pub fn local_workers(config: &mut MasterConfig, count: usize, threads: usize) {
     config.schedule.batch_seconds = LOCAL_BATCH_SECONDS;
     config.schedule.max_batch = LOCAL_MAX_BATCH;
     config.schedule.window = parrt_runtime::window::Window::PerThread(LOCAL_WINDOW);
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn local_frames_cover_the_workers_windows_and_two_more() {
-        // Two workers of one thread hold 512 tiles: two frames of 512² in tiles of 32.
-        assert_eq!(local_frames_window(2, 1, 256), 4);
-        // A frame larger than what they hold: one frame more.
-        assert_eq!(local_frames_window(2, 1, 1024), 3);
-        assert_eq!(local_frames_window(1, 1, 100_000), 3);
-        // Many threads and small frames: no more than the cap.
-        assert_eq!(local_frames_window(2, 8, 256), LOCAL_MAX_FRAMES_WINDOW);
-        assert_eq!(local_frames_window(2, 1, 0), LOCAL_MAX_FRAMES_WINDOW);
-    }
 }

@@ -407,51 +407,21 @@ fn print_report(
     Ok(())
 }
 
-/// How a sequence is spread over local workers.
-#[derive(Clone, Copy)]
-struct LocalShape {
-    /// Worker processes.
-    workers: usize,
-    /// Render threads in each.
-    threads: usize,
-    /// Most frames alive at once.
-    window: usize,
-}
-
-/// `n` local workers, each of `--threads` threads or else the cores shared out, with at most
-/// `--window` frames alive or else [`super::distributed::local_frames_window`]'s for the
-/// smallest frame of `settings`.
-fn local_shape(args: &RenderArgs, settings: &[(RenderSettings, Choice)], n: usize) -> LocalShape {
-    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
-    let threads = args.threads.unwrap_or((cores / n).max(1));
-    let window = args.sequence.window.unwrap_or_else(|| {
-        let smallest = settings
-            .iter()
-            .map(|(s, _)| parrt_render::tile::tiles(s.width, s.height, args.tile).len())
-            .min()
-            .unwrap_or(1);
-        super::distributed::local_frames_window(n, threads, smallest)
-    });
-    LocalShape {
-        workers: n,
-        threads,
-        window,
-    }
-}
-
-/// Renders the sequence through local worker processes shaped as `shape`, frame after frame
-/// on the same workers, each frame written as soon as it is complete. Returns what the
-/// sequence did and what the runtime counted (bytes, the master's CPU).
+/// Renders the sequence through `n` local worker processes, frame after frame on the same
+/// workers, each frame written as soon as it is complete. Returns what the sequence did, the
+/// threads of each worker and what the runtime counted (bytes, the master's CPU).
 fn render_through_workers(
     args: &RenderArgs,
     loaded: &Loaded,
     settings: &[(RenderSettings, Choice)],
     outputs: &[PathBuf],
-    shape: LocalShape,
+    n: usize,
     progress: &std::sync::Arc<SequenceProgress>,
     live: Option<&crate::live::Live>,
-) -> anyhow::Result<(SequenceResult, SequenceDone)> {
+) -> anyhow::Result<(SequenceResult, usize, SequenceDone)> {
     use parrt_runtime::observer::{Observer, Observers};
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let threads = args.threads.unwrap_or((cores / n).max(1));
     let mut observers = if progress.drawn() {
         Observers(vec![progress.clone() as std::sync::Arc<dyn Observer>])
     } else {
@@ -466,11 +436,11 @@ fn render_through_workers(
         job: &args.job,
         keyed: false,
         tile: args.tile,
-        min_workers: shape.workers,
+        min_workers: n,
         output: &outputs[0],
     });
-    super::distributed::local_workers(&mut config, shape.workers, shape.threads);
-    config.schedule.frames_window = shape.window;
+    super::distributed::local_workers(&mut config, n, threads);
+    config.schedule.frames_window = args.sequence.window();
     let prepared = PreparedRef {
         loaded,
         settings,
@@ -494,7 +464,7 @@ fn render_through_workers(
         most_alive: done.most_open_frames,
         stopped: false,
     };
-    Ok((result, done))
+    Ok((result, threads, done))
 }
 
 /// The live view of a sequence when `--http` asked for one, told each frame's label and size.
@@ -771,13 +741,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     };
     let live = sequence_live(&args.job.live, None, &prepared, args.tile, mode)?;
     if let Some(workers) = args.workers {
-        let shape = local_shape(args, &settings, workers);
-        let (result, done) = render_through_workers(
+        let (result, threads, done) = render_through_workers(
             args,
             &loaded,
             &settings,
             &outputs,
-            shape,
+            workers,
             &progress,
             live.as_ref(),
         )?;
@@ -786,8 +755,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             l.end(true);
         }
         let opts = SequenceOptions {
-            threads: workers * shape.threads,
-            window: shape.window,
+            threads: workers * threads,
             ..opts
         };
         print_report(

@@ -160,10 +160,6 @@ fn a_sequence_through_two_local_workers_is_the_smp_sequence() {
     for (out, extra) in [
         ("smp-o%d.png", &["--threads", "2"][..]),
         ("w-o%d.png", &["--workers", "2", "--threads", "1"][..]),
-        (
-            "x-o%d.png",
-            &["--workers", "2", "--threads", "1", "--window", "2"][..],
-        ),
     ] {
         let mut args = orbit.to_vec();
         let (out, json) = (d(out), d(&format!("{}.json", &out[..1])));
@@ -200,18 +196,6 @@ fn a_sequence_through_two_local_workers_is_the_smp_sequence() {
     ] {
         assert!(smp.get(key).is_none(), "SMP reports {key}");
     }
-    // SMP keeps two frames alive by default; local workers two more than their windows hold
-    // (four assignments of at most 64 tiles a thread), unless --window says otherwise.
-    let per_frame = ["width", "height"]
-        .map(|k| workers[k].as_u64().expect("size").div_ceil(8))
-        .iter()
-        .product::<u64>();
-    assert_eq!(smp["window"].as_u64(), Some(2));
-    assert_eq!(
-        workers["window"].as_u64(),
-        Some((2 + (2 * 4 * 64u64).div_ceil(per_frame)).min(8))
-    );
-    assert_eq!(json("x.json")["window"].as_u64(), Some(2));
     // Two scene files of different scenes (and so different Jobs).
     let (a, b) = (spd("tetra-4.nff"), spd("gears-1.nff"));
     for (out, extra) in [
@@ -228,12 +212,10 @@ fn a_sequence_through_two_local_workers_is_the_smp_sequence() {
     }
     for k in 0..3 {
         let smp = bytes(&dir.path().join(format!("smp-o{k}.png")));
-        for w in ["w", "x"] {
-            assert!(
-                smp == bytes(&dir.path().join(format!("{w}-o{k}.png"))),
-                "orbit frame {k} through workers ({w}) differs from SMP"
-            );
-        }
+        assert!(
+            smp == bytes(&dir.path().join(format!("w-o{k}.png"))),
+            "orbit frame {k} through workers differs from SMP"
+        );
     }
     assert!(!dir.path().join("w-o3.png").exists());
     for (k, scene) in [&a, &b].into_iter().enumerate() {
