@@ -8,11 +8,15 @@
 #
 #   usage: bench/ab_sequence.sh OLD_BINARY NEW_BINARY [ROUNDS]
 #          ROUNDS defaults to 21 (this machine's spread needs 15 or more)
-#   env:   SCENE (default mount:6), SIZE (default 512), FRAMES (default 24)
+#   env:   SCENE (default mount:6), SIZE (default 512), FRAMES (default 24); OLD_FLAGS and
+#          NEW_FLAGS, more flags for each build's workers (e.g. the same binary twice with
+#          OLD_FLAGS="--window 2" compares two settings)
 set -euo pipefail
-[ $# -ge 2 ] || { sed -n '2,11p' "$0" >&2; exit 2; }
+[ $# -ge 2 ] || { sed -n '2,13p' "$0" >&2; exit 2; }
 OLD=$1 NEW=$2 ROUNDS=${3:-21}
 SCENE=${SCENE:-mount:6} SIZE=${SIZE:-512} FRAMES=${FRAMES:-24}
+read -r -a old_flags <<< "${OLD_FLAGS:-}"
+read -r -a new_flags <<< "${NEW_FLAGS:-}"
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 args=(render --scene "$SCENE" --orbit 360 --frames "$FRAMES" --width "$SIZE" --height "$SIZE")
@@ -34,8 +38,8 @@ for _ in $(seq "$ROUNDS"); do
     for which in $(printf '%s\n' smp old new | shuf); do
         case $which in
         smp) run "$NEW" smp --threads 2 ;;
-        old) run "$OLD" old --workers 2 --threads 1 ;;
-        new) run "$NEW" new --workers 2 --threads 1 ;;
+        old) run "$OLD" old --workers 2 --threads 1 "${old_flags[@]}" ;;
+        new) run "$NEW" new --workers 2 --threads 1 "${new_flags[@]}" ;;
         esac
     done
 done
