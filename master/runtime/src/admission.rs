@@ -13,7 +13,8 @@
 //!   pre-auth connection in that budget is closed to make room, rather than the newcomer being
 //!   turned away: one that never sent a byte before one that did, and among those the one
 //!   silent longest (since its last byte, or since it was accepted), provided it has been
-//!   silent at least [`EVICT_AFTER`]; with none that silent, the newcomer is turned away and
+//!   silent at least [`EVICT_AFTER`] (or half its first-bytes deadline, when a penalty made that
+//!   shorter); with none that silent, the newcomer is turned away and
 //!   dials again, so honest workers arriving together never close each other. A squatter that sends
 //!   nothing always goes before a worker mid-handshake;
 //! - **penalty**: an address whose pre-auth connections keep ending silent (dropped at the
@@ -91,6 +92,10 @@ struct Pending {
     heard: Arc<AtomicU64>,
     /// Fired to evict it.
     evict: CancellationToken,
+    /// Microseconds of silence after which a newcomer may take its place: [`EVICT_AFTER`], or
+    /// half its first-bytes deadline when that is shorter (a penalised address's squatters are
+    /// dropped at that deadline, and would otherwise never be evictable).
+    grace: u64,
 }
 
 #[derive(Debug, Default)]
@@ -122,11 +127,10 @@ impl Table {
     /// The id of the pending connection to evict (of `ip` only, if given): one that never sent
     /// a byte before one that did, then the longest silent, then the oldest.
     fn most_silent(&self, ip: Option<IpAddr>, now: u64) -> Option<u64> {
-        let grace = EVICT_AFTER.as_micros() as u64;
         self.pending
             .iter()
             .filter(|(_, p)| ip.is_none_or(|ip| p.ip == ip))
-            .filter(|(_, p)| now.saturating_sub(p.progress.load(Ordering::Relaxed)) >= grace)
+            .filter(|(_, p)| now.saturating_sub(p.progress.load(Ordering::Relaxed)) >= p.grace)
             .min_by_key(|(id, p)| {
                 let heard = p.heard.load(Ordering::Relaxed) > 0;
                 (heard, p.progress.load(Ordering::Relaxed), **id)
@@ -240,6 +244,7 @@ impl Admission {
         let progress = Arc::new(AtomicU64::new(t.micros(now)));
         let heard = Arc::new(AtomicU64::new(0));
         let evict = CancellationToken::new();
+        let first_bytes = t.first_bytes(ip, now, self.first_bytes);
         t.pending.insert(
             id,
             Pending {
@@ -247,9 +252,9 @@ impl Admission {
                 progress: progress.clone(),
                 heard: heard.clone(),
                 evict: evict.clone(),
+                grace: EVICT_AFTER.min(first_bytes / 2).as_micros() as u64,
             },
         );
-        let first_bytes = t.first_bytes(ip, now, self.first_bytes);
         Ok((
             total,
             HandshakeSlot {
@@ -464,6 +469,30 @@ mod tests {
         drop(slots);
         let (_r, s) = a.admit(ip(2)).unwrap();
         assert_eq!(s.first_bytes(), FIRST_BYTES_TIMEOUT);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_penalised_address_squatters_are_evictable_before_their_deadline() {
+        let a = Admission::new(1024, Duration::from_secs(10));
+        let (_p, first) = a.admit(ip(1)).unwrap();
+        for _ in 0..10 {
+            first.silent_timeout();
+        }
+        drop(first);
+        // Squatters from an address at the floor deadline are dropped after MIN_FIRST_BYTES,
+        // sooner than EVICT_AFTER: were EVICT_AFTER their grace, they would reconnect fresh
+        // and keep an honest newcomer from that address out for good.
+        let mut squatters = Vec::new();
+        for _ in 0..MAX_HANDSHAKING_PER_PEER {
+            let (p, s) = a.admit(ip(1)).expect("room");
+            assert_eq!(s.first_bytes(), MIN_FIRST_BYTES);
+            squatters.push((p, s));
+        }
+        assert_eq!(a.admit(ip(1)).unwrap_err(), Turned::Address);
+        tokio::time::advance(MIN_FIRST_BYTES / 2).await;
+        let (_w, worker) = a.admit(ip(1)).expect("half the deadline is grace enough");
+        assert!(squatters[0].1.evicted().is_cancelled());
+        assert!(!worker.evicted().is_cancelled());
     }
 
     #[tokio::test(start_paused = true)]
